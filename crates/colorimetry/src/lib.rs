@@ -1,0 +1,1 @@
+//! `colorimetry`: in progress.

@@ -1,0 +1,1 @@
+//! `geometry`: not yet implemented (see the project's open issues).

@@ -1,0 +1,1 @@
+//! `integrator`: not yet implemented (see the project's open issues).

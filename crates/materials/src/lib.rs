@@ -1,0 +1,1 @@
+//! `materials`: not yet implemented (see the project's open issues).
