@@ -1,1 +1,49 @@
-//! `colorimetry`: in progress.
+//! `colorimetry`: spectra and the colour they make.
+//!
+//! Densely sampled spectra and the few wavelengths a path carries; the CIE 1931 2° and
+//! 1964 10° observers; illuminants (D65, D50, A, F2, F11, E, daylight at any CCT, Planck);
+//! spectrum → XYZ exactly as Lee et al. (2004) write it (X = k Σ S R x̄ Δλ,
+//! k = 100 / Σ S ȳ Δλ); RGB colour spaces from primaries and white (sRGB, Display P3,
+//! Rec. 2020, a D93 display and the paper's 9300 K display); Bradford adaptation; the sRGB
+//! curve; CIELAB and CIEDE2000; RGB → spectrum upsampling (Jakob & Hanika 2019); CSV spectra.
+//! All tables are embedded: nothing is read at run time.
+//!
+//! **Invariant:** depends on no workspace crate and knows nothing of rays, meshes or
+//! materials. f64 for tables and colorimetric sums; [`SampledSpectrum`] is f32 (hot path).
+//!
+//! ```
+//! use colorimetry::{DenselySampledSpectrum, Illuminant, Integration, Observer, reflectance_to_xyz};
+//!
+//! // The D65 white point (CIE 015:2018: x, y = 0.31272, 0.32903).
+//! let d65 = Illuminant::D65.spectrum()?;
+//! let white = DenselySampledSpectrum::constant(1.0);
+//! let xyz = reflectance_to_xyz(&white, &d65, Observer::Cie1931, &Integration::Step(1.0));
+//! let [x, y] = xyz.chromaticity();
+//! assert!((x - 0.31272).abs() < 3e-5 && (y - 0.32903).abs() < 3e-5);
+//! assert!((xyz.y - 100.0).abs() < 1e-9);
+//! # Ok::<(), colorimetry::Error>(())
+//! ```
+#![warn(missing_docs)]
+
+mod csv;
+mod data;
+mod error;
+mod lab;
+mod rgb;
+mod spectrum;
+mod xyz;
+
+pub use csv::{NamedSpectrum, parse_spectra_csv, read_spectra_csv};
+pub use data::{Cmf, Illuminant, KNOWN_ILLUMINANTS, Observer, blackbody, colorchecker, daylight_chromaticity, tcs};
+pub use error::{Error, Result};
+pub use lab::{Lab, delta_e_2000};
+pub use rgb::{Rgb, RgbColorSpace, bradford, quantize_u8, srgb_decode, srgb_encode};
+pub use spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, SampledSpectrum, SampledWavelengths};
+pub use xyz::{Integration, Xyz, emission_to_xyz, reflectance_to_xyz};
+
+// --- upsampling ---
+mod upsample;
+pub use upsample::{
+    SigmoidPolynomial, UpsamplingTable, build_upsampling_table, upsample_illuminant, upsample_illuminant_spectrum,
+    upsample_reflectance,
+};

@@ -1,0 +1,253 @@
+//! RGB colour spaces from primaries and a white point, chromatic adaptation, the sRGB
+//! transfer curve and 8-bit quantisation.
+
+use std::sync::LazyLock;
+
+use crate::error::{Error, Result};
+use crate::xyz::Xyz;
+
+/// Linear RGB values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rgb {
+    /// Red.
+    pub r: f64,
+    /// Green.
+    pub g: f64,
+    /// Blue.
+    pub b: f64,
+}
+
+/// An additive RGB space: primaries and white chromaticities and the normalised primary
+/// matrix between RGB and XYZ (white with Y = 1 ↔ RGB (1, 1, 1)).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RgbColorSpace {
+    name: String,
+    primaries: [[f64; 2]; 3],
+    white: [f64; 2],
+    rgb_to_xyz: [[f64; 3]; 3],
+    xyz_to_rgb: [[f64; 3]; 3],
+}
+
+/// ITU-R BT.709 / IEC 61966-2-1 primaries.
+const REC709: [[f64; 2]; 3] = [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06]];
+/// The sRGB / Rec. 709 white: D65 at 4 decimals (IEC 61966-2-1; not the 5-decimal CIE value).
+const D65_WHITE: [f64; 2] = [0.3127, 0.3290];
+
+static SRGB: LazyLock<RgbColorSpace> = LazyLock::new(|| known("sRGB", REC709, D65_WHITE));
+// SMPTE EG 432-1 (Display P3): DCI-P3 primaries with the D65 white.
+static DISPLAY_P3: LazyLock<RgbColorSpace> =
+    LazyLock::new(|| known("Display P3", [[0.680, 0.320], [0.265, 0.690], [0.150, 0.060]], D65_WHITE));
+// ITU-R BT.2020 primaries, D65 white.
+static REC2020: LazyLock<RgbColorSpace> =
+    LazyLock::new(|| known("Rec. 2020", [[0.708, 0.292], [0.170, 0.797], [0.131, 0.046]], D65_WHITE));
+// Rec. 709 primaries with the CIE D93 white (CIE 015 daylight at 9300 K ×1.4388/1.4380).
+static D93_DISPLAY: LazyLock<RgbColorSpace> = LazyLock::new(|| known("D93 display", REC709, [0.2831, 0.2971]));
+// Lee, Lee, Lee & Ha (2004), eq. 4: the 9300 K monitor's primaries and its "9300 K + 27 MPCD" white.
+static PAPER_9300: LazyLock<RgbColorSpace> = LazyLock::new(|| {
+    known("paper 9300 K display", [[0.641, 0.327], [0.272, 0.591], [0.141, 0.052]], [0.281, 0.311])
+});
+
+fn known(name: &str, primaries: [[f64; 2]; 3], white: [f64; 2]) -> RgbColorSpace {
+    RgbColorSpace::new(name, primaries, white).unwrap_or_else(|e| panic!("built-in colour space: {e}"))
+}
+
+impl RgbColorSpace {
+    /// sRGB (IEC 61966-2-1): Rec. 709 primaries, D65 white.
+    pub fn srgb() -> &'static Self {
+        &SRGB
+    }
+    /// Display P3.
+    pub fn display_p3() -> &'static Self {
+        &DISPLAY_P3
+    }
+    /// ITU-R BT.2020.
+    pub fn rec2020() -> &'static Self {
+        &REC2020
+    }
+    /// Rec. 709 primaries with the CIE D93 white (0.2831, 0.2971).
+    pub fn d93_display() -> &'static Self {
+        &D93_DISPLAY
+    }
+    /// The paper's display (its eq. 4 matrix M), rebuilt from its primaries R (0.641, 0.327),
+    /// G (0.272, 0.591), B (0.141, 0.052) and the "9300 K + 27 MPCD" CRT white (0.281, 0.311),
+    /// which is *not* CIE D93.
+    pub fn paper_9300() -> &'static Self {
+        &PAPER_9300
+    }
+
+    /// The normalised primary matrix (SMPTE RP 177) of the primaries and white.
+    pub fn new(name: &str, primaries: [[f64; 2]; 3], white: [f64; 2]) -> Result<Self> {
+        let degenerate = || Error::DegenerateColorSpace(name.to_owned());
+        let column = |xy: [f64; 2]| -> Result<[f64; 3]> {
+            if !(xy[1] > 0.0) || !xy[0].is_finite() || !xy[1].is_finite() {
+                return Err(degenerate());
+            }
+            Ok([xy[0] / xy[1], 1.0, (1.0 - xy[0] - xy[1]) / xy[1]])
+        };
+        let (r, g, b) = (column(primaries[0])?, column(primaries[1])?, column(primaries[2])?);
+        let p = [[r[0], g[0], b[0]], [r[1], g[1], b[1]], [r[2], g[2], b[2]]];
+        let p_inv = invert(p).ok_or_else(degenerate)?;
+        let w = column(white)?;
+        let s = mul_vec(p_inv, w);
+        let rgb_to_xyz = [0, 1, 2].map(|i| [p[i][0] * s[0], p[i][1] * s[1], p[i][2] * s[2]]);
+        let xyz_to_rgb = invert(rgb_to_xyz).ok_or_else(degenerate)?;
+        Ok(Self { name: name.to_owned(), primaries, white, rgb_to_xyz, xyz_to_rgb })
+    }
+
+    /// The space's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    /// White chromaticity (x, y).
+    pub fn white(&self) -> [f64; 2] {
+        self.white
+    }
+    /// Primaries' chromaticities (x, y): red, green, blue.
+    pub fn primaries(&self) -> [[f64; 2]; 3] {
+        self.primaries
+    }
+    /// XYZ (white at Y = 1) → linear RGB.
+    pub fn xyz_to_rgb(&self, xyz: Xyz) -> Rgb {
+        let v = mul_vec(self.xyz_to_rgb, [xyz.x, xyz.y, xyz.z]);
+        Rgb { r: v[0], g: v[1], b: v[2] }
+    }
+    /// Linear RGB → XYZ (white at Y = 1).
+    pub fn rgb_to_xyz(&self, rgb: Rgb) -> Xyz {
+        let v = mul_vec(self.rgb_to_xyz, [rgb.r, rgb.g, rgb.b]);
+        Xyz { x: v[0], y: v[1], z: v[2] }
+    }
+    /// The XYZ → RGB matrix (rows act on column vectors).
+    pub fn xyz_to_rgb_matrix(&self) -> [[f64; 3]; 3] {
+        self.xyz_to_rgb
+    }
+    /// The RGB → XYZ matrix.
+    pub fn rgb_to_xyz_matrix(&self) -> [[f64; 3]; 3] {
+        self.rgb_to_xyz
+    }
+}
+
+/// Bradford chromatic adaptation (Lam 1985, as in CIE 159 / ICC) from one white to another:
+/// the matrix to apply to XYZ column vectors.
+pub fn bradford(source_white: Xyz, target_white: Xyz) -> [[f64; 3]; 3] {
+    const M: [[f64; 3]; 3] = [[0.8951, 0.2664, -0.1614], [-0.7502, 1.7135, 0.0367], [0.0389, -0.0685, 1.0296]];
+    // M is a fixed well-conditioned matrix; its inverse exists.
+    let m_inv = invert(M).unwrap_or(M);
+    let s = mul_vec(M, [source_white.x, source_white.y, source_white.z]);
+    let d = mul_vec(M, [target_white.x, target_white.y, target_white.z]);
+    let scale = [0, 1, 2].map(|i| if s[i] != 0.0 { d[i] / s[i] } else { 1.0 });
+    let scaled = [0, 1, 2].map(|i| M[i].map(|v| v * scale[i]));
+    mul(m_inv, scaled)
+}
+
+/// The sRGB transfer function (IEC 61966-2-1): linear → encoded.
+pub fn srgb_encode(linear: f64) -> f64 {
+    if linear <= 0.003_130_8 { 12.92 * linear } else { 1.055 * linear.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// The inverse sRGB transfer function: encoded → linear.
+pub fn srgb_decode(encoded: f64) -> f64 {
+    if encoded <= 0.040_45 { encoded / 12.92 } else { ((encoded + 0.055) / 1.055).powf(2.4) }
+}
+
+/// An encoded value in [0, 1] as 8 bits: clamped, rounded half up; NaN → 0.
+pub fn quantize_u8(encoded: f64) -> u8 {
+    if encoded.is_nan() {
+        return 0;
+    }
+    (encoded.clamp(0.0, 1.0) * 255.0 + 0.5).floor() as u8
+}
+
+fn mul_vec(m: [[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    m.map(|row| row[0] * v[0] + row[1] * v[1] + row[2] * v[2])
+}
+
+fn mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let mut out = [[0.0; 3]; 3];
+    for i in 0..3 {
+        for j in 0..3 {
+            out[i][j] = (0..3).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    out
+}
+
+fn invert(m: [[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
+    let c = |r0: usize, c0: usize, r1: usize, c1: usize| m[r0][c0] * m[r1][c1] - m[r0][c1] * m[r1][c0];
+    let cof = [
+        [c(1, 1, 2, 2), -c(1, 0, 2, 2), c(1, 0, 2, 1)],
+        [-c(0, 1, 2, 2), c(0, 0, 2, 2), -c(0, 0, 2, 1)],
+        [c(0, 1, 1, 2), -c(0, 0, 1, 2), c(0, 0, 1, 1)],
+    ];
+    let det = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
+    if det.abs() < 1e-300 || !det.is_finite() {
+        return None;
+    }
+    // inverse = adjugate / det, adjugate = cofactorᵀ.
+    Some([0, 1, 2].map(|i| [0, 1, 2].map(|j| cof[j][i] / det)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_matrix_matches_iec_61966_2_1() {
+        // IEC 61966-2-1 (amendment 1) publishes the matrix to 4 decimals.
+        let expected = [[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]];
+        let m = RgbColorSpace::srgb().rgb_to_xyz_matrix();
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((m[i][j] - expected[i][j]).abs() < 1e-4, "[{i}][{j}] {}", m[i][j]);
+            }
+        }
+    }
+
+    #[test]
+    fn every_space_maps_its_white_to_rgb_one() {
+        for space in [
+            RgbColorSpace::srgb(),
+            RgbColorSpace::display_p3(),
+            RgbColorSpace::rec2020(),
+            RgbColorSpace::d93_display(),
+            RgbColorSpace::paper_9300(),
+        ] {
+            let rgb = space.xyz_to_rgb(Xyz::from_xy_y(space.white(), 1.0));
+            for c in [rgb.r, rgb.g, rgb.b] {
+                assert!((c - 1.0).abs() < 1e-12, "{}: {rgb:?}", space.name());
+            }
+            let back = space.rgb_to_xyz(space.xyz_to_rgb(Xyz { x: 0.3, y: 0.5, z: 0.2 }));
+            assert!((back.x - 0.3).abs() < 1e-12 && (back.z - 0.2).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn paper_display_is_not_d93() {
+        let paper = RgbColorSpace::paper_9300().white();
+        let d93 = RgbColorSpace::d93_display().white();
+        assert!((paper[1] - d93[1]).abs() > 0.01, "9300 K + 27 MPCD sits well above the daylight locus");
+    }
+
+    #[test]
+    fn bradford_maps_source_white_to_target_white() {
+        let d65 = Xyz { x: 0.95047, y: 1.0, z: 1.08883 };
+        let a = Xyz { x: 1.09850, y: 1.0, z: 0.35585 };
+        let m = bradford(a, d65);
+        let got = a.transformed(m);
+        assert!((got.x - d65.x).abs() < 1e-12 && (got.y - d65.y).abs() < 1e-12 && (got.z - d65.z).abs() < 1e-12);
+        // Published Bradford A → D65 matrix (Lindbloom), first row: 0.8446965, -0.1179225, 0.3948108.
+        assert!((m[0][0] - 0.844_696_5).abs() < 1e-4 && (m[0][2] - 0.394_810_8).abs() < 1e-4, "{m:?}");
+    }
+
+    #[test]
+    fn srgb_curve_round_trips_and_quantises() {
+        for v in [0.0, 0.002, 0.003_130_8, 0.2, 0.5, 1.0] {
+            assert!((srgb_decode(srgb_encode(v)) - v).abs() < 1e-12);
+        }
+        assert_eq!(quantize_u8(0.5), 128); // 127.5 rounds half up
+        assert_eq!(quantize_u8(1.5), 255);
+        assert_eq!(quantize_u8(-0.2), 0);
+        assert_eq!(quantize_u8(f64::NAN), 0);
+        assert!(invert([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]]).is_none());
+        assert!(RgbColorSpace::new("bad", [[0.3, 0.0], [0.3, 0.6], [0.15, 0.06]], D65_WHITE).is_err());
+    }
+}

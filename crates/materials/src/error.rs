@@ -1,0 +1,42 @@
+//! Errors of the materials crate.
+
+use std::path::PathBuf;
+
+/// What can go wrong turning a material or light description into spectra.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A spectrum name that is not built in.
+    #[error("unknown spectrum name `{name}` (known: {known})")]
+    UnknownSpectrum {
+        /// The name as written.
+        name: String,
+        /// The names that are accepted.
+        known: &'static str,
+    },
+    /// A CSV file has no column of the requested name.
+    #[error("{}: no column named `{column}` (columns: {})", path.display(), available.join(", "))]
+    MissingColumn {
+        /// The CSV file.
+        path: PathBuf,
+        /// The column asked for.
+        column: String,
+        /// The columns the file has.
+        available: Vec<String>,
+    },
+    /// A parameter outside its valid range.
+    #[error("{what} = {value} is out of range ({range})")]
+    OutOfRange {
+        /// Which parameter.
+        what: &'static str,
+        /// The offending value.
+        value: f64,
+        /// The valid range, in words.
+        range: &'static str,
+    },
+    /// An error from the colorimetry crate (a CSV file, an illuminant).
+    #[error(transparent)]
+    Colorimetry(#[from] colorimetry::Error),
+}
+
+/// Result with this crate's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,185 @@
+//! The material record shared by both integrators.
+
+use colorimetry::DenselySampledSpectrum;
+
+use crate::absorption::Absorption;
+use crate::error::{Error, Result};
+use crate::ior::Ior;
+use crate::spectra::is_flat;
+
+/// A surface and, for transparent objects, the medium it encloses.
+///
+/// The paper's Hall model reads the coefficients and spectra directly (`k_d F_d(λ)`,
+/// `k_s F_s(λ)`, `k_t T_s(λ)`, exponent n). The path tracer reads the same record as a
+/// physically based BSDF: see [`Material::scattering`].
+#[derive(Debug, Clone)]
+pub struct Material {
+    /// Name, for messages and `spectrace info`.
+    pub name: String,
+    /// k_d: weight of the diffuse term.
+    pub kd: f32,
+    /// F_d(λ) (the paper's R_i(λ)): diffuse reflectance in [0, 1].
+    pub diffuse: DenselySampledSpectrum,
+    /// k_s: weight of specular reflection (highlights and the reflected ray).
+    pub ks: f32,
+    /// F_s(λ): specular reflectance in [0, 1].
+    pub specular: DenselySampledSpectrum,
+    /// n: exponent of the highlights (Table 1's "diffuse factor" 20).
+    pub shininess: f32,
+    /// k_t: weight of transmission.
+    pub kt: f32,
+    /// T_s(λ): spectral transmittance of the surface in [0, 1].
+    pub transmittance: DenselySampledSpectrum,
+    /// Index of refraction of the enclosed medium.
+    pub ior: Ior,
+    /// Absorption of the enclosed medium (Bouguer–Beer), if any.
+    pub absorption: Option<Absorption>,
+    /// Emitted radiance spectrum (luminance-normalised × strength), if the surface emits.
+    pub emission: Option<DenselySampledSpectrum>,
+    /// GGX roughness α in [0, 1] (0: smooth).
+    pub roughness: f32,
+    /// glTF metallic factor in [0, 1].
+    pub metallic: f32,
+}
+
+/// How the path tracer scatters light at a surface, derived from a [`Material`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scattering {
+    /// Lambertian reflection.
+    Diffuse,
+    /// A smooth dielectric interface: Fresnel-weighted specular reflection and refraction.
+    Dielectric,
+    /// A smooth mirror-like conductor.
+    Conductor,
+}
+
+impl Material {
+    /// A Lambertian surface with the given reflectance.
+    pub fn diffuse(name: &str, reflectance: DenselySampledSpectrum) -> Self {
+        Self {
+            name: name.to_owned(),
+            kd: 1.0,
+            diffuse: reflectance,
+            ks: 0.0,
+            specular: DenselySampledSpectrum::constant(0.0),
+            shininess: 1.0,
+            kt: 0.0,
+            transmittance: DenselySampledSpectrum::constant(0.0),
+            ior: Ior::Constant(1.5),
+            absorption: None,
+            emission: None,
+            roughness: 1.0,
+            metallic: 0.0,
+        }
+    }
+
+    /// Check coefficients and spectra: finite, non-negative, reflectances within [0, 1].
+    pub fn validate(&self) -> Result<()> {
+        for (what, v) in [
+            ("kd", self.kd),
+            ("ks", self.ks),
+            ("kt", self.kt),
+            ("shininess", self.shininess),
+            ("roughness", self.roughness),
+            ("metallic", self.metallic),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(Error::OutOfRange { what, value: v.into(), range: "finite, >= 0" });
+            }
+        }
+        for (what, s) in [
+            ("diffuse reflectance", &self.diffuse),
+            ("specular reflectance", &self.specular),
+            ("transmittance", &self.transmittance),
+        ] {
+            for &v in s.values() {
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(Error::OutOfRange { what, value: v, range: "[0, 1]" });
+                }
+            }
+        }
+        if let Some(e) = &self.emission {
+            if let Some(&v) = e.values().iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                return Err(Error::OutOfRange { what: "emission", value: v, range: "finite, >= 0" });
+            }
+        }
+        let n = self.ior.eval(550.0);
+        if !(n.is_finite() && n >= 0.0) {
+            return Err(Error::OutOfRange { what: "ior at 550 nm", value: n.into(), range: "finite, >= 0" });
+        }
+        Ok(())
+    }
+
+    /// Whether light passes through the surface.
+    pub fn is_transmissive(&self) -> bool {
+        self.kt > 0.0 && self.transmittance.max_value() > 0.0
+    }
+
+    /// Whether refraction separates wavelengths (only then do paths split by wavelength).
+    pub fn is_dispersive(&self) -> bool {
+        self.is_transmissive() && self.ior.is_dispersive()
+    }
+
+    /// Whether the enclosed medium absorbs (only then is Beer's law evaluated).
+    pub fn absorbs(&self) -> bool {
+        self.is_transmissive() && self.absorption.as_ref().is_some_and(Absorption::absorbs)
+    }
+
+    /// Whether the surface emits light.
+    pub fn emits(&self) -> bool {
+        self.emission.as_ref().is_some_and(|e| e.max_value() > 0.0)
+    }
+
+    /// Whether every spectrum of the material is flat (the same at all wavelengths).
+    pub fn is_spectrally_flat(&self) -> bool {
+        is_flat(&self.diffuse)
+            && is_flat(&self.specular)
+            && is_flat(&self.transmittance)
+            && self.absorption.as_ref().is_none_or(|a| is_flat(a.sigma_a()))
+            && self.emission.as_ref().is_none_or(is_flat)
+            && !self.ior.is_dispersive()
+    }
+
+    /// The physically based reading of this material for the path tracer: transmissive →
+    /// smooth dielectric; metallic or purely specular → conductor; otherwise Lambertian.
+    pub fn scattering(&self) -> Scattering {
+        if self.is_transmissive() {
+            Scattering::Dielectric
+        } else if self.metallic >= 0.5 || (self.kd == 0.0 && self.ks > 0.0) {
+            Scattering::Conductor
+        } else {
+            Scattering::Diffuse
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_rejects_reflectance_above_one_and_negative_coefficients() {
+        let mut m = Material::diffuse("m", DenselySampledSpectrum::constant(0.5));
+        assert!(m.validate().is_ok());
+        m.diffuse = DenselySampledSpectrum::constant(1.5);
+        assert!(matches!(m.validate(), Err(Error::OutOfRange { what: "diffuse reflectance", .. })));
+        m.diffuse = DenselySampledSpectrum::constant(0.5);
+        m.kd = -1.0;
+        assert!(matches!(m.validate(), Err(Error::OutOfRange { what: "kd", .. })));
+    }
+
+    #[test]
+    fn flags_follow_the_data() {
+        let mut m = Material::diffuse("glass", DenselySampledSpectrum::constant(0.0));
+        assert_eq!(m.scattering(), Scattering::Diffuse);
+        assert!(!m.is_transmissive() && !m.absorbs() && !m.is_dispersive());
+        m.kt = 0.9;
+        m.transmittance = DenselySampledSpectrum::constant(1.0);
+        m.absorption = Some(Absorption::from_per_unit_transmittance(&DenselySampledSpectrum::constant(0.95)).unwrap());
+        assert_eq!(m.scattering(), Scattering::Dielectric);
+        assert!(m.is_transmissive() && m.absorbs() && !m.is_dispersive());
+        assert!(m.is_spectrally_flat());
+        m.ior = Ior::from_abbe(1.5, 40.0).unwrap();
+        assert!(m.is_dispersive() && !m.is_spectrally_flat());
+    }
+}
