@@ -62,10 +62,10 @@ pub(crate) fn parse(text: &str, origin: &str, allow_negative: bool) -> Result<Ve
             values.push(v);
         }
         let lambda = values[0];
-        if let Some(&previous) = lambdas.last() {
-            if !(lambda > previous) {
-                return Err(Error::Unsorted { origin: origin.to_owned(), line: line_no, lambda, previous });
-            }
+        if let Some(&previous) = lambdas.last()
+            && !(lambda > previous)
+        {
+            return Err(Error::Unsorted { origin: origin.to_owned(), line: line_no, lambda, previous });
         }
         if lambda <= 0.0 {
             return Err(Error::OutOfRange { what: "wavelength (nm)", value: lambda, range: "> 0" });

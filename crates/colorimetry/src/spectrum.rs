@@ -289,7 +289,7 @@ fn visible_wavelength_pdf(lambda: f32) -> f32 {
         return 0.0;
     }
     let c = (0.0072 * (lambda - 538.0)).cosh();
-    0.003_939_804_2 / (c * c)
+    0.003_939_804 / (c * c)
 }
 
 /// Values at N sampled wavelengths (or N channels). Plain arrays so loops vectorise.
@@ -390,14 +390,14 @@ impl<const N: usize> SampledSpectrum<N> {
 }
 
 macro_rules! lanewise {
-    ($trait:ident, $method:ident, $op:tt, $assign_trait:ident, $assign:ident) => {
+    ($trait:ident, $method:ident, $op:tt, $assign_trait:ident, $assign:ident, $op_assign:tt) => {
         impl<const N: usize> $trait for SampledSpectrum<N> {
             type Output = Self;
             #[inline]
             fn $method(self, rhs: Self) -> Self {
                 let mut out = self;
                 for (o, r) in out.0.iter_mut().zip(rhs.0) {
-                    *o = *o $op r;
+                    *o $op_assign r;
                 }
                 out
             }
@@ -418,8 +418,8 @@ macro_rules! lanewise {
     };
 }
 
-lanewise!(Add, add, +, AddAssign, add_assign);
-lanewise!(Mul, mul, *, MulAssign, mul_assign);
+lanewise!(Add, add, +, AddAssign, add_assign, +=);
+lanewise!(Mul, mul, *, MulAssign, mul_assign, *=);
 
 impl<const N: usize> Sub for SampledSpectrum<N> {
     type Output = Self;

@@ -109,7 +109,7 @@ impl SigmoidPolynomial {
 /// colours with `b` at (or within about 1e-4 of) 1 and `r, g` above about 0.99
 /// are out of reach. For those the fit returns the closest reachable colour in
 /// CIELAB (ΔE00 at most 0.005, at white itself), after a slower fallback fit
-/// (about 0.5 ms).
+/// (about 2 ms).
 pub fn upsample_reflectance(rgb: [f64; 3]) -> SigmoidPolynomial {
     let rgb = rgb.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) });
     if rgb.iter().all(|&c| c == 0.0) {

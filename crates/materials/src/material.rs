@@ -98,10 +98,10 @@ impl Material {
                 }
             }
         }
-        if let Some(e) = &self.emission {
-            if let Some(&v) = e.values().iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-                return Err(Error::OutOfRange { what: "emission", value: v, range: "finite, >= 0" });
-            }
+        if let Some(e) = &self.emission
+            && let Some(&v) = e.values().iter().find(|v| !(v.is_finite() && **v >= 0.0))
+        {
+            return Err(Error::OutOfRange { what: "emission", value: v, range: "finite, >= 0" });
         }
         let n = self.ior.eval(550.0);
         if !(n.is_finite() && n >= 0.0) {

@@ -166,7 +166,7 @@ mod tests {
     proptest! {
         #[test]
         fn refract_obeys_snell_and_returns_unit_vectors(
-            theta in 0.0f32..1.55, phi in 0.0f32..6.28, eta in 1.0f32..2.5, from_inside in any::<bool>()
+            theta in 0.0f32..1.55, phi in 0.0f32..std::f32::consts::TAU, eta in 1.0f32..2.5, from_inside in any::<bool>()
         ) {
             let z = if from_inside { -theta.cos() } else { theta.cos() };
             let wi = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), z);

@@ -90,6 +90,7 @@ impl ForwardModel {
     }
 
     /// XYZ of the sigmoid spectrum with these coefficients.
+    #[cfg(test)]
     pub(crate) fn xyz(&self, coefficients: &Coefficients) -> [f64; 3] {
         let mut xyz = [0.0; 3];
         for (&t, w) in self.t.iter().zip(&self.weights) {

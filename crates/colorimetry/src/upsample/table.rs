@@ -124,6 +124,7 @@ impl Table {
     }
 
     /// The resolution from the header.
+    #[cfg(test)]
     pub(crate) fn resolution(&self) -> usize {
         self.resolution
     }
@@ -135,6 +136,7 @@ impl Table {
     }
 
     /// The `z` sample positions.
+    #[cfg(test)]
     pub(crate) fn z_samples(&self) -> &[f64] {
         &self.z_samples
     }
