@@ -1,1 +1,2 @@
 //! End-to-end tests of the `spectrace` binary.
+mod render;

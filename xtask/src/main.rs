@@ -1,1 +1,46 @@
-fn main() {}
+//! Project automation, run as `cargo xtask <command>` (the alias in
+//! `.cargo/config.toml` builds this binary in release).
+//!
+//! Each command lives in its own module; `main` only parses the arguments and
+//! dispatches. Commands:
+//! - `gen-upsampling-table`: fit the RGB → spectrum coefficient table into `data/`.
+//! - `upsampling-report`: round-trip error and speed of the upsampling over a dense sRGB grid.
+//! - `paper`: the paper's figures 8–11 as side-by-side renders with their backing numbers.
+
+mod paper;
+mod upsampling;
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Debug, Parser)]
+#[command(name = "xtask", about = "spectrace project automation")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Fit the Jakob–Hanika RGB → spectrum coefficient table and write it to data/.
+    GenUpsamplingTable(upsampling::GenTableArgs),
+    /// Round-trip ΔE00 and timing of `upsample_reflectance` over a dense sRGB grid.
+    UpsamplingReport(upsampling::ReportArgs),
+    /// Render the paper's figures 8–11 (side-by-side pairs) with the numbers behind them.
+    Paper(paper::PaperArgs),
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().command {
+        Command::GenUpsamplingTable(args) => upsampling::gen_table(&args),
+        Command::UpsamplingReport(args) => upsampling::report(&args),
+        Command::Paper(args) => paper::run(&args),
+    }
+}
+
+/// The workspace root (this crate lives in `<root>/xtask`).
+fn project_root() -> PathBuf {
+    let manifest_dir = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    manifest_dir.parent().map(PathBuf::from).unwrap_or(manifest_dir)
+}

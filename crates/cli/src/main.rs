@@ -1,5 +1,47 @@
-//! The `spectrace` command-line renderer (in progress).
-fn main() {
-    eprintln!("spectrace: not yet implemented");
-    std::process::exit(2);
+//! `spectrace`: the command-line front end. Thin by design: argument parsing, progress
+//! reporting and exit codes; everything else lives in the library crates.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod color;
+mod info;
+mod render;
+
+/// A spectral ray tracer: every ray carries a spectrum, not three RGB numbers.
+///
+/// Run `spectrace render` with no arguments to render the paper's five transparent spheres
+/// (Lee, Lee, Lee & Ha 2004) to render.exr and render.png.
+#[derive(Debug, Parser)]
+#[command(name = "spectrace", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Render a scene (default: the paper's five spheres) to EXR and PNG.
+    Render(render::RenderArgs),
+    /// Print a JSON summary of a scene: geometry, materials, lights, and what it needs.
+    Info(info::InfoArgs),
+    /// Compute XYZ, chromaticity and sRGB of spectra in a CSV file.
+    Color(color::ColorArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render(args) => render::run(&args),
+        Command::Info(args) => info::run(&args),
+        Command::Color(args) => color::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("spectrace: error: {error:#}");
+            ExitCode::FAILURE
+        }
+    }
 }

@@ -46,7 +46,12 @@ pub(crate) fn parse(text: &str, origin: &str, allow_negative: bool) -> Result<Ve
         let line_no = index + 1;
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         if cells.len() != names.len() {
-            return Err(Error::Ragged { origin: origin.to_owned(), line: line_no, found: cells.len(), expected: names.len() });
+            return Err(Error::Ragged {
+                origin: origin.to_owned(),
+                line: line_no,
+                found: cells.len(),
+                expected: names.len(),
+            });
         }
         let mut values = Vec::with_capacity(cells.len());
         for (cell, name) in cells.iter().zip(&names) {
@@ -57,7 +62,12 @@ pub(crate) fn parse(text: &str, origin: &str, allow_negative: bool) -> Result<Ve
                 cell: (*cell).to_owned(),
             })?;
             if !v.is_finite() {
-                return Err(Error::NotFinite { origin: origin.to_owned(), line: line_no, column: name.clone(), value: v });
+                return Err(Error::NotFinite {
+                    origin: origin.to_owned(),
+                    line: line_no,
+                    column: name.clone(),
+                    value: v,
+                });
             }
             values.push(v);
         }
@@ -72,7 +82,12 @@ pub(crate) fn parse(text: &str, origin: &str, allow_negative: bool) -> Result<Ve
         }
         for (c, &v) in values[1..].iter().enumerate() {
             if v < 0.0 && !allow_negative {
-                return Err(Error::Negative { origin: origin.to_owned(), line: line_no, column: names[c + 1].clone(), value: v });
+                return Err(Error::Negative {
+                    origin: origin.to_owned(),
+                    line: line_no,
+                    column: names[c + 1].clone(),
+                    value: v,
+                });
             }
             columns[c].push(v);
         }

@@ -111,7 +111,8 @@ impl Observer {
 }
 
 /// Names [`Illuminant::parse`] accepts.
-pub const KNOWN_ILLUMINANTS: &str = "D65, D50, A, F2, F11, E, D<n> (daylight: D75 = 7504 K, D9300 = 9300 K), bb<kelvin>";
+pub const KNOWN_ILLUMINANTS: &str =
+    "D65, D50, A, F2, F11, E, D<n> (daylight: D75 = 7504 K, D9300 = 9300 K), bb<kelvin>";
 
 /// A light source as a relative spectral power distribution.
 #[derive(Debug, Clone, Copy, PartialEq)]

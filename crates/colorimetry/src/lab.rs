@@ -93,7 +93,8 @@ pub fn delta_e_2000(lab1: Lab, lab2: Lab) -> f64 {
     } else {
         0.5 * (h1p + h2p - 360.0)
     };
-    let t = 1.0 - 0.17 * ((h_bar - 30.0) * deg).cos() + 0.24 * ((2.0 * h_bar) * deg).cos()
+    let t = 1.0 - 0.17 * ((h_bar - 30.0) * deg).cos()
+        + 0.24 * ((2.0 * h_bar) * deg).cos()
         + 0.32 * ((3.0 * h_bar + 6.0) * deg).cos()
         - 0.20 * ((4.0 * h_bar - 63.0) * deg).cos();
     let d_theta = 30.0 * (-((h_bar - 275.0) / 25.0).powi(2)).exp();

@@ -43,9 +43,8 @@ static REC2020: LazyLock<RgbColorSpace> =
 // Rec. 709 primaries with the CIE D93 white (CIE 015 daylight at 9300 K ×1.4388/1.4380).
 static D93_DISPLAY: LazyLock<RgbColorSpace> = LazyLock::new(|| known("D93 display", REC709, [0.2831, 0.2971]));
 // Lee, Lee, Lee & Ha (2004), eq. 4: the 9300 K monitor's primaries and its "9300 K + 27 MPCD" white.
-static PAPER_9300: LazyLock<RgbColorSpace> = LazyLock::new(|| {
-    known("paper 9300 K display", [[0.641, 0.327], [0.272, 0.591], [0.141, 0.052]], [0.281, 0.311])
-});
+static PAPER_9300: LazyLock<RgbColorSpace> =
+    LazyLock::new(|| known("paper 9300 K display", [[0.641, 0.327], [0.272, 0.591], [0.141, 0.052]], [0.281, 0.311]));
 
 fn known(name: &str, primaries: [[f64; 2]; 3], white: [f64; 2]) -> RgbColorSpace {
     RgbColorSpace::new(name, primaries, white).unwrap_or_else(|e| panic!("built-in colour space: {e}"))

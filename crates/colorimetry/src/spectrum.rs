@@ -166,8 +166,12 @@ impl DenselySampledSpectrum {
 
     /// Pointwise product on `self`'s grid.
     pub fn product(&self, other: &Self) -> Self {
-        let values =
-            self.values.iter().enumerate().map(|(i, &v)| v * other.eval(self.lambda_min + self.step * i as f64)).collect();
+        let values = self
+            .values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| v * other.eval(self.lambda_min + self.step * i as f64))
+            .collect();
         Self { lambda_min: self.lambda_min, step: self.step, values }
     }
 

@@ -39,12 +39,14 @@ impl Absorption {
     /// `distance` units, so σ_a = −ln(color) / distance.
     pub fn from_attenuation(color: &DenselySampledSpectrum, distance: f64) -> Result<Self> {
         if !(distance > 0.0) {
-            return Err(Error::OutOfRange { what: "attenuation distance", value: distance, range: "> 0 (may be infinite)" });
+            return Err(Error::OutOfRange {
+                what: "attenuation distance",
+                value: distance,
+                range: "> 0 (may be infinite)",
+            });
         }
         check_range(color, "attenuation colour", 0.0, 1.0, "[0, 1]")?;
-        Ok(Self {
-            sigma_a: color.map(|c| if c > 0.0 { (-c.ln() / distance).min(SIGMA_A_MAX) } else { SIGMA_A_MAX }),
-        })
+        Ok(Self { sigma_a: color.map(|c| if c > 0.0 { (-c.ln() / distance).min(SIGMA_A_MAX) } else { SIGMA_A_MAX }) })
     }
 
     /// σ_a(λ) per scene unit.

@@ -1,0 +1,40 @@
+//! `spectrace info`: what a scene contains and what it needs.
+
+use std::path::PathBuf;
+
+use anyhow::Context as _;
+use integrator::{IntegratorKind, RenderScene};
+
+/// Arguments of `spectrace info`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct InfoArgs {
+    /// Scene file (.json manifest, .gltf/.glb, .obj); the default scene when omitted.
+    scene: Option<PathBuf>,
+}
+
+pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
+    let (desc, scene) = match &args.scene {
+        Some(path) => {
+            let desc = geometry::load_scene(path).with_context(|| format!("loading {}", path.display()))?;
+            let scene = RenderScene::from_description(desc.clone())
+                .with_context(|| format!("assembling {}", path.display()))?;
+            (desc, scene)
+        }
+        None => {
+            let desc = RenderScene::default_description().context("building the default scene")?;
+            let scene = RenderScene::from_description(desc.clone()).context("assembling the default scene")?;
+            (desc, scene)
+        }
+    };
+    let mut summary = geometry::summarize(&desc, scene.geometry());
+    if let Some(object) = summary.as_object_mut() {
+        object.insert(
+            "spectral_auto".to_owned(),
+            serde_json::Value::String(integrator::choose_auto(&scene, IntegratorKind::WhittedHall).to_string()),
+        );
+        object.insert("spiky_spectra".to_owned(), serde_json::Value::Bool(integrator::scene_is_spiky(&scene)));
+        object.insert("warnings".to_owned(), serde_json::json!(scene.warnings));
+    }
+    println!("{}", serde_json::to_string_pretty(&summary)?);
+    Ok(())
+}

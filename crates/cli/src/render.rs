@@ -1,0 +1,163 @@
+//! `spectrace render`: wiring between arguments, the integrator and the terminal.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::Context as _;
+use indicatif::{ProgressBar, ProgressStyle};
+use integrator::{Ambient, Display, IntegratorKind, RenderOptions, RenderScene, SpectralMode};
+
+/// Arguments of `spectrace render`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct RenderArgs {
+    /// Scene file: a manifest (.json), glTF (.gltf/.glb) or OBJ (.obj). Without it, the
+    /// paper's five transparent spheres are rendered.
+    scene: Option<PathBuf>,
+    /// Output EXR (linear RGB); a display-encoded PNG of the same name is written beside it.
+    #[arg(short, long, default_value = "render.exr")]
+    output: PathBuf,
+    /// Image width in pixels [default: the scene's, else 640].
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels [default: the scene's, else 480].
+    #[arg(long)]
+    height: Option<u32>,
+    /// Light transport: `whitted-hall` (the paper's model).
+    #[arg(long, default_value = "whitted-hall", value_parser = parse_integrator)]
+    integrator: IntegratorKind,
+    /// Spectral sampling: `rgb`, `bins:N` (N wavelengths over 360-830 nm; bins:95 = 5 nm) or
+    /// `auto` (chosen from the scene's spectra).
+    #[arg(long, default_value = "auto", value_parser = parse_spectral)]
+    spectral: SpectralMode,
+    /// Samples per pixel (deterministic sub-pixel positions).
+    #[arg(long, default_value_t = 1)]
+    spp: u32,
+    /// Bouguer-Beer absorption inside transparent objects (the paper's eq. 8).
+    #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
+    absorption: bool,
+    /// Ambient term: `objects` (the paper's eq. 9), `objects:K_A`, `constant:K_A` or `none`.
+    #[arg(long, default_value = "objects", value_parser = parse_ambient)]
+    ambient: Ambient,
+    /// Output display: `srgb` or `paper9300` (the paper's 9300 K monitor, its eq. 4).
+    #[arg(long, default_value = "srgb", value_parser = parse_display)]
+    display: Display,
+    /// Maximum recursion depth [default: the scene's `max_depth`, else 20 as in the paper].
+    #[arg(long)]
+    max_depth: Option<u32>,
+    /// Skip ray-tree branches whose weight is below this (0 = trace the full tree).
+    #[arg(long, default_value_t = 1e-3)]
+    min_weight: f32,
+    /// Worker threads [default: all cores].
+    #[arg(long)]
+    threads: Option<usize>,
+    /// No progress bar or notes on stderr.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
+    IntegratorKind::parse(s).map_err(|e| e.to_string())
+}
+fn parse_spectral(s: &str) -> Result<SpectralMode, String> {
+    SpectralMode::parse(s).map_err(|e| e.to_string())
+}
+fn parse_ambient(s: &str) -> Result<Ambient, String> {
+    Ambient::parse(s).map_err(|e| e.to_string())
+}
+fn parse_display(s: &str) -> Result<Display, String> {
+    Display::parse(s).map_err(|e| e.to_string())
+}
+fn parse_on_off(s: &str) -> Result<bool, String> {
+    match s {
+        "on" | "true" | "yes" => Ok(true),
+        "off" | "false" | "no" => Ok(false),
+        _ => Err(format!("expected on or off, got `{s}`")),
+    }
+}
+
+/// Exit status for a render stopped by Ctrl-C (128 + SIGINT, the shell convention).
+pub(crate) const EXIT_CANCELLED: u8 = 130;
+
+pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    let scene = match &args.scene {
+        Some(path) => RenderScene::load(path).with_context(|| format!("loading {}", path.display()))?,
+        None => RenderScene::default_scene().context("building the default scene")?,
+    };
+    if !args.quiet {
+        for w in &scene.warnings {
+            eprintln!("spectrace: note: {w}");
+        }
+    }
+    let (scene_width, scene_height) = scene.resolution();
+    let options = RenderOptions {
+        width: args.width.unwrap_or(scene_width),
+        height: args.height.unwrap_or(scene_height),
+        integrator: args.integrator,
+        spectral: args.spectral,
+        spp: args.spp,
+        max_depth: args.max_depth,
+        min_weight: args.min_weight,
+        absorption: args.absorption,
+        ambient: args.ambient,
+        threads: args.threads,
+    };
+    let png = png_path(&args.output)?;
+
+    let cancel = Arc::new(AtomicBool::new(false));
+    {
+        let cancel = Arc::clone(&cancel);
+        // A second Ctrl-C while we wind down falls back to the default (immediate exit).
+        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
+    }
+    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(u64::from(options.height)) };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} rows  {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let report = |p: integrator::Progress| {
+        bar.set_position(u64::from(p.rows_done));
+        let secs = p.elapsed.as_secs_f64().max(1e-9);
+        bar.set_message(format!("{:.2} Mrays/s", p.rays as f64 / secs / 1e6));
+    };
+    let result = integrator::render(&scene, &options, &report, &cancel);
+    bar.finish_and_clear();
+    let (image, stats) = match result {
+        Err(integrator::Error::Cancelled) => {
+            eprintln!("spectrace: render cancelled; nothing was written");
+            std::process::exit(i32::from(EXIT_CANCELLED));
+        }
+        other => other?,
+    };
+
+    image.write_exr(&args.output, options_display(args)).context("writing the EXR")?;
+    image.write_png(&png, options_display(args)).context("writing the PNG")?;
+    if !args.quiet {
+        let secs = stats.elapsed.as_secs_f64();
+        eprintln!(
+            "spectrace: {}x{} {} in {:.3} s ({} rays, {:.2} Mrays/s, {} non-finite samples) -> {}, {}",
+            options.width,
+            options.height,
+            stats.spectral,
+            secs,
+            stats.rays,
+            stats.rays as f64 / secs.max(1e-9) / 1e6,
+            stats.nonfinite_samples,
+            args.output.display(),
+            png.display()
+        );
+    }
+    Ok(())
+}
+
+fn options_display(args: &RenderArgs) -> Display {
+    args.display
+}
+
+/// `out.exr` → `out.png`; the output must be an `.exr` so the pair is unambiguous.
+fn png_path(output: &Path) -> anyhow::Result<PathBuf> {
+    match output.extension().and_then(|e| e.to_str()) {
+        Some(ext) if ext.eq_ignore_ascii_case("exr") => Ok(output.with_extension("png")),
+        _ => anyhow::bail!("{}: the output must end in .exr (a .png is written beside it)", output.display()),
+    }
+}

@@ -1,0 +1,171 @@
+//! Errors of the geometry crate. Loader variants name the file (and line where known).
+use std::path::PathBuf;
+/// What can go wrong building or loading geometry.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Mesh or sphere data that cannot be rendered (NaN/Inf, indices out of range, …).
+    #[error("invalid geometry: {0}")]
+    Invalid(String),
+    /// A camera that cannot be built.
+    #[error("invalid camera: {0}")]
+    Camera(String),
+    // --- loaders ---
+    /// A scene file could not be read.
+    #[error("{}: cannot read: {source}", path.display())]
+    ReadFile {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// `load_scene` was given a file with an extension it does not know.
+    #[error("{}: unsupported scene format `.{extension}` (expected .json, .gltf, .glb or .obj)", path.display())]
+    UnsupportedFormat {
+        /// The file.
+        path: PathBuf,
+        /// Its extension, lowercased (empty if none).
+        extension: String,
+    },
+    /// The `gltf` crate rejected the file (JSON syntax, GLB framing, validation).
+    #[error("{}: {source}", path.display())]
+    Gltf {
+        /// The file.
+        path: PathBuf,
+        /// The `gltf` crate's error.
+        #[source]
+        source: gltf::Error,
+    },
+    /// An external glTF buffer file could not be read.
+    #[error("{}: buffer {buffer}: cannot read `{uri}`: {source}", path.display())]
+    GltfBuffer {
+        /// The glTF file.
+        path: PathBuf,
+        /// Index of the buffer in the file.
+        buffer: usize,
+        /// The buffer's resolved file path.
+        uri: String,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// glTF binary data is inconsistent (accessor overruns its view, wrong accessor type, bad hierarchy).
+    #[error("{}: {context}: {message}", path.display())]
+    GltfData {
+        /// The file.
+        path: PathBuf,
+        /// Where in the file (e.g. `meshes[0] primitive 1 POSITION`).
+        context: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file requires a glTF extension this loader does not read.
+    #[error("{}: requires unsupported glTF extension `{extension}` (supported: {supported})", path.display())]
+    UnsupportedExtension {
+        /// The file.
+        path: PathBuf,
+        /// The required extension.
+        extension: String,
+        /// The extensions the loader reads.
+        supported: String,
+    },
+    /// A vertex position is NaN or infinite.
+    #[error("{}: {context}: vertex {vertex} is not finite ({value:?})", path.display())]
+    NonFiniteVertex {
+        /// The file.
+        path: PathBuf,
+        /// Where in the file (mesh/primitive or line).
+        context: String,
+        /// Index of the vertex.
+        vertex: usize,
+        /// Its coordinates.
+        value: [f32; 3],
+    },
+    /// A face or accessor index points past the end of the vertex data.
+    #[error("{}: {context}: index {index} out of range (vertex count {vertex_count})", path.display())]
+    IndexOutOfRange {
+        /// The file.
+        path: PathBuf,
+        /// Where in the file.
+        context: String,
+        /// The offending index as written.
+        index: u64,
+        /// Number of elements it may address.
+        vertex_count: usize,
+    },
+    /// `tobj` rejected an OBJ file.
+    #[error("{}: invalid OBJ: {source}", path.display())]
+    Obj {
+        /// The file.
+        path: PathBuf,
+        /// `tobj`'s error.
+        #[source]
+        source: tobj::LoadError,
+    },
+    /// A syntax error in an OBJ or MTL file, found by the pre-scan.
+    #[error("{}:{line}: {message}", path.display())]
+    ObjSyntax {
+        /// The OBJ or MTL file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// Geometry read from a file was rejected by the mesh constructor.
+    #[error("{}: {context}: {source}", path.display())]
+    InvalidGeometry {
+        /// The file.
+        path: PathBuf,
+        /// Where in the file.
+        context: String,
+        /// The constructor's error.
+        #[source]
+        source: Box<Error>,
+    },
+    /// A third-party parser panicked on this input (a bug to report upstream; turned into an error).
+    #[error("{}: the {library} parser panicked: {message}", path.display())]
+    ParserPanic {
+        /// The file.
+        path: PathBuf,
+        /// `gltf` or `tobj`.
+        library: &'static str,
+        /// The panic message.
+        message: String,
+    },
+    /// A scene manifest is not valid JSON or has an unknown key (the message names it, with line and column).
+    #[error("{origin}: {source}")]
+    ManifestSyntax {
+        /// The manifest's path or name.
+        origin: String,
+        /// serde_json's error, with line and column.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A manifest value is out of range or of the wrong form.
+    #[error("{origin}: {context}: {message}")]
+    ManifestValue {
+        /// The manifest's path or name.
+        origin: String,
+        /// Path of the value in the document, e.g. `materials.glass.ior`.
+        context: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// An object names a material the manifest does not define.
+    #[error("{origin}: {context}: material `{name}` is not defined (defined: {available})")]
+    MissingMaterial {
+        /// The manifest's path or name.
+        origin: String,
+        /// The missing material's name.
+        name: String,
+        /// Where it is referenced, e.g. `objects[3]`.
+        context: String,
+        /// The defined material names, comma-separated.
+        available: String,
+    },
+    // LOADERS-END
+}
+/// Result with this crate's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

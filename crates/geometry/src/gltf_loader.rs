@@ -1,0 +1,736 @@
+//! glTF 2.0 (`.gltf`, `.glb`) → [`SceneDescription`].
+//!
+//! The `gltf` crate parses and validates the JSON; everything that touches the binary data is ours, with
+//! checked arithmetic, because `gltf`'s accessor iterators trust the file (an accessor with `count = 0`
+//! underflows, a stride of 0 divides by zero, and a bad percent-encoded URI panics). Buffers are read here
+//! too, so a missing buffer file is reported with its URI, and images are never decoded (textures are
+//! ignored with a warning).
+//!
+//! The node hierarchy is flattened: each mesh primitive becomes a world-space [`Mesh`].
+
+use std::collections::HashSet;
+use std::path::Path;
+
+use glam::{Mat4, Vec2, Vec3};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::{Mode, Semantic};
+
+use crate::error::{Error, Result};
+use crate::scene::{
+    AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, SceneDescription, SpectrumDesc,
+    shininess_from_roughness,
+};
+use crate::shapes::Mesh;
+
+/// Extensions whose data we read; a file that *requires* anything else is refused.
+/// `KHR_materials_dispersion` is read from the raw extension map (the `gltf` crate has no typed accessor).
+const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_transmission",
+    "KHR_materials_ior",
+    "KHR_materials_volume",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_dispersion",
+];
+
+/// Largest component count accepted for an accessor without a buffer view (all zeros plus sparse values):
+/// such an accessor costs memory without costing file size, so a hostile file could ask for terabytes.
+/// 2²⁴ components (≈ 5.6 M VEC3 vertices, 128 MiB as f64) is far above any hand-made scene.
+const MAX_VIEWLESS_COUNT: usize = 1 << 24;
+
+/// Loads a `.gltf` or `.glb` file; external buffers resolve against its folder.
+pub(crate) fn load_gltf_file(path: &Path) -> Result<SceneDescription> {
+    let bytes = std::fs::read(path).map_err(|source| Error::ReadFile { path: path.to_path_buf(), source })?;
+    let base = path.parent().unwrap_or_else(|| Path::new("."));
+    load_gltf_slice(&bytes, Some(base), path)
+}
+
+/// Loads glTF from memory. `base`: folder for external buffers (`None`: only embedded data allowed);
+/// `path`: the name used in messages.
+pub(crate) fn load_gltf_slice(bytes: &[u8], base: Option<&Path>, path: &Path) -> Result<SceneDescription> {
+    let gltf_err = |source| Error::Gltf { path: path.to_path_buf(), source };
+    let gltf::Gltf { document, blob } =
+        crate::scene::guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err))?;
+
+    // Required extensions first, with our own list: `gltf`'s validation would reject
+    // KHR_materials_volume and KHR_materials_dispersion, which we do read, with a vaguer message.
+    let mut root = document.into_json();
+    if let Some(ext) = root.extensions_required.iter().find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str())) {
+        return Err(Error::UnsupportedExtension {
+            path: path.to_path_buf(),
+            extension: ext.clone(),
+            supported: SUPPORTED_EXTENSIONS.join(", "),
+        });
+    }
+    root.extensions_required.clear();
+    // `gltf-json`'s validation indexes `accessors` with the POSITION attribute before checking the index
+    // (gltf-json 1.4.1 src/mesh.rs:151, found by the fuzz test): check it first.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive.attributes.get(&gltf::json::validation::Checked::Valid(Semantic::Positions));
+            if let Some(index) = position.filter(|i| i.value() >= root.accessors.len()) {
+                return Err(Error::GltfData {
+                    path: path.to_path_buf(),
+                    context: format!("meshes[{m}] primitive {p} POSITION"),
+                    message: format!("accessor {} does not exist ({} accessors)", index.value(), root.accessors.len()),
+                });
+            }
+        }
+    }
+    // glTF requires min/max on POSITION accessors and `gltf` enforces it, but we never read them (bounds
+    // come from the data), and some exporters omit them: fill placeholders rather than refuse the file.
+    for accessor in &mut root.accessors {
+        if let gltf::json::validation::Checked::Valid(t) = accessor.type_ {
+            let zeros = serde_json::Value::Array(vec![serde_json::json!(0.0); t.multiplicity()]);
+            accessor.min.get_or_insert_with(|| zeros.clone());
+            accessor.max.get_or_insert(zeros);
+        }
+    }
+    let document = crate::scene::guard_panic(path, "gltf", || gltf::Document::from_json(root).map_err(gltf_err))?;
+
+    let buffers = load_buffers(&document, base, blob, path)?;
+    let mut loader = Loader { path, buffers: &buffers, desc: SceneDescription::empty(), default_material: None };
+    for material in document.materials() {
+        let m = loader.material(&material);
+        loader.desc.materials.push(m);
+    }
+    loader.traverse(&document)?;
+    Ok(loader.desc)
+}
+
+fn load_buffers(
+    document: &gltf::Document,
+    base: Option<&Path>,
+    mut blob: Option<Vec<u8>>,
+    path: &Path,
+) -> Result<Vec<Vec<u8>>> {
+    let mut out = Vec::new();
+    for buffer in document.buffers() {
+        let index = buffer.index();
+        let data_err = |message: String| Error::GltfData {
+            path: path.to_path_buf(),
+            context: format!("buffers[{index}]"),
+            message,
+        };
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => {
+                blob.take().ok_or_else(|| data_err("refers to the GLB binary chunk, which is missing".into()))?
+            }
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                // Data URIs never reach `gltf`'s percent-decoder (the panicking part).
+                crate::scene::guard_panic(path, "gltf", || {
+                    gltf::buffer::Data::from_source(buffer.source(), None)
+                        .map_err(|source| Error::Gltf { path: path.to_path_buf(), source })
+                })?
+                .0
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                let relative = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")).unwrap_or(uri);
+                if relative.contains(':') && !uri.starts_with("file:") {
+                    return Err(data_err(format!("unsupported URI scheme in `{uri}`")));
+                }
+                let decoded = percent_decode(relative)
+                    .ok_or_else(|| data_err(format!("malformed percent-encoding in `{uri}`")))?;
+                let Some(base) = base else {
+                    return Err(data_err(format!("external buffer `{uri}` in a glTF loaded from memory")));
+                };
+                let file = base.join(decoded);
+                std::fs::read(&file).map_err(|source| Error::GltfBuffer {
+                    path: path.to_path_buf(),
+                    buffer: index,
+                    uri: file.display().to_string(),
+                    source,
+                })?
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(data_err(format!("has {} bytes, the file declares {}", data.len(), buffer.length())));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+/// RFC 3986 percent-decoding; `None` on a malformed escape or a result that is not UTF-8.
+fn percent_decode(s: &str) -> Option<String> {
+    let bytes = s.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        if bytes[i] == b'%' {
+            let hex = s.get(i + 1..i + 3)?;
+            out.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(bytes[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8(out).ok()
+}
+
+struct Loader<'a> {
+    path: &'a Path,
+    buffers: &'a [Vec<u8>],
+    desc: SceneDescription,
+    /// Index of the glTF default material, added on first use by a primitive without a material.
+    default_material: Option<u32>,
+}
+
+impl Loader<'_> {
+    fn data_err(&self, context: &str, message: impl Into<String>) -> Error {
+        Error::GltfData { path: self.path.to_path_buf(), context: context.to_owned(), message: message.into() }
+    }
+
+    fn warn(&mut self, message: String) {
+        self.desc.warnings.push(format!("{}: {message}", self.path.display()));
+    }
+
+    fn traverse(&mut self, document: &gltf::Document) -> Result<()> {
+        let roots: Vec<gltf::Node<'_>> = match document.default_scene().or_else(|| document.scenes().next()) {
+            Some(scene) => scene.nodes().collect(),
+            None => {
+                // No scene: render every root node (a node no other node lists as a child).
+                let children: HashSet<usize> = document.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+                document.nodes().filter(|n| !children.contains(&n.index())).collect()
+            }
+        };
+        let mut visited = HashSet::new();
+        let mut stack: Vec<(gltf::Node<'_>, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
+        while let Some((node, parent)) = stack.pop() {
+            if !visited.insert(node.index()) {
+                return Err(self.data_err(
+                    &format!("nodes[{}]", node.index()),
+                    "reached twice: the node hierarchy must be a set of disjoint trees (glTF 2.0 §3.5.3)",
+                ));
+            }
+            let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+            let world = parent * local;
+            let det = world.determinant();
+            let context =
+                format!("nodes[{}]{}", node.index(), node.name().map(|n| format!(" '{n}'")).unwrap_or_default());
+            if !world.is_finite() || !det.is_finite() || det == 0.0 {
+                self.warn(format!(
+                    "{context}: transform is singular or not finite; the node and its children are skipped"
+                ));
+                continue;
+            }
+            if let Some(mesh) = node.mesh() {
+                if node.skin().is_some() || mesh.weights().is_some() {
+                    self.warn(format!("{context}: skinning and morph targets are ignored (rest pose used)"));
+                }
+                self.mesh(&mesh, world, det < 0.0, &context)?;
+            }
+            if let Some(camera) = node.camera() {
+                self.camera(&camera, world, &context);
+            }
+            if let Some(light) = node.light() {
+                self.light(&light, world);
+            }
+            for child in node.children().collect::<Vec<_>>().into_iter().rev() {
+                stack.push((child, world));
+            }
+        }
+        Ok(())
+    }
+
+    fn camera(&mut self, camera: &gltf::Camera<'_>, world: Mat4, context: &str) {
+        match camera.projection() {
+            gltf::camera::Projection::Perspective(p) => {
+                if self.desc.camera.is_some() {
+                    return; // The first perspective camera wins.
+                }
+                let vfov_deg = p.yfov().to_degrees();
+                if !(vfov_deg > 0.0 && vfov_deg < 180.0) {
+                    self.warn(format!("{context}: camera yfov {} rad is outside (0, π); ignored", p.yfov()));
+                    return;
+                }
+                // glTF cameras look down their local −Z with +Y up (glTF 2.0 §3.10.1).
+                let position = world.transform_point3(Vec3::ZERO);
+                let (Some(forward), Some(up)) = (
+                    world.transform_vector3(Vec3::NEG_Z).try_normalize(),
+                    world.transform_vector3(Vec3::Y).try_normalize(),
+                ) else {
+                    return;
+                };
+                self.desc.camera =
+                    Some(CameraDesc { position, look_at: position + forward, up, vfov_deg, width: None, height: None });
+            }
+            gltf::camera::Projection::Orthographic(_) => {
+                self.warn(format!("{context}: orthographic cameras are not supported; ignored"));
+            }
+        }
+    }
+
+    fn light(&mut self, light: &gltf::khr_lights_punctual::Light<'_>, world: Mat4) {
+        use gltf::khr_lights_punctual::Kind;
+        let name = light.name().unwrap_or("unnamed").to_owned();
+        // A spectral override in the light's extras (`{"spectrum": <manifest spectrum>}`) wins over its colour.
+        let spectrum = self
+            .extras_spectrum(light.extras(), &format!("light '{name}'"))
+            .unwrap_or(SpectrumDesc::Rgb(light.color()));
+        let intensity = light.intensity();
+        if !(intensity.is_finite() && intensity >= 0.0) {
+            self.warn(format!("light '{name}': intensity {intensity} is not finite and ≥ 0; ignored"));
+            return;
+        }
+        let position = world.transform_point3(Vec3::ZERO);
+        // Lights shine along their local −Z (KHR_lights_punctual).
+        let direction = world.transform_vector3(Vec3::NEG_Z).try_normalize().unwrap_or(Vec3::NEG_Z);
+        let desc = match light.kind() {
+            Kind::Point => LightDesc::Point { position, spectrum, intensity },
+            Kind::Directional => LightDesc::Directional { direction, spectrum, intensity },
+            Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+                let outer = outer_cone_angle.to_degrees().clamp(0.0, 90.0);
+                LightDesc::Spot {
+                    position,
+                    direction,
+                    inner_cone_deg: inner_cone_angle.to_degrees().clamp(0.0, outer),
+                    outer_cone_deg: outer,
+                    spectrum,
+                    intensity,
+                }
+            }
+        };
+        self.desc.lights.push(desc);
+    }
+
+    fn extras_spectrum(&mut self, extras: &gltf::json::Extras, context: &str) -> Option<SpectrumDesc> {
+        let value = extras_value(extras)?;
+        let spectrum = value.get("spectrum")?;
+        let base = self.path.parent().unwrap_or_else(|| Path::new("."));
+        match crate::manifest::spectrum_from_value(
+            spectrum,
+            base,
+            &self.path.display().to_string(),
+            &format!("{context}.extras.spectrum"),
+        ) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                self.warn(format!("{e}; the colour is used instead"));
+                None
+            }
+        }
+    }
+
+    fn material(&mut self, material: &gltf::Material<'_>) -> MaterialDesc {
+        let index = material.index().unwrap_or(0);
+        let name = material.name().map(str::to_owned).unwrap_or_else(|| format!("material{index}"));
+        let pbr = material.pbr_metallic_roughness();
+        let mut m = MaterialDesc::named(&name);
+        let [r, g, b, _alpha] = pbr.base_color_factor();
+        m.base_color = SpectrumDesc::Rgb([r, g, b]);
+        m.metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+        m.roughness = pbr.roughness_factor().clamp(0.0, 1.0);
+        m.shininess = shininess_from_roughness(m.roughness);
+        m.double_sided = material.double_sided();
+
+        let emissive = material.emissive_factor();
+        if emissive.iter().any(|c| *c > 0.0) {
+            m.emission = Some(SpectrumDesc::Rgb(emissive));
+            m.emission_strength = material.emissive_strength().unwrap_or(1.0).max(0.0);
+        }
+        if let Some(t) = material.transmission() {
+            m.transmission = t.transmission_factor().clamp(0.0, 1.0);
+            if t.transmission_texture().is_some() {
+                self.warn(format!("material '{name}': transmission texture ignored"));
+            }
+        }
+        // glTF's default IOR is 1.5 (KHR_materials_ior); 0 is kept: it means Fresnel ≡ 1 (see IorDesc).
+        let ior = material.ior().unwrap_or(1.5);
+        m.ior = IorDesc::Constant(if ior.is_finite() && ior >= 0.0 { ior } else { 1.5 });
+        if let Some(v) = material.volume() {
+            m.thickness = v.thickness_factor().max(0.0);
+            let distance = v.attenuation_distance();
+            // An infinite distance (the default) means no absorption at all.
+            if distance.is_finite() && distance > 0.0 {
+                m.absorption = Some(AbsorptionDesc::Attenuation { color: v.attenuation_color(), distance });
+            }
+            if v.thickness_texture().is_some() {
+                self.warn(format!("material '{name}': thickness texture ignored"));
+            }
+        }
+        if let Some(value) = material.extension_value("KHR_materials_dispersion") {
+            match value.get("dispersion").and_then(serde_json::Value::as_f64) {
+                Some(d) if d.is_finite() && d >= 0.0 => m.dispersion = d as f32,
+                None if value.get("dispersion").is_none() => {} // the extension's default, 0
+                _ => self.warn(format!(
+                    "material '{name}': KHR_materials_dispersion.dispersion must be a number ≥ 0; ignored"
+                )),
+            }
+        }
+        // Model hints and Hall's k_s for the layers above (docs/scene-format.md, "glTF"): the specular
+        // reflection of a dielectric or metal is weighted by its Fresnel term, so k_s = 1 there.
+        if m.transmission > 0.0 {
+            m.model = Some("dielectric".into());
+            m.ks = 1.0;
+        } else if m.metallic > 0.0 {
+            m.ks = m.metallic;
+            m.specular = Some(m.base_color.clone());
+            if m.metallic >= 1.0 {
+                m.model = Some("conductor".into());
+            }
+        }
+        m.extras = extras_value(material.extras());
+
+        let textures = [
+            pbr.base_color_texture().is_some(),
+            pbr.metallic_roughness_texture().is_some(),
+            material.normal_texture().is_some(),
+            material.occlusion_texture().is_some(),
+            material.emissive_texture().is_some(),
+        ];
+        if textures.iter().any(|t| *t) {
+            self.warn(format!("material '{name}': textures are ignored (factors only)"));
+        }
+        m
+    }
+
+    fn default_material(&mut self) -> u32 {
+        if let Some(i) = self.default_material {
+            return i;
+        }
+        // glTF 2.0 §3.9.6: the default material is base colour 1, metallic 1, roughness 1.
+        let mut m = MaterialDesc::named("gltf-default");
+        m.base_color = SpectrumDesc::Rgb([1.0; 3]);
+        m.metallic = 1.0;
+        m.roughness = 1.0;
+        m.shininess = shininess_from_roughness(1.0);
+        m.ks = 1.0;
+        m.model = Some("conductor".into());
+        m.specular = Some(SpectrumDesc::Rgb([1.0; 3]));
+        // Material counts come from a JSON array; far below u32::MAX.
+        let i = self.desc.materials.len() as u32;
+        self.desc.materials.push(m);
+        self.default_material = Some(i);
+        i
+    }
+
+    fn mesh(&mut self, mesh: &gltf::Mesh<'_>, world: Mat4, mirrored: bool, node_context: &str) -> Result<()> {
+        for primitive in mesh.primitives() {
+            let context = format!(
+                "{node_context}: meshes[{}]{} primitive {}",
+                mesh.index(),
+                mesh.name().map(|n| format!(" '{n}'")).unwrap_or_default(),
+                primitive.index()
+            );
+            let mode = primitive.mode();
+            if matches!(mode, Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip) {
+                self.warn(format!("{context}: {mode:?} primitive skipped (only triangles are rendered)"));
+                continue;
+            }
+            let Some(accessor) = primitive.get(&Semantic::Positions) else {
+                self.warn(format!("{context}: no POSITION attribute; skipped"));
+                continue;
+            };
+            let positions = self.read_vec3(&accessor, &format!("{context} POSITION"))?;
+            for (i, p) in positions.iter().enumerate() {
+                if !p.is_finite() {
+                    return Err(Error::NonFiniteVertex {
+                        path: self.path.to_path_buf(),
+                        context: context.clone(),
+                        vertex: i,
+                        value: p.to_array(),
+                    });
+                }
+            }
+            let vertex_count = positions.len();
+            let list: Vec<u32> = match primitive.indices() {
+                Some(acc) => self.read_indices(&acc, &format!("{context} indices"))?,
+                None => (0..u32::try_from(vertex_count).map_err(|_| self.data_err(&context, "too many vertices"))?)
+                    .collect(),
+            };
+            if let Some(bad) = list.iter().find(|i| **i as usize >= vertex_count) {
+                return Err(Error::IndexOutOfRange {
+                    path: self.path.to_path_buf(),
+                    context,
+                    index: u64::from(*bad),
+                    vertex_count,
+                });
+            }
+            let mut triangles = triangulate(mode, &list);
+            if mirrored {
+                // A transform with negative determinant flips the winding (glTF 2.0 §3.7.4); restore it so
+                // the geometric normal keeps facing out (`Mesh::transformed` keeps the winding as it is).
+                for t in &mut triangles {
+                    t.swap(1, 2);
+                }
+            }
+            if triangles.is_empty() {
+                self.warn(format!("{context}: no complete triangle; skipped"));
+                continue;
+            }
+            let normals = match primitive.get(&Semantic::Normals) {
+                Some(acc) => {
+                    let n = self.read_vec3(&acc, &format!("{context} NORMAL"))?;
+                    if n.len() != vertex_count || !n.iter().all(|v| v.is_finite()) {
+                        self.warn(format!(
+                            "{context}: NORMAL count differs from POSITION or is not finite; normals dropped"
+                        ));
+                        None
+                    } else {
+                        Some(n)
+                    }
+                }
+                None => None,
+            };
+            let uvs = match primitive.get(&Semantic::TexCoords(0)) {
+                Some(acc) => {
+                    let uv = self.read_vec2(&acc, &format!("{context} TEXCOORD_0"))?;
+                    if uv.len() != vertex_count || !uv.iter().all(|v| v.is_finite()) {
+                        self.warn(format!(
+                            "{context}: TEXCOORD_0 count differs from POSITION or is not finite; UVs dropped"
+                        ));
+                        None
+                    } else {
+                        Some(uv)
+                    }
+                }
+                None => None,
+            };
+            let material = match primitive.material().index() {
+                // Material indices were validated by `gltf` against the materials array.
+                Some(i) => i as u32,
+                None => self.default_material(),
+            };
+            let local = Mesh::new(positions, normals, uvs, triangles, Some(material)).map_err(|e| {
+                Error::InvalidGeometry { path: self.path.to_path_buf(), context: context.clone(), source: Box::new(e) }
+            })?;
+            self.desc.meshes.push(if world == Mat4::IDENTITY { local } else { local.transformed(world) });
+        }
+        Ok(())
+    }
+
+    fn read_vec3(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<Vec3>> {
+        if acc.dimensions() != Dimensions::Vec3 || acc.data_type() != DataType::F32 {
+            return Err(self.data_err(
+                context,
+                format!("must be VEC3 of FLOAT, found {:?} of {:?}", acc.dimensions(), acc.data_type()),
+            ));
+        }
+        let v = self.read_accessor(acc, context)?;
+        Ok(v.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
+    }
+
+    fn read_vec2(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<Vec2>> {
+        let ok_type = acc.data_type() == DataType::F32
+            || (acc.normalized() && matches!(acc.data_type(), DataType::U8 | DataType::U16));
+        if acc.dimensions() != Dimensions::Vec2 || !ok_type {
+            return Err(self.data_err(
+                context,
+                format!(
+                    "must be VEC2 of FLOAT or normalized UNSIGNED_BYTE/SHORT, found {:?} of {:?}",
+                    acc.dimensions(),
+                    acc.data_type()
+                ),
+            ));
+        }
+        let v = self.read_accessor(acc, context)?;
+        Ok(v.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect())
+    }
+
+    fn read_indices(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<u32>> {
+        if acc.dimensions() != Dimensions::Scalar
+            || !matches!(acc.data_type(), DataType::U8 | DataType::U16 | DataType::U32)
+            || acc.normalized()
+        {
+            return Err(self.data_err(
+                context,
+                format!("must be SCALAR of unsigned integers, found {:?} of {:?}", acc.dimensions(), acc.data_type()),
+            ));
+        }
+        let raw = self.read_raw(acc, context)?;
+        Ok(raw.into_iter().map(|v| v as u32).collect())
+    }
+
+    /// Reads an accessor as f32 components, applying glTF's normalisation for normalized integers.
+    fn read_accessor(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<f32>> {
+        let raw = self.read_raw(acc, context)?;
+        let data_type = acc.data_type();
+        if !acc.normalized() || data_type == DataType::F32 {
+            return Ok(raw.into_iter().map(|v| v as f32).collect());
+        }
+        // glTF 2.0 §3.11 "Animations"/"Meshes": normalized integer decoding.
+        let scale = match data_type {
+            DataType::U8 => 255.0,
+            DataType::U16 => 65535.0,
+            DataType::I8 => 127.0,
+            DataType::I16 => 32767.0,
+            DataType::U32 | DataType::F32 => 1.0,
+        };
+        Ok(raw.into_iter().map(|v| ((v / scale) as f32).max(-1.0)).collect())
+    }
+
+    /// Reads `count × components` raw values (f64 holds every glTF component type exactly), dense part then
+    /// sparse substitutions, with every offset checked against the buffer.
+    fn read_raw(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<f64>> {
+        let data_type = acc.data_type();
+        let components = acc.dimensions().multiplicity();
+        let component_size = data_type.size();
+        let element_size = components * component_size;
+        let count = acc.count();
+        let mut out = match acc.view() {
+            Some(view) => {
+                let stride = view.stride().unwrap_or(element_size);
+                if stride < element_size {
+                    return Err(self.data_err(
+                        context,
+                        format!("byteStride {stride} is smaller than the element size {element_size}"),
+                    ));
+                }
+                let bytes = self.view_bytes(&view, context)?;
+                read_elements(bytes, acc.offset(), count, stride, data_type, components).ok_or_else(|| {
+                    self.data_err(
+                        context,
+                        format!(
+                            "{count} elements at offset {} overrun buffer view {} ({} bytes)",
+                            acc.offset(),
+                            view.index(),
+                            bytes.len()
+                        ),
+                    )
+                })?
+            }
+            None => {
+                if count.saturating_mul(components) > MAX_VIEWLESS_COUNT {
+                    return Err(self.data_err(
+                        context,
+                        format!("{count} × {components} components without a buffer view (limit {MAX_VIEWLESS_COUNT})"),
+                    ));
+                }
+                vec![0.0; count * components]
+            }
+        };
+        if let Some(sparse) = acc.sparse() {
+            let n = sparse.count();
+            let indices = sparse.indices();
+            let index_type = match indices.index_type() {
+                gltf::accessor::sparse::IndexType::U8 => DataType::U8,
+                gltf::accessor::sparse::IndexType::U16 => DataType::U16,
+                gltf::accessor::sparse::IndexType::U32 => DataType::U32,
+            };
+            let index_bytes = self.view_bytes(&indices.view(), context)?;
+            let targets = read_elements(index_bytes, indices.offset(), n, index_type.size(), index_type, 1)
+                .ok_or_else(|| self.data_err(context, "sparse indices overrun their buffer view"))?;
+            let values = sparse.values();
+            let value_bytes = self.view_bytes(&values.view(), context)?;
+            let new = read_elements(value_bytes, values.offset(), n, element_size, data_type, components)
+                .ok_or_else(|| self.data_err(context, "sparse values overrun their buffer view"))?;
+            for (k, target) in targets.iter().enumerate() {
+                let t = *target as usize;
+                if t >= count {
+                    return Err(Error::IndexOutOfRange {
+                        path: self.path.to_path_buf(),
+                        context: format!("{context} sparse"),
+                        index: *target as u64,
+                        vertex_count: count,
+                    });
+                }
+                out[t * components..(t + 1) * components].copy_from_slice(&new[k * components..(k + 1) * components]);
+            }
+        }
+        Ok(out)
+    }
+
+    fn view_bytes(&self, view: &gltf::buffer::View<'_>, context: &str) -> Result<&[u8]> {
+        let buffer = self
+            .buffers
+            .get(view.buffer().index())
+            .ok_or_else(|| self.data_err(context, format!("buffer {} is missing", view.buffer().index())))?;
+        view.offset().checked_add(view.length()).and_then(|end| buffer.get(view.offset()..end)).ok_or_else(|| {
+            self.data_err(
+                context,
+                format!(
+                    "buffer view {} ({} bytes at {}) overruns its buffer ({} bytes)",
+                    view.index(),
+                    view.length(),
+                    view.offset(),
+                    buffer.len()
+                ),
+            )
+        })
+    }
+}
+
+/// Reads `count` elements of `components` values each; `None` when any byte lies outside `bytes`.
+fn read_elements(
+    bytes: &[u8],
+    offset: usize,
+    count: usize,
+    stride: usize,
+    data_type: DataType,
+    components: usize,
+) -> Option<Vec<f64>> {
+    if count == 0 {
+        return Some(Vec::new());
+    }
+    let size = data_type.size();
+    let last = offset.checked_add((count - 1).checked_mul(stride)?)?.checked_add(components.checked_mul(size)?)?;
+    if last > bytes.len() {
+        return None;
+    }
+    let mut out = Vec::with_capacity(count * components);
+    for e in 0..count {
+        let start = offset + e * stride;
+        for c in 0..components {
+            let at = start + c * size;
+            let b = bytes.get(at..at + size)?;
+            // glTF binary data is little-endian (glTF 2.0 §3.6.2).
+            let v = match data_type {
+                DataType::I8 => f64::from(i8::from_le_bytes([b[0]])),
+                DataType::U8 => f64::from(b[0]),
+                DataType::I16 => f64::from(i16::from_le_bytes([b[0], b[1]])),
+                DataType::U16 => f64::from(u16::from_le_bytes([b[0], b[1]])),
+                DataType::U32 => f64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+                DataType::F32 => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+            };
+            out.push(v);
+        }
+    }
+    Some(out)
+}
+
+/// Triangles from an index list in the given mode (strips and fans triangulated, glTF 2.0 §3.7.2.1).
+fn triangulate(mode: Mode, list: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::TriangleStrip => (0..list.len().saturating_sub(2))
+            .map(|i| if i % 2 == 0 { [list[i], list[i + 1], list[i + 2]] } else { [list[i + 1], list[i], list[i + 2]] })
+            .collect(),
+        Mode::TriangleFan => (1..list.len().saturating_sub(1)).map(|i| [list[0], list[i], list[i + 1]]).collect(),
+        _ => list.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    }
+}
+
+/// The raw `extras` JSON, if any and valid.
+fn extras_value(extras: &gltf::json::Extras) -> Option<serde_json::Value> {
+    extras.as_ref().and_then(|raw| serde_json::from_str(raw.get()).ok())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_triangulate_with_consistent_winding() {
+        assert_eq!(triangulate(Mode::TriangleStrip, &[0, 1, 2, 3]), vec![[0, 1, 2], [2, 1, 3]]);
+        assert_eq!(triangulate(Mode::TriangleFan, &[0, 1, 2, 3]), vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(triangulate(Mode::Triangles, &[0, 1, 2, 3]), vec![[0, 1, 2]]);
+        assert!(triangulate(Mode::TriangleStrip, &[0, 1]).is_empty());
+    }
+
+    #[test]
+    fn percent_decode_handles_escapes_and_rejects_garbage() {
+        assert_eq!(percent_decode("a%20b.bin").as_deref(), Some("a b.bin"));
+        assert_eq!(percent_decode("%FF"), None);
+        assert_eq!(percent_decode("%2"), None);
+        assert_eq!(percent_decode("%zz"), None);
+    }
+
+    #[test]
+    fn read_elements_checks_bounds_and_decodes_little_endian() {
+        let bytes: Vec<u8> = [1.0f32, 2.0, 3.0].iter().flat_map(|f| f.to_le_bytes()).collect();
+        assert_eq!(read_elements(&bytes, 0, 1, 12, DataType::F32, 3), Some(vec![1.0, 2.0, 3.0]));
+        assert_eq!(read_elements(&bytes, 4, 1, 12, DataType::F32, 3), None);
+        assert_eq!(read_elements(&bytes, 0, usize::MAX, 12, DataType::F32, 3), None);
+    }
+}

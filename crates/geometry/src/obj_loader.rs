@@ -1,0 +1,467 @@
+//! Wavefront OBJ (+ MTL) → [`SceneDescription`], through `tobj`.
+//!
+//! `tobj` trusts its input in places: it panics on legal MTL lines such as `Kd 0.5` (one component, which
+//! the MTL specification allows: g and b default to r), rejects `Kd spectral file.rfl`, and overflows on
+//! face indices like `f 1/-99999999999999`. So both files are pre-scanned here, line by line, with
+//! errors that name the file and line: OBJ vertex and face lines are checked, and the MTL text is rewritten
+//! into a canonical form (`Kd 0.5` → `Kd 0.5 0.5 0.5`, spectral and `xyz` colours and `Tf` taken out and
+//! kept aside, texture maps dropped with a warning) before `tobj` sees it.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::{Vec2, Vec3};
+use serde_json::{Map, Value};
+
+use crate::error::{Error, Result};
+use crate::scene::{IorDesc, MaterialDesc, SceneDescription, SpectrumDesc, guard_panic};
+use crate::shapes::Mesh;
+
+/// Loads an `.obj` file; `mtllib` files resolve against its folder.
+pub(crate) fn load_obj_file(path: &Path) -> Result<SceneDescription> {
+    let bytes = std::fs::read(path).map_err(|source| Error::ReadFile { path: path.to_path_buf(), source })?;
+    let base = path.parent().unwrap_or_else(|| Path::new("."));
+    load_obj_text(&String::from_utf8_lossy(&bytes), Some(base), path)
+}
+
+/// Loads OBJ from memory. `base`: folder for `mtllib` (`None`: materials are not loaded, with a warning);
+/// `path`: the name used in messages.
+pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path) -> Result<SceneDescription> {
+    let mut desc = SceneDescription::empty();
+    prescan_obj(text, path, &mut desc.warnings)?;
+
+    // Per-material data tobj does not keep (Tf, spectral colours), and the first MTL error, captured by the
+    // material loader closure (which can only return tobj's error type).
+    let side: RefCell<HashMap<String, SideInfo>> = RefCell::new(HashMap::new());
+    let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
+    let mtl_warnings: RefCell<Vec<String>> = RefCell::new(Vec::new());
+    let options = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
+    let loader = |mtl: &Path| -> tobj::MTLLoadResult {
+        let Some(base) = base else {
+            mtl_warnings.borrow_mut().push(format!(
+                "{}: mtllib {} not loaded (OBJ read from memory)",
+                path.display(),
+                mtl.display()
+            ));
+            return Err(tobj::LoadError::OpenFileFailed);
+        };
+        let mtl_path = base.join(mtl);
+        let text = match std::fs::read(&mtl_path) {
+            Ok(bytes) => String::from_utf8_lossy(&bytes).into_owned(),
+            Err(e) => {
+                mtl_warnings.borrow_mut().push(format!(
+                    "{}: cannot read {}: {e}; default materials used",
+                    path.display(),
+                    mtl_path.display()
+                ));
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
+        };
+        match sanitize_mtl(&text, &mtl_path) {
+            Ok((clean, info, warnings)) => {
+                side.borrow_mut().extend(info);
+                mtl_warnings.borrow_mut().extend(warnings);
+                tobj::load_mtl_buf(&mut clean.as_bytes())
+            }
+            Err(e) => {
+                mtl_error.borrow_mut().get_or_insert(e);
+                Err(tobj::LoadError::MaterialParseError)
+            }
+        }
+    };
+    let (models, materials) = guard_panic(path, "tobj", || {
+        tobj::load_obj_buf(&mut text.as_bytes(), &options, loader)
+            .map_err(|source| Error::Obj { path: path.to_path_buf(), source })
+    })?;
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    desc.warnings.extend(mtl_warnings.into_inner());
+    let side = side.into_inner();
+    // A missing MTL file was reported as a warning above.
+    let materials: Vec<tobj::Material> = materials.unwrap_or_default();
+    for m in &materials {
+        desc.materials.push(material(m, side.get(&m.name)));
+    }
+
+    for model in models {
+        let mesh = &model.mesh;
+        let context = format!("object '{}'", model.name);
+        let positions: Vec<Vec3> = mesh.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
+        // The pre-scan rejected non-finite `v` lines; a `w` component can still overflow the division.
+        if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
+            return Err(Error::NonFiniteVertex { path: path.to_path_buf(), context, vertex: i, value: p.to_array() });
+        }
+        let indices: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        if indices.is_empty() {
+            continue;
+        }
+        let normals: Vec<Vec3> = mesh.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
+        let normals = if normals.is_empty() {
+            None
+        } else if normals.len() == positions.len() && normals.iter().all(|n| n.is_finite()) {
+            Some(normals)
+        } else {
+            desc.warnings.push(format!(
+                "{}: {context}: normals missing on some faces or not finite; normals dropped",
+                path.display()
+            ));
+            None
+        };
+        let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect();
+        let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
+        // Material ids index tobj's list, which we copied in order; ids past its end (missing MTL) mean none.
+        let material = mesh.material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
+        let m = Mesh::new(positions, normals, uvs, indices, material).map_err(|e| Error::InvalidGeometry {
+            path: path.to_path_buf(),
+            context: context.clone(),
+            source: Box::new(e),
+        })?;
+        desc.meshes.push(m);
+    }
+    Ok(desc)
+}
+
+fn syntax(path: &Path, line: usize, message: impl Into<String>) -> Error {
+    Error::ObjSyntax { path: path.to_path_buf(), line, message: message.into() }
+}
+
+/// Checks the OBJ lines tobj would mis-handle: vertex data (count and finiteness) and face indices (in range,
+/// non-zero, relative ones resolved), so every error has a line number and tobj never sees an overflow.
+fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<()> {
+    let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
+    let mut lines_and_points = 0usize;
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let mut words = raw.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        let rest: Vec<&str> = words.collect();
+        match key {
+            "v" | "vn" | "vt" => {
+                let need = if key == "vt" { 1 } else { 3 };
+                if rest.len() < need {
+                    return Err(syntax(path, line_no, format!("`{key}` needs at least {need} numbers")));
+                }
+                let values: Vec<f32> = rest
+                    .iter()
+                    .take(if key == "v" { 7 } else { 3 })
+                    .map(|w| w.parse::<f32>())
+                    .collect::<std::result::Result<_, _>>()
+                    .map_err(|_| syntax(path, line_no, format!("`{key}`: not a number in `{}`", raw.trim())))?;
+                if let Some(bad) = values.iter().find(|v| !v.is_finite()) {
+                    if key == "v" {
+                        let value = [values[0], values[1], values[2]];
+                        return Err(Error::NonFiniteVertex {
+                            path: path.to_path_buf(),
+                            context: format!("line {line_no}"),
+                            vertex: nv as usize,
+                            value,
+                        });
+                    }
+                    return Err(syntax(path, line_no, format!("`{key}`: {bad} is not finite")));
+                }
+                match key {
+                    "v" => nv += 1,
+                    "vt" => {
+                        // A lone u is legal OBJ (v defaults to 0) but tobj rejects it without a line number.
+                        if values.len() < 2 {
+                            return Err(syntax(
+                                path,
+                                line_no,
+                                "`vt` with one component is not supported; write `vt u 0`",
+                            ));
+                        }
+                        nvt += 1;
+                    }
+                    _ => nvn += 1,
+                }
+            }
+            "f" | "l" | "p" => {
+                if key != "f" {
+                    lines_and_points += 1;
+                }
+                if key == "p" {
+                    continue; // tobj ignores `p` lines.
+                }
+                for token in &rest {
+                    let parts: Vec<&str> = token.split('/').collect();
+                    if parts.len() > 3 || parts[0].is_empty() {
+                        return Err(syntax(
+                            path,
+                            line_no,
+                            format!("malformed vertex `{token}` (expected v, v/vt, v//vn or v/vt/vn)"),
+                        ));
+                    }
+                    for (part, count, what) in parts
+                        .iter()
+                        .zip([nv, nvt, nvn])
+                        .zip(["vertex", "texture coordinate", "normal"])
+                        .map(|((p, c), w)| (p, c, w))
+                    {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let index: i64 = part
+                            .parse()
+                            .map_err(|_| syntax(path, line_no, format!("`{part}` in `{token}` is not an integer")))?;
+                        // OBJ indices are 1-based; negative ones count back from the last defined element.
+                        let resolved = if index < 0 { count + index + 1 } else { index };
+                        if index == 0 || resolved < 1 || resolved > count {
+                            return Err(Error::IndexOutOfRange {
+                                path: path.to_path_buf(),
+                                context: format!("line {line_no}: {what} index {index} in `{token}`"),
+                                index: index.unsigned_abs(),
+                                vertex_count: count as usize,
+                            });
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    if lines_and_points > 0 {
+        warnings.push(format!(
+            "{}: {lines_and_points} line/point element(s) skipped (only faces are rendered)",
+            path.display()
+        ));
+    }
+    Ok(())
+}
+
+/// What the MTL pre-scan keeps aside for one material.
+#[derive(Default, Debug)]
+struct SideInfo {
+    /// `Tf r g b`.
+    tf: Option<[f32; 3]>,
+    /// Spectral colour references, by key (`Kd`, `Ks`, `Tf`, `Ke`).
+    spectral: HashMap<String, SpectrumDesc>,
+    /// Raw data for the layers above (spectral file references that are not CSV, `xyz` colours, `Tr`).
+    extras: Map<String, Value>,
+}
+
+/// Rewrites MTL text into lines tobj parses without panicking; returns the text, per-material side info and
+/// warnings. Errors name the MTL file and line.
+fn sanitize_mtl(text: &str, path: &Path) -> Result<(String, HashMap<String, SideInfo>, Vec<String>)> {
+    let mut out = String::with_capacity(text.len());
+    let mut side: HashMap<String, SideInfo> = HashMap::new();
+    let mut warnings = Vec::new();
+    let mut current: Option<String> = None;
+    let folder = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let err = |line: usize, message: String| Error::ObjSyntax { path: path.to_path_buf(), line, message };
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let trimmed = raw.trim();
+        let mut words = trimmed.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        let rest: Vec<&str> = words.collect();
+        if key.starts_with('#') {
+            continue;
+        }
+        if key == "newmtl" {
+            let name = trimmed["newmtl".len()..].trim();
+            if name.is_empty() {
+                return Err(err(line_no, "`newmtl` without a name".into()));
+            }
+            current = Some(name.to_owned());
+            side.entry(name.to_owned()).or_default();
+            out.push_str(&format!("newmtl {name}\n"));
+            continue;
+        }
+        let Some(name) = current.clone() else {
+            warnings.push(format!("{}:{line_no}: `{key}` before any `newmtl`; ignored", path.display()));
+            continue;
+        };
+        let info = side.entry(name.clone()).or_default();
+        match key {
+            "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => match rest.first().copied() {
+                Some("spectral") => {
+                    let Some(file) = rest.get(1) else {
+                        return Err(err(line_no, format!("`{key} spectral` without a file name")));
+                    };
+                    let file_path = folder.join(file);
+                    let is_csv = Path::new(file).extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+                    if is_csv {
+                        info.spectral.insert(key.to_owned(), SpectrumDesc::Csv { path: file_path, column: None });
+                    } else {
+                        warnings.push(format!(
+                            "{}:{line_no}: material '{name}': `{key} spectral {file}` (.rfl) is not read; kept in extras as `{key}_spectral`",
+                            path.display()
+                        ));
+                        info.extras.insert(format!("{key}_spectral"), Value::String(file_path.display().to_string()));
+                    }
+                }
+                Some("xyz") => {
+                    let values = parse_floats(&rest[1..]).map_err(|m| err(line_no, format!("`{key} xyz`: {m}")))?;
+                    let xyz =
+                        expand(&values).ok_or_else(|| err(line_no, format!("`{key} xyz` needs 1 or 3 numbers")))?;
+                    warnings.push(format!(
+                        "{}:{line_no}: material '{name}': CIE XYZ colour kept in extras as `{key}_xyz`",
+                        path.display()
+                    ));
+                    info.extras.insert(format!("{key}_xyz"), serde_json::json!(xyz));
+                }
+                _ => {
+                    let values = parse_floats(&rest).map_err(|m| err(line_no, format!("`{key}`: {m}")))?;
+                    // MTL: "g and b are optional; if only r is given, g and b equal r".
+                    let rgb = expand(&values)
+                        .ok_or_else(|| err(line_no, format!("`{key}` needs 1 or 3 numbers, found {}", values.len())))?;
+                    if key == "Tf" {
+                        info.tf = Some(rgb);
+                    } else {
+                        out.push_str(&format!("{key} {} {} {}\n", rgb[0], rgb[1], rgb[2]));
+                    }
+                }
+            },
+            "Ns" | "Ni" | "d" | "Tr" => {
+                // `d -halo 0.5` is legal; the halo option is not supported.
+                let args: Vec<&str> = rest.iter().copied().filter(|w| *w != "-halo").collect();
+                let values = parse_floats(&args).map_err(|m| err(line_no, format!("`{key}`: {m}")))?;
+                let [v] = values[..] else {
+                    return Err(err(line_no, format!("`{key}` needs one number")));
+                };
+                if key == "Tr" {
+                    // Tr is transparency, 1 − d (a common exporter extension).
+                    out.push_str(&format!("d {}\n", 1.0 - v));
+                    info.extras.insert("Tr".into(), serde_json::json!(v));
+                } else {
+                    out.push_str(&format!("{key} {v}\n"));
+                }
+            }
+            "illum" => match rest.first().and_then(|w| w.parse::<u8>().ok()) {
+                Some(n) if n <= 10 => out.push_str(&format!("illum {n}\n")),
+                _ => warnings.push(format!("{}:{line_no}: `illum` needs an integer 0–10; ignored", path.display())),
+            },
+            k if k.starts_with("map_") || k == "bump" || k == "disp" || k == "decal" || k == "refl" => {
+                warnings.push(format!("{}:{line_no}: material '{name}': texture `{k}` ignored", path.display()));
+            }
+            other => {
+                // Unknown statements go to extras as text; tobj never sees them.
+                if other.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                    info.extras.insert(other.to_owned(), Value::String(rest.join(" ")));
+                }
+            }
+        }
+    }
+    Ok((out, side, warnings))
+}
+
+fn parse_floats(words: &[&str]) -> std::result::Result<Vec<f32>, String> {
+    words
+        .iter()
+        .map(|w| match w.parse::<f32>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(format!("`{w}` is not a finite number")),
+        })
+        .collect()
+}
+
+fn expand(values: &[f32]) -> Option<[f32; 3]> {
+    match *values {
+        [v] => Some([v; 3]),
+        [r, g, b] => Some([r, g, b]),
+        _ => None,
+    }
+}
+
+/// Phong exponent → roughness, inverting [`crate::scene::shininess_from_roughness`]: α = √(2/(n+2)), r = √α.
+fn roughness_from_shininess(n: f32) -> f32 {
+    (2.0 / (n.max(0.0) + 2.0)).sqrt().sqrt()
+}
+
+fn material(m: &tobj::Material, side: Option<&SideInfo>) -> MaterialDesc {
+    let mut d = MaterialDesc::named(m.name.clone());
+    let spectral = |key: &str| side.and_then(|s| s.spectral.get(key).cloned());
+    if let Some(kd) = m.diffuse {
+        d.base_color = SpectrumDesc::Rgb(kd);
+    }
+    if let Some(s) = spectral("Kd") {
+        d.base_color = s;
+    }
+    let ks = spectral("Ks").or(m.specular.map(SpectrumDesc::Rgb));
+    if let Some(ks) = ks {
+        // The colour carries the magnitude; k_s = 1 unless Ks is black.
+        d.ks = if matches!(ks, SpectrumDesc::Rgb(c) if c.iter().all(|v| *v == 0.0)) { 0.0 } else { 1.0 };
+        d.specular = Some(ks);
+    }
+    if let Some(ns) = m.shininess.filter(|n| n.is_finite()) {
+        d.shininess = ns.max(0.0);
+        d.roughness = roughness_from_shininess(ns);
+    }
+    if let Some(ni) = m.optical_density.filter(|n| n.is_finite() && *n >= 0.0) {
+        d.ior = IorDesc::Constant(ni);
+    }
+    let tf = side.and_then(|s| s.tf);
+    d.transmittance = spectral("Tf").or(tf.map(SpectrumDesc::Rgb));
+    let dissolve = m.dissolve.unwrap_or(1.0).clamp(0.0, 1.0);
+    let illum = m.illumination_model.unwrap_or(2);
+    // illum 4, 6, 7: glass / refraction on (MTL specification's illumination models).
+    let refractive = matches!(illum, 4 | 6 | 7);
+    if dissolve < 1.0 {
+        d.transmission = 1.0 - dissolve;
+    } else if refractive {
+        d.transmission = tf.map_or(1.0, |t| t.iter().copied().fold(0.0, f32::max).min(1.0));
+    }
+    if d.transmission > 0.0 {
+        d.model = Some("dielectric".into());
+    } else if illum == 5 || illum == 3 {
+        // Reflection on; with illum 5 also Fresnel. The Hall model covers both.
+        d.model = Some("hall".into());
+    }
+    let ke = spectral("Ke").or(m.emissive.map(SpectrumDesc::Rgb));
+    if let Some(ke) = ke {
+        d.emission = Some(ke);
+    }
+    let mut extras = side.map(|s| s.extras.clone()).unwrap_or_default();
+    for (k, v) in &m.unknown_param {
+        extras.entry(k.clone()).or_insert_with(|| Value::String(v.clone()));
+    }
+    extras.insert("illum".into(), serde_json::json!(illum));
+    if let Some(ka) = m.ambient {
+        extras.insert("Ka".into(), serde_json::json!(ka));
+    }
+    d.extras = Some(Value::Object(extras));
+    d
+}
+
+/// For tests: the sanitised MTL text, without the side info.
+#[cfg(test)]
+pub(crate) fn sanitize_mtl_text(text: &str, path: &Path) -> Result<String> {
+    sanitize_mtl(text, path).map(|(t, _, _)| t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_component_colour_is_expanded() {
+        let t = sanitize_mtl_text("newmtl a\nKd 0.5\n", Path::new("t.mtl")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(t, "newmtl a\nKd 0.5 0.5 0.5\n");
+    }
+
+    #[test]
+    fn two_component_colour_names_the_line() {
+        let e = sanitize_mtl_text("newmtl a\n\nKs 0.5 0.2\n", Path::new("t.mtl"))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("t.mtl:3"), "{e}");
+    }
+
+    #[test]
+    fn spectral_csv_reference_becomes_csv_spectrum() {
+        let (_, side, _) =
+            sanitize_mtl("newmtl a\nKd spectral refl.csv\n", Path::new("/x/t.mtl")).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(side["a"].spectral["Kd"], SpectrumDesc::Csv { path: "/x/refl.csv".into(), column: None });
+    }
+
+    #[test]
+    fn shininess_roughness_round_trip() {
+        for r in [0.2f32, 0.5, 0.9] {
+            let n = crate::scene::shininess_from_roughness(r);
+            assert!((roughness_from_shininess(n) - r).abs() < 1e-4, "{r}");
+        }
+    }
+}

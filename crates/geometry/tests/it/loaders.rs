@@ -1,0 +1,543 @@
+//! Loader tests: every committed scene loads, each format's features and transforms, and each error case
+//! (matching the `Err` variant and checking that the message names the file).
+
+use std::path::{Path, PathBuf};
+
+use geometry::{
+    AbsorptionDesc, Error, IorDesc, LightDesc, Scene, SceneDescription, SpectrumDesc, load_scene, parse_manifest,
+    summarize,
+};
+use glam::Vec3;
+use serde_json::json;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn scene(rel: &str) -> SceneDescription {
+    let path = repo().join("scenes").join(rel);
+    load_scene(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A fresh folder for one test's files, under the target directory's temp area.
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join("spectrace-geometry-loaders").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+    dir
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    path
+}
+
+fn f32_bytes(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+/// A one-triangle glTF document whose buffer comes from `uri` (None: the GLB binary chunk); `nodes` and
+/// extra top-level keys are merged in.
+fn triangle_gltf(uri: Option<&str>, byte_length: usize, extra: serde_json::Value) -> serde_json::Value {
+    let mut buffer = json!({"byteLength": byte_length});
+    if let Some(u) = uri {
+        buffer["uri"] = json!(u);
+    }
+    let mut doc = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}],
+        "buffers": [buffer],
+    });
+    if let (Some(d), Some(e)) = (doc.as_object_mut(), extra.as_object()) {
+        for (k, v) in e {
+            d.insert(k.clone(), v.clone());
+        }
+    }
+    doc
+}
+
+const TRIANGLE: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+fn data_uri(bytes: &[u8]) -> String {
+    // Minimal base64 encoder (RFC 4648) so the tests need no extra crate.
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::from("data:application/octet-stream;base64,");
+    for chunk in bytes.chunks(3) {
+        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for i in 0..4 {
+            if i <= chunk.len() {
+                out.push(ALPHABET[(n >> (18 - 6 * i)) as usize & 63] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+fn write_gltf(dir: &Path, name: &str, doc: &serde_json::Value) -> PathBuf {
+    write(dir, name, doc.to_string().as_bytes())
+}
+
+fn all_scene_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display())) {
+        let path = entry.unwrap_or_else(|e| panic!("{e}")).path();
+        if path.is_dir() {
+            all_scene_files(&path, out);
+        } else if matches!(path.extension().and_then(|e| e.to_str()), Some("json" | "gltf" | "glb" | "obj")) {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn every_committed_scene_loads_builds_and_summarizes() {
+    let mut files = Vec::new();
+    all_scene_files(&repo().join("scenes"), &mut files);
+    files.sort();
+    // paper: 4 manifests; meshes: icosphere.obj, gem.gltf; gltf: glass_torus; obj: cube_and_sphere.
+    assert!(files.len() >= 8, "{files:?}");
+    for path in files {
+        let desc = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!desc.spheres.is_empty() || !desc.meshes.is_empty(), "{}: no geometry", path.display());
+        assert!(desc.camera.is_some(), "{}: no camera", path.display());
+        assert!(!desc.lights.is_empty(), "{}: no light", path.display());
+        for m in desc.meshes.iter().map(|m| m.material()).chain(desc.spheres.iter().map(|s| s.material())) {
+            assert!(m.is_none_or(|i| (i as usize) < desc.materials.len()), "{}: bad material index", path.display());
+        }
+        let built = Scene::build(desc.spheres.clone(), desc.meshes.clone()).unwrap_or_else(|e| panic!("{e}"));
+        let summary = summarize(&desc, &built);
+        let triangles: usize = desc.meshes.iter().map(|m| m.triangle_count()).sum();
+        assert_eq!(summary["triangles"], json!(triangles), "{}", path.display());
+        assert_eq!(summary["spheres"], json!(desc.spheres.len()));
+    }
+}
+
+#[test]
+fn five_spheres_has_the_papers_table_1_parameters() {
+    let d = scene("paper/five_spheres.json");
+    assert_eq!(d.spheres.len(), 5);
+    assert!(d.spheres.iter().all(|s| s.radius() == 1.0));
+    let camera = d.camera.as_ref().unwrap_or_else(|| panic!("camera"));
+    assert_eq!((camera.width, camera.height), (Some(640), Some(480)));
+    assert_eq!(d.settings.get("max_depth"), Some(&json!(20)));
+    let [LightDesc::Point { position, spectrum, .. }] = d.lights.as_slice() else { panic!("{:?}", d.lights) };
+    assert_eq!(spectrum, &SpectrumDesc::Named("D65".into()));
+    // Far from the centre: ≥ 10× the spheres' extent (≈ 11 units).
+    assert!(position.distance(Vec3::Y) > 100.0);
+    let mut colours = Vec::new();
+    for s in &d.spheres {
+        let m = &d.materials[s.material().unwrap_or_else(|| panic!("material")) as usize];
+        assert_eq!(m.transmission, 0.9);
+        assert_eq!(m.ks, 0.1);
+        assert_eq!(m.shininess, 20.0);
+        assert_eq!(m.ior, IorDesc::Constant(1.3));
+        assert_eq!(m.absorption, Some(AbsorptionDesc::PerUnit(SpectrumDesc::Constant(0.95))));
+        colours.push(m.transmittance.clone());
+    }
+    colours.dedup();
+    assert_eq!(colours.len(), 5, "each sphere has its own colour");
+}
+
+#[test]
+fn mesh_variants_have_the_expected_triangle_counts() {
+    // Icosphere with 4 subdivisions: 20·4⁴ = 5120 triangles; backdrop: 2 quads of 2 triangles.
+    let one = scene("paper/one_sphere_mesh.json");
+    assert_eq!(one.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(), 5120 + 4);
+    let four = scene("paper/four_spheres_mesh.json");
+    assert_eq!(four.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(), 4 * 5120 + 4);
+    // Transform translate (0.9, 0.6, 0), scale 0.6 on a unit sphere: x ∈ [0.3, 1.5].
+    let (lo, hi) = bounds(four.meshes[2].positions());
+    assert!((lo.x - 0.3).abs() < 1e-5 && (hi.x - 1.5).abs() < 1e-5, "{lo} {hi}");
+    let gem = scene("paper/gltf_mesh.json");
+    assert_eq!(gem.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(), 64 + 4);
+}
+
+fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
+    points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+}
+
+#[test]
+fn glass_torus_reads_transmission_ior_volume_light_and_camera() {
+    let d = scene("gltf/glass_torus.gltf");
+    let glass = d.materials.iter().find(|m| m.name == "green glass").unwrap_or_else(|| panic!("{:?}", d.materials));
+    assert_eq!(glass.transmission, 1.0);
+    assert_eq!(glass.ior, IorDesc::Constant(1.5));
+    assert_eq!(glass.thickness, 0.7);
+    assert_eq!(glass.absorption, Some(AbsorptionDesc::Attenuation { color: [0.55, 0.9, 0.6], distance: 0.8 }));
+    assert!(glass.extras.is_some());
+    // The light's extras carry a spectral override ("D65") that replaces its RGB colour.
+    let [LightDesc::Point { position, spectrum, intensity }] = d.lights.as_slice() else { panic!("{:?}", d.lights) };
+    assert_eq!(spectrum, &SpectrumDesc::Named("D65".into()));
+    assert_eq!(*position, Vec3::new(-3.0, 6.0, 4.0));
+    assert_eq!(*intensity, 47.0);
+    let c = d.camera.as_ref().unwrap_or_else(|| panic!("camera"));
+    // yfov 0.6981317 rad = 40°.
+    assert!((c.vfov_deg - 40.0).abs() < 1e-4);
+    assert_eq!(c.position, Vec3::new(0.0, 2.2, 5.5));
+    // The camera node is rotated −20° about x: it looks down −z, tilted 20° down.
+    let dir = (c.look_at - c.position).normalize();
+    assert!((dir - Vec3::new(0.0, -(20f32.to_radians().sin()), -(20f32.to_radians().cos()))).length() < 1e-5, "{dir}");
+    assert!(d.warnings.is_empty(), "{:?}", d.warnings);
+    assert_eq!(d.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(), 64 * 24 * 2 + 2);
+}
+
+#[test]
+fn gem_reads_dispersion_from_the_raw_extension() {
+    let d = scene("meshes/gem.gltf");
+    assert_eq!(d.materials[0].dispersion, 0.453);
+    assert_eq!(d.materials[0].ior, IorDesc::Constant(2.417));
+    assert!(d.materials[0].is_dispersive());
+    // No camera or light in the file: defaults were added, each with a warning.
+    assert!(d.warnings.iter().any(|w| w.contains("no camera")), "{:?}", d.warnings);
+    assert!(d.warnings.iter().any(|w| w.contains("no light")), "{:?}", d.warnings);
+}
+
+#[test]
+fn obj_scene_reads_mtl_with_one_component_kd() {
+    let d = scene("obj/cube_and_sphere.obj");
+    let by_name = |n: &str| d.materials.iter().find(|m| m.name == n).unwrap_or_else(|| panic!("{n}"));
+    // `Kd 0.5` means grey 0.5 (MTL: g and b default to r).
+    assert_eq!(by_name("floor").base_color, SpectrumDesc::Rgb([0.5; 3]));
+    let glass = by_name("glass");
+    assert_eq!(glass.ior, IorDesc::Constant(1.5));
+    assert_eq!(glass.transmittance, Some(SpectrumDesc::Rgb([0.9, 0.95, 0.9])));
+    // illum 7 with d = 1: transmission from Tf's largest component.
+    assert_eq!(glass.transmission, 0.95);
+    assert_eq!(glass.model.as_deref(), Some("dielectric"));
+    assert_eq!(by_name("red_paint").shininess, 50.0);
+    // floor (quad → 2 triangles), cube (6 quads → 12), sphere (320).
+    assert_eq!(d.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(), 2 + 12 + 320);
+}
+
+#[test]
+fn gltf_external_buffer_loads() {
+    let dir = temp_dir("external");
+    write(&dir, "tri.bin", &f32_bytes(&TRIANGLE));
+    let path = write_gltf(&dir, "tri.gltf", &triangle_gltf(Some("tri.bin"), 36, json!({})));
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].positions()[1], Vec3::X);
+}
+
+#[test]
+fn gltf_embedded_buffer_loads() {
+    let dir = temp_dir("embedded");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let path = write_gltf(&dir, "tri.gltf", &triangle_gltf(Some(&uri), 36, json!({})));
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].positions()[2], Vec3::Y);
+}
+
+#[test]
+fn glb_loads() {
+    let dir = temp_dir("glb");
+    let mut json_chunk = triangle_gltf(None, 36, json!({})).to_string().into_bytes();
+    while !json_chunk.len().is_multiple_of(4) {
+        json_chunk.push(b' ');
+    }
+    let bin = f32_bytes(&TRIANGLE);
+    // GLB: 12-byte header, then chunks of (length, type, data); glTF 2.0 §4.4.
+    let total = 12 + 8 + json_chunk.len() + 8 + bin.len();
+    let mut glb = Vec::new();
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&(total as u32).to_le_bytes());
+    glb.extend_from_slice(&(json_chunk.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"JSON");
+    glb.extend_from_slice(&json_chunk);
+    glb.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"BIN\0");
+    glb.extend_from_slice(&bin);
+    let path = write(&dir, "tri.glb", &glb);
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].positions(), &[Vec3::ZERO, Vec3::X, Vec3::Y]);
+}
+
+#[test]
+fn gltf_node_transforms_are_flattened_into_world_space() {
+    let dir = temp_dir("transforms");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    // Parent translates by (10, 0, 0); child scales by 2: vertex (1, 0, 0) → (2, 0, 0) → (12, 0, 0).
+    let doc = triangle_gltf(
+        Some(&uri),
+        36,
+        json!({"nodes": [{"translation": [10, 0, 0], "children": [1]}, {"scale": [2, 2, 2], "mesh": 0}]}),
+    );
+    let d = load_scene(&write_gltf(&dir, "t.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].positions()[1], Vec3::new(12.0, 0.0, 0.0));
+    assert_eq!(d.meshes[0].positions()[2], Vec3::new(10.0, 2.0, 0.0));
+}
+
+#[test]
+fn gltf_mirroring_transform_keeps_winding_outward() {
+    let dir = temp_dir("mirror");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let doc = triangle_gltf(Some(&uri), 36, json!({"nodes": [{"scale": [1, 1, -1], "mesh": 0}]}));
+    let d = load_scene(&write_gltf(&dir, "m.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    // The triangle lies in z = 0 facing +z. Mirroring z leaves the positions in place, but a mirror turns the
+    // outward side to −z (glTF 2.0 §3.7.4 reverses the winding when det < 0).
+    let p = d.meshes[0].positions();
+    let [a, b, c] = d.meshes[0].indices()[0];
+    let n = (p[b as usize] - p[a as usize]).cross(p[c as usize] - p[a as usize]);
+    assert!(n.z < 0.0, "a mirrored +z face points to −z in world space: {n}");
+}
+
+#[test]
+fn gltf_strips_are_triangulated_and_lines_skipped() {
+    let dir = temp_dir("modes");
+    let quad = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0];
+    let uri = data_uri(&f32_bytes(&quad));
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [
+            {"attributes": {"POSITION": 0}, "mode": 5},
+            {"attributes": {"POSITION": 0}, "mode": 1}
+        ]}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3"}],
+        "bufferViews": [{"buffer": 0, "byteLength": 48}],
+        "buffers": [{"byteLength": 48, "uri": uri}],
+    });
+    let d = load_scene(&write_gltf(&dir, "s.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes.len(), 1);
+    assert_eq!(d.meshes[0].indices(), &[[0, 1, 2], [2, 1, 3]]);
+    assert!(d.warnings.iter().any(|w| w.contains("Lines")), "{:?}", d.warnings);
+}
+
+#[test]
+fn gltf_ior_zero_is_kept() {
+    let dir = temp_dir("ior0");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let mut doc = triangle_gltf(
+        Some(&uri),
+        36,
+        json!({"materials": [{"extensions": {"KHR_materials_ior": {"ior": 0.0}}}], "extensionsUsed": ["KHR_materials_ior"]}),
+    );
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let d = load_scene(&write_gltf(&dir, "i.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.materials[0].ior, IorDesc::Constant(0.0));
+}
+
+fn error_message(path: &Path) -> (Error, String) {
+    let e = load_scene(path).err().unwrap_or_else(|| panic!("{} loaded", path.display()));
+    let msg = e.to_string();
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+    assert!(msg.contains(name), "message does not name {name}: {msg}");
+    (e, msg)
+}
+
+#[test]
+fn gltf_missing_buffer_file_names_it() {
+    let dir = temp_dir("missing-buffer");
+    let path = write_gltf(&dir, "m.gltf", &triangle_gltf(Some("nowhere.bin"), 36, json!({})));
+    let (e, msg) = error_message(&path);
+    assert!(matches!(e, Error::GltfBuffer { buffer: 0, .. }), "{e:?}");
+    assert!(msg.contains("nowhere.bin"), "{msg}");
+}
+
+#[test]
+fn gltf_index_out_of_range_is_an_error() {
+    let dir = temp_dir("bad-index");
+    let mut bytes = f32_bytes(&TRIANGLE);
+    bytes.extend_from_slice(&[0, 0, 1, 0, 7, 0, 0, 0]); // u16 indices 0, 1, 7 (+ padding)
+    let uri = data_uri(&bytes);
+    let mut doc = triangle_gltf(Some(&uri), 44, json!({}));
+    doc["bufferViews"] = json!([{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 6}]);
+    doc["accessors"]
+        .as_array_mut()
+        .unwrap_or_else(|| panic!("accessors"))
+        .push(json!({"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}));
+    doc["meshes"][0]["primitives"][0]["indices"] = json!(1);
+    let (e, _) = error_message(&write_gltf(&dir, "b.gltf", &doc));
+    assert!(matches!(e, Error::IndexOutOfRange { index: 7, vertex_count: 3, .. }), "{e:?}");
+}
+
+#[test]
+fn gltf_nan_and_infinite_vertices_are_errors() {
+    let dir = temp_dir("nan");
+    for (name, bad) in [("nan.gltf", f32::NAN), ("inf.gltf", f32::INFINITY)] {
+        let mut tri = TRIANGLE;
+        tri[4] = bad;
+        let uri = data_uri(&f32_bytes(&tri));
+        let (e, _) = error_message(&write_gltf(&dir, name, &triangle_gltf(Some(&uri), 36, json!({}))));
+        assert!(matches!(e, Error::NonFiniteVertex { vertex: 1, .. }), "{e:?}");
+    }
+}
+
+#[test]
+fn gltf_unsupported_required_extension_is_named() {
+    let dir = temp_dir("required");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let doc = triangle_gltf(
+        Some(&uri),
+        36,
+        json!({"extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]}),
+    );
+    let (e, msg) = error_message(&write_gltf(&dir, "d.gltf", &doc));
+    assert!(matches!(e, Error::UnsupportedExtension { .. }), "{e:?}");
+    assert!(msg.contains("KHR_draco_mesh_compression"), "{msg}");
+}
+
+#[test]
+fn gltf_required_volume_and_dispersion_are_accepted() {
+    let dir = temp_dir("required-ok");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let doc = triangle_gltf(
+        Some(&uri),
+        36,
+        json!({"extensionsUsed": ["KHR_materials_volume", "KHR_materials_dispersion"],
+               "extensionsRequired": ["KHR_materials_volume", "KHR_materials_dispersion"]}),
+    );
+    load_scene(&write_gltf(&dir, "ok.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+}
+
+#[test]
+fn gltf_malformed_json_is_a_gltf_error() {
+    let dir = temp_dir("malformed-gltf");
+    let (e, _) = error_message(&write(&dir, "x.gltf", b"{\"asset\": {\"version\": \"2.0\"},"));
+    assert!(matches!(e, Error::Gltf { .. }), "{e:?}");
+}
+
+#[test]
+fn manifest_missing_material_names_it() {
+    let text = r#"{"materials": {"glass": {}}, "objects": [{"type": "sphere", "center": [0,0,0], "radius": 1, "material": "glas"}]}"#;
+    let e = parse_manifest(text, Path::new("."), "m.json").err().unwrap_or_else(|| panic!("loaded"));
+    assert!(matches!(&e, Error::MissingMaterial { name, .. } if name == "glas"), "{e:?}");
+    let msg = e.to_string();
+    assert!(msg.contains("m.json") && msg.contains("`glas`") && msg.contains("glass"), "{msg}");
+}
+
+#[test]
+fn manifest_unknown_top_level_key_is_named() {
+    let e = parse_manifest(r#"{"camra": {}}"#, Path::new("."), "m.json").err().unwrap_or_else(|| panic!("loaded"));
+    assert!(matches!(e, Error::ManifestSyntax { .. }), "{e:?}");
+    let msg = e.to_string();
+    assert!(msg.contains("camra") && msg.contains("m.json"), "{msg}");
+}
+
+#[test]
+fn manifest_malformed_json_is_a_syntax_error_with_line() {
+    let dir = temp_dir("malformed-manifest");
+    let (e, msg) = error_message(&write(&dir, "bad.json", b"{\n  \"lights\": [\n}"));
+    assert!(matches!(e, Error::ManifestSyntax { .. }), "{e:?}");
+    assert!(msg.contains("line 3"), "{msg}");
+}
+
+#[test]
+fn manifest_bad_value_names_its_path() {
+    let text = r#"{"materials": {"g": {"ior": {"abbe": {"nd": 1.5, "vd": -3}}}}}"#;
+    let e = parse_manifest(text, Path::new("."), "m.json").err().unwrap_or_else(|| panic!("loaded"));
+    assert!(matches!(&e, Error::ManifestValue { context, .. } if context == "materials.g.ior.abbe"), "{e:?}");
+}
+
+#[test]
+fn manifest_mesh_reference_with_matrix_and_file_materials() {
+    let dir = temp_dir("manifest-mesh");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let mut doc = triangle_gltf(
+        Some(&uri),
+        36,
+        json!({"materials": [{"name": "red", "pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1]}}]}),
+    );
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    write_gltf(&dir, "tri.gltf", &doc);
+    let text = r#"{
+        "materials": {"white": {"base_color": 1}},
+        "objects": [
+            {"type": "mesh", "file": "tri.gltf", "transform": {"matrix": [[1,0,0,3],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}},
+            {"type": "sphere", "center": [0,0,0], "radius": 1, "material": "white"}
+        ]
+    }"#;
+    let d = parse_manifest(text, &dir, "m.json").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].positions()[1], Vec3::new(4.0, 0.0, 0.0));
+    // The file's material is appended after the manifest's and the mesh points to it.
+    let m = d.meshes[0].material().unwrap_or_else(|| panic!("material")) as usize;
+    assert_eq!(d.materials[m].name, "red");
+    assert_eq!(d.materials[m].base_color, SpectrumDesc::Rgb([1.0, 0.0, 0.0]));
+}
+
+#[test]
+fn mtl_one_component_kd_loads_as_grey() {
+    let dir = temp_dir("kd-one");
+    write(&dir, "a.mtl", b"newmtl grey\nKd 0.5\n");
+    let path = write(&dir, "a.obj", b"mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl grey\nf 1 2 3\n");
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.materials[0].base_color, SpectrumDesc::Rgb([0.5, 0.5, 0.5]));
+    assert_eq!(d.meshes[0].material(), Some(0));
+}
+
+#[test]
+fn mtl_spectral_kd_does_not_panic_and_is_kept() {
+    let dir = temp_dir("kd-spectral");
+    write(&dir, "a.mtl", b"newmtl s\nKd spectral x.rfl\nKs spectral refl.csv\n");
+    let path = write(&dir, "a.obj", b"mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl s\nf 1 2 3\n");
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    let m = &d.materials[0];
+    assert!(d.warnings.iter().any(|w| w.contains("x.rfl")), "{:?}", d.warnings);
+    assert!(m.extras.as_ref().is_some_and(|x| x.get("Kd_spectral").is_some()), "{:?}", m.extras);
+    assert_eq!(m.specular, Some(SpectrumDesc::Csv { path: dir.join("refl.csv"), column: None }));
+}
+
+#[test]
+fn mtl_bad_line_names_file_and_line() {
+    let dir = temp_dir("mtl-bad");
+    write(&dir, "a.mtl", b"newmtl s\n# comment\nKs 0.5 0.5\n");
+    let path = write(&dir, "a.obj", b"mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let e = load_scene(&path).err().unwrap_or_else(|| panic!("loaded"));
+    assert!(matches!(e, Error::ObjSyntax { line: 3, .. }), "{e:?}");
+    assert!(e.to_string().contains("a.mtl:3"), "{e}");
+}
+
+#[test]
+fn obj_nan_vertex_and_bad_face_index_are_errors() {
+    let dir = temp_dir("obj-bad");
+    let (e, msg) = error_message(&write(&dir, "nan.obj", b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"));
+    assert!(matches!(e, Error::NonFiniteVertex { vertex: 1, .. }), "{e:?}");
+    assert!(msg.contains("line 2"), "{msg}");
+    let (e, msg) = error_message(&write(&dir, "idx.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n"));
+    assert!(matches!(e, Error::IndexOutOfRange { index: 4, vertex_count: 3, .. }), "{e:?}");
+    assert!(msg.contains("line 4"), "{msg}");
+    let (e, _) = error_message(&write(&dir, "huge.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/-99999999999999 2 3\n"));
+    assert!(matches!(e, Error::IndexOutOfRange { .. }), "{e:?}");
+}
+
+#[test]
+fn unknown_extension_is_refused() {
+    let dir = temp_dir("ext");
+    let (e, _) = error_message(&write(&dir, "scene.ply", b"ply"));
+    assert!(matches!(e, Error::UnsupportedFormat { .. }), "{e:?}");
+}
+
+#[test]
+fn summary_reports_what_the_scene_needs() {
+    let d = scene("paper/five_spheres.json");
+    let built = Scene::build(d.spheres.clone(), d.meshes.clone()).unwrap_or_else(|e| panic!("{e}"));
+    let s = summarize(&d, &built);
+    assert_eq!(s["spheres"], json!(5));
+    assert_eq!(s["triangles"], json!(4));
+    assert_eq!(s["needs"]["transmission"], json!(true));
+    assert_eq!(s["needs"]["absorbing_media"], json!(true));
+    assert_eq!(s["needs"]["dispersion"], json!(false));
+    assert_eq!(s["needs"]["emission"], json!(false));
+    let inputs: Vec<&str> = s["needs"]["spectral_inputs"]
+        .as_array()
+        .unwrap_or_else(|| panic!("{s}"))
+        .iter()
+        .filter_map(|v| v.as_str())
+        .collect();
+    for name in ["D65", "colorchecker:13", "colorchecker:20"] {
+        assert!(inputs.contains(&name), "{inputs:?}");
+    }
+    // The gem keeps its dispersive diamond when loaded directly.
+    let g = scene("meshes/gem.gltf");
+    let built = Scene::build(g.spheres.clone(), g.meshes.clone()).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(summarize(&g, &built)["needs"]["dispersion"], json!(true));
+}

@@ -1,0 +1,3 @@
+//! Integration tests of the geometry crate (one binary, modules per topic).
+
+mod loaders;

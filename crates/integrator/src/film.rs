@@ -1,0 +1,219 @@
+//! The film (XYZ per pixel), display conversion and atomic EXR/PNG output.
+
+use std::path::{Path, PathBuf};
+
+use colorimetry::{RgbColorSpace, Xyz};
+
+use crate::error::{Error, Result};
+use crate::whitted::ObjectId;
+
+/// Which display the output RGB is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Display {
+    /// sRGB / Rec. 709 primaries, D65 white, sRGB transfer curve (the default).
+    Srgb,
+    /// The paper's 9300 K monitor (its eq. 4 matrix M), sRGB transfer curve for the PNG.
+    Paper9300,
+}
+
+impl Display {
+    /// Parse a `--display` value.
+    pub fn parse(s: &str) -> Result<Self> {
+        match s {
+            "srgb" => Ok(Self::Srgb),
+            "paper9300" => Ok(Self::Paper9300),
+            _ => Err(Error::InvalidOption { option: "display", value: s.to_owned(), expected: "srgb or paper9300" }),
+        }
+    }
+
+    /// The RGB colour space of the display.
+    pub fn color_space(self) -> &'static RgbColorSpace {
+        match self {
+            Self::Srgb => RgbColorSpace::srgb(),
+            Self::Paper9300 => RgbColorSpace::paper_9300(),
+        }
+    }
+}
+
+/// A rendered image: CIE XYZ per pixel, scaled so a white diffuser under the scene's light
+/// has Y = 1 (the paper's k normalisation, without its factor 100).
+#[derive(Debug, Clone)]
+pub struct Image {
+    width: u32,
+    height: u32,
+    xyz: Vec<[f32; 3]>,
+    /// What each pixel's first camera ray hit (for per-object statistics in reports).
+    ids: Vec<ObjectId>,
+    nonfinite: u64,
+}
+
+impl Image {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = width as usize * height as usize;
+        Self { width, height, xyz: vec![[0.0; 3]; n], ids: vec![ObjectId::Background; n], nonfinite: 0 }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// XYZ of every pixel, row by row from the top.
+    pub fn pixels(&self) -> &[[f32; 3]] {
+        &self.xyz
+    }
+
+    pub(crate) fn buffers_mut(&mut self) -> (&mut [[f32; 3]], &mut [ObjectId]) {
+        (&mut self.xyz, &mut self.ids)
+    }
+
+    /// What each pixel's first camera ray hit, row by row from the top.
+    pub fn object_ids(&self) -> &[ObjectId] {
+        &self.ids
+    }
+
+    /// XYZ of one pixel.
+    pub fn xyz(&self, x: u32, y: u32) -> [f32; 3] {
+        self.xyz[y as usize * self.width as usize + x as usize]
+    }
+
+    /// Number of pixel values that were NaN or infinite before [`Image::sanitize`] (must be 0).
+    pub fn nonfinite_samples(&self) -> u64 {
+        self.nonfinite
+    }
+
+    /// Replace non-finite values by 0 and count them, so no NaN or Inf reaches a file.
+    pub(crate) fn sanitize(&mut self) {
+        for p in &mut self.xyz {
+            for c in p.iter_mut() {
+                if !c.is_finite() {
+                    *c = 0.0;
+                    self.nonfinite += 1;
+                }
+            }
+        }
+    }
+
+    /// Linear RGB of the display for every pixel.
+    pub fn to_linear_rgb(&self, display: Display) -> Vec<[f32; 3]> {
+        let space = display.color_space();
+        self.xyz
+            .iter()
+            .map(|p| {
+                let rgb = space.xyz_to_rgb(Xyz { x: p[0].into(), y: p[1].into(), z: p[2].into() });
+                [rgb.r as f32, rgb.g as f32, rgb.b as f32]
+            })
+            .collect()
+    }
+
+    /// 8-bit display-encoded RGB (sRGB transfer curve, clipped to [0, 1]).
+    pub fn to_rgb8(&self, display: Display) -> Vec<u8> {
+        self.to_linear_rgb(display)
+            .iter()
+            .flat_map(|p| p.map(|c| colorimetry::quantize_u8(colorimetry::srgb_encode(f64::from(c)))))
+            .collect()
+    }
+
+    /// Write a linear-RGB OpenEXR (32-bit float, the display's primaries) atomically.
+    pub fn write_exr(&self, path: &Path, display: Display) -> Result<()> {
+        let rgb = self.to_linear_rgb(display);
+        let width = self.width as usize;
+        write_atomically(path, |tmp| {
+            use exr::prelude::*;
+            let space = display.color_space();
+            let white = space.white();
+            let p = space.primaries();
+            let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+                let c = rgb[pos.y() * width + pos.x()];
+                (c[0], c[1], c[2])
+            });
+            let mut attributes =
+                ImageAttributes::new(IntegerBounds::from_dimensions((self.width as usize, self.height as usize)));
+            attributes.chromaticities = Some(attribute::Chromaticities {
+                red: Vec2(p[0][0] as f32, p[0][1] as f32),
+                green: Vec2(p[1][0] as f32, p[1][1] as f32),
+                blue: Vec2(p[2][0] as f32, p[2][1] as f32),
+                white: Vec2(white[0] as f32, white[1] as f32),
+            });
+            attributes.other.insert(
+                Text::from("colorSpace"),
+                AttributeValue::Text(Text::from(format!("linear {}", space.name()).as_str())),
+            );
+            let layer = Layer::new(
+                (self.width as usize, self.height as usize),
+                LayerAttributes::named("rgb"),
+                Encoding::SMALL_LOSSLESS,
+                channels,
+            );
+            Image { attributes, layer_data: layer }.write().to_file(tmp).map_err(|e| e.to_string())
+        })
+    }
+
+    /// Write an 8-bit display-encoded PNG atomically.
+    pub fn write_png(&self, path: &Path, display: Display) -> Result<()> {
+        let bytes = self.to_rgb8(display);
+        write_atomically(path, |tmp| {
+            image::save_buffer_with_format(
+                tmp,
+                &bytes,
+                self.width,
+                self.height,
+                image::ExtendedColorType::Rgb8,
+                image::ImageFormat::Png,
+            )
+            .map_err(|e| e.to_string())
+        })
+    }
+}
+
+/// Write through a temporary file in the same folder, then rename: a reader never sees a
+/// half-written image, and a failed or cancelled write leaves the old file untouched.
+fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| Error::Write { path: path.to_owned(), message: "not a file name".to_owned() })?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(file_name);
+    tmp_name.push(format!(".{}.tmp", std::process::id()));
+    let tmp: PathBuf = path.with_file_name(tmp_name);
+    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
+    if let Err(message) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::Write { path: path.to_owned(), message });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sanitize_counts_and_zeroes_nonfinite_values() {
+        let mut image = Image::new(2, 1);
+        image.xyz[0] = [f32::NAN, 1.0, f32::INFINITY];
+        image.sanitize();
+        assert_eq!(image.nonfinite_samples(), 2);
+        assert_eq!(image.xyz(0, 0), [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn failed_write_leaves_no_file_behind() {
+        let dir = std::env::temp_dir().join(format!("spectrace-film-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let target = dir.join("out.png");
+        let err = write_atomically(&target, |tmp| {
+            std::fs::write(tmp, b"partial").unwrap();
+            Err("disk full".to_owned())
+        });
+        assert!(matches!(err, Err(Error::Write { .. })));
+        assert!(std::fs::read_dir(&dir).unwrap().next().is_none(), "temporary file removed, no output");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,226 @@
+//! Spectral sampling strategies and the projection of spectra onto "lanes".
+//!
+//! Every integrator works on a fixed-size array of lanes, `SampledSpectrum<N>`. What a lane
+//! means depends on the strategy:
+//! - `rgb`: three lanes are linear sRGB channels (the paper's RGB baseline);
+//! - `bins:N`: N wavelengths evenly spaced over 360–830 nm (the paper's Σ … Δλ);
+//! - `hero:K` (path tracer): K wavelengths drawn per path.
+//!
+//! A lane set also knows how to turn lane values into XYZ, so the film only stores XYZ.
+
+use std::fmt;
+
+use colorimetry::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, RgbColorSpace, Xyz};
+
+use crate::error::{Error, Result};
+
+/// How wavelengths are chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpectralMode {
+    /// Three RGB channels (linear sRGB primaries, D65 white = (1, 1, 1)).
+    Rgb,
+    /// `count` wavelengths evenly spaced over 360–830 nm, both ends included
+    /// (`bins:95` is the 5 nm grid).
+    Bins(usize),
+    /// Hero-wavelength sampling with `count` wavelengths per path (path tracer only).
+    Hero {
+        /// Wavelengths per path (4 or 8).
+        count: usize,
+    },
+    /// Let the renderer choose for the scene (see [`crate::choose_auto`]).
+    Auto,
+}
+
+/// Largest `bins:N` supported: one lane per 5 nm over 360–830 nm, rounded up to a multiple of 8.
+pub const MAX_BINS: usize = 96;
+
+impl SpectralMode {
+    /// Parse `rgb`, `bins:N`, `hero`, `hero:K` or `auto`.
+    pub fn parse(s: &str) -> Result<Self> {
+        let bad = || Error::InvalidOption {
+            option: "spectral mode",
+            value: s.to_owned(),
+            expected: "rgb, bins:N (2..=96), hero, hero:4, hero:8 or auto",
+        };
+        let lower = s.trim().to_ascii_lowercase();
+        match lower.split_once(':') {
+            None => match lower.as_str() {
+                "rgb" => Ok(Self::Rgb),
+                "auto" => Ok(Self::Auto),
+                "hero" => Ok(Self::Hero { count: 4 }),
+                _ => Err(bad()),
+            },
+            Some(("bins", n)) => match n.parse::<usize>() {
+                Ok(n) if (2..=MAX_BINS).contains(&n) => Ok(Self::Bins(n)),
+                _ => Err(bad()),
+            },
+            Some(("hero", k)) => match k.parse::<usize>() {
+                Ok(k @ (4 | 8)) => Ok(Self::Hero { count: k }),
+                _ => Err(bad()),
+            },
+            _ => Err(bad()),
+        }
+    }
+}
+
+impl fmt::Display for SpectralMode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Rgb => write!(f, "rgb"),
+            Self::Bins(n) => write!(f, "bins:{n}"),
+            Self::Hero { count } => write!(f, "hero:{count}"),
+            Self::Auto => write!(f, "auto"),
+        }
+    }
+}
+
+/// What a spectrum represents, which decides how it becomes RGB in `rgb` mode.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum SpectrumKind {
+    /// Reflectance or transmittance in [0, 1]: RGB is its colour under D65.
+    Reflectance,
+    /// Emitted radiance: RGB is its own colour, luminance preserved.
+    Emission,
+}
+
+/// A fixed set of lanes: wavelengths (or RGB channels) and the weights that turn lane values
+/// into XYZ.
+#[derive(Debug, Clone)]
+pub(crate) struct Lanes<const N: usize> {
+    /// Wavelength of each lane (nm); unused lanes repeat the last wavelength with zero weight.
+    pub(crate) lambda: [f32; N],
+    /// XYZ = Σ_i weight[c][i] · L_i.
+    pub(crate) to_xyz: [[f32; N]; 3],
+    /// Whether lanes are RGB channels rather than wavelengths.
+    pub(crate) rgb: bool,
+}
+
+impl<const N: usize> Lanes<N> {
+    /// `count` wavelengths over 360–830 nm, both ends included, each weighted by its spacing
+    /// (the paper's X = k Σ S R x̄ Δλ). The weights are normalised by the same discrete sum of
+    /// ȳ, so an equal-energy spectrum of value 1 gives exactly Y = 1 (the paper's k without the
+    /// factor 100).
+    pub(crate) fn bins(count: usize) -> Self {
+        assert!((2..=N).contains(&count), "bins:{count} needs 2..={N} lanes");
+        let step = (LAMBDA_MAX - LAMBDA_MIN) / (count - 1) as f32;
+        let cmf = Observer::Cie1931.cmf();
+        let mut lambda = [LAMBDA_MAX; N];
+        let mut w = [[0.0f64; N]; 3];
+        for i in 0..count {
+            let l = LAMBDA_MIN + step * i as f32;
+            lambda[i] = l;
+            let lf = f64::from(l);
+            w[0][i] = cmf.x.eval(lf);
+            w[1][i] = cmf.y.eval(lf);
+            w[2][i] = cmf.z.eval(lf);
+        }
+        // Δλ cancels between the sum and its normalisation; only Σ ȳ remains.
+        let norm: f64 = w[1].iter().sum();
+        let to_xyz = w.map(|row| row.map(|v| (v / norm) as f32));
+        Self { lambda, to_xyz, rgb: false }
+    }
+
+    /// Three linear sRGB channels (N must be ≥ 3; lanes beyond 3 are unused).
+    pub(crate) fn rgb() -> Self {
+        assert!(N >= 3);
+        let m = RgbColorSpace::srgb().rgb_to_xyz_matrix();
+        let mut to_xyz = [[0.0f32; N]; 3];
+        for (c, row) in to_xyz.iter_mut().enumerate() {
+            for i in 0..3 {
+                row[i] = m[c][i] as f32;
+            }
+        }
+        Self { lambda: [550.0; N], to_xyz, rgb: true }
+    }
+
+    /// Number of lanes actually in use.
+    pub(crate) fn active(&self) -> usize {
+        if self.rgb { 3 } else { self.to_xyz[1].iter().rposition(|&w| w != 0.0).map_or(N, |i| i + 1) }
+    }
+
+    /// XYZ (white Y = 1) of lane values.
+    #[inline]
+    pub(crate) fn xyz(&self, values: &[f32; N]) -> [f32; 3] {
+        let mut out = [0.0f32; 3];
+        for (c, row) in self.to_xyz.iter().enumerate() {
+            out[c] = row.iter().zip(values).map(|(w, v)| w * v).sum();
+        }
+        out
+    }
+
+    /// A spectrum as lane values.
+    pub(crate) fn project(&self, s: &DenselySampledSpectrum, kind: SpectrumKind) -> [f32; N] {
+        let mut out = [0.0f32; N];
+        if self.rgb {
+            let rgb = spectrum_to_rgb(s, kind);
+            out[..3].copy_from_slice(&rgb);
+        } else {
+            for (o, &l) in out.iter_mut().zip(&self.lambda) {
+                *o = s.eval(f64::from(l)) as f32;
+            }
+        }
+        out
+    }
+}
+
+/// The linear sRGB triple the paper's RGB baseline would use for a spectrum.
+pub(crate) fn spectrum_to_rgb(s: &DenselySampledSpectrum, kind: SpectrumKind) -> [f32; 3] {
+    let observer = Observer::Cie1931;
+    let integration = colorimetry::Integration::Step(1.0);
+    let xyz = match kind {
+        SpectrumKind::Reflectance => {
+            let d65 = colorimetry::Illuminant::D65.spectrum().unwrap_or_else(|_| DenselySampledSpectrum::constant(1.0));
+            let xyz = colorimetry::reflectance_to_xyz(s, &d65, observer, &integration);
+            Xyz { x: xyz.x / 100.0, y: xyz.y / 100.0, z: xyz.z / 100.0 }
+        }
+        SpectrumKind::Emission => {
+            let xyz = colorimetry::emission_to_xyz(s, observer, &integration);
+            let ybar = colorimetry::emission_to_xyz(&DenselySampledSpectrum::constant(1.0), observer, &integration).y;
+            Xyz { x: xyz.x / ybar, y: xyz.y / ybar, z: xyz.z / ybar }
+        }
+    };
+    let rgb = RgbColorSpace::srgb().xyz_to_rgb(xyz);
+    [rgb.r as f32, rgb.g as f32, rgb.b as f32]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_every_mode_and_rejects_the_rest() {
+        assert_eq!(SpectralMode::parse("rgb").unwrap(), SpectralMode::Rgb);
+        assert_eq!(SpectralMode::parse("bins:95").unwrap(), SpectralMode::Bins(95));
+        assert_eq!(SpectralMode::parse("hero").unwrap(), SpectralMode::Hero { count: 4 });
+        assert_eq!(SpectralMode::parse("HERO:8").unwrap(), SpectralMode::Hero { count: 8 });
+        assert_eq!(SpectralMode::parse("auto").unwrap(), SpectralMode::Auto);
+        for bad in ["bins:1", "bins:97", "bins:x", "hero:3", "rgbx", ""] {
+            assert!(matches!(SpectralMode::parse(bad), Err(Error::InvalidOption { .. })), "{bad}");
+        }
+    }
+
+    #[test]
+    fn equal_energy_white_has_unit_luminance_in_every_lane_set() {
+        for count in [8usize, 16, 32, 95] {
+            let lanes = Lanes::<96>::bins(count);
+            let ones = lanes.project(&DenselySampledSpectrum::constant(1.0), SpectrumKind::Emission);
+            let xyz = lanes.xyz(&ones);
+            assert!((xyz[1] - 1.0).abs() < 1e-5, "bins:{count} Y = {}", xyz[1]);
+            assert_eq!(lanes.active(), count);
+        }
+    }
+
+    #[test]
+    fn rgb_lanes_map_d65_white_to_one() {
+        let lanes = Lanes::<4>::rgb();
+        let d65 = materials::luminance_normalized(&materials::named_spectrum("D65").unwrap());
+        let rgb = lanes.project(&d65, SpectrumKind::Emission);
+        for c in &rgb[..3] {
+            assert!((c - 1.0).abs() < 2e-3, "{rgb:?}");
+        }
+        let white = lanes.project(&DenselySampledSpectrum::constant(1.0), SpectrumKind::Reflectance);
+        for c in &white[..3] {
+            assert!((c - 1.0).abs() < 2e-3, "{white:?}");
+        }
+    }
+}

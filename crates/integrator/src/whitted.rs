@@ -1,0 +1,406 @@
+//! The paper's model ("whitted-hall"): backward Whitted ray tracing with Hall's spectral
+//! shading (Lee, Lee, Lee & Ha 2004, eqs. 1–2 and 6–9). `docs/paper-model.md` goes through it
+//! equation by equation: what the paper writes and what this code does.
+//!
+//! All spectral arithmetic is on lane arrays ([`SampledSpectrum<N>`]) precomputed per render,
+//! so the inner loop does no table look-ups. The geometry of the ray tree is the same for every
+//! wavelength (the paper's IOR does not vary with λ), so one tree carries all lanes.
+
+use colorimetry::SampledSpectrum;
+use geometry::{Hit, Ray, spawn_ray, spawn_ray_to};
+use glam::Vec3;
+use materials::{hall, scattering};
+
+use crate::assembly::RenderScene;
+use crate::light::{Light, LightKind};
+use crate::render::{Ambient, RenderOptions};
+use crate::spectral::{Lanes, SpectrumKind};
+
+/// Most surfaces a shadow ray may cross before the light counts as blocked: enough for the
+/// paper's five spheres seen through one another, bounded so a pathological mesh cannot stall.
+const MAX_SHADOW_CROSSINGS: u32 = 32;
+
+/// A material reduced to lane arrays for one render.
+#[derive(Debug, Clone)]
+struct LaneMaterial<const N: usize> {
+    /// k_d F_d(λ).
+    kd: SampledSpectrum<N>,
+    /// k_s F_s(λ).
+    ks: SampledSpectrum<N>,
+    /// k_t T_s(λ).
+    kt: SampledSpectrum<N>,
+    /// k_d F_d(λ) I_a(λ): the ambient term of eq. 6, constant per material.
+    ambient: SampledSpectrum<N>,
+    /// σ_a(λ), only when absorption is on and the medium absorbs.
+    sigma_a: Option<SampledSpectrum<N>>,
+    emission: Option<SampledSpectrum<N>>,
+    shininess: f32,
+    /// Index of refraction (at 589 nm: this model does not disperse).
+    eta: f32,
+    has_diffuse: bool,
+    has_specular: bool,
+    transmissive: bool,
+}
+
+#[derive(Debug, Clone)]
+struct LaneLight<const N: usize> {
+    light: Light,
+    spectrum: SampledSpectrum<N>,
+}
+
+/// Everything one render of the paper's model needs, precomputed.
+pub(crate) struct Whitted<'a, const N: usize> {
+    scene: &'a RenderScene,
+    materials: Vec<LaneMaterial<N>>,
+    default_material: LaneMaterial<N>,
+    lights: Vec<LaneLight<N>>,
+    background: SampledSpectrum<N>,
+    max_depth: u32,
+    min_weight: f32,
+}
+
+/// What a camera ray hit first: a material (by index; `None` = the default material) or
+/// nothing. Reports use it to average over objects (e.g. "the spheres").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObjectId {
+    /// The ray escaped.
+    Background,
+    /// The ray hit a surface with this material index.
+    Material(Option<u32>),
+}
+
+/// Per-thread counters.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct RayCount {
+    pub(crate) rays: u64,
+}
+
+impl<'a, const N: usize> Whitted<'a, N> {
+    pub(crate) fn new(scene: &'a RenderScene, lanes: &Lanes<N>, options: &RenderOptions) -> Self {
+        let project = |s: &colorimetry::DenselySampledSpectrum, kind| SampledSpectrum(lanes.project(s, kind));
+        let refl = SpectrumKind::Reflectance;
+
+        // S̄(λ), what the ambient terms are a fraction of: the light arriving at the middle of
+        // the scene (point and spot lights with their fall-off there, directional lights as
+        // they are; the environment is already seen through the background).
+        let (lo, hi) = scene.geometry.bounds();
+        let center = (lo + hi) * 0.5;
+        let mut light_sum = SampledSpectrum([0.0; N]);
+        for l in &scene.lights {
+            if let Some(sample) = l.sample_from(center) {
+                light_sum = light_sum + project(&l.spectrum, SpectrumKind::Emission) * sample.falloff;
+            }
+        }
+        let ambient = ambient_spectrum(scene, lanes, options.ambient, light_sum);
+
+        let lane_material = |m: &materials::Material| {
+            let kd = project(&m.diffuse, refl) * m.kd;
+            let ks = project(&m.specular, refl) * m.ks;
+            let kt =
+                if m.is_transmissive() { project(&m.transmittance, refl) * m.kt } else { SampledSpectrum([0.0; N]) };
+            let sigma_a = match (&m.absorption, options.absorption) {
+                (Some(a), true) if m.absorbs() => {
+                    // In RGB mode σ_a goes through the colour of the per-unit transmittance e^{-σ_a}.
+                    let per_unit = a.sigma_a().map(|s| (-s).exp());
+                    let t = project(&per_unit, refl);
+                    Some(SampledSpectrum(t.0.map(|t| if t > 0.0 { -t.ln() } else { 1e30 })))
+                }
+                _ => None,
+            };
+            LaneMaterial {
+                ambient: kd * ambient,
+                kd,
+                ks,
+                kt,
+                sigma_a,
+                emission: m.emission.as_ref().map(|e| project(e, SpectrumKind::Emission)),
+                shininess: m.shininess,
+                eta: m.ior.eval(589.0),
+                has_diffuse: kd.0.iter().any(|&v| v > 0.0),
+                has_specular: ks.0.iter().any(|&v| v > 0.0),
+                transmissive: kt.0.iter().any(|&v| v > 0.0),
+            }
+        };
+        let materials = scene.materials.iter().map(lane_material).collect();
+        let default_material = lane_material(&scene.default_material);
+        let lights = scene
+            .lights
+            .iter()
+            .filter(|l| !matches!(l.kind, LightKind::Environment))
+            .map(|l| LaneLight { light: l.clone(), spectrum: project(&l.spectrum, SpectrumKind::Emission) })
+            .collect();
+        // Escaping rays see the background, or a uniform environment light.
+        let mut background = match &scene.background {
+            Some(b) => project(b, SpectrumKind::Emission),
+            None => SampledSpectrum([0.0; N]),
+        };
+        for l in scene.lights.iter().filter(|l| matches!(l.kind, LightKind::Environment)) {
+            background = background + project(&l.spectrum, SpectrumKind::Emission);
+        }
+        Self {
+            scene,
+            materials,
+            default_material,
+            lights,
+            background,
+            max_depth: options.max_depth.unwrap_or_else(|| scene.setting_f64("max_depth").map_or(20, |d| d as u32)),
+            min_weight: options.min_weight,
+        }
+    }
+
+    #[inline]
+    fn material(&self, index: Option<u32>) -> &LaneMaterial<N> {
+        index.and_then(|i| self.materials.get(i as usize)).unwrap_or(&self.default_material)
+    }
+
+    /// Radiance (lane values) arriving along a camera ray, and what the ray saw first.
+    pub(crate) fn trace_camera_ray(&self, ray: &Ray, count: &mut RayCount) -> (SampledSpectrum<N>, ObjectId) {
+        self.trace_with_id(ray, 0, 1.0, None, count)
+    }
+
+    /// Eqs. 1–2: the ray tree. `weight` is the largest lane of the product of coefficients
+    /// along the path so far (Hall & Greenberg's adaptive depth control prunes branches whose
+    /// contribution cannot exceed `min_weight`). `inside` is the medium the ray travels in.
+    fn trace(
+        &self,
+        ray: &Ray,
+        depth: u32,
+        weight: f32,
+        inside: Option<&LaneMaterial<N>>,
+        count: &mut RayCount,
+    ) -> SampledSpectrum<N> {
+        self.trace_with_id(ray, depth, weight, inside, count).0
+    }
+
+    fn trace_with_id(
+        &self,
+        ray: &Ray,
+        depth: u32,
+        weight: f32,
+        inside: Option<&LaneMaterial<N>>,
+        count: &mut RayCount,
+    ) -> (SampledSpectrum<N>, ObjectId) {
+        count.rays += 1;
+        let Some(hit) = self.scene.geometry.intersect(ray, f32::INFINITY) else {
+            return (self.background, ObjectId::Background);
+        };
+        let id = ObjectId::Material(hit.material);
+        // The medium this segment crossed: the object whose surface it leaves through (this
+        // also covers a camera that starts inside glass), else the one it was sent into.
+        let leaving = hit.n.dot(ray.dir) > 0.0;
+        let medium = if leaving { Some(self.material(hit.material)).filter(|m| m.transmissive) } else { inside };
+        let color = self.shade(&hit, ray, depth, weight, inside, count);
+        // Eq. 8 (Bouguer–Beer): T = t_λ^b = exp(−σ_a b), b = distance travelled inside.
+        let color = match medium.and_then(|m| m.sigma_a.as_ref()) {
+            Some(sigma_a) => color * materials::beer_transmittance(sigma_a, hit.t * ray.dir.length()),
+            None => color,
+        };
+        (color, id)
+    }
+
+    fn shade(
+        &self,
+        hit: &Hit,
+        ray: &Ray,
+        depth: u32,
+        weight: f32,
+        inside: Option<&LaneMaterial<N>>,
+        count: &mut RayCount,
+    ) -> SampledSpectrum<N> {
+        let m = self.material(hit.material);
+        let wo = -ray.dir.normalize();
+        // The paper flips the normal when the ray leaves a transparent object: both normals
+        // are made to face the viewer.
+        let entering = hit.n.dot(wo) > 0.0;
+        let ng = if entering { hit.n } else { -hit.n };
+        let mut ns = if entering { hit.ns } else { -hit.ns };
+        if ns.dot(wo) <= 0.0 {
+            // Interpolated normals can face away at silhouettes; fall back to the true normal.
+            ns = ng;
+        }
+
+        let mut color = m.ambient;
+        if let Some(e) = &m.emission {
+            color = color + *e;
+        }
+
+        // Eqs. 6–7: local illumination from each light, with (filtered) shadow rays.
+        for l in &self.lights {
+            let Some(ls) = l.light.sample_from(hit.p) else { continue };
+            let same_side = ng.dot(ls.wi) > 0.0;
+            if same_side && (m.has_diffuse || m.has_specular) {
+                let Some(visibility) = self.shadow(hit, ls.position, ls.wi, ls.distance, inside, count) else {
+                    continue;
+                };
+                let mut term = SampledSpectrum([0.0; N]);
+                if m.has_diffuse {
+                    term = term + m.kd * hall::diffuse_weight(ns, ls.wi);
+                }
+                if m.has_specular {
+                    term = term + m.ks * hall::specular_weight(ns, wo, ls.wi, m.shininess);
+                }
+                color = color + term * l.spectrum * visibility * ls.falloff;
+            } else if !same_side && m.transmissive {
+                // Light behind a transparent surface: Hall's transmitted highlight.
+                let (eta_v, eta_l) = if entering { (1.0, m.eta) } else { (m.eta, 1.0) };
+                let w = hall::transmission_weight(ns, wo, ls.wi, eta_v, eta_l, m.shininess);
+                if w > 0.0 {
+                    // The shadow ray crosses this surface: it travels inside the object when
+                    // the viewer is outside, and outside when the viewer is inside.
+                    let start = if entering { Some(m) } else { None };
+                    let Some(visibility) = self.shadow(hit, ls.position, ls.wi, ls.distance, start, count) else {
+                        continue;
+                    };
+                    color = color + m.kt * l.spectrum * visibility * (w * ls.falloff);
+                }
+            }
+        }
+
+        if depth >= self.max_depth {
+            return color;
+        }
+
+        // Eq. 1: specular reflection, R = V − 2 (V·N) N.
+        let mut reflect_coeff = m.ks;
+        let mut reflect_weight = weight * m.ks.max_component();
+        // Eq. 2: refraction (Snell); under total internal reflection the transmitted share is
+        // reflected instead.
+        if m.transmissive {
+            let eta = if entering { m.eta } else { 1.0 / m.eta };
+            match scattering::refract(wo, ng, eta) {
+                Some((wt, _)) => {
+                    let w = weight * m.kt.max_component();
+                    if w > self.min_weight {
+                        let next_inside = if entering { Some(m) } else { None };
+                        let transmitted = self.trace(&spawn_ray(hit, wt), depth + 1, w, next_inside, count);
+                        color = color + m.kt * transmitted;
+                    }
+                }
+                None => {
+                    reflect_coeff = reflect_coeff + m.kt;
+                    reflect_weight = weight * reflect_coeff.max_component();
+                }
+            }
+        }
+        if reflect_weight > self.min_weight {
+            let wr = scattering::reflect(wo, ns);
+            // A shading normal can mirror the ray below the surface; use the true normal then.
+            let wr = if wr.dot(ng) > 0.0 { wr } else { scattering::reflect(wo, ng) };
+            let reflected = self.trace(&spawn_ray(hit, wr), depth + 1, reflect_weight, inside, count);
+            color = color + reflect_coeff * reflected;
+        }
+        color
+    }
+
+    /// Visibility of a light: `None` if an opaque surface blocks it, else the product of the
+    /// transmittances k_t T_s of transparent surfaces crossed (Hall's filtered shadows) and,
+    /// with absorption on, Beer attenuation inside them. `start` is the medium the shadow ray
+    /// starts in.
+    fn shadow(
+        &self,
+        hit: &Hit,
+        light_position: Vec3,
+        wi: Vec3,
+        distance: f32,
+        start: Option<&LaneMaterial<N>>,
+        count: &mut RayCount,
+    ) -> Option<SampledSpectrum<N>> {
+        count.rays += 1;
+        let (ray, t_max) =
+            if distance.is_finite() { spawn_ray_to(hit, light_position) } else { (spawn_ray(hit, wi), f32::INFINITY) };
+        let start = start.filter(|m| m.sigma_a.is_some());
+        if start.is_none() && !self.scene.geometry.occluded(&ray, t_max) {
+            return Some(SampledSpectrum([1.0; N]));
+        }
+        // Something is in the way (or the ray starts in an absorbing medium): walk along the
+        // ray through transparent surfaces.
+        let mut visibility = SampledSpectrum([1.0; N]);
+        let mut current = ray;
+        let mut remaining = t_max;
+        let mut entered_at: Option<(f32, &LaneMaterial<N>)> = start.map(|m| (0.0, m));
+        let mut travelled = 0.0f32;
+        for _ in 0..MAX_SHADOW_CROSSINGS {
+            count.rays += 1;
+            let Some(h) = self.scene.geometry.intersect(&current, remaining) else {
+                // Reached the light; still inside a medium if the light is inside an object.
+                if let Some((start, inner)) = entered_at
+                    && let Some(sigma_a) = &inner.sigma_a
+                {
+                    let end = travelled + remaining * current.dir.length();
+                    visibility = visibility * materials::beer_transmittance(sigma_a, end - start);
+                }
+                return Some(visibility);
+            };
+            let m = self.material(h.material);
+            if !m.transmissive {
+                return None;
+            }
+            visibility = visibility * m.kt;
+            let dir_len = current.dir.length();
+            let at = travelled + h.t * dir_len;
+            let entering = h.n.dot(current.dir) < 0.0;
+            if entering {
+                entered_at = Some((at, m));
+            } else {
+                // Leaving without having entered: the shadow ray started inside this object.
+                let (start, inner) = entered_at.take().unwrap_or((0.0, m));
+                if let Some(sigma_a) = &inner.sigma_a {
+                    visibility = visibility * materials::beer_transmittance(sigma_a, at - start);
+                }
+            }
+            if visibility.max_component() <= 0.0 {
+                return None;
+            }
+            travelled = at;
+            remaining -= h.t;
+            current = spawn_ray(&h, current.dir);
+        }
+        None
+    }
+}
+
+/// The ambient light I_a(λ) of eq. 6: a constant fraction of the light (the classic term
+/// the paper compares with, e.g. 10 %) or the paper's object ambient (eq. 9),
+/// I_a(λ) = K_a S̄(λ) Σ_i k_i R_i(λ)^n, with k_i the share of object i (all primitives of
+/// material i) in the scene's surface area and R_i its diffuse reflectance.
+fn ambient_spectrum<const N: usize>(
+    scene: &RenderScene,
+    lanes: &Lanes<N>,
+    ambient: Ambient,
+    light_sum: SampledSpectrum<N>,
+) -> SampledSpectrum<N> {
+    match ambient {
+        Ambient::None => SampledSpectrum([0.0; N]),
+        Ambient::Constant(k_a) => light_sum * k_a,
+        Ambient::Objects { k_a, exponent } => {
+            let weights = material_area_shares(scene);
+            let mut sum = SampledSpectrum([0.0; N]);
+            for (material, k_i) in scene.materials.iter().zip(&weights) {
+                let r = SampledSpectrum(lanes.project(&material.diffuse, SpectrumKind::Reflectance));
+                sum = sum + SampledSpectrum(r.0.map(|v| v.max(0.0).powf(exponent))) * *k_i;
+            }
+            light_sum * sum * k_a
+        }
+    }
+}
+
+/// k_i of eq. 9: each material's share of the total surface area (Σ k_i = 1).
+pub(crate) fn material_area_shares(scene: &RenderScene) -> Vec<f32> {
+    let mut area = vec![0.0f64; scene.materials.len()];
+    for id in 0..scene.geometry.primitive_count() as u32 {
+        if let Some(m) = primitive_material(scene, id) {
+            if let Some(a) = area.get_mut(m as usize) {
+                *a += f64::from(scene.geometry.primitive_area(id));
+            }
+        }
+    }
+    let total: f64 = area.iter().sum();
+    area.iter().map(|&a| if total > 0.0 { (a / total) as f32 } else { 0.0 }).collect()
+}
+
+fn primitive_material(scene: &RenderScene, id: u32) -> Option<u32> {
+    match scene.geometry.primitive(id) {
+        geometry::Primitive::Sphere { index } => scene.geometry.spheres().get(index as usize)?.material(),
+        geometry::Primitive::Triangle { mesh, .. } => scene.geometry.meshes().get(mesh as usize)?.material(),
+    }
+}

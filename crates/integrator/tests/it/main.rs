@@ -1,0 +1,32 @@
+//! Integration tests of the integrator: analytic answers and hard cases, rendered at tiny
+//! resolutions.
+
+mod hard_cases;
+mod paper_model;
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use integrator::{Image, RenderOptions, RenderScene, RenderStats, render};
+
+/// Assemble a manifest given as JSON text.
+pub(crate) fn scene(json: &str) -> RenderScene {
+    let desc = geometry::parse_manifest(json, Path::new("."), "<test>").expect("test manifest parses");
+    RenderScene::from_description(desc).expect("test scene assembles")
+}
+
+/// Render with the given options; panics on error (tests only).
+pub(crate) fn render_with(scene: &RenderScene, options: &RenderOptions) -> (Image, RenderStats) {
+    render(scene, options, &|_| {}, &AtomicBool::new(false)).expect("render succeeds")
+}
+
+/// Small render options: `w`×`h`, no ambient unless asked.
+pub(crate) fn options(w: u32, h: u32) -> RenderOptions {
+    RenderOptions { width: w, height: h, ambient: integrator::Ambient::None, threads: Some(1), ..Default::default() }
+}
+
+/// Every pixel finite (the film replaces non-finite values, so check its counter too).
+pub(crate) fn assert_all_finite(image: &Image, stats: &RenderStats) {
+    assert_eq!(stats.nonfinite_samples, 0, "non-finite samples reached the film");
+    assert!(image.pixels().iter().flatten().all(|v| v.is_finite()));
+}
