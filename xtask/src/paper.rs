@@ -24,6 +24,9 @@ pub(crate) struct PaperArgs {
     height: u32,
 }
 
+/// A figure: file stem, title, scene, and the (label, options) of its left and right sides.
+type Figure = (&'static str, &'static str, RenderScene, [(String, RenderOptions); 2]);
+
 /// One side of a figure.
 struct Side {
     label: String,
@@ -51,7 +54,7 @@ pub(crate) fn run(args: &PaperArgs) -> anyhow::Result<()> {
         args.width, args.height
     )?;
 
-    let figures: Vec<(&str, &str, RenderScene, [(String, RenderOptions); 2])> = vec![
+    let figures: Vec<Figure> = vec![
         (
             "fig8",
             "Fig. 8 — RGB rendering vs spectral rendering",

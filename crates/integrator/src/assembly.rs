@@ -144,20 +144,9 @@ impl RenderScene {
             .map_err(|e| Error::Camera(e.to_string()))
     }
 
-    /// The material of a primitive.
-    #[inline]
-    pub(crate) fn material(&self, index: Option<u32>) -> &Material {
-        index.and_then(|i| self.materials.get(i as usize)).unwrap_or(&self.default_material)
-    }
-
     /// A numeric setting from the manifest's `settings` block.
     pub(crate) fn setting_f64(&self, key: &str) -> Option<f64> {
         self.settings.get(key).and_then(serde_json::Value::as_f64)
-    }
-
-    /// A string setting from the manifest's `settings` block.
-    pub(crate) fn setting_str(&self, key: &str) -> Option<&str> {
-        self.settings.get(key).and_then(serde_json::Value::as_str)
     }
 }
 
@@ -236,10 +225,10 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         IorDesc::Abbe { nd, vd } => Ior::from_abbe(nd, vd).map_err(wrap)?,
     };
     // KHR_materials_dispersion: dispersion = 20 / V_d on top of a constant index.
-    if desc.dispersion > 0.0 {
-        if let Ior::Constant(nd) = ior {
-            ior = Ior::from_abbe(nd, 20.0 / desc.dispersion).map_err(wrap)?;
-        }
+    if desc.dispersion > 0.0
+        && let Ior::Constant(nd) = ior
+    {
+        ior = Ior::from_abbe(nd, 20.0 / desc.dispersion).map_err(wrap)?;
     }
     let absorption = match &desc.absorption {
         None => None,

@@ -88,7 +88,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
         let mut light_sum = SampledSpectrum([0.0; N]);
         for l in &scene.lights {
             if let Some(sample) = l.sample_from(center) {
-                light_sum = light_sum + project(&l.spectrum, SpectrumKind::Emission) * sample.falloff;
+                light_sum += project(&l.spectrum, SpectrumKind::Emission) * sample.falloff;
             }
         }
         let ambient = ambient_spectrum(scene, lanes, options.ambient, light_sum);
@@ -135,7 +135,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
             None => SampledSpectrum([0.0; N]),
         };
         for l in scene.lights.iter().filter(|l| matches!(l.kind, LightKind::Environment)) {
-            background = background + project(&l.spectrum, SpectrumKind::Emission);
+            background += project(&l.spectrum, SpectrumKind::Emission);
         }
         Self {
             scene,
@@ -221,7 +221,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
 
         let mut color = m.ambient;
         if let Some(e) = &m.emission {
-            color = color + *e;
+            color += *e;
         }
 
         // Eqs. 6–7: local illumination from each light, with (filtered) shadow rays.
@@ -234,12 +234,12 @@ impl<'a, const N: usize> Whitted<'a, N> {
                 };
                 let mut term = SampledSpectrum([0.0; N]);
                 if m.has_diffuse {
-                    term = term + m.kd * hall::diffuse_weight(ns, ls.wi);
+                    term += m.kd * hall::diffuse_weight(ns, ls.wi);
                 }
                 if m.has_specular {
-                    term = term + m.ks * hall::specular_weight(ns, wo, ls.wi, m.shininess);
+                    term += m.ks * hall::specular_weight(ns, wo, ls.wi, m.shininess);
                 }
-                color = color + term * l.spectrum * visibility * ls.falloff;
+                color += term * l.spectrum * visibility * ls.falloff;
             } else if !same_side && m.transmissive {
                 // Light behind a transparent surface: Hall's transmitted highlight.
                 let (eta_v, eta_l) = if entering { (1.0, m.eta) } else { (m.eta, 1.0) };
@@ -251,7 +251,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
                     let Some(visibility) = self.shadow(hit, ls.position, ls.wi, ls.distance, start, count) else {
                         continue;
                     };
-                    color = color + m.kt * l.spectrum * visibility * (w * ls.falloff);
+                    color += m.kt * l.spectrum * visibility * (w * ls.falloff);
                 }
             }
         }
@@ -273,11 +273,11 @@ impl<'a, const N: usize> Whitted<'a, N> {
                     if w > self.min_weight {
                         let next_inside = if entering { Some(m) } else { None };
                         let transmitted = self.trace(&spawn_ray(hit, wt), depth + 1, w, next_inside, count);
-                        color = color + m.kt * transmitted;
+                        color += m.kt * transmitted;
                     }
                 }
                 None => {
-                    reflect_coeff = reflect_coeff + m.kt;
+                    reflect_coeff += m.kt;
                     reflect_weight = weight * reflect_coeff.max_component();
                 }
             }
@@ -287,7 +287,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
             // A shading normal can mirror the ray below the surface; use the true normal then.
             let wr = if wr.dot(ng) > 0.0 { wr } else { scattering::reflect(wo, ng) };
             let reflected = self.trace(&spawn_ray(hit, wr), depth + 1, reflect_weight, inside, count);
-            color = color + reflect_coeff * reflected;
+            color += reflect_coeff * reflected;
         }
         color
     }
@@ -327,7 +327,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
                     && let Some(sigma_a) = &inner.sigma_a
                 {
                     let end = travelled + remaining * current.dir.length();
-                    visibility = visibility * materials::beer_transmittance(sigma_a, end - start);
+                    visibility *= materials::beer_transmittance(sigma_a, end - start);
                 }
                 return Some(visibility);
             };
@@ -335,7 +335,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
             if !m.transmissive {
                 return None;
             }
-            visibility = visibility * m.kt;
+            visibility *= m.kt;
             let dir_len = current.dir.length();
             let at = travelled + h.t * dir_len;
             let entering = h.n.dot(current.dir) < 0.0;
@@ -345,7 +345,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
                 // Leaving without having entered: the shadow ray started inside this object.
                 let (start, inner) = entered_at.take().unwrap_or((0.0, m));
                 if let Some(sigma_a) = &inner.sigma_a {
-                    visibility = visibility * materials::beer_transmittance(sigma_a, at - start);
+                    visibility *= materials::beer_transmittance(sigma_a, at - start);
                 }
             }
             if visibility.max_component() <= 0.0 {
@@ -377,7 +377,7 @@ fn ambient_spectrum<const N: usize>(
             let mut sum = SampledSpectrum([0.0; N]);
             for (material, k_i) in scene.materials.iter().zip(&weights) {
                 let r = SampledSpectrum(lanes.project(&material.diffuse, SpectrumKind::Reflectance));
-                sum = sum + SampledSpectrum(r.0.map(|v| v.max(0.0).powf(exponent))) * *k_i;
+                sum += SampledSpectrum(r.0.map(|v| v.max(0.0).powf(exponent))) * *k_i;
             }
             light_sum * sum * k_a
         }
@@ -388,10 +388,10 @@ fn ambient_spectrum<const N: usize>(
 pub(crate) fn material_area_shares(scene: &RenderScene) -> Vec<f32> {
     let mut area = vec![0.0f64; scene.materials.len()];
     for id in 0..scene.geometry.primitive_count() as u32 {
-        if let Some(m) = primitive_material(scene, id) {
-            if let Some(a) = area.get_mut(m as usize) {
-                *a += f64::from(scene.geometry.primitive_area(id));
-            }
+        if let Some(m) = primitive_material(scene, id)
+            && let Some(a) = area.get_mut(m as usize)
+        {
+            *a += f64::from(scene.geometry.primitive_area(id));
         }
     }
     let total: f64 = area.iter().sum();
