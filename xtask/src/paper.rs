@@ -142,6 +142,8 @@ pub(crate) fn run(args: &PaperArgs) -> anyhow::Result<()> {
         )?;
     }
     md.push('\n');
+    sampling_table(&mut md, &base)?;
+    md.push('\n');
     md.push_str(&images_md);
     let index = out.join("paper.md");
     std::fs::write(&index, md).with_context(|| format!("writing {}", index.display()))?;
@@ -216,4 +218,37 @@ fn write_side_by_side(path: &Path, left: &Image, right: &Image) -> anyhow::Resul
         }
     }
     out.save(path).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Speed against error of the spectral sampling on the default scene: each strategy's ΔE00
+/// against the 5 nm grid (bins:95), the paper's own sampling, and its render time.
+fn sampling_table(md: &mut String, base: &RenderOptions) -> anyhow::Result<()> {
+    let scene = RenderScene::default_scene()?;
+    let reference =
+        render_side(&scene, "bins:95", &RenderOptions { spectral: SpectralMode::Bins(95), ..base.clone() })?;
+    writeln!(md, "## Spectral sampling: speed against error (default scene, reference bins:95 = 5 nm)\n")?;
+    writeln!(md, "| strategy | time (s) | ΔE00 mean | ΔE00 p95 | ΔE00 max |")?;
+    writeln!(md, "| --- | --- | --- | --- | --- |")?;
+    for mode in [
+        SpectralMode::Rgb,
+        SpectralMode::Bins(4),
+        SpectralMode::Bins(8),
+        SpectralMode::Bins(12),
+        SpectralMode::Bins(16),
+        SpectralMode::Bins(24),
+        SpectralMode::Bins(32),
+        SpectralMode::Bins(48),
+        SpectralMode::Bins(95),
+    ] {
+        let side = render_side(&scene, &mode.to_string(), &RenderOptions { spectral: mode, ..base.clone() })?;
+        let (mean, p95) = delta_e_stats(&side.image, &reference.image, None);
+        let max = max_delta_e(&side.image, &reference.image);
+        writeln!(md, "| {mode} | {:.3} | {mean:.3} | {p95:.3} | {max:.3} |", side.elapsed.as_secs_f64())?;
+    }
+    Ok(())
+}
+
+fn max_delta_e(a: &Image, b: &Image) -> f64 {
+    let lab = |p: &[f32; 3]| Lab::from_xyz(Xyz { x: p[0].into(), y: p[1].into(), z: p[2].into() }, WHITE);
+    a.pixels().iter().zip(b.pixels()).map(|(p, q)| delta_e_2000(lab(p), lab(q))).fold(0.0, f64::max)
 }

@@ -46,17 +46,69 @@ pub use whitted::ObjectId;
 /// D65 0.16; ColorChecker and TCS reflectances below 0.09.
 const SPIKY: f64 = 0.5;
 
-/// Wavelength count `auto` uses for scenes whose spectra are all smooth.
-const SMOOTH_BINS: usize = 16;
+/// Wavelength counts `auto` may choose, cheapest first.
+const AUTO_CANDIDATES: [usize; 8] = [8, 12, 16, 24, 32, 48, 64, 95];
+
+/// Largest colour error (ΔE00) `auto` accepts for any light × surface spectrum of the scene,
+/// against the 1 nm integral: a tenth of a just-noticeable difference.
+const AUTO_MAX_DELTA_E: f64 = 0.1;
 
 /// The 5 nm grid over 360–830 nm, on which the CIE tabulates line spectra.
 const FINE_BINS: usize = 95;
 
-/// What `--spectral auto` picks for a scene: the cheapest strategy whose error is negligible
-/// for the spectra the scene contains. Line spectra (fluorescent lamps) need the full 5 nm
-/// grid; smooth spectra are integrated accurately by a few wavelengths.
+/// What `--spectral auto` picks for a scene: the fewest evenly spaced wavelengths whose
+/// colour error is negligible (ΔE00 < 0.1) for every product of a light spectrum with a
+/// surface spectrum of the scene, once and twice (two interactions), against the 1 nm
+/// integral. Smooth scenes get few wavelengths; line spectra such as F11 need the 5 nm grid.
 pub fn choose_auto(scene: &RenderScene, _integrator: IntegratorKind) -> SpectralMode {
-    if scene_is_spiky(scene) { SpectralMode::Bins(FINE_BINS) } else { SpectralMode::Bins(SMOOTH_BINS) }
+    SpectralMode::Bins(auto_bins(scene))
+}
+
+fn auto_bins(scene: &RenderScene) -> usize {
+    use colorimetry::{DenselySampledSpectrum, Integration, Lab, Observer, Xyz, delta_e_2000, emission_to_xyz};
+    let mut lights: Vec<&DenselySampledSpectrum> = scene.lights.iter().map(|l| &l.spectrum).collect();
+    lights.extend(scene.background.iter());
+    lights.extend(scene.materials.iter().filter_map(|m| m.emission.as_ref()));
+    lights.retain(|l| l.max_value() > 0.0);
+    let mut surfaces = vec![DenselySampledSpectrum::constant(1.0)];
+    for m in &scene.materials {
+        let used = [(m.kd > 0.0, &m.diffuse), (m.ks > 0.0, &m.specular), (m.is_transmissive(), &m.transmittance)];
+        for (on, s) in used {
+            if on && !materials::is_flat(s) {
+                surfaces.push(s.clone());
+                surfaces.push(s.product(s));
+            }
+        }
+    }
+    let xyz = |s: &DenselySampledSpectrum| emission_to_xyz(s, Observer::Cie1931, &Integration::Step(1.0));
+    // (light, lit surface) spectra and their 1 nm XYZ.
+    let cases: Vec<_> = lights
+        .iter()
+        .flat_map(|l| surfaces.iter().map(move |r| ((*l).clone(), r.product(l))))
+        .map(|(light, lit)| {
+            let (white, color) = (xyz(&light), xyz(&lit));
+            (light, lit, white, color)
+        })
+        .collect();
+    let lab = |c: Xyz, white: Xyz| Lab::from_xyz(c.scaled(1.0 / white.y), white.scaled(1.0 / white.y));
+    for n in AUTO_CANDIDATES {
+        let lanes = spectral::Lanes::<{ MAX_BINS }>::bins(n);
+        let lane_xyz = |s: &DenselySampledSpectrum| {
+            let v = lanes.xyz(&lanes.project(s, spectral::SpectrumKind::Emission));
+            Xyz { x: v[0].into(), y: v[1].into(), z: v[2].into() }
+        };
+        // Each computation relative to its own white (the light), as an adapted eye sees it.
+        let acceptable = cases.iter().all(|(light, lit, white, color)| {
+            let white_lanes = lane_xyz(light);
+            white.y <= 0.0
+                || white_lanes.y <= 0.0
+                || delta_e_2000(lab(*color, *white), lab(lane_xyz(lit), white_lanes)) < AUTO_MAX_DELTA_E
+        });
+        if acceptable {
+            return n;
+        }
+    }
+    FINE_BINS
 }
 
 /// Whether any light, background or material spectrum of the scene is a line spectrum.

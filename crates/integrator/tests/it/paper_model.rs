@@ -112,3 +112,19 @@ fn default_scene_renders_finite_and_deterministic() {
     let mean_y: f32 = a.pixels().iter().map(|p| p[1]).sum::<f32>() / a.pixels().len() as f32;
     assert!(mean_y > 0.05, "mean Y {mean_y}");
 }
+
+#[test]
+fn auto_uses_few_wavelengths_for_smooth_spectra_and_the_5nm_grid_for_f11() {
+    let smooth = integrator::RenderScene::default_scene().unwrap();
+    let SpectralMode::Bins(n_smooth) = integrator::choose_auto(&smooth, integrator::IntegratorKind::WhittedHall) else {
+        panic!("auto chooses bins for whitted-hall");
+    };
+    assert!(n_smooth <= 32, "{n_smooth}");
+    let f11 = scene(&format!(
+        r#"{{ {CAMERA},
+        "lights": [{{"type": "point", "position": [0, 0, 10], "spectrum": "F11", "intensity": 100}}],
+        "materials": {{"red": {{"base_color": "colorchecker:15"}}}},
+        "objects": [{{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "red"}}] }}"#
+    ));
+    assert_eq!(integrator::choose_auto(&f11, integrator::IntegratorKind::WhittedHall), SpectralMode::Bins(95));
+}
