@@ -127,8 +127,11 @@ impl Scene {
 
     fn bvh_ray(ray: &Ray, t_max: f32) -> BvhRay {
         // Exact reciprocals (obvhs's `safe_inverse` replaces |x| ≤ ε by ±1/ε, which is wrong
-        // for small components); exact zeros get a huge finite value so 0·∞ cannot make NaN.
-        let inv = |x: f32| if x == 0.0 { 1e30f32.copysign(x) } else { 1.0 / x };
+        // for small components). Zero components (±0) get a huge *positive* finite value: obvhs
+        // orders each slab by `direction < 0.0`, which is false for −0, so a negative
+        // reciprocal there would swap the slab and cull the ray (found by the test
+        // `grazing_spawned_rays_never_rehit_their_surface`); finite so 0·∞ cannot make NaN.
+        let inv = |x: f32| if x == 0.0 { 1e30 } else { 1.0 / x };
         BvhRay {
             origin: ray.origin.into(),
             direction: ray.dir.into(),

@@ -7,10 +7,15 @@ use glam::Vec3;
 use crate::ray::gamma;
 
 /// Per-ray data of the watertight test, computed once per ray: the axis permutation that
-/// makes the direction's largest component z, and the shear that maps the ray to +z.
+/// makes the direction's largest component z, and the shear that maps the ray to +z. The
+/// direction is normalised first: pbrt-v4's error bound on t adds world-space x, y extents to
+/// z extents measured in units of t, which is only consistent for unit directions (with a
+/// direction of length 5e-4 the bound is 20× too large and every hit is rejected).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct TriangleRay {
     origin: Vec3,
+    /// |dir|: t in the caller's units is t_unit / length.
+    length: f32,
     kx: usize,
     ky: usize,
     kz: usize,
@@ -22,6 +27,8 @@ pub(crate) struct TriangleRay {
 impl TriangleRay {
     #[inline]
     pub(crate) fn new(origin: Vec3, dir: Vec3) -> Self {
+        let length = dir.length();
+        let dir = dir / length;
         let a = dir.abs();
         let kz = if a.x > a.y {
             if a.x > a.z { 0 } else { 2 }
@@ -33,7 +40,7 @@ impl TriangleRay {
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
         let d = Vec3::new(dir[kx], dir[ky], dir[kz]);
-        Self { origin, kx, ky, kz, sx: -d.x / d.z, sy: -d.y / d.z, sz: 1.0 / d.z }
+        Self { origin, length, kx, ky, kz, sx: -d.x / d.z, sy: -d.y / d.z, sz: 1.0 / d.z }
     }
 }
 
@@ -53,9 +60,11 @@ fn difference_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
     dop + err
 }
 
-/// Intersect the triangle (p0, p1, p2) in (0, t_max). Degenerate triangles never hit.
+/// Intersect the triangle (p0, p1, p2) in (0, t_max), t in units of the ray's direction.
+/// Degenerate triangles never hit.
 #[inline]
 pub(crate) fn intersect_triangle(r: &TriangleRay, t_max: f32, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<TriangleHit> {
+    let t_max = t_max * r.length;
     let perm = |p: Vec3| {
         let q = p - r.origin;
         Vec3::new(q[r.kx], q[r.ky], q[r.kz])
@@ -115,7 +124,7 @@ pub(crate) fn intersect_triangle(r: &TriangleRay, t_max: f32, p0: Vec3, p1: Vec3
     if t <= delta_t {
         return None;
     }
-    Some(TriangleHit { t, b })
+    Some(TriangleHit { t: t / r.length, b })
 }
 
 /// Absolute error bound of the barycentric hit point b0 p0 + b1 p1 + b2 p2 (pbrt-v4).
