@@ -79,6 +79,10 @@ pub struct Scene {
     /// (mesh, triangle) of each triangle in `triangles`.
     triangle_source: Vec<(u32, u32)>,
     bvh: Option<CwBvh>,
+    /// Primitives in the BVH's leaf order (index = obvhs's primitive slot): triangle vertices
+    /// (unused for spheres) and the global primitive index. Traversal reads this array in
+    /// order instead of chasing `primitive_indices` into scattered memory.
+    ordered: Vec<([Vec3; 3], u32)>,
     bounds: (Vec3, Vec3),
     build_time: Duration,
 }
@@ -122,7 +126,24 @@ impl Scene {
             build_cwbvh(&bounds_list, BvhBuildParams::medium_build(), &mut core)
         });
         let bounds = if count > 0 { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
-        Ok(Self { spheres, meshes, triangles, triangle_source, bvh, bounds, build_time: start.elapsed() })
+        let n_spheres = spheres.len();
+        let ordered = bvh
+            .as_ref()
+            .map(|b| {
+                b.primitive_indices
+                    .iter()
+                    .map(|&prim| {
+                        let vertices = if (prim as usize) < n_spheres {
+                            [Vec3::ZERO; 3]
+                        } else {
+                            triangles[prim as usize - n_spheres]
+                        };
+                        (vertices, prim)
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
+        Ok(Self { spheres, meshes, triangles, triangle_source, bvh, ordered, bounds, build_time: start.elapsed() })
     }
 
     fn bvh_ray(ray: &Ray, t_max: f32) -> BvhRay {
@@ -152,11 +173,11 @@ impl Scene {
         let mut best_b = [0.0f32; 3];
         let mut hit = RayHit::none();
         let found = bvh.ray_traverse(Self::bvh_ray(ray, t_max), &mut hit, |r, id| {
-            let prim = bvh.primitive_indices[id] as usize;
+            let ([p0, p1, p2], prim) = self.ordered[id];
+            let prim = prim as usize;
             if prim < n_spheres {
                 intersect_sphere(&self.spheres[prim], ray.origin, ray.dir, r.tmax).unwrap_or(f32::INFINITY)
             } else {
-                let [p0, p1, p2] = self.triangles[prim - n_spheres];
                 match intersect_triangle(&tri_ray, r.tmax, p0, p1, p2) {
                     // obvhs keeps a hit only if it is strictly closer; a tie (a ray through a
                     // shared edge hits both triangles at the same t) must not overwrite the
@@ -172,7 +193,7 @@ impl Scene {
         if !found {
             return None;
         }
-        let prim = bvh.primitive_indices[hit.primitive_id as usize];
+        let prim = self.ordered[hit.primitive_id as usize].1;
         Some(self.hit_record(ray, prim, hit.t, best_b))
     }
 
@@ -185,11 +206,11 @@ impl Scene {
         let tri_ray = TriangleRay::new(ray.origin, ray.dir);
         let n_spheres = self.spheres.len();
         !bvh.ray_traverse_miss(Self::bvh_ray(ray, t_max), |r, id| {
-            let prim = bvh.primitive_indices[id] as usize;
+            let ([p0, p1, p2], prim) = self.ordered[id];
+            let prim = prim as usize;
             if prim < n_spheres {
                 intersect_sphere(&self.spheres[prim], ray.origin, ray.dir, r.tmax).unwrap_or(f32::INFINITY)
             } else {
-                let [p0, p1, p2] = self.triangles[prim - n_spheres];
                 intersect_triangle(&tri_ray, r.tmax, p0, p1, p2).map_or(f32::INFINITY, |h| h.t)
             }
         })
@@ -289,7 +310,7 @@ impl Scene {
         let (nodes, indices) = self.bvh.as_ref().map_or((0, 0), |b| (b.nodes.len(), b.primitive_indices.len()));
         let bytes = nodes * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
             + indices * 4
-            + self.triangles.len() * std::mem::size_of::<[Vec3; 3]>();
+            + self.ordered.len() * std::mem::size_of::<([Vec3; 3], u32)>();
         let count = self.primitive_count().max(1);
         BvhStats {
             node_count: nodes,
