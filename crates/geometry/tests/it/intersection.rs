@@ -6,7 +6,6 @@ use glam::Vec3;
 use proptest::prelude::*;
 
 /// A closed icosphere of radius `r` centred at `c`: 20·4ⁿ triangles sharing edges and vertices.
-pub(crate) fn icosphere_pub(subdivisions: u32, c: Vec3, r: f32) -> Mesh {
     icosphere(subdivisions, c, r)
 }
 fn icosphere(subdivisions: u32, c: Vec3, r: f32) -> Mesh {
