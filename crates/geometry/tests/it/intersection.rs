@@ -6,8 +6,6 @@ use glam::Vec3;
 use proptest::prelude::*;
 
 /// A closed icosphere of radius `r` centred at `c`: 20·4ⁿ triangles sharing edges and vertices.
-    icosphere(subdivisions, c, r)
-}
 fn icosphere(subdivisions: u32, c: Vec3, r: f32) -> Mesh {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let mut v: Vec<Vec3> = [
