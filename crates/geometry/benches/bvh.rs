@@ -93,6 +93,37 @@ fn bench(c: &mut Criterion) {
         group.bench_function("incoherent_any_hit", |bencher| {
             bencher.iter(|| incoherent.iter().filter(|r| scene.occluded(black_box(r), f32::INFINITY)).count())
         });
+        // The same rays through obvhs's own CWBVH and Möller–Trumbore test (not watertight):
+        // the comparison the issue quotes, measured in the same process and conditions.
+        let tris: Vec<obvhs::triangle::Triangle> = mesh
+            .indices()
+            .iter()
+            .map(|t| {
+                let p = |i: u32| glam::Vec3A::from(mesh.positions()[i as usize]);
+                obvhs::triangle::Triangle { v0: p(t[0]), v1: p(t[1]), v2: p(t[2]) }
+            })
+            .collect();
+        let native = obvhs::cwbvh::builder::build_cwbvh_from_tris(
+            &tris,
+            obvhs::BvhBuildParams::medium_build(),
+            &mut std::time::Duration::ZERO,
+        );
+        let to_native = |r: &Ray| obvhs::ray::Ray::new_inf(r.origin.into(), r.dir.into());
+        let native_primary: Vec<_> = primary.iter().map(to_native).collect();
+        group.throughput(Throughput::Elements(native_primary.len() as u64));
+        group.bench_function("obvhs_moller_trumbore_primary", |bencher| {
+            bencher.iter(|| {
+                native_primary
+                    .iter()
+                    .filter(|r| {
+                        let mut hit = obvhs::ray::RayHit::none();
+                        native.ray_traverse(**r, &mut hit, |ray, id| {
+                            tris[native.primitive_indices[id] as usize].intersect(ray)
+                        })
+                    })
+                    .count()
+            })
+        });
         group.finish();
         group_build(c, &mesh, triangles);
     }
