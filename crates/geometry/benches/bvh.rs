@@ -106,7 +106,7 @@ fn bench(c: &mut Criterion) {
         let native = obvhs::cwbvh::builder::build_cwbvh_from_tris(
             &tris,
             obvhs::BvhBuildParams::medium_build(),
-            &mut std::time::Duration::ZERO,
+            &mut std::time::Duration::default(),
         );
         let to_native = |r: &Ray| obvhs::ray::Ray::new_inf(r.origin.into(), r.dir.into());
         let native_primary: Vec<_> = primary.iter().map(to_native).collect();
