@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
-use integrator::{Ambient, Display, IntegratorKind, RenderOptions, RenderScene, SpectralMode};
+use integrator::{Ambient, Display, IntegratorKind, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
 
 /// Arguments of `spectrace render`.
 #[derive(Debug, clap::Args)]
@@ -23,16 +23,28 @@ pub(crate) struct RenderArgs {
     /// Image height in pixels [default: the scene's, else 480].
     #[arg(long)]
     height: Option<u32>,
-    /// Light transport: `whitted-hall` (the paper's model).
+    /// Light transport: `whitted-hall` (the paper's model) or `path` (physically based
+    /// spectral path tracing).
     #[arg(long, default_value = "whitted-hall", value_parser = parse_integrator)]
     integrator: IntegratorKind,
-    /// Spectral sampling: `rgb`, `bins:N` (N wavelengths over 360-830 nm; bins:95 = 5 nm) or
-    /// `auto` (chosen from the scene's spectra).
+    /// Spectral sampling: `rgb`, `bins:N` (N wavelengths over 360-830 nm; bins:95 = 5 nm),
+    /// `hero[:K]` (path tracer: K = 4 or 8 wavelengths drawn per sample) or `auto` (chosen from
+    /// the scene's spectra).
     #[arg(long, default_value = "auto", value_parser = parse_spectral)]
     spectral: SpectralMode,
     /// Samples per pixel (deterministic sub-pixel positions).
     #[arg(long, default_value_t = 1)]
     spp: u32,
+    /// Seed of the path tracer's random numbers (same seed: same image, any thread count).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Path tracer: stop after the pass in which this many seconds have passed.
+    #[arg(long, value_parser = parse_seconds)]
+    time_limit: Option<std::time::Duration>,
+    /// Path tracer with `hero:K`: wavelength density, `illuminant` (follows the lights'
+    /// spectra) or `visible` (pbrt-v4's).
+    #[arg(long, default_value = "illuminant", value_parser = parse_wavelength_pdf)]
+    wavelength_pdf: WavelengthPdf,
     /// Bouguer-Beer absorption inside transparent objects (the paper's eq. 8).
     #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     absorption: bool,
@@ -61,6 +73,15 @@ fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
 }
 fn parse_spectral(s: &str) -> Result<SpectralMode, String> {
     SpectralMode::parse(s).map_err(|e| e.to_string())
+}
+fn parse_wavelength_pdf(s: &str) -> Result<WavelengthPdf, String> {
+    WavelengthPdf::parse(s).map_err(|e| e.to_string())
+}
+fn parse_seconds(s: &str) -> Result<std::time::Duration, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v < 1e9 => Ok(std::time::Duration::from_secs_f64(v)),
+        _ => Err(format!("expected a positive number of seconds, got `{s}`")),
+    }
 }
 fn parse_ambient(s: &str) -> Result<Ambient, String> {
     Ambient::parse(s).map_err(|e| e.to_string())
@@ -96,6 +117,9 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         integrator: args.integrator,
         spectral: args.spectral,
         spp: args.spp,
+        seed: args.seed,
+        time_limit: args.time_limit,
+        wavelength_pdf: args.wavelength_pdf,
         max_depth: args.max_depth,
         min_weight: args.min_weight,
         absorption: args.absorption,
@@ -116,6 +140,8 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let report = |p: integrator::Progress| {
+        // The path tracer's passes (with --time-limit) make more rows than the image has.
+        bar.set_length(u64::from(p.rows_total));
         bar.set_position(u64::from(p.rows_done));
         let secs = p.elapsed.as_secs_f64().max(1e-9);
         bar.set_message(format!("{:.2} Mrays/s", p.rays as f64 / secs / 1e6));
@@ -135,10 +161,11 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if !args.quiet {
         let secs = stats.elapsed.as_secs_f64();
         eprintln!(
-            "spectrace: {}x{} {} in {:.3} s ({} rays, {:.2} Mrays/s, {} non-finite samples) -> {}, {}",
+            "spectrace: {}x{} {} {} spp in {:.3} s ({} rays, {:.2} Mrays/s, {} non-finite samples) -> {}, {}",
             options.width,
             options.height,
             stats.spectral,
+            stats.spp,
             secs,
             stats.rays,
             stats.rays as f64 / secs.max(1e-9) / 1e6,

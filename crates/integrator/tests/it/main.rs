@@ -3,6 +3,7 @@
 
 mod hard_cases;
 mod paper_model;
+mod path;
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;

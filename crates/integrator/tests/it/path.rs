@@ -1,0 +1,213 @@
+//! The path tracer against analytic answers, statistics and its own determinism.
+//!
+//! Monte Carlo tolerances are z-tests: each pixel is an independent estimate (its own random
+//! streams), so the mean over P pixels has standard error s/√P with s the spread between
+//! pixels, and a correct renderer fails a 5σ bound with probability below 10⁻⁶.
+
+use std::path::{Path, PathBuf};
+
+use colorimetry::{Illuminant, Integration, Lab, Observer, Xyz, delta_e_2000, reflectance_to_xyz};
+use integrator::{Image, IntegratorKind, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
+
+use crate::{assert_all_finite, render_with};
+
+fn reference(name: &str) -> RenderScene {
+    RenderScene::load(&reference_path(name)).expect("reference scene loads")
+}
+
+fn reference_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/reference").join(name)
+}
+
+fn path_options(w: u32, h: u32, spectral: SpectralMode, spp: u32) -> RenderOptions {
+    RenderOptions {
+        width: w,
+        height: h,
+        integrator: IntegratorKind::Path,
+        spectral,
+        spp,
+        seed: 1,
+        threads: Some(2),
+        ..RenderOptions::default()
+    }
+}
+
+/// Mean and standard error of the mean of one XYZ channel over all pixels.
+fn mean_and_se(image: &Image, channel: usize) -> (f64, f64) {
+    let v: Vec<f64> = image.pixels().iter().map(|p| f64::from(p[channel])).collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+#[test]
+fn white_furnace_renders_as_the_environment() {
+    let scene = reference("white_furnace.json");
+    // Fixed lanes: a white Lambertian sphere in a uniform environment returns exactly the
+    // environment along every path, and NEE + BSDF sampling of the environment have equal
+    // densities (cos θ/π), so their MIS weights sum to one: every sample is Y = 1 up to
+    // float rounding (1e-4 covers f32 sums of a few terms).
+    for spectral in [SpectralMode::Bins(8), SpectralMode::Rgb] {
+        let (image, stats) = render_with(&scene, &path_options(8, 8, spectral, 4));
+        assert_all_finite(&image, &stats);
+        for p in image.pixels() {
+            assert!((p[1] - 1.0).abs() < 1e-4, "{spectral}: Y = {}", p[1]);
+        }
+    }
+    // Hero wavelengths: the spectral estimate of Y is noisy; its mean over 16×16 pixels must
+    // be 1 within 5 standard errors.
+    for pdf in [WavelengthPdf::Visible, WavelengthPdf::Illuminant] {
+        let options = RenderOptions { wavelength_pdf: pdf, ..path_options(16, 16, SpectralMode::Hero { count: 4 }, 4) };
+        let (image, stats) = render_with(&scene, &options);
+        assert_all_finite(&image, &stats);
+        let (mean, se) = mean_and_se(&image, 1);
+        assert!((mean - 1.0).abs() < 5.0 * se.max(1e-6), "{pdf:?}: Y = {mean} ± {se}");
+    }
+}
+
+/// XYZ of each ColorChecker patch under `illuminant`, white Y = 1 (1 nm sums).
+fn patch_reference(illuminant: Illuminant) -> Vec<Xyz> {
+    let s = illuminant.spectrum().expect("illuminant table");
+    (1..=24)
+        .map(|i| {
+            let r = materials::named_spectrum(&format!("colorchecker:{i}")).expect("patch");
+            reflectance_to_xyz(&r, &s, Observer::Cie1931, &Integration::Step(1.0)).scaled(0.01)
+        })
+        .collect()
+}
+
+/// Mean ΔE00 over the 24 patches of a 6×4 render, against `expected` (white = the
+/// illuminant's XYZ with Y = 1).
+fn mean_delta_e(image: &Image, expected: &[Xyz], white: Xyz) -> f64 {
+    let mut sum = 0.0;
+    for (i, want) in expected.iter().enumerate() {
+        let p = image.xyz(i as u32 % 6, i as u32 / 6);
+        let got = Xyz { x: p[0].into(), y: p[1].into(), z: p[2].into() };
+        sum += delta_e_2000(Lab::from_xyz(got, white), Lab::from_xyz(*want, white));
+    }
+    sum / expected.len() as f64
+}
+
+fn illuminant_white(illuminant: Illuminant) -> Xyz {
+    let s = illuminant.spectrum().expect("illuminant table");
+    let white = colorimetry::DenselySampledSpectrum::constant(1.0);
+    reflectance_to_xyz(&white, &s, Observer::Cie1931, &Integration::Step(1.0)).scaled(0.01)
+}
+
+#[test]
+fn colorchecker_under_d65_matches_its_reflectances() {
+    let scene = reference("colorchecker_d65.json");
+    let expected = patch_reference(Illuminant::D65);
+    let white = illuminant_white(Illuminant::D65);
+    // bins:32 is deterministic here (every path is exact up to the wavelength quadrature:
+    // see the furnace); its only error is the 32-point quadrature of smooth spectra
+    // (measured mean ΔE00 0.12).
+    let (image, stats) = render_with(&scene, &path_options(6, 4, SpectralMode::Bins(32), 1));
+    assert_all_finite(&image, &stats);
+    let de = mean_delta_e(&image, &expected, white);
+    assert!(de < 0.2, "bins:32 mean ΔE00 {de}");
+    // hero:8 converges: the per-patch colour noise of 8 stratified wavelengths × 256 samples
+    // (2048 wavelengths per patch) is far below 0.2 ΔE00 (measured 0.023 at seed 1; the
+    // tolerance leaves a factor 8 for other seeds).
+    let (image, _) = render_with(&scene, &path_options(6, 4, SpectralMode::Hero { count: 8 }, 256));
+    let de = mean_delta_e(&image, &expected, white);
+    assert!(de < 0.2, "hero:8 mean ΔE00 {de}");
+}
+
+/// (1 − F)² e^{−σd} / (1 − F² e^{−2σd}), F = ((n − 1)/(n + 1))²: a slab at normal incidence with
+/// all internal reflections summed.
+fn slab_transmittance(n: f64, sigma_a: f64, d: f64) -> f64 {
+    let f = ((n - 1.0) / (n + 1.0)).powi(2);
+    let t = (-sigma_a * d).exp();
+    (1.0 - f).powi(2) * t / (1.0 - f * f * t * t)
+}
+
+#[test]
+fn beer_slab_matches_the_analytic_transmittance() {
+    let scene = reference("slab_beer.json");
+    let expected = slab_transmittance(1.5, 0.7, 1.0);
+    // The camera sees the backdrop within 2° of the normal, where F differs from its
+    // normal-incidence value by < 1e-5 relative: far below the Monte Carlo error.
+    let (image, stats) = render_with(&scene, &path_options(16, 16, SpectralMode::Bins(8), 16));
+    assert_all_finite(&image, &stats);
+    let (mean, se) = mean_and_se(&image, 1);
+    assert!((mean - expected).abs() < 5.0 * se.max(1e-6), "Y = {mean} ± {se}, expected {expected}");
+    // And the estimate is not trivially noisy: the standard error is below 1 % of the answer.
+    assert!(se < 0.01 * expected, "se {se}");
+}
+
+#[test]
+fn error_falls_as_one_over_root_spp() {
+    // The Beer slab with fixed lanes: the noise is the random choice between Fresnel
+    // reflection and refraction at each of the slab's faces (not stratified), so an unbiased
+    // estimator's RMSE against the analytic answer halves when the sample count quadruples
+    // (a biased one levels off at its bias). Each RMSE comes from 256 pixels: its relative
+    // standard deviation is ≈ √((κ − 1)/4) / √256 ≈ 6 % even for a kurtosis κ of 5, so the
+    // ratio of two lies within 2 ± 0.45 (≈ 3σ).
+    let scene = reference("slab_beer.json");
+    let expected = slab_transmittance(1.5, 0.7, 1.0);
+    let rmse = |spp| {
+        let (image, _) = render_with(&scene, &path_options(16, 16, SpectralMode::Bins(8), spp));
+        let n = image.pixels().len() as f64;
+        (image.pixels().iter().map(|p| (f64::from(p[1]) - expected).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    let (a, b, c) = (rmse(2), rmse(8), rmse(32));
+    for (coarse, fine) in [(a, b), (b, c)] {
+        let ratio = coarse / fine;
+        assert!((1.55..=2.45).contains(&ratio), "RMSE {coarse} → {fine}: ratio {ratio}");
+    }
+}
+
+#[test]
+fn same_seed_gives_the_same_image_with_any_thread_count() {
+    let scene = reference("cornell_box.json");
+    let base = path_options(24, 24, SpectralMode::Hero { count: 4 }, 2);
+    let (one, _) = render_with(&scene, &RenderOptions { threads: Some(1), ..base.clone() });
+    let (three, _) = render_with(&scene, &RenderOptions { threads: Some(3), ..base.clone() });
+    assert_eq!(one.pixels(), three.pixels());
+    let (other_seed, _) = render_with(&scene, &RenderOptions { seed: 2, ..base });
+    assert_ne!(one.pixels(), other_seed.pixels());
+}
+
+#[test]
+fn every_reference_scene_renders_without_nan() {
+    let mut names: Vec<_> = std::fs::read_dir(reference_path(""))
+        .expect("scenes/reference exists")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 6, "{names:?}");
+    for path in names {
+        let scene = RenderScene::load(&path).expect("reference scene loads");
+        for spectral in [SpectralMode::Rgb, SpectralMode::Bins(16), SpectralMode::Hero { count: 4 }, SpectralMode::Auto]
+        {
+            let (image, stats) = render_with(&scene, &path_options(12, 12, spectral, 2));
+            assert_all_finite(&image, &stats);
+            assert!(image.pixels().iter().flatten().all(|&v| v >= -1e-3), "{}: negative XYZ", path.display());
+        }
+    }
+}
+
+#[test]
+fn time_limit_stops_after_a_pass_and_reports_the_samples_taken() {
+    // A zero time limit ends the render after its first pass: spp/16 samples.
+    let scene = reference("white_furnace.json");
+    let options =
+        RenderOptions { time_limit: Some(std::time::Duration::ZERO), ..path_options(4, 4, SpectralMode::Bins(8), 32) };
+    let (image, stats) = render_with(&scene, &options);
+    assert_eq!(stats.spp, 2);
+    assert!((image.xyz(0, 0)[1] - 1.0).abs() < 1e-4);
+}
+
+#[test]
+fn auto_picks_hero_for_dispersion_and_bins_otherwise() {
+    let prism = reference("prism.json");
+    assert_eq!(integrator::choose_auto(&prism, IntegratorKind::Path), SpectralMode::Hero { count: 8 });
+    let chart = reference("colorchecker_d65.json");
+    assert!(matches!(integrator::choose_auto(&chart, IntegratorKind::Path), SpectralMode::Bins(n) if n <= 32));
+    // F11's lines need the 5 nm grid.
+    let f11 = reference("colorchecker_f11.json");
+    assert_eq!(integrator::choose_auto(&f11, IntegratorKind::Path), SpectralMode::Bins(95));
+}
