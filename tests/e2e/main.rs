@@ -1,2 +1,3 @@
 //! End-to-end tests of the `spectrace` binary.
+mod color;
 mod render;

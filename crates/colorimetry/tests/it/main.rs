@@ -1,0 +1,3 @@
+//! Integration tests of the colorimetry crate against independent and published data.
+
+mod colorchecker;
