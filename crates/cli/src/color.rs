@@ -18,8 +18,8 @@ pub(crate) struct ColorArgs {
     /// Only this column (default: every column).
     #[arg(long)]
     column: Option<String>,
-    /// Illuminant: D65, D50, A, F2, F11, E, D<kelvin> (daylight), bb<kelvin> (Planck) or a CSV
-    /// file with the SPD in its first spectrum column.
+    /// Illuminant: D65, D50, A, F2, F11, E, daylight by temperature (D9300), Planck by
+    /// temperature (bb3000), or a CSV file with the SPD in its first spectrum column.
     #[arg(long, default_value = "D65")]
     illuminant: String,
     /// Observer: 2 (CIE 1931) or 10 (CIE 1964).

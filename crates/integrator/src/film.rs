@@ -83,7 +83,7 @@ impl Image {
         self.xyz[y as usize * self.width as usize + x as usize]
     }
 
-    /// Number of pixel values that were NaN or infinite before [`Image::sanitize`] (must be 0).
+    /// Number of pixel values that were NaN or infinite and were replaced by 0 (must be 0).
     pub fn nonfinite_samples(&self) -> u64 {
         self.nonfinite
     }
