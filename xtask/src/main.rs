@@ -5,10 +5,12 @@
 //! dispatches. Commands:
 //! - `gen-upsampling-table`: fit the RGB → spectrum coefficient table into `data/`.
 //! - `upsampling-report`: round-trip error and speed of the upsampling over a dense sRGB grid.
+//! - `validate`: the validation suite (colorimetry, analytic renders, hard cases, speed against error, scaling).
 //! - `paper`: the paper's figures 8–11 as side-by-side renders with their backing numbers.
 
 mod paper;
 mod upsampling;
+mod validate;
 
 use std::path::PathBuf;
 
@@ -29,6 +31,8 @@ enum Command {
     UpsamplingReport(upsampling::ReportArgs),
     /// Render the paper's figures 8–11 (side-by-side pairs) with the numbers behind them.
     Paper(paper::PaperArgs),
+    /// Render the validation suite, check every number against its tolerance, write a report.
+    Validate(validate::ValidateArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -36,6 +40,7 @@ fn main() -> anyhow::Result<()> {
         Command::GenUpsamplingTable(args) => upsampling::gen_table(&args),
         Command::UpsamplingReport(args) => upsampling::report(&args),
         Command::Paper(args) => paper::run(&args),
+        Command::Validate(args) => validate::run(&args),
     }
 }
 

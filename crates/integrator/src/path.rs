@@ -338,12 +338,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     .map(|(s, kind)| match kind {
                         Kind::Reflectance => SampledSpectrum(lanes.project(s, SpectrumKind::Reflectance)),
                         Kind::Emission => SampledSpectrum(lanes.project(s, SpectrumKind::Emission)),
-                        Kind::SigmaA if lanes.rgb => {
-                            // As the paper's model does: through the RGB colour of e^{−σ_a}.
-                            let t = lanes.project(&s.map(|v| (-v).exp()), SpectrumKind::Reflectance);
-                            SampledSpectrum(t.map(|t| if t > 0.0 { -t.ln() } else { 1e30 }))
-                        }
-                        Kind::SigmaA => SampledSpectrum(lanes.project(s, SpectrumKind::Reflectance)),
+                        Kind::SigmaA => SampledSpectrum(lanes.project_sigma_a(s)),
                     })
                     .collect();
                 let active = if lanes.rgb {

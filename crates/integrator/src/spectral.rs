@@ -164,6 +164,25 @@ impl<const N: usize> Lanes<N> {
     }
 }
 
+impl<const N: usize> Lanes<N> {
+    /// An absorption coefficient σ_a(λ) as lane values. With wavelength lanes it is sampled;
+    /// with RGB lanes it goes through the RGB colour of the transmittance e^{−σ_a L} over a
+    /// length L at which the medium is neither clear nor black (σ_max L = 1), so the
+    /// exponential neither underflows nor rounds to 1 whatever the scene's units.
+    pub(crate) fn project_sigma_a(&self, sigma_a: &DenselySampledSpectrum) -> [f32; N] {
+        if !self.rgb {
+            return self.project(sigma_a, SpectrumKind::Emission);
+        }
+        let max = sigma_a.max_value();
+        if !(max > 0.0) {
+            return [0.0; N];
+        }
+        let length = 1.0 / max;
+        let t = self.project(&sigma_a.map(|s| (-s * length).exp()), SpectrumKind::Reflectance);
+        t.map(|t| if t > 0.0 { (-f64::from(t).ln() / length) as f32 } else { 1e30 })
+    }
+}
+
 /// The linear sRGB triple the paper's RGB baseline would use for a spectrum.
 pub(crate) fn spectrum_to_rgb(s: &DenselySampledSpectrum, kind: SpectrumKind) -> [f32; 3] {
     let observer = Observer::Cie1931;

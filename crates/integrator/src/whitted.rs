@@ -99,12 +99,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
             let kt =
                 if m.is_transmissive() { project(&m.transmittance, refl) * m.kt } else { SampledSpectrum([0.0; N]) };
             let sigma_a = match (&m.absorption, options.absorption) {
-                (Some(a), true) if m.absorbs() => {
-                    // In RGB mode σ_a goes through the colour of the per-unit transmittance e^{-σ_a}.
-                    let per_unit = a.sigma_a().map(|s| (-s).exp());
-                    let t = project(&per_unit, refl);
-                    Some(SampledSpectrum(t.0.map(|t| if t > 0.0 { -t.ln() } else { 1e30 })))
-                }
+                (Some(a), true) if m.absorbs() => Some(SampledSpectrum(lanes.project_sigma_a(a.sigma_a()))),
                 _ => None,
             };
             LaneMaterial {

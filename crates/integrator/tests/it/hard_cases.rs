@@ -116,3 +116,23 @@ fn every_committed_scene_renders_without_nan() {
         }
     }
 }
+
+#[test]
+fn dense_medium_in_a_tiny_scene_keeps_its_optical_depth() {
+    // σ_a = 1000 per unit through a sphere of radius 1e-3 (optical depth 2 along the axis):
+    // the centre pixel is e^{−2} of the background in every colour mode. Passing σ_a through
+    // e^{−σ_a} per unit length (as RGB mode once did) underflowed to black here.
+    let json = r#"{ "camera": {"position": [0, 0, 0.01], "look_at": [0, 0, 0], "vfov_deg": 1},
+        "lights": [{"type": "point", "position": [0, 0.01, 0.01], "intensity": 0}],
+        "background": {"spectrum": "E", "intensity": 1},
+        "materials": {"glass": {"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": 1.0,
+                                "absorption": {"sigma_a": 1000}}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 0.001, "material": "glass"}] }"#;
+    let s = scene(json);
+    for spectral in [integrator::SpectralMode::Bins(16), integrator::SpectralMode::Rgb] {
+        let (image, stats) = render_with(&s, &RenderOptions { spectral, ..options(1, 1) });
+        assert_all_finite(&image, &stats);
+        let y = image.xyz(0, 0)[1];
+        assert!((y - (-2.0f32).exp()).abs() < 1e-4, "{spectral}: Y = {y}, expected e^-2");
+    }
+}
