@@ -305,6 +305,23 @@ fn chart_errors(image: &Image, reference: &[Xyz], white: Xyz) -> Vec<f64> {
     out
 }
 
+/// Relative MSE of a chart render against the analytic patch colours (XYZ, per channel).
+fn chart_relative_mse(image: &Image, reference: &[Xyz]) -> f64 {
+    let (w, h) = (image.width(), image.height());
+    let (mut sum, mut n) = (0.0, 0usize);
+    for y in 0..h {
+        for x in 0..w {
+            let want = reference[((y * 4 / h) * 6 + x * 6 / w) as usize];
+            let p = image.xyz(x, y);
+            for (got, want) in p.iter().zip([want.x, want.y, want.z]) {
+                sum += (f64::from(*got) - want).powi(2) / (want * want + 1e-2);
+                n += 1;
+            }
+        }
+    }
+    sum / n.max(1) as f64
+}
+
 fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
@@ -615,7 +632,7 @@ fn speed_vs_error(report: &mut Report, root: &Path, out: &Path, quick: bool) -> 
                     seconds: stats.elapsed.as_secs_f64(),
                     mean_de: mean(&de),
                     p95_de: p95(&de),
-                    rel_mse: 0.0,
+                    rel_mse: chart_relative_mse(&image, &reference),
                 });
             }
         }
