@@ -15,13 +15,13 @@ use integrator::{Ambient, Display, Image, ObjectId, RenderOptions, RenderScene, 
 pub(crate) struct PaperArgs {
     /// Output folder.
     #[arg(long, default_value = "target/paper")]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
     /// Image width (the paper's 640).
     #[arg(long, default_value_t = 640)]
-    width: u32,
+    pub(crate) width: u32,
     /// Image height (the paper's 480).
     #[arg(long, default_value_t = 480)]
-    height: u32,
+    pub(crate) height: u32,
 }
 
 /// A figure: file stem, title, scene, and the (label, options) of its left and right sides.

@@ -71,6 +71,26 @@ pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     path_checks(&mut report, &root, args.quick)?;
     hard_cases(&mut report, &out)?;
     speed_vs_error(&mut report, &root, &out, args.quick)?;
+    // The paper's figures 8–11 with their backing numbers (cargo xtask paper), into OUT/paper/.
+    let (w, h) = if args.quick { (160, 120) } else { (640, 480) };
+    let paper_out = out.join("paper");
+    crate::paper::run(&crate::paper::PaperArgs { out: paper_out.clone(), width: w, height: h })?;
+    let paper_ok = paper_out.join("paper.md").is_file();
+    report.check(
+        "paper",
+        format!("figures 8–11 rendered at {w}×{h} without NaN"),
+        "see paper/paper.md".into(),
+        "0 non-finite".into(),
+        "analytic",
+        paper_ok,
+    );
+    report.sections.push_str(
+        "## The paper's figures
+
+Side-by-side pairs and their numbers: [paper/paper.md](paper/paper.md).
+
+",
+    );
     scaling(&mut report, args.quick)?;
 
     let (passed, failed) =
@@ -413,6 +433,38 @@ fn hard_cases(report: &mut Report, out: &Path) -> anyhow::Result<()> {
         ),
     ];
     for (name, json) in &cases {
+        let s = scene(json)?;
+        for (label, options) in
+            [("whitted-hall", small(48, 32)), ("path hero:4", path_options(48, 32, SpectralMode::Hero { count: 4 }, 8))]
+        {
+            let (image, stats) = render(&s, &options)?;
+            let negative = image.pixels().iter().flatten().filter(|v| **v < 0.0).count();
+            report.check(
+                "hard case",
+                format!("{name}, {label}"),
+                format!("{} NaN/Inf, {negative} negative", stats.nonfinite_samples),
+                "0, 0".into(),
+                "analytic",
+                stats.nonfinite_samples == 0 && negative == 0,
+            );
+        }
+    }
+    // Nested and touching dielectrics, and a slab 1e-4 thick: finite, non-negative images.
+    let nested = r#"{ "camera": {"position": [0, 0.3, 4], "look_at": [0, 0, 0], "vfov_deg": 40},
+        "lights": [{"type": "point", "position": [3, 4, 5], "intensity": 50}],
+        "background": {"spectrum": "E", "intensity": 1},
+        "materials": {"outer": {"diffuse": 0, "ks": 0.1, "transmission": 0.9, "transmittance": "colorchecker:14", "ior": 1.5, "absorption": {"sigma_a": 0.5}},
+                      "inner": {"diffuse": 0, "ks": 0.1, "transmission": 0.9, "transmittance": "colorchecker:15", "ior": 1.33}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "outer"},
+                    {"type": "sphere", "center": [0, 0, 0], "radius": 0.5, "material": "inner"},
+                    {"type": "sphere", "center": [1.5, 0, 0], "radius": 0.5, "material": "inner"}] }"#;
+    let thin = r#"{ "camera": {"position": [0.2, 0.1, 3], "look_at": [0, 0, 0], "vfov_deg": 50},
+        "lights": [{"type": "point", "position": [3, 4, 5], "intensity": 50}],
+        "background": {"spectrum": "E", "intensity": 1},
+        "materials": {"glass": {"diffuse": 0, "ks": 0.1, "transmission": 0.9, "transmittance": 1, "ior": 1.5, "absorption": {"sigma_a": 100}}},
+        "objects": [{"type": "quad", "corner": [-1, -1, 0], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0], "material": "glass"},
+                    {"type": "quad", "corner": [-1, -1, -0.0001], "edge_u": [0, 2, 0], "edge_v": [2, 0, 0], "material": "glass"}] }"#;
+    for (name, json) in [("nested and touching dielectrics", nested), ("slab 1e-4 thick", thin)] {
         let s = scene(json)?;
         for (label, options) in
             [("whitted-hall", small(48, 32)), ("path hero:4", path_options(48, 32, SpectralMode::Hero { count: 4 }, 8))]
