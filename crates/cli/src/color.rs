@@ -13,13 +13,15 @@ use colorimetry::{
 #[derive(Debug, clap::Args)]
 pub(crate) struct ColorArgs {
     /// CSV file: header line, first column wavelength in nm, one column per spectrum
-    /// (reflectances in [0, 1]).
+    /// (reflectances in [0, 1]). Linear between rows; outside the file's range the first and
+    /// last values are held (CIE / colour-science convention, as for the built-in tables).
     reflectance: PathBuf,
     /// Only this column (default: every column).
     #[arg(long)]
     column: Option<String>,
     /// Illuminant: D65, D50, A, F2, F11, E, daylight by temperature (D9300), Planck by
-    /// temperature (bb3000), or a CSV file with the SPD in its first spectrum column.
+    /// temperature (bb3000), or a CSV file with the SPD in its first spectrum column (its end
+    /// values held outside its range, like the reflectances).
     #[arg(long, default_value = "D65")]
     illuminant: String,
     /// Observer: 2 (CIE 1931) or 10 (CIE 1964).
@@ -44,7 +46,7 @@ fn illuminant(name: &str) -> anyhow::Result<DenselySampledSpectrum> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) || path.is_file() {
         let table = read_spectra_csv(path)?;
         let first = table.into_iter().next().with_context(|| format!("{}: no spectrum column", path.display()))?;
-        return Ok(first.spectrum);
+        return Ok(first.spectrum.held_to_visible());
     }
     Ok(Illuminant::parse(name)?.spectrum()?)
 }
@@ -54,7 +56,10 @@ pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
         anyhow::bail!("--step {} is out of range (0, 100] nm", args.step);
     }
     let illuminant = illuminant(&args.illuminant).with_context(|| format!("illuminant `{}`", args.illuminant))?;
-    let spectra = read_spectra_csv(&args.reflectance)?;
+    let spectra: Vec<_> = read_spectra_csv(&args.reflectance)?
+        .into_iter()
+        .map(|s| colorimetry::NamedSpectrum { spectrum: s.spectrum.held_to_visible(), name: s.name })
+        .collect();
     let selected: Vec<_> = match &args.column {
         Some(c) => {
             let found: Vec<_> = spectra.iter().filter(|s| &s.name == c).collect();

@@ -54,7 +54,8 @@ pub(crate) struct RenderArgs {
     /// Output display: `srgb` or `paper9300` (the paper's 9300 K monitor, its eq. 4).
     #[arg(long, default_value = "srgb", value_parser = parse_display)]
     display: Display,
-    /// Maximum recursion depth [default: the scene's `max_depth`, else 20 as in the paper].
+    /// Maximum recursion depth [default: the scene's `max_depth`, else 20 for whitted-hall (the
+    /// paper's value) or 64 for path].
     #[arg(long)]
     max_depth: Option<u32>,
     /// Skip ray-tree branches whose weight is below this (0 = trace the full tree).
