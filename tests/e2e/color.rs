@@ -67,3 +67,77 @@ fn bad_input_names_the_file_and_line() {
     let out = color(&[&fixture("missing.csv")]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("missing.csv"));
 }
+
+#[test]
+fn colorchecker_matches_colour_science_through_the_cli() {
+    // The crate's integration test checks the library against colour-science 0.4.7
+    // (crates/colorimetry/tests/it/fixtures/colorchecker_xyz_colour_science.csv); here the same
+    // file goes through `spectrace color`, which reads the 380–780 nm CSV and holds its end
+    // values as colour-science's constant extrapolation does. Both evaluate the same f64 sums,
+    // so agreement is at rounding level: 1e-9 relative.
+    let fixture =
+        format!("{}/../colorimetry/tests/it/fixtures/colorchecker_xyz_colour_science.csv", env!("CARGO_MANIFEST_DIR"));
+    let expected = std::fs::read_to_string(fixture).unwrap();
+    let chart = format!("{}/../../data/colorchecker_reflectance.csv", env!("CARGO_MANIFEST_DIR"));
+    let mut worst = 0.0f64;
+    let mut rows = 0;
+    for illuminant in ["D65", "A", "F2", "F11"] {
+        let out = lines(&color(&[&chart, "--illuminant", illuminant]));
+        assert_eq!(out.len(), 24);
+        for line in expected.lines().skip(1).filter(|l| l.starts_with(&format!("{illuminant},"))) {
+            let cells: Vec<&str> = line.split(',').collect();
+            let patch = out.iter().find(|o| o["name"] == cells[1]).unwrap();
+            for (i, cell) in cells[2..5].iter().enumerate() {
+                let e: f64 = cell.parse().unwrap();
+                let g = patch["XYZ"][i].as_f64().unwrap();
+                worst = worst.max((g - e).abs() / e);
+            }
+            rows += 1;
+        }
+    }
+    assert_eq!(rows, 96);
+    eprintln!("spectrace color vs colour-science: max relative XYZ difference {worst:e}");
+    assert!(worst < 1e-9, "max relative XYZ difference {worst:e}");
+}
+
+#[test]
+fn an_illuminant_file_is_used_as_given() {
+    // A flat SPD from a file is illuminant E: the same numbers to rounding.
+    let from_file = lines(&color(&[&fixture("three_patches.csv"), "--illuminant", &fixture("equal_energy.csv")]));
+    let named = lines(&color(&[&fixture("three_patches.csv"), "--illuminant", "E"]));
+    for (f, n) in from_file.iter().zip(&named) {
+        for i in 0..3 {
+            assert!((f["XYZ"][i].as_f64().unwrap() - n["XYZ"][i].as_f64().unwrap()).abs() < 1e-9, "{f} vs {n}");
+        }
+    }
+    // Under E the perfect white is (X, Y, Z) = 100 · (Σx̄, Σȳ, Σz̄) / Σȳ over the 1 nm table:
+    // 100.0080, 100, 100.0331 (data/PROVENANCE.md's sums 106.865469, 106.856917, 106.892251).
+    let w = &named[0]["XYZ"];
+    assert!((w[0].as_f64().unwrap() - 100.0 * 106.865_469 / 106.856_917).abs() < 1e-4, "{w}");
+    assert!((w[2].as_f64().unwrap() - 100.0 * 106.892_251 / 106.856_917).abs() < 1e-4, "{w}");
+}
+
+#[test]
+fn step_resamples_before_summing() {
+    // At 5 nm the D65 white is summed over the 5 nm rows only (360, 365, …, 830): the
+    // CIE 015 value (95.047, 100, 108.883) still holds to the 0.02 PROVENANCE.md gives for
+    // the range/step choice, but the numbers differ from the 1 nm ones.
+    let one = lines(&color(&[&fixture("three_patches.csv"), "--column", "white"]));
+    let five = lines(&color(&[&fixture("three_patches.csv"), "--column", "white", "--step", "5"]));
+    let (x1, x5) = (one[0]["XYZ"][0].as_f64().unwrap(), five[0]["XYZ"][0].as_f64().unwrap());
+    assert!((x5 - 95.047).abs() < 0.02 && x1 != x5, "{x1} {x5}");
+}
+
+#[test]
+fn bad_arguments_and_cells_are_errors() {
+    let out = color(&[&fixture("bad_cell.csv")]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("bad_cell.csv:3") && stderr.contains("`high` is not a number"), "{stderr}");
+    let out = color(&[&fixture("three_patches.csv"), "--step", "0"]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--step"));
+    let out = color(&[&fixture("three_patches.csv"), "--observer", "5"]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("expected 2 or 10"));
+    let out = color(&[&fixture("three_patches.csv"), "--illuminant", "D3000"]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("4000..=25000"));
+}

@@ -72,13 +72,13 @@ pub(crate) fn parse(text: &str, origin: &str, allow_negative: bool) -> Result<Ve
             values.push(v);
         }
         let lambda = values[0];
+        if lambda <= 0.0 {
+            return Err(Error::BadWavelength { origin: origin.to_owned(), line: line_no, lambda });
+        }
         if let Some(&previous) = lambdas.last()
             && !(lambda > previous)
         {
             return Err(Error::Unsorted { origin: origin.to_owned(), line: line_no, lambda, previous });
-        }
-        if lambda <= 0.0 {
-            return Err(Error::OutOfRange { what: "wavelength (nm)", value: lambda, range: "> 0" });
         }
         for (c, &v) in values[1..].iter().enumerate() {
             if v < 0.0 && !allow_negative {
@@ -135,5 +135,13 @@ mod tests {
         assert!(text.to_string().starts_with("x.csv:3:"));
         assert!(matches!(e("wavelength_nm,a\n400,-0.1\n"), Error::Negative { line: 2, .. }));
         assert!(matches!(e("wavelength_nm,a\n400,1,2\n"), Error::Ragged { line: 2, .. }));
+        let zero = e("wavelength_nm,a\n0,1\n");
+        assert_eq!(zero.to_string(), "x.csv:2: wavelength 0 nm must be > 0");
+        // Blank lines are skipped but still counted: the error names the file's own line.
+        assert!(matches!(e("wavelength_nm,a\n\n400,1\n\n400,2\n"), Error::Unsorted { line: 5, .. }));
+        let inf = e("wavelength_nm,a\n400,inf\n");
+        assert!(matches!(&inf, Error::NotFinite { line: 2, column, .. } if column == "a"), "{inf}");
+        let neg = e("wavelength_nm,a\n400,0.5\n410,-0.1\n");
+        assert_eq!(neg.to_string(), "x.csv:3: column `a`: -0.1 is negative (spectra must be >= 0)");
     }
 }

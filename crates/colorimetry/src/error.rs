@@ -57,6 +57,16 @@ pub enum Error {
         /// The previous row's wavelength.
         previous: f64,
     },
+    /// A wavelength that is zero or negative.
+    #[error("{origin}:{line}: wavelength {lambda} nm must be > 0")]
+    BadWavelength {
+        /// File name.
+        origin: String,
+        /// 1-based line number.
+        line: usize,
+        /// The wavelength.
+        lambda: f64,
+    },
     /// A row with the wrong number of cells.
     #[error("{origin}:{line}: {found} cells, the header has {expected}")]
     Ragged {

@@ -67,9 +67,11 @@ impl RgbColorSpace {
     pub fn d93_display() -> &'static Self {
         &D93_DISPLAY
     }
-    /// The paper's display (its eq. 4 matrix M), rebuilt from its primaries R (0.641, 0.327),
-    /// G (0.272, 0.591), B (0.141, 0.052) and the "9300 K + 27 MPCD" CRT white (0.281, 0.311),
-    /// which is *not* CIE D93.
+    /// The paper's 9300 K display (Lee, Lee, Lee & Ha 2004, eq. 4): its matrix M reconstructed
+    /// as the normalised primary matrix of the paper's primaries R (0.641, 0.327),
+    /// G (0.272, 0.591), B (0.141, 0.052) and its "9300 K + 27 MPCD" CRT white (0.281, 0.311),
+    /// which is *not* CIE D93 (that is [`RgbColorSpace::d93_display`]). RGB → XYZ rows:
+    /// 0.36663 0.34089 0.19602 / 0.18703 0.74068 0.07229 / 0.01830 0.17170 1.12190 (white Y = 1).
     pub fn paper_9300() -> &'static Self {
         &PAPER_9300
     }
@@ -201,6 +203,62 @@ mod tests {
         }
     }
 
+    fn assert_matrix_close(got: [[f64; 3]; 3], expected: [[f64; 3]; 3], tolerance: f64, what: &str) {
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((got[i][j] - expected[i][j]).abs() < tolerance, "{what} [{i}][{j}]: {got:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn other_spaces_match_published_and_independent_matrices() {
+        // Independent: colour-science 0.4.7 `colour.normalised_primary_matrix(primaries, white)`
+        // (SMPTE RP 177), printed to 15 digits; both are the same closed-form f64 computation,
+        // so they agree to rounding (1e-12).
+        let cases = [
+            (
+                RgbColorSpace::display_p3(),
+                [
+                    [0.486_570_948_648_216, 0.265_667_693_169_093, 0.198_217_285_234_363],
+                    [0.228_974_564_069_749, 0.691_738_521_836_506, 0.079_286_914_093_745],
+                    [0.0, 0.045_113_381_858_903, 1.043_944_368_900_976],
+                ],
+            ),
+            (
+                RgbColorSpace::rec2020(),
+                [
+                    [0.636_958_048_301_291, 0.144_616_903_586_208, 0.168_880_975_164_172],
+                    [0.262_700_212_011_267, 0.677_998_071_518_871, 0.059_301_716_469_862],
+                    [0.0, 0.028_072_693_049_087, 1.060_985_057_710_791],
+                ],
+            ),
+            (
+                RgbColorSpace::d93_display(),
+                [
+                    [0.349_019_549_532_135, 0.361_558_429_386_794, 0.242_299_839_997_260],
+                    [0.179_963_205_227_507, 0.723_116_858_773_588, 0.096_919_935_998_904],
+                    [0.016_360_291_384_319, 0.120_519_476_462_265, 1.276_112_490_652_238],
+                ],
+            ),
+            (
+                RgbColorSpace::paper_9300(),
+                [
+                    [0.366_631_389_508_919, 0.340_886_280_917_867, 0.196_019_307_065_175],
+                    [0.187_033_485_755_720, 0.740_675_705_964_925, 0.072_290_808_279_355],
+                    [0.018_302_971_083_129, 0.171_696_398_844_661, 1.121_897_736_181_535],
+                ],
+            ),
+        ];
+        for (space, expected) in cases {
+            assert_matrix_close(space.rgb_to_xyz_matrix(), expected, 1e-12, space.name());
+        }
+        // Published: ITU-R BT.2020 Table 4 luma coefficients Y = 0.2627 R + 0.6780 G + 0.0593 B
+        // (4 decimals, so 5e-5).
+        let y = RgbColorSpace::rec2020().rgb_to_xyz_matrix()[1];
+        assert!((y[0] - 0.2627).abs() < 5e-5 && (y[1] - 0.6780).abs() < 5e-5 && (y[2] - 0.0593).abs() < 5e-5);
+    }
+
     #[test]
     fn every_space_maps_its_white_to_rgb_one() {
         for space in [
@@ -233,8 +291,19 @@ mod tests {
         let m = bradford(a, d65);
         let got = a.transformed(m);
         assert!((got.x - d65.x).abs() < 1e-12 && (got.y - d65.y).abs() < 1e-12 && (got.z - d65.z).abs() < 1e-12);
-        // Published Bradford A → D65 matrix (Lindbloom), first row: 0.8446965, -0.1179225, 0.3948108.
+        // Published Bradford A → D65 matrix (Lindbloom), first row: 0.8446965, -0.1179225, 0.3948108,
+        // with whites at 5 significant digits as here; 1e-4 covers the whites' rounding.
         assert!((m[0][0] - 0.844_696_5).abs() < 1e-4 && (m[0][2] - 0.394_810_8).abs() < 1e-4, "{m:?}");
+        // Independent: colour-science 0.4.7 `matrix_chromatic_adaptation_VonKries(xy_to_XYZ(A),
+        // xy_to_XYZ(D65), transform="Bradford")` with A (0.44758, 0.40745) and D65 (0.3127,
+        // 0.3290); same constants and algebra, so rounding-level agreement (1e-12).
+        let m = bradford(Xyz::from_xy_y([0.44758, 0.40745], 1.0), Xyz::from_xy_y([0.3127, 0.3290], 1.0));
+        let expected = [
+            [0.844_668_978_036_475, -0.117_950_090_107_723, 0.395_013_385_542_040],
+            [-0.136_649_657_868_367, 1.104_126_625_275_091, 0.129_235_430_781_458],
+            [0.079_893_692_237_706, -0.134_977_859_728_155, 3.193_588_264_617_482],
+        ];
+        assert_matrix_close(m, expected, 1e-12, "Bradford A -> D65");
     }
 
     #[test]
@@ -242,6 +311,14 @@ mod tests {
         for v in [0.0, 0.002, 0.003_130_8, 0.2, 0.5, 1.0] {
             assert!((srgb_decode(srgb_encode(v)) - v).abs() < 1e-12);
         }
+        // IEC 61966-2-1: the segments meet at 0.0031308 ↔ 0.04045 (to the 4e-8 the rounded
+        // constants allow), and 18 % grey encodes to 0.4613561 (1.055·0.18^(1/2.4) − 0.055).
+        assert!((srgb_encode(0.003_130_8) - 0.040_45).abs() < 1e-7);
+        assert!((1.055 * 0.003_130_8f64.powf(1.0 / 2.4) - 0.055 - 0.040_45).abs() < 1e-7);
+        assert!((srgb_encode(0.18) - 0.461_356_1).abs() < 1e-7);
+        // 1.055 − 0.055 is one ulp below 1 in f64; it still quantises to 255.
+        assert!((srgb_encode(1.0) - 1.0).abs() < 1e-15);
+        assert_eq!(quantize_u8(srgb_encode(1.0)), 255);
         assert_eq!(quantize_u8(0.5), 128); // 127.5 rounds half up
         assert_eq!(quantize_u8(1.5), 255);
         assert_eq!(quantize_u8(-0.2), 0);
