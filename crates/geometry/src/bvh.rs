@@ -1,21 +1,20 @@
 //! The acceleration structure: obvhs builds a compressed-wide BVH (CWBVH) over conservatively
-//! padded primitive bounds; our watertight triangle test and stable sphere test run in its
-//! traversal closure.
+//! padded primitive bounds; we traverse its eight-wide layout ourselves (`wide.rs`) and run
+//! our watertight triangle test and stable sphere test at its leaves.
 
 use std::time::{Duration, Instant};
 
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::{Boundable, BvhBuildParams};
 
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
 use crate::shapes::{Mesh, Sphere};
 use crate::sphere::{intersect_sphere, sphere_hit_point};
-use crate::triangle::{TriangleRay, intersect_triangle, triangle_point_error};
+use crate::triangle::{TriangleRay, intersect_permuted, triangle_point_error};
+use crate::wide::{MAX_PRIMITIVES, WideBvh};
 
 /// What a global primitive index refers to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,7 +40,7 @@ pub struct BvhStats {
     pub node_count: usize,
     /// Wall time of the build (bounds, BVH, triangle layout).
     pub build_time: Duration,
-    /// Bytes of BVH nodes, primitive indices and triangle vertex data.
+    /// Bytes of BVH nodes and of the leaf-ordered primitive data (triangle vertices, index).
     pub bytes: usize,
     /// `bytes` per primitive.
     pub bytes_per_primitive: f64,
@@ -74,11 +73,12 @@ fn padded(lo: Vec3, hi: Vec3) -> Bounds {
 pub struct Scene {
     spheres: Vec<Sphere>,
     meshes: Vec<Mesh>,
-    /// Triangle vertices by global primitive index − sphere count, for cache-friendly tests.
-    triangles: Vec<[Vec3; 3]>,
-    /// (mesh, triangle) of each triangle in `triangles`.
-    triangle_source: Vec<(u32, u32)>,
-    bvh: Option<CwBvh>,
+    /// Index of each mesh's first triangle among all triangles (prefix sums of the meshes'
+    /// triangle counts): mesh lookup by binary search over a few entries instead of a
+    /// per-triangle table, which would cost a cache miss per hit on large meshes.
+    triangle_offsets: Vec<u32>,
+    triangle_count: usize,
+    bvh: WideBvh,
     /// Primitives in the BVH's leaf order (index = obvhs's primitive slot): triangle vertices
     /// (unused for spheres) and the global primitive index. Traversal reads this array in
     /// order instead of chasing `primitive_indices` into scattered memory.
@@ -92,17 +92,15 @@ impl Scene {
     pub fn build(spheres: Vec<Sphere>, meshes: Vec<Mesh>) -> Result<Self> {
         let start = Instant::now();
         let mut triangles = Vec::new();
-        let mut triangle_source = Vec::new();
-        for (m, mesh) in meshes.iter().enumerate() {
+        let mut triangle_offsets = Vec::with_capacity(meshes.len());
+        for mesh in &meshes {
+            triangle_offsets.push(triangles.len() as u32);
             let p = mesh.positions();
-            for (t, tri) in mesh.indices().iter().enumerate() {
-                triangles.push([p[tri[0] as usize], p[tri[1] as usize], p[tri[2] as usize]]);
-                triangle_source.push((m as u32, t as u32));
-            }
+            triangles.extend(mesh.indices().iter().map(|tri| tri.map(|i| p[i as usize])));
         }
         let count = spheres.len() + triangles.len();
-        if count > u32::MAX as usize - 1 {
-            return Err(Error::Invalid(format!("{count} primitives: at most {} are supported", u32::MAX - 1)));
+        if count > MAX_PRIMITIVES {
+            return Err(Error::Invalid(format!("{count} primitives: at most {MAX_PRIMITIVES} are supported")));
         }
         let mut bounds_list = Vec::with_capacity(count);
         for s in &spheres {
@@ -143,80 +141,118 @@ impl Scene {
                     .collect()
             })
             .unwrap_or_default();
-        Ok(Self { spheres, meshes, triangles, triangle_source, bvh, ordered, bounds, build_time: start.elapsed() })
-    }
-
-    fn bvh_ray(ray: &Ray, t_max: f32) -> BvhRay {
-        // Exact reciprocals (obvhs's `safe_inverse` replaces |x| ≤ ε by ±1/ε, which is wrong
-        // for small components). Zero components (±0) get a huge *positive* finite value: obvhs
-        // orders each slab by `direction < 0.0`, which is false for −0, so a negative
-        // reciprocal there would swap the slab and cull the ray (found by the test
-        // `grazing_spawned_rays_never_rehit_their_surface`); finite so 0·∞ cannot make NaN.
-        let inv = |x: f32| if x == 0.0 { 1e30 } else { 1.0 / x };
-        BvhRay {
-            origin: ray.origin.into(),
-            direction: ray.dir.into(),
-            inv_direction: Vec3A::new(inv(ray.dir.x), inv(ray.dir.y), inv(ray.dir.z)),
-            tmin: 0.0,
-            tmax: t_max,
-        }
+        let bvh = bvh.map(|b| WideBvh::from_cwbvh(&b)).unwrap_or_default();
+        Ok(Self {
+            spheres,
+            meshes,
+            triangle_offsets,
+            triangle_count: triangles.len(),
+            bvh,
+            ordered,
+            bounds,
+            build_time: start.elapsed(),
+        })
     }
 
     /// The closest hit in (0, `t_max`).
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        let bvh = self.bvh.as_ref()?;
-        if !(ray.origin.is_finite() && ray.dir.is_finite()) || ray.dir == Vec3::ZERO {
+        if !Self::valid(ray) {
             return None;
         }
         let tri_ray = TriangleRay::new(ray.origin, ray.dir);
-        let n_spheres = self.spheres.len();
-        let mut best_b = [0.0f32; 3];
-        let mut hit = RayHit::none();
-        let found = bvh.ray_traverse(Self::bvh_ray(ray, t_max), &mut hit, |r, id| {
-            let ([p0, p1, p2], prim) = self.ordered[id];
-            let prim = prim as usize;
-            if prim < n_spheres {
-                intersect_sphere(&self.spheres[prim], ray.origin, ray.dir, r.tmax).unwrap_or(f32::INFINITY)
-            } else {
-                match intersect_triangle(&tri_ray, r.tmax, p0, p1, p2) {
-                    // obvhs keeps a hit only if it is strictly closer; a tie (a ray through a
-                    // shared edge hits both triangles at the same t) must not overwrite the
-                    // barycentrics of the triangle it keeps.
-                    Some(h) if h.t < r.tmax => {
-                        best_b = h.b;
-                        h.t
-                    }
-                    _ => f32::INFINITY,
-                }
-            }
-        });
-        if !found {
-            return None;
-        }
-        let prim = self.ordered[hit.primitive_id as usize].1;
-        Some(self.hit_record(ray, prim, hit.t, best_b))
+        // The triangle test's axis permutation is fixed per ray: dispatch once, here.
+        let (slot, t, b) = match tri_ray.axis() {
+            0 => self.closest::<1, 2, 0>(ray, &tri_ray, t_max),
+            1 => self.closest::<2, 0, 1>(ray, &tri_ray, t_max),
+            _ => self.closest::<0, 1, 2>(ray, &tri_ray, t_max),
+        }?;
+        Some(self.hit_record(ray, slot, t, b))
     }
 
     /// Whether anything lies in (0, `t_max`) along the ray (shadow rays; stops at the first hit).
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        let Some(bvh) = self.bvh.as_ref() else { return false };
-        if !(ray.origin.is_finite() && ray.dir.is_finite()) || ray.dir == Vec3::ZERO {
+        if !Self::valid(ray) {
             return false;
         }
         let tri_ray = TriangleRay::new(ray.origin, ray.dir);
-        let n_spheres = self.spheres.len();
-        !bvh.ray_traverse_miss(Self::bvh_ray(ray, t_max), |r, id| {
-            let ([p0, p1, p2], prim) = self.ordered[id];
-            let prim = prim as usize;
-            if prim < n_spheres {
-                intersect_sphere(&self.spheres[prim], ray.origin, ray.dir, r.tmax).unwrap_or(f32::INFINITY)
-            } else {
-                intersect_triangle(&tri_ray, r.tmax, p0, p1, p2).map_or(f32::INFINITY, |h| h.t)
-            }
-        })
+        match tri_ray.axis() {
+            0 => self.any::<1, 2, 0>(ray, &tri_ray, t_max),
+            1 => self.any::<2, 0, 1>(ray, &tri_ray, t_max),
+            _ => self.any::<0, 1, 2>(ray, &tri_ray, t_max),
+        }
     }
 
-    fn hit_record(&self, ray: &Ray, prim: u32, t: f32, b: [f32; 3]) -> Hit {
+    fn valid(ray: &Ray) -> bool {
+        ray.origin.is_finite() && ray.dir.is_finite() && ray.dir != Vec3::ZERO
+    }
+
+    /// Closest hit as (leaf-order slot, t, barycentrics).
+    #[inline(always)]
+    fn closest<const KX: usize, const KY: usize, const KZ: usize>(
+        &self,
+        ray: &Ray,
+        tri_ray: &TriangleRay,
+        t_max: f32,
+    ) -> Option<(usize, f32, [f32; 3])> {
+        let n_spheres = self.spheres.len() as u32;
+        let mut best = None;
+        self.bvh.traverse::<true>(ray.origin.to_array(), ray.dir.to_array(), t_max, |start, count, mut t_max| {
+            for (slot, ([p0, p1, p2], prim)) in self.ordered[start..start + count].iter().enumerate() {
+                // Strictly closer only: a ray through a shared edge hits both triangles at
+                // the same t, and the barycentrics must stay those of the triangle kept.
+                if *prim < n_spheres {
+                    if let Some(t) = intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max) {
+                        t_max = t;
+                        best = Some((start + slot, t, [0.0; 3]));
+                    }
+                } else if let Some(h) = intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2)
+                    && h.t < t_max
+                {
+                    t_max = h.t;
+                    best = Some((start + slot, h.t, h.b));
+                }
+            }
+            Some(t_max)
+        });
+        best
+    }
+
+    #[inline(always)]
+    fn any<const KX: usize, const KY: usize, const KZ: usize>(
+        &self,
+        ray: &Ray,
+        tri_ray: &TriangleRay,
+        t_max: f32,
+    ) -> bool {
+        let n_spheres = self.spheres.len() as u32;
+        let mut found = false;
+        self.bvh.traverse::<false>(ray.origin.to_array(), ray.dir.to_array(), t_max, |start, count, t_max| {
+            for ([p0, p1, p2], prim) in &self.ordered[start..start + count] {
+                let hit = if *prim < n_spheres {
+                    intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max).is_some()
+                } else {
+                    intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2).is_some_and(|h| h.t < t_max)
+                };
+                if hit {
+                    found = true;
+                    return None;
+                }
+            }
+            Some(t_max)
+        });
+        found
+    }
+
+    /// (mesh, triangle within it) of the triangle with index `index` among all triangles.
+    fn triangle_source(&self, index: usize) -> (usize, usize) {
+        let mesh = self.triangle_offsets.partition_point(|&o| o as usize <= index) - 1;
+        (mesh, index - self.triangle_offsets[mesh] as usize)
+    }
+
+    /// The hit record of primitive slot `slot` (leaf order). Reads the vertices from the
+    /// leaf data the test just used (in cache) and the mesh only for normals and UVs.
+    fn hit_record(&self, ray: &Ray, slot: usize, t: f32, b: [f32; 3]) -> Hit {
+        let ([p0, p1, p2], prim) = self.ordered[slot];
         let n_spheres = self.spheres.len();
         if (prim as usize) < n_spheres {
             let s = &self.spheres[prim as usize];
@@ -229,17 +265,17 @@ impl Scene {
             return Hit { t, p, p_error, n, ns: n, uv, primitive: prim, material: s.material() };
         }
         let index = prim as usize - n_spheres;
-        let [p0, p1, p2] = self.triangles[index];
-        let (mesh_index, tri_index) = self.triangle_source[index];
-        let mesh = &self.meshes[mesh_index as usize];
+        let (mesh_index, tri_index) = self.triangle_source(index);
+        let mesh = &self.meshes[mesh_index];
         let p = b[0] * p0 + b[1] * p1 + b[2] * p2;
         let p_error = triangle_point_error(b, p0, p1, p2);
         // Degenerate triangles never hit, so the cross product is non-zero; normalize_or keeps
         // that an invariant rather than an assumption.
         let n = (p1 - p0).cross(p2 - p0).normalize_or(Vec3::Z);
-        let tri = mesh.indices()[tri_index as usize];
+        let tri = || mesh.indices()[tri_index];
         let ns = match mesh.normals() {
             Some(normals) => {
+                let tri = tri();
                 let s =
                     b[0] * normals[tri[0] as usize] + b[1] * normals[tri[1] as usize] + b[2] * normals[tri[2] as usize];
                 match s.try_normalize() {
@@ -251,7 +287,10 @@ impl Scene {
             None => n,
         };
         let uv = match mesh.uvs() {
-            Some(uvs) => b[0] * uvs[tri[0] as usize] + b[1] * uvs[tri[1] as usize] + b[2] * uvs[tri[2] as usize],
+            Some(uvs) => {
+                let tri = tri();
+                b[0] * uvs[tri[0] as usize] + b[1] * uvs[tri[1] as usize] + b[2] * uvs[tri[2] as usize]
+            }
             None => Vec2::new(b[1], b[2]),
         };
         Hit { t, p, p_error, n, ns, uv, primitive: prim, material: mesh.material() }
@@ -263,11 +302,11 @@ impl Scene {
     }
     /// Number of primitives (spheres + triangles).
     pub fn primitive_count(&self) -> usize {
-        self.spheres.len() + self.triangles.len()
+        self.spheres.len() + self.triangle_count
     }
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
+        self.triangle_count
     }
     /// Number of spheres.
     pub fn sphere_count(&self) -> usize {
@@ -282,35 +321,38 @@ impl Scene {
         &self.meshes
     }
 
-    /// What a global primitive index refers to (spheres first, then every mesh's triangles).
+    /// What a global primitive index refers to (spheres first, then every mesh's triangles
+    /// in order). Panics if `id` ≥ [`Scene::primitive_count`] (ids come from hits).
     pub fn primitive(&self, id: u32) -> Primitive {
         let n = self.spheres.len();
         if (id as usize) < n {
             Primitive::Sphere { index: id }
         } else {
-            let (mesh, triangle) = self.triangle_source[id as usize - n];
-            Primitive::Triangle { mesh, triangle }
+            assert!((id as usize) < self.primitive_count(), "primitive {id} of {}", self.primitive_count());
+            let (mesh, triangle) = self.triangle_source(id as usize - n);
+            Primitive::Triangle { mesh: mesh as u32, triangle: triangle as u32 }
         }
     }
 
-    /// Surface area of a primitive.
+    /// Surface area of a primitive. Panics if `id` ≥ [`Scene::primitive_count`].
     pub fn primitive_area(&self, id: u32) -> f32 {
-        let n = self.spheres.len();
-        if (id as usize) < n {
-            let r = self.spheres[id as usize].radius();
-            4.0 * std::f32::consts::PI * r * r
-        } else {
-            let [p0, p1, p2] = self.triangles[id as usize - n];
-            0.5 * (p1 - p0).cross(p2 - p0).length()
+        match self.primitive(id) {
+            Primitive::Sphere { index } => {
+                let r = self.spheres[index as usize].radius();
+                4.0 * std::f32::consts::PI * r * r
+            }
+            Primitive::Triangle { mesh, triangle } => {
+                let mesh = &self.meshes[mesh as usize];
+                let [p0, p1, p2] = mesh.indices()[triangle as usize].map(|i| mesh.positions()[i as usize]);
+                0.5 * (p1 - p0).cross(p2 - p0).length()
+            }
         }
     }
 
     /// Node count, build time and memory of the acceleration structure.
     pub fn stats(&self) -> BvhStats {
-        let (nodes, indices) = self.bvh.as_ref().map_or((0, 0), |b| (b.nodes.len(), b.primitive_indices.len()));
-        let bytes = nodes * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
-            + indices * 4
-            + self.ordered.len() * std::mem::size_of::<([Vec3; 3], u32)>();
+        let nodes = self.bvh.node_count();
+        let bytes = self.bvh.bytes() + self.ordered.len() * std::mem::size_of::<([Vec3; 3], u32)>();
         let count = self.primitive_count().max(1);
         BvhStats {
             node_count: nodes,

@@ -27,6 +27,7 @@ mod ray;
 mod shapes;
 mod sphere;
 mod triangle;
+mod wide;
 
 pub use bvh::{BvhStats, Primitive, Scene};
 pub use camera::Camera;

@@ -49,36 +49,43 @@ pub(crate) struct TriangleHit {
     pub(crate) b: [f32; 3],
 }
 
-/// a·b − c·d with one rounding error (Kahan's algorithm with FMA, pbrt-v4 `DifferenceOfProducts`).
-#[inline]
-fn difference_of_products(a: f32, b: f32, c: f32, d: f32) -> f32 {
-    let cd = c * d;
-    let err = (-c).mul_add(d, cd);
-    let dop = a.mul_add(b, -cd);
-    dop + err
-}
-
-/// Intersect the triangle (p0, p1, p2) in (0, t_max), t in units of the ray's direction.
-/// Degenerate triangles never hit.
-#[inline]
-pub(crate) fn intersect_triangle(r: &TriangleRay, t_max: f32, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<TriangleHit> {
-    // One predictable branch per call instead of nine run-time indexed loads.
-    match r.kz {
-        0 => intersect_permuted::<1, 2, 0>(r, t_max, p0, p1, p2),
-        1 => intersect_permuted::<2, 0, 1>(r, t_max, p0, p1, p2),
-        _ => intersect_permuted::<0, 1, 2>(r, t_max, p0, p1, p2),
+impl TriangleRay {
+    /// The axis the ray's direction is largest along (0, 1, 2): the z of the permutation.
+    #[inline]
+    pub(crate) fn axis(&self) -> usize {
+        self.kz
     }
 }
 
+/// Edge function x0·y1 − y0·x1 in f64, where both products are exact (24 + 24 bits < 53) and
+/// the difference is rounded once.
+#[inline(never)]
+#[cold]
+fn edge_f64(x0: f32, y1: f32, y0: f32, x1: f32) -> f32 {
+    (f64::from(x0) * f64::from(y1) - f64::from(y0) * f64::from(x1)) as f32
+}
+
+/// Intersect the triangle (p0, p1, p2) in (0, t_max], t in units of the ray's direction;
+/// degenerate triangles never hit. The axis permutation (KX, KY, KZ) = ((k+1)%3, (k+2)%3, k)
+/// with k = [`TriangleRay::axis`] is fixed at compile time: the caller dispatches once per
+/// ray instead of paying nine run-time indexed loads per triangle.
+///
+/// The edge functions are plain `a·b − c·d` in f32, as in Woop et al. (not pbrt-v4's FMA
+/// `DifferenceOfProducts`): the two triangles sharing an edge evaluate it on the same
+/// transformed vertices in swapped order, and plain products make the two results exact
+/// negations of each other, which is what watertightness needs (the FMA form is more
+/// accurate but not exactly antisymmetric, and costs a library call without target FMA).
+/// An edge function that is exactly 0 in f32 is recomputed in f64 — only that edge, so the
+/// decision for an edge never depends on the triangle's other edges and both neighbours
+/// always agree.
 #[inline(always)]
-fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usize>(
+pub(crate) fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usize>(
     r: &TriangleRay,
     t_max: f32,
     p0: Vec3,
     p1: Vec3,
     p2: Vec3,
 ) -> Option<TriangleHit> {
-    let t_max = t_max * r.length;
     let perm = |p: Vec3| {
         let q = (p - r.origin).to_array();
         Vec3::new(q[KX], q[KY], q[KZ])
@@ -91,15 +98,17 @@ fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usize>(
     p2t.x += r.sx * p2t.z;
     p2t.y += r.sy * p2t.z;
 
-    let mut e0 = difference_of_products(p1t.x, p2t.y, p1t.y, p2t.x);
-    let mut e1 = difference_of_products(p2t.x, p0t.y, p2t.y, p0t.x);
-    let mut e2 = difference_of_products(p0t.x, p1t.y, p0t.y, p1t.x);
-    if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
-        // Exactly on an edge in f32: decide in f64 so neighbours agree (watertightness).
-        let f = |a: f32, b: f32, c: f32, d: f32| (f64::from(a) * f64::from(b) - f64::from(c) * f64::from(d)) as f32;
-        e0 = f(p1t.x, p2t.y, p1t.y, p2t.x);
-        e1 = f(p2t.x, p0t.y, p2t.y, p0t.x);
-        e2 = f(p0t.x, p1t.y, p0t.y, p1t.x);
+    let mut e0 = p1t.x * p2t.y - p1t.y * p2t.x;
+    let mut e1 = p2t.x * p0t.y - p2t.y * p0t.x;
+    let mut e2 = p0t.x * p1t.y - p0t.y * p1t.x;
+    if e0 == 0.0 {
+        e0 = edge_f64(p1t.x, p2t.y, p1t.y, p2t.x);
+    }
+    if e1 == 0.0 {
+        e1 = edge_f64(p2t.x, p0t.y, p2t.y, p0t.x);
+    }
+    if e2 == 0.0 {
+        e2 = edge_f64(p0t.x, p1t.y, p0t.y, p1t.x);
     }
     if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
         return None;
@@ -108,6 +117,7 @@ fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usize>(
     if det == 0.0 || !det.is_finite() {
         return None;
     }
+    let t_max = t_max * r.length;
     p0t.z *= r.sz;
     p1t.z *= r.sz;
     p2t.z *= r.sz;
@@ -125,7 +135,8 @@ fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usize>(
         return None;
     }
 
-    // Conservatively reject hits at t ≤ 0 (pbrt-v4's bound on the error of t).
+    // Conservatively reject hits at t ≤ 0 (pbrt-v4's bound on the error of t; the edge
+    // functions' bound δe covers plain products as well, each being within γ(2) of exact).
     let max_zt = p0t.z.abs().max(p1t.z.abs()).max(p2t.z.abs());
     let delta_z = gamma(3) * max_zt;
     let max_xt = p0t.x.abs().max(p1t.x.abs()).max(p2t.x.abs());

@@ -1,7 +1,7 @@
 //! Hard cases for intersection and the BVH: watertightness, self-intersection, axis-parallel
 //! and degenerate inputs, scale invariance, and the BVH against brute force.
 
-use geometry::{Hit, Mesh, Ray, Scene, Sphere, spawn_ray};
+use geometry::{Hit, Mesh, Primitive, Ray, Scene, Sphere, spawn_ray};
 use glam::Vec3;
 use proptest::prelude::*;
 
@@ -311,4 +311,96 @@ proptest! {
             prop_assert_eq!(scene.occluded(&ray, f32::INFINITY), brute.is_finite());
         }
     }
+}
+
+#[test]
+fn rays_at_vertices_of_a_1_3m_triangle_sphere_never_leak() {
+    // The trap at full size: a closed icosphere of 20·4⁸ = 1,310,720 triangles, where
+    // obvhs's own Möller–Trumbore test and unpadded box test leak by the thousands. Every
+    // vertex (655,362) is aimed at from the centre and from one random point outside.
+    let center = Vec3::new(-0.4, 0.25, 0.6);
+    let mesh = icosphere(8, center, 2.0);
+    assert_eq!(mesh.triangle_count(), 1_310_720);
+    let scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
+    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    let (mut rays, mut leaks) = (0u64, 0u64);
+    for &target in mesh.positions() {
+        let normal = (target - center).normalize();
+        let outside = loop {
+            let origin = center + rng.unit_vector() * (6.0 + 20.0 * rng.next());
+            // See the vertex from the front (a silhouette ray may legitimately miss).
+            if (origin - target).normalize().dot(normal) > 0.05 {
+                break origin;
+            }
+        };
+        for origin in [center, outside] {
+            rays += 1;
+            if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
+                leaks += 1;
+            }
+        }
+    }
+    assert_eq!(rays, 1_310_724);
+    assert_eq!(leaks, 0, "{leaks} of {rays} rays leaked through the closed mesh");
+}
+
+#[test]
+fn spawned_rays_find_surfaces_closer_than_obvhs_box_epsilon() {
+    // Two parallel squares 1e-6 apart in a 1e-5-sized scene: a ray spawned from the lower one
+    // must hit the upper one at t ≈ 1e-6. obvhs's own node test clamps the entry distance to
+    // 1e-4 and would cull that box; our traversal clamps to 0.
+    let square = |z: f32| {
+        let p =
+            vec![Vec3::new(0.0, 0.0, z), Vec3::new(1e-5, 0.0, z), Vec3::new(0.0, 1e-5, z), Vec3::new(1e-5, 1e-5, z)];
+        Mesh::new(p, None, None, vec![[0, 1, 2], [1, 3, 2]], Some(if z == 0.0 { 0 } else { 1 })).unwrap()
+    };
+    let scene = Scene::build(Vec::new(), vec![square(0.0), square(1e-6)]).unwrap();
+    let down = scene.intersect(&Ray { origin: Vec3::new(3e-6, 4e-6, 1.0), dir: Vec3::NEG_Z }, f32::INFINITY);
+    let down = down.expect("the upper square is hit from above");
+    assert_eq!(down.material, Some(1));
+    // Leave it downwards: the lower square is 1e-6 away.
+    let below = scene.intersect(&spawn_ray(&down, Vec3::NEG_Z), f32::INFINITY).expect("lower square");
+    assert_eq!(below.material, Some(0));
+    assert!((below.t - 1e-6).abs() < 1e-9, "t = {}", below.t);
+    assert!(scene.occluded(&spawn_ray(&down, Vec3::new(0.1, 0.2, -1.0)), f32::INFINITY));
+    // And back up from the lower square: the upper one, not itself.
+    let up = scene.intersect(&spawn_ray(&below, Vec3::Z), f32::INFINITY).expect("upper square");
+    assert_eq!(up.material, Some(1));
+}
+
+#[test]
+fn primitive_ids_map_to_spheres_then_each_meshs_triangles() {
+    // Two spheres, then meshes of 2, 0 and 1 triangles: ids 0–1 spheres, 2–3 mesh 0, 4 mesh 2.
+    let tri = |x: f32| [Vec3::new(x, 0.0, 0.0), Vec3::new(x + 2.0, 0.0, 0.0), Vec3::new(x, 2.0, 0.0)];
+    let two = Mesh::new([tri(0.0), tri(10.0)].concat(), None, None, vec![[0, 1, 2], [3, 4, 5]], Some(5)).unwrap();
+    let empty = Mesh::new(Vec::new(), None, None, Vec::new(), Some(6)).unwrap();
+    let one = Mesh::new(tri(20.0).to_vec(), None, None, vec![[0, 1, 2]], Some(7)).unwrap();
+    let spheres = vec![
+        Sphere::new(Vec3::new(0.0, 0.0, 10.0), 1.0, Some(1)).unwrap(),
+        Sphere::new(Vec3::new(10.0, 0.0, 10.0), 0.5, Some(2)).unwrap(),
+    ];
+    let scene = Scene::build(spheres, vec![two, empty, one]).unwrap();
+    assert_eq!((scene.primitive_count(), scene.sphere_count(), scene.triangle_count()), (5, 2, 3));
+    let expected = [
+        Primitive::Sphere { index: 0 },
+        Primitive::Sphere { index: 1 },
+        Primitive::Triangle { mesh: 0, triangle: 0 },
+        Primitive::Triangle { mesh: 0, triangle: 1 },
+        Primitive::Triangle { mesh: 2, triangle: 0 },
+    ];
+    for (id, want) in expected.iter().enumerate() {
+        assert_eq!(scene.primitive(id as u32), *want);
+    }
+    assert!((scene.primitive_area(1) - std::f32::consts::PI).abs() < 1e-6, "4π·0.5²");
+    assert_eq!(scene.primitive_area(4), 2.0, "right triangle with legs 2");
+    // Hits report the same ids and the owning mesh's material.
+    let down = |x: f32| scene.intersect(&Ray { origin: Vec3::new(x, 0.5, 5.0), dir: Vec3::NEG_Z }, f32::INFINITY);
+    let (a, b, c) = (down(10.5).unwrap(), down(20.5).unwrap(), down(0.5).unwrap());
+    assert_eq!((a.primitive, a.material), (3, Some(5)));
+    assert_eq!((b.primitive, b.material), (4, Some(7)));
+    assert_eq!((c.primitive, c.material), (2, Some(5)));
+    let up = scene.intersect(&Ray { origin: Vec3::new(10.0, 0.0, 0.0), dir: Vec3::Z }, f32::INFINITY).unwrap();
+    assert_eq!((up.primitive, up.material, up.n), (1, Some(2), Vec3::NEG_Z));
+    let stats = scene.stats();
+    assert!(stats.node_count >= 1 && stats.bytes > 0 && stats.bytes_per_primitive > 0.0);
 }
