@@ -65,7 +65,30 @@ fn bad_input_names_the_file_and_line() {
     let out = color(&[&fixture("three_patches.csv"), "--column", "nope"]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("no column `nope`"));
     let out = color(&[&fixture("missing.csv")]);
-    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("missing.csv"));
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    // The OS reason ("No such file or directory (os error 2)" on Unix) is reported once.
+    assert!(stderr.contains("missing.csv: cannot read file") && stderr.matches("(os error").count() == 1, "{stderr}");
+}
+
+#[test]
+fn an_illuminant_file_that_is_missing_or_bad_is_named() {
+    // A name ending in .csv is a file, so a missing one is a read error naming it, not an
+    // "unknown illuminant".
+    let out = color(&[&fixture("three_patches.csv"), "--illuminant", &fixture("no_such_spd.csv")]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("no_such_spd.csv: cannot read file") && !stderr.contains("unknown"), "{stderr}");
+    // A bad SPD file gets the parser's file:line message under the illuminant's context.
+    let out = color(&[&fixture("three_patches.csv"), "--illuminant", &fixture("bad_cell.csv")]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("illuminant `") && stderr.contains("bad_cell.csv:3: column `b`"), "{stderr}");
+    // Neither a known name nor a file: the unknown-illuminant error lists the known names.
+    let out = color(&[&fixture("three_patches.csv"), "--illuminant", "daylight"]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("unknown illuminant `daylight` (known: D65, D50, A, F2, F11, E"), "{stderr}");
 }
 
 #[test]

@@ -85,8 +85,9 @@ pub enum Error {
         /// File name.
         origin: String,
     },
-    /// A file that could not be read.
-    #[error("{path}: {source}")]
+    /// A file that could not be read. The I/O error is the `source`, not part of the message,
+    /// so that a report walking the chain (anyhow's `{:#}`) states it once.
+    #[error("{path}: cannot read file")]
     Io {
         /// The path.
         path: String,
