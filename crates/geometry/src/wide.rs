@@ -12,6 +12,22 @@
 //! obvhs's octant slot order instead of sorting by entry distance was equal within noise;
 //! obvhs's `slow_build` preset gave no faster traversal for 1.8× the build time.
 //!
+//! Also measured (callgrind instruction counts on a 100k-triangle terrain, 256² primary rays
+//! and their incoherent bounces; then the 1M benchmark): the leaves of obvhs's CWBVH are
+//! small here (1M terrain: 58 % one, 35 % two, 7 % three triangles, 1.49 on average), and
+//! node tests plus traversal bookkeeping are ~80 % of the instructions, triangle tests ~20 %.
+//! A four-lane SIMD Woop test of a leaf's triangles (bit-identical to the scalar test) cost
+//! 17 % *more* triangle-test instructions than one scalar test per triangle when used on
+//! every leaf (primary rays fell from 1.35× to 1.16× obvhs's own traversal); used only on
+//! leaves of two and three triangles it saved 1–2 % of all instructions, too little for its
+//! ~200 lines: rejected. A smaller inline stack (32 entries instead of 64: it is zeroed per
+//! ray, and a deeper stack spills to the heap) saved 1 %: kept. obvhs's
+//! `reinsertion_batch_ratio` 0.5 instead of medium_build's 0.05 cut traversal instructions by a further 5 % but tripled
+//! the build time (0.77 s → 2.7 s single-core on 1M triangles): rejected; PLOC search
+//! distance 24/32 and max_prims_per_leaf 1/2 were equal or worse. The node test itself
+//! compiles to ~50 SSE2 instructions for eight children; without FMA (not in the x86-64
+//! baseline) the `b·inv − o·inv` form saves nothing and would need a looser error bound.
+//!
 //! The slab test is made conservative as in Ize, "Robust BVH Ray Traversal" (JCGT 2(2), 2013):
 //! the far distance is scaled by 1 + 2γ(3), which covers the rounding of `(b − o) · (1/d)`,
 //! so a box test can never cull a ray that the watertight triangle test would hit. obvhs's own
@@ -241,9 +257,11 @@ struct Stack {
     spill: Vec<(u32, f32)>,
 }
 
-/// Seven pushes per level at most: 64 entries cover nine levels of eight-wide nodes, i.e.
-/// more than 8⁹ ≈ 1.3e8 leaves in a balanced tree.
-const INLINE_STACK: usize = 64;
+/// Seven pushes per level at most: 32 entries cover four full levels of eight-wide nodes,
+/// and far more in practice (most nodes hit one or two children); deeper stacks spill to the
+/// heap. It is zeroed per ray, so a larger one costs time on every ray (64 entries measured
+/// 1 % more instructions).
+const INLINE_STACK: usize = 32;
 
 impl Stack {
     #[inline(always)]
