@@ -4,6 +4,7 @@
 mod hard_cases;
 mod paper_model;
 mod path;
+mod prism;
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
