@@ -72,7 +72,7 @@ const FINE_BINS: usize = 95;
 /// - otherwise the same bin count as the paper's model: fixed bins add no colour noise and
 ///   their bias is below ΔE00 0.1 by construction. Measured on the F11 ColorChecker
 ///   (`docs/path-tracer.md`): `bins:95` costs 1.4–1.9× `hero:8` per sample on the Cornell box
-///   but reaches mean ΔE00 0.07 at 1 spp, where `hero:8` needs ~512 spp.
+///   but reaches mean ΔE00 0.03 at 1 spp, where `hero:8` needs ~512 spp.
 pub fn choose_auto(scene: &RenderScene, integrator: IntegratorKind) -> SpectralMode {
     match integrator {
         IntegratorKind::Path if scene.materials.iter().any(materials::Material::is_dispersive) => {
@@ -82,12 +82,39 @@ pub fn choose_auto(scene: &RenderScene, integrator: IntegratorKind) -> SpectralM
     }
 }
 
-fn auto_bins(scene: &RenderScene) -> usize {
-    use colorimetry::{DenselySampledSpectrum, Integration, Lab, Observer, Xyz, delta_e_2000, emission_to_xyz};
-    let mut lights: Vec<&DenselySampledSpectrum> = scene.lights.iter().map(|l| &l.spectrum).collect();
+/// The spectra that light the scene: point/spot/directional/environment lights, the
+/// background and emissive materials (black ones dropped).
+fn emitter_spectra(scene: &RenderScene) -> Vec<&colorimetry::DenselySampledSpectrum> {
+    let mut lights: Vec<_> = scene.lights.iter().map(|l| &l.spectrum).collect();
     lights.extend(scene.background.iter());
     lights.extend(scene.materials.iter().filter_map(|m| m.emission.as_ref()));
     lights.retain(|l| l.max_value() > 0.0);
+    lights
+}
+
+/// The white fixed wavelength lanes are calibrated to (`Lanes::calibrated`): the mean of the
+/// scene's emitter spectra, each at luminance 1. With one light spectrum (most scenes) that
+/// light's colour comes out exact; with several, their mixture does.
+pub(crate) fn scene_white(scene: &RenderScene) -> colorimetry::DenselySampledSpectrum {
+    let lights = emitter_spectra(scene);
+    if lights.is_empty() {
+        return colorimetry::DenselySampledSpectrum::constant(1.0);
+    }
+    if lights.len() == 1 {
+        return lights[0].clone();
+    }
+    let normalized: Vec<_> = lights.iter().map(|l| materials::luminance_normalized(l)).collect();
+    let (lo, hi) = (colorimetry::LAMBDA_MIN as u32, colorimetry::LAMBDA_MAX as u32);
+    let mean = (lo..=hi)
+        .map(|nm| normalized.iter().map(|s| s.eval(f64::from(nm))).sum::<f64>() / normalized.len() as f64)
+        .collect();
+    colorimetry::DenselySampledSpectrum::new(f64::from(lo), 1.0, mean).unwrap_or_else(|_| lights[0].clone())
+}
+
+fn auto_bins(scene: &RenderScene) -> usize {
+    use colorimetry::{DenselySampledSpectrum, Integration, Lab, Observer, Xyz, delta_e_2000, emission_to_xyz};
+    let lights = emitter_spectra(scene);
+    let white = scene_white(scene);
     let mut surfaces = vec![DenselySampledSpectrum::constant(1.0)];
     for m in &scene.materials {
         let used = [(m.kd > 0.0, &m.diffuse), (m.ks > 0.0, &m.specular), (m.is_transmissive(), &m.transmittance)];
@@ -99,28 +126,29 @@ fn auto_bins(scene: &RenderScene) -> usize {
         }
     }
     let xyz = |s: &DenselySampledSpectrum| emission_to_xyz(s, Observer::Cie1931, &Integration::Step(1.0));
-    // (light, lit surface) spectra and their 1 nm XYZ.
+    // (lit surface spectrum, its light's 1 nm XYZ, its own 1 nm XYZ).
     let cases: Vec<_> = lights
         .iter()
         .flat_map(|l| surfaces.iter().map(move |r| ((*l).clone(), r.product(l))))
         .map(|(light, lit)| {
-            let (white, color) = (xyz(&light), xyz(&lit));
-            (light, lit, white, color)
+            let (light_xyz, color) = (xyz(&light), xyz(&lit));
+            (lit, light_xyz, color)
         })
         .collect();
+    let ybar = xyz(&DenselySampledSpectrum::constant(1.0)).y;
     let lab = |c: Xyz, white: Xyz| Lab::from_xyz(c.scaled(1.0 / white.y), white.scaled(1.0 / white.y));
     for n in AUTO_CANDIDATES {
-        let lanes = spectral::Lanes::<{ MAX_BINS }>::bins(n);
+        let lanes = spectral::Lanes::<{ MAX_BINS }>::bins(n).calibrated(&white);
+        // Lane XYZ in the 1 nm sums' units (the lanes give Y = 1 for an equal-energy 1).
         let lane_xyz = |s: &DenselySampledSpectrum| {
             let v = lanes.xyz(&lanes.project(s, spectral::SpectrumKind::Emission));
-            Xyz { x: v[0].into(), y: v[1].into(), z: v[2].into() }
+            Xyz { x: f64::from(v[0]) * ybar, y: f64::from(v[1]) * ybar, z: f64::from(v[2]) * ybar }
         };
-        // Each computation relative to its own white (the light), as an adapted eye sees it.
-        let acceptable = cases.iter().all(|(light, lit, white, color)| {
-            let white_lanes = lane_xyz(light);
-            white.y <= 0.0
-                || white_lanes.y <= 0.0
-                || delta_e_2000(lab(*color, *white), lab(lane_xyz(lit), white_lanes)) < AUTO_MAX_DELTA_E
+        // Absolute error: the lanes' colour of each lit surface against its 1 nm colour, both
+        // in CIELAB relative to the light's exact white (what the film's XYZ will be judged by).
+        let acceptable = cases.iter().all(|(lit, light_xyz, color)| {
+            light_xyz.y <= 0.0
+                || delta_e_2000(lab(*color, *light_xyz), lab(lane_xyz(lit), *light_xyz)) < AUTO_MAX_DELTA_E
         });
         if acceptable {
             return n;

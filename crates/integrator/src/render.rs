@@ -217,15 +217,30 @@ pub fn render(
         mode => mode,
     };
     let pool = thread_pool(options)?;
+    let white = crate::scene_white(scene);
     let (image, rays, elapsed) = pool.install(|| match spectral {
         SpectralMode::Rgb => run::<4>(scene, options, Lanes::rgb(), progress, cancel),
-        SpectralMode::Bins(n) if n <= 4 => run::<4>(scene, options, Lanes::bins(n), progress, cancel),
-        SpectralMode::Bins(n) if n <= 8 => run::<8>(scene, options, Lanes::bins(n), progress, cancel),
-        SpectralMode::Bins(n) if n <= 16 => run::<16>(scene, options, Lanes::bins(n), progress, cancel),
-        SpectralMode::Bins(n) if n <= 32 => run::<32>(scene, options, Lanes::bins(n), progress, cancel),
-        SpectralMode::Bins(n) if n <= 48 => run::<48>(scene, options, Lanes::bins(n), progress, cancel),
-        SpectralMode::Bins(n) if n <= 64 => run::<64>(scene, options, Lanes::bins(n), progress, cancel),
-        SpectralMode::Bins(n) => run::<{ crate::spectral::MAX_BINS }>(scene, options, Lanes::bins(n), progress, cancel),
+        SpectralMode::Bins(n) if n <= 4 => {
+            run::<4>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
+        }
+        SpectralMode::Bins(n) if n <= 8 => {
+            run::<8>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
+        }
+        SpectralMode::Bins(n) if n <= 16 => {
+            run::<16>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
+        }
+        SpectralMode::Bins(n) if n <= 32 => {
+            run::<32>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
+        }
+        SpectralMode::Bins(n) if n <= 48 => {
+            run::<48>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
+        }
+        SpectralMode::Bins(n) if n <= 64 => {
+            run::<64>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
+        }
+        SpectralMode::Bins(n) => {
+            run::<{ crate::spectral::MAX_BINS }>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
+        }
         SpectralMode::Hero { .. } | SpectralMode::Auto => unreachable!("resolved above"),
     })?;
     let nonfinite_samples = image.nonfinite_samples();
@@ -246,29 +261,34 @@ fn render_path(
     };
     let pool = thread_pool(options)?;
     let pdf = options.wavelength_pdf;
+    let white = crate::scene_white(scene);
     let out = pool.install(|| match spectral {
         SpectralMode::Rgb => run_path::<4>(scene, options, LaneMode::Fixed(Lanes::rgb()), progress, cancel),
         SpectralMode::Bins(n) if n <= 4 => {
-            run_path::<4>(scene, options, LaneMode::Fixed(Lanes::bins(n)), progress, cancel)
+            run_path::<4>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 8 => {
-            run_path::<8>(scene, options, LaneMode::Fixed(Lanes::bins(n)), progress, cancel)
+            run_path::<8>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 16 => {
-            run_path::<16>(scene, options, LaneMode::Fixed(Lanes::bins(n)), progress, cancel)
+            run_path::<16>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 32 => {
-            run_path::<32>(scene, options, LaneMode::Fixed(Lanes::bins(n)), progress, cancel)
+            run_path::<32>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 48 => {
-            run_path::<48>(scene, options, LaneMode::Fixed(Lanes::bins(n)), progress, cancel)
+            run_path::<48>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 64 => {
-            run_path::<64>(scene, options, LaneMode::Fixed(Lanes::bins(n)), progress, cancel)
+            run_path::<64>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
         }
-        SpectralMode::Bins(n) if n <= crate::spectral::MAX_BINS => {
-            run_path::<{ crate::spectral::MAX_BINS }>(scene, options, LaneMode::Fixed(Lanes::bins(n)), progress, cancel)
-        }
+        SpectralMode::Bins(n) if n <= crate::spectral::MAX_BINS => run_path::<{ crate::spectral::MAX_BINS }>(
+            scene,
+            options,
+            LaneMode::Fixed(Lanes::bins(n).calibrated(&white)),
+            progress,
+            cancel,
+        ),
         SpectralMode::Hero { count: 4 } => run_path::<4>(scene, options, LaneMode::Hero(pdf), progress, cancel),
         SpectralMode::Hero { count: 8 } => run_path::<8>(scene, options, LaneMode::Hero(pdf), progress, cancel),
         other => Err(Error::InvalidOption {

@@ -120,6 +120,34 @@ impl<const N: usize> Lanes<N> {
         Self { lambda, to_xyz, rgb: false }
     }
 
+    /// The same lanes with each of X, Y, Z rescaled so that `white` (the scene's light) has
+    /// exactly its 1 nm XYZ. Point-sampled colour-matching functions at coarse spacing put a
+    /// flat spectrum's white off by up to ΔE00 5 (8 lanes, equal energy): the paper's k fixes
+    /// Y only, this fixes the chromaticity of the light too, and the remaining error of a lit
+    /// surface is what `choose_auto` bounds. RGB lanes and a black `white` are left as they are.
+    pub(crate) fn calibrated(mut self, white: &DenselySampledSpectrum) -> Self {
+        if self.rgb {
+            return self;
+        }
+        let exact = colorimetry::emission_to_xyz(white, Observer::Cie1931, &colorimetry::Integration::Step(1.0));
+        let ybar = colorimetry::emission_to_xyz(
+            &DenselySampledSpectrum::constant(1.0),
+            Observer::Cie1931,
+            &colorimetry::Integration::Step(1.0),
+        )
+        .y;
+        let exact = [exact.x / ybar, exact.y / ybar, exact.z / ybar];
+        let values = self.project(white, SpectrumKind::Emission);
+        let lanes = self.xyz(&values);
+        for (c, row) in self.to_xyz.iter_mut().enumerate() {
+            if exact[c] > 0.0 && lanes[c] > 0.0 {
+                let scale = (exact[c] / f64::from(lanes[c])) as f32;
+                row.iter_mut().for_each(|w| *w *= scale);
+            }
+        }
+        self
+    }
+
     /// Three linear sRGB channels (N must be ≥ 3; lanes beyond 3 are unused).
     pub(crate) fn rgb() -> Self {
         assert!(N >= 3);
@@ -242,5 +270,41 @@ mod tests {
         for c in &white[..3] {
             assert!((c - 1.0).abs() < 2e-3, "{white:?}");
         }
+    }
+
+    #[test]
+    fn calibrated_lanes_give_the_light_its_1_nm_colour() {
+        use colorimetry::{Integration, Lab, Observer, Xyz, delta_e_2000, emission_to_xyz};
+        let exact = |s: &DenselySampledSpectrum| {
+            let one =
+                emission_to_xyz(&DenselySampledSpectrum::constant(1.0), Observer::Cie1931, &Integration::Step(1.0));
+            let v = emission_to_xyz(s, Observer::Cie1931, &Integration::Step(1.0));
+            [v.x / one.y, v.y / one.y, v.z / one.y]
+        };
+        let de = |a: [f32; 3], b: [f64; 3]| {
+            let w = Xyz { x: b[0], y: b[1], z: b[2] };
+            let a = Xyz { x: a[0].into(), y: a[1].into(), z: a[2].into() };
+            delta_e_2000(Lab::from_xyz(a, w), Lab::from_xyz(w, w))
+        };
+        for name in ["E", "D65", "A", "F11"] {
+            let light = materials::named_spectrum(name).unwrap();
+            let want = exact(&light);
+            for count in [8usize, 16, 32, 95] {
+                let lanes = Lanes::<96>::bins(count).calibrated(&light);
+                let got = lanes.xyz(&lanes.project(&light, SpectrumKind::Emission));
+                for c in 0..3 {
+                    assert!(
+                        (f64::from(got[c]) / want[c] - 1.0).abs() < 1e-5,
+                        "{name} bins:{count}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+        // Why: uncalibrated, the point-sampled CMFs at 8 wavelengths put an equal-energy
+        // light's white ΔE00 ~5 off (measured 4.96), though its Y is exact.
+        let e = DenselySampledSpectrum::constant(1.0);
+        let lanes = Lanes::<96>::bins(8);
+        let off = de(lanes.xyz(&lanes.project(&e, SpectrumKind::Emission)), exact(&e));
+        assert!(off > 4.0, "ΔE00 {off}");
     }
 }

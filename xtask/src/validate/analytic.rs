@@ -30,8 +30,9 @@ pub(crate) fn whitted_checks(report: &mut Report) -> anyhow::Result<()> {
         );
     }
     // IOR 1, k_t = 1: a glass sphere is invisible; the image is the background everywhere.
+    // Light and background share one spectrum (E), to which the lanes are calibrated exactly.
     let json = r#"{ "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "vfov_deg": 30},
-        "lights": [{"type": "point", "position": [5, 5, 10], "intensity": 150}],
+        "lights": [{"type": "point", "position": [5, 5, 10], "spectrum": "E", "intensity": 150}],
         "background": {"spectrum": "E", "intensity": 1},
         "materials": {"glass": {"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": 1.0}},
         "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glass"}] }"#;
@@ -67,7 +68,9 @@ pub(crate) fn whitted_checks(report: &mut Report) -> anyhow::Result<()> {
     );
     // A neutral-5 ColorChecker plane facing a D65 point light at distance 10 with intensity
     // 10² (irradiance 1), absorption off, K_a = 0: the Hall diffuse term is F_d(λ) S(λ), so the
-    // pixel's XYZ is the reflectance's XYZ under D65 on the same 5 nm grid (bins:95) / 100.
+    // pixel's XYZ is the reflectance's XYZ under D65 on the same 5 nm grid (bins:95) / 100,
+    // each channel scaled so that D65 itself has its 1 nm XYZ (the lanes are calibrated to
+    // the scene's light: the paper's k applied to X and Z as well as Y).
     // f32 lanes against f64 sums: 1e-4 relative per channel (as the integrator's own test).
     let json = r#"{ "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 10},
         "lights": [{"type": "point", "position": [0, 0, 10], "spectrum": "D65", "intensity": 100}],
@@ -77,7 +80,16 @@ pub(crate) fn whitted_checks(report: &mut Report) -> anyhow::Result<()> {
     let (image, _) = render(&scene(json)?, &options)?;
     let grey = materials::named_spectrum("colorchecker:22")?;
     let d65 = Illuminant::D65.spectrum()?;
-    let want = reflectance_to_xyz(&grey, &d65, Observer::Cie1931, &Integration::Step(5.0)).scaled(0.01);
+    let on_grid = |r: &DenselySampledSpectrum, step: f64| {
+        reflectance_to_xyz(r, &d65, Observer::Cie1931, &Integration::Step(step)).scaled(0.01)
+    };
+    let (coarse, perfect) = (on_grid(&grey, 5.0), DenselySampledSpectrum::constant(1.0));
+    let (white_1nm, white_5nm) = (on_grid(&perfect, 1.0), on_grid(&perfect, 5.0));
+    let want = Xyz {
+        x: coarse.x * white_1nm.x / white_5nm.x,
+        y: coarse.y * white_1nm.y / white_5nm.y,
+        z: coarse.z * white_1nm.z / white_5nm.z,
+    };
     let got = image.xyz(0, 0);
     let worst = got
         .iter()

@@ -26,10 +26,12 @@ fn glass(camera: &str, ior: f32, per_unit: f64, radius: f32) -> String {
 
 /// Clear glass (k_t = 1, T_s = 1, no reflection or diffuse term) before a white background
 /// (Y = 1): whatever reaches the camera is the background times t^b, so answers are exact.
+/// The light is equal-energy like the background: with one emitter spectrum the wavelength
+/// lanes are calibrated to it, and the background's Y is exact at any bin count.
 fn clear_sphere(camera: &str, ior: f32, per_unit: f64, radius: f32) -> String {
     format!(
         r#"{{ "camera": {camera},
-        "lights": [{{"type": "point", "position": [5, 5, 10], "intensity": 150}}],
+        "lights": [{{"type": "point", "position": [5, 5, 10], "spectrum": "E", "intensity": 150}}],
         "background": {{"spectrum": "E", "intensity": 1}},
         "materials": {{"glass": {{"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": {ior}, "absorption": {{"per_unit": {per_unit}}}}}}},
         "objects": [{{"type": "sphere", "center": [0, 0, 0], "radius": {radius}, "material": "glass"}}] }}"#

@@ -4,10 +4,13 @@ use integrator::{Ambient, RenderOptions};
 
 use crate::{assert_all_finite, options, render_with, scene};
 
+/// A glass sphere before an equal-energy background, lit by an equal-energy point light: with
+/// one emitter spectrum the wavelength lanes are calibrated to it, so the background's Y is
+/// exactly 1 at any bin count.
 fn glass_sphere_scene(ior: f32, per_unit: f32, camera_z: f32, radius: f32) -> String {
     format!(
         r#"{{ "camera": {{"position": [0, 0, {camera_z}], "look_at": [0, 0, -100], "vfov_deg": 30}},
-        "lights": [{{"type": "point", "position": [5, 5, 10], "intensity": 150}}],
+        "lights": [{{"type": "point", "position": [5, 5, 10], "spectrum": "E", "intensity": 150}}],
         "background": {{"spectrum": "E", "intensity": 1}},
         "materials": {{"glass": {{"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1,
                                  "ior": {ior}, "absorption": {{"per_unit": {per_unit}}}}}}},

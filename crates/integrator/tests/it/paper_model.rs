@@ -45,7 +45,9 @@ fn white_lit_grey_plane_has_the_xyz_colorimetry_predicts() {
     // A neutral-5 ColorChecker plane facing a D65 point light at distance 10 with intensity
     // 10² (irradiance 1), absorption off, K_a = 0: the Hall diffuse term is F_d(λ) S(λ), so
     // the pixel's XYZ is the reflectance's XYZ under D65 at the same 5 nm grid (bins:95),
-    // divided by 100 (the film stores Y = 1 for white).
+    // divided by 100 (the film stores Y = 1 for white), with each of X, Y, Z scaled so that
+    // D65 itself has its 1 nm XYZ (the lanes' calibration to the scene's light, the paper's k
+    // applied to all three channels).
     let json = format!(
         r#"{{ {CAMERA},
         "lights": [{{"type": "point", "position": [0, 0, 10], "spectrum": "D65", "intensity": 100}}],
@@ -64,7 +66,17 @@ fn white_lit_grey_plane_has_the_xyz_colorimetry_predicts() {
     assert_all_finite(&image, &stats);
     let grey = materials::named_spectrum("colorchecker:22").unwrap();
     let d65 = Illuminant::D65.spectrum().unwrap();
-    let expected = colorimetry::reflectance_to_xyz(&grey, &d65, Observer::Cie1931, &Integration::Step(5.0));
+    let at = |step: f64| {
+        let white = colorimetry::DenselySampledSpectrum::constant(1.0);
+        colorimetry::reflectance_to_xyz(&white, &d65, Observer::Cie1931, &Integration::Step(step))
+    };
+    let (white_1nm, white_5nm) = (at(1.0), at(5.0));
+    let coarse = colorimetry::reflectance_to_xyz(&grey, &d65, Observer::Cie1931, &Integration::Step(5.0));
+    let expected = colorimetry::Xyz {
+        x: coarse.x * white_1nm.x / white_5nm.x,
+        y: coarse.y * white_1nm.y / white_5nm.y,
+        z: coarse.z * white_1nm.z / white_5nm.z,
+    };
     let got = image.xyz(0, 0);
     // The camera ray hits the plane at normal incidence exactly at the light's foot point;
     // f32 lane arithmetic against f64 sums: 1e-4 relative.
