@@ -20,6 +20,21 @@ struct Point {
     rel_mse: f64,
 }
 
+impl Point {
+    /// A measured render: `auto` is labelled with the strategy it chose.
+    fn new(label: &str, mode: SpectralMode, stats: &integrator::RenderStats, de: &[f64], rel_mse: f64) -> Self {
+        let strategy = if mode == SpectralMode::Auto { format!("auto ({})", stats.spectral) } else { label.into() };
+        Self {
+            strategy,
+            spp: stats.spp,
+            seconds: stats.elapsed.as_secs_f64(),
+            mean_de: mean(de),
+            p95_de: p95(de),
+            rel_mse,
+        }
+    }
+}
+
 /// A labelled strategy: the `--spectral` mode and, for hero sampling, the wavelength pdf.
 type Strategy = (&'static str, SpectralMode, WavelengthPdf);
 
@@ -186,18 +201,7 @@ fn path_case(
             let (image, stats) = render(&scene, &options)?;
             nonfinite += stats.nonfinite_samples;
             let de = delta_e_all(image.pixels(), &reference.pixels);
-            points.push(Point {
-                strategy: if *mode == SpectralMode::Auto {
-                    format!("auto ({})", stats.spectral)
-                } else {
-                    (*label).into()
-                },
-                spp,
-                seconds: stats.elapsed.as_secs_f64(),
-                mean_de: mean(&de),
-                p95_de: p95(&de),
-                rel_mse: relative_mse(image.pixels(), &reference.pixels),
-            });
+            points.push(Point::new(label, *mode, &stats, &de, relative_mse(image.pixels(), &reference.pixels)));
         }
     }
     let origin = match reference.rendered_in {
@@ -255,18 +259,7 @@ fn charts(report: &mut Report, root: &Path, out: &Path, quick: bool, md: &mut St
                 let options = RenderOptions { wavelength_pdf: *pdf, ..path_options(w, h, *mode, spp) };
                 let (image, stats) = render(&chart, &options)?;
                 let de = chart_errors(&image, &reference, white);
-                points.push(Point {
-                    strategy: if *mode == SpectralMode::Auto {
-                        format!("auto ({})", stats.spectral)
-                    } else {
-                        (*label).into()
-                    },
-                    spp,
-                    seconds: stats.elapsed.as_secs_f64(),
-                    mean_de: mean(&de),
-                    p95_de: p95(&de),
-                    rel_mse: chart_relative_mse(&image, &reference),
-                });
+                points.push(Point::new(label, *mode, &stats, &de, chart_relative_mse(&image, &reference)));
             }
         }
         writeln!(md, "### ColorChecker under {} (path tracer, {w}×{h}, reference: analytic)\n", illuminant.name())?;
