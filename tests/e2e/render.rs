@@ -75,6 +75,35 @@ fn bad_input_is_a_clear_error_and_writes_nothing() {
 }
 
 #[test]
+fn load_errors_say_each_thing_once() {
+    // The file name, the cause and the OS reason each appear once in the message (errors
+    // that quote their source's message must not also chain it).
+    let dir = scratch("render_error_chain");
+    let missing = dir.join("no_such_scene.json");
+    let bad_material = dir.join("bad_material.json");
+    std::fs::write(
+        &bad_material,
+        r#"{"camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "vfov_deg": 30},
+            "materials": {"m": {"base_color": {"csv": "missing.csv"}}},
+            "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}]}"#,
+    )
+    .unwrap();
+    for (scene, parts) in [
+        (&missing, ["no_such_scene.json", "cannot read", "os error"]),
+        (&bad_material, ["bad_material.json", "missing.csv", "os error"]),
+    ] {
+        for command in ["render", "info"] {
+            let output = spectrace().current_dir(&dir).arg(command).arg(scene).output().unwrap();
+            assert!(!output.status.success());
+            let stderr = String::from_utf8_lossy(&output.stderr);
+            for part in parts {
+                assert_eq!(stderr.matches(part).count(), 1, "`{part}` in: {stderr}");
+            }
+        }
+    }
+}
+
+#[test]
 fn info_reports_what_the_default_scene_needs() {
     let output = spectrace().args(["info"]).output().unwrap();
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));

@@ -15,7 +15,7 @@ pub(crate) struct InfoArgs {
 pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let (desc, scene) = match &args.scene {
         Some(path) => {
-            let desc = geometry::load_scene(path).with_context(|| format!("loading {}", path.display()))?;
+            let desc = geometry::load_scene(path).map_err(|e| crate::loading(path, e))?;
             let scene = RenderScene::from_description(desc.clone())
                 .with_context(|| format!("assembling {}", path.display()))?;
             (desc, scene)

@@ -103,7 +103,7 @@ pub(crate) const EXIT_CANCELLED: u8 = 130;
 
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let scene = match &args.scene {
-        Some(path) => RenderScene::load(path).with_context(|| format!("loading {}", path.display()))?,
+        Some(path) => RenderScene::load(path).map_err(|e| crate::loading(path, e))?,
         None => RenderScene::default_scene().context("building the default scene")?,
     };
     if !args.quiet {

@@ -12,13 +12,12 @@ pub enum Error {
     Camera(String),
     // --- loaders ---
     /// A scene file could not be read.
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read: {cause}", path.display())]
     ReadFile {
         /// The file.
         path: PathBuf,
         /// The I/O error.
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// `load_scene` was given a file with an extension it does not know.
     #[error("{}: unsupported scene format `.{extension}` (expected .json, .gltf, .glb or .obj)", path.display())]
@@ -29,16 +28,15 @@ pub enum Error {
         extension: String,
     },
     /// The `gltf` crate rejected the file (JSON syntax, GLB framing, validation).
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {cause}", path.display())]
     Gltf {
         /// The file.
         path: PathBuf,
         /// The `gltf` crate's error.
-        #[source]
-        source: gltf::Error,
+        cause: gltf::Error,
     },
     /// An external glTF buffer file could not be read.
-    #[error("{}: buffer {buffer}: cannot read `{uri}`: {source}", path.display())]
+    #[error("{}: buffer {buffer}: cannot read `{uri}`: {cause}", path.display())]
     GltfBuffer {
         /// The glTF file.
         path: PathBuf,
@@ -47,8 +45,7 @@ pub enum Error {
         /// The buffer's resolved file path.
         uri: String,
         /// The I/O error.
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// glTF binary data is inconsistent (accessor overruns its view, wrong accessor type, bad hierarchy).
     #[error("{}: {context}: {message}", path.display())]
@@ -95,13 +92,12 @@ pub enum Error {
         vertex_count: usize,
     },
     /// `tobj` rejected an OBJ file.
-    #[error("{}: invalid OBJ: {source}", path.display())]
+    #[error("{}: invalid OBJ: {cause}", path.display())]
     Obj {
         /// The file.
         path: PathBuf,
         /// `tobj`'s error.
-        #[source]
-        source: tobj::LoadError,
+        cause: tobj::LoadError,
     },
     /// A syntax error in an OBJ or MTL file, found by the pre-scan.
     #[error("{}:{line}: {message}", path.display())]
@@ -114,15 +110,14 @@ pub enum Error {
         message: String,
     },
     /// Geometry read from a file was rejected by the mesh constructor.
-    #[error("{}: {context}: {source}", path.display())]
+    #[error("{}: {context}: {cause}", path.display())]
     InvalidGeometry {
         /// The file.
         path: PathBuf,
         /// Where in the file.
         context: String,
         /// The constructor's error.
-        #[source]
-        source: Box<Error>,
+        cause: Box<Error>,
     },
     /// A third-party parser panicked on this input (a bug to report upstream; turned into an error).
     #[error("{}: the {library} parser panicked: {message}", path.display())]
@@ -135,13 +130,12 @@ pub enum Error {
         message: String,
     },
     /// A scene manifest is not valid JSON or has an unknown key (the message names it, with line and column).
-    #[error("{origin}: {source}")]
+    #[error("{origin}: {cause}")]
     ManifestSyntax {
         /// The manifest's path or name.
         origin: String,
         /// serde_json's error, with line and column.
-        #[source]
-        source: serde_json::Error,
+        cause: serde_json::Error,
     },
     /// A manifest value is out of range or of the wrong form.
     #[error("{origin}: {context}: {message}")]

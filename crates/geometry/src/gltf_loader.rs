@@ -40,7 +40,7 @@ const MAX_VIEWLESS_COUNT: usize = 1 << 24;
 
 /// Loads a `.gltf` or `.glb` file; external buffers resolve against its folder.
 pub(crate) fn load_gltf_file(path: &Path) -> Result<SceneDescription> {
-    let bytes = std::fs::read(path).map_err(|source| Error::ReadFile { path: path.to_path_buf(), source })?;
+    let bytes = std::fs::read(path).map_err(|cause| Error::ReadFile { path: path.to_path_buf(), cause })?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
     load_gltf_slice(&bytes, Some(base), path)
 }
@@ -48,7 +48,7 @@ pub(crate) fn load_gltf_file(path: &Path) -> Result<SceneDescription> {
 /// Loads glTF from memory. `base`: folder for external buffers (`None`: only embedded data allowed);
 /// `path`: the name used in messages.
 pub(crate) fn load_gltf_slice(bytes: &[u8], base: Option<&Path>, path: &Path) -> Result<SceneDescription> {
-    let gltf_err = |source| Error::Gltf { path: path.to_path_buf(), source };
+    let gltf_err = |cause| Error::Gltf { path: path.to_path_buf(), cause };
     let gltf::Gltf { document, blob } =
         crate::scene::guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err))?;
 
@@ -120,7 +120,7 @@ fn load_buffers(
                 // Data URIs never reach `gltf`'s percent-decoder (the panicking part).
                 crate::scene::guard_panic(path, "gltf", || {
                     gltf::buffer::Data::from_source(buffer.source(), None)
-                        .map_err(|source| Error::Gltf { path: path.to_path_buf(), source })
+                        .map_err(|cause| Error::Gltf { path: path.to_path_buf(), cause })
                 })?
                 .0
             }
@@ -135,11 +135,11 @@ fn load_buffers(
                     return Err(data_err(format!("external buffer `{uri}` in a glTF loaded from memory")));
                 };
                 let file = base.join(decoded);
-                std::fs::read(&file).map_err(|source| Error::GltfBuffer {
+                std::fs::read(&file).map_err(|cause| Error::GltfBuffer {
                     path: path.to_path_buf(),
                     buffer: index,
                     uri: file.display().to_string(),
-                    source,
+                    cause,
                 })?
             }
         };
@@ -494,7 +494,7 @@ impl Loader<'_> {
                 None => self.default_material(),
             };
             let local = Mesh::new(positions, normals, uvs, triangles, Some(material)).map_err(|e| {
-                Error::InvalidGeometry { path: self.path.to_path_buf(), context: context.clone(), source: Box::new(e) }
+                Error::InvalidGeometry { path: self.path.to_path_buf(), context: context.clone(), cause: Box::new(e) }
             })?;
             self.desc.meshes.push(if world == Mat4::IDENTITY { local } else { local.transformed(world) });
         }

@@ -224,7 +224,7 @@ impl Ctx<'_> {
 /// for referenced files.
 pub fn parse_manifest(text: &str, base_dir: &Path, origin: &str) -> Result<SceneDescription> {
     let json: ManifestJson =
-        serde_json::from_str(text).map_err(|source| Error::ManifestSyntax { origin: origin.to_owned(), source })?;
+        serde_json::from_str(text).map_err(|cause| Error::ManifestSyntax { origin: origin.to_owned(), cause })?;
     let ctx = Ctx { origin, base_dir };
     let mut desc = SceneDescription::empty();
 

@@ -20,7 +20,7 @@ use crate::shapes::Mesh;
 
 /// Loads an `.obj` file; `mtllib` files resolve against its folder.
 pub(crate) fn load_obj_file(path: &Path) -> Result<SceneDescription> {
-    let bytes = std::fs::read(path).map_err(|source| Error::ReadFile { path: path.to_path_buf(), source })?;
+    let bytes = std::fs::read(path).map_err(|cause| Error::ReadFile { path: path.to_path_buf(), cause })?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
     load_obj_text(&String::from_utf8_lossy(&bytes), Some(base), path)
 }
@@ -72,7 +72,7 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path) -> Res
     };
     let (models, materials) = guard_panic(path, "tobj", || {
         tobj::load_obj_buf(&mut text.as_bytes(), &options, loader)
-            .map_err(|source| Error::Obj { path: path.to_path_buf(), source })
+            .map_err(|cause| Error::Obj { path: path.to_path_buf(), cause })
     })?;
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
@@ -116,7 +116,7 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path) -> Res
         let m = Mesh::new(positions, normals, uvs, indices, material).map_err(|e| Error::InvalidGeometry {
             path: path.to_path_buf(),
             context: context.clone(),
-            source: Box::new(e),
+            cause: Box::new(e),
         })?;
         desc.meshes.push(m);
     }

@@ -446,7 +446,7 @@ pub fn load_scene(path: &Path) -> Result<SceneDescription> {
     match extension.as_str() {
         "json" => {
             let text =
-                std::fs::read_to_string(path).map_err(|source| Error::ReadFile { path: path.to_path_buf(), source })?;
+                std::fs::read_to_string(path).map_err(|cause| Error::ReadFile { path: path.to_path_buf(), cause })?;
             let base = path.parent().unwrap_or_else(|| Path::new("."));
             crate::manifest::parse_manifest(&text, base, &path.display().to_string())
         }

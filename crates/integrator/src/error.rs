@@ -9,7 +9,7 @@ pub enum Error {
     #[error(transparent)]
     Geometry(#[from] geometry::Error),
     /// A material or light spectrum could not be built.
-    #[error("material `{material}`: {source}")]
+    #[error("material `{material}`")]
     Material {
         /// The material's name.
         material: String,
@@ -18,7 +18,7 @@ pub enum Error {
         source: materials::Error,
     },
     /// A light's spectrum or parameters are invalid.
-    #[error("light {index}: {source}")]
+    #[error("light {index}")]
     Light {
         /// Index of the light in the scene description.
         index: usize,
@@ -27,7 +27,7 @@ pub enum Error {
         source: materials::Error,
     },
     /// A spectrum used elsewhere (background, ambient) is invalid.
-    #[error("{what}: {source}")]
+    #[error("{what}")]
     Spectrum {
         /// Where the spectrum is used.
         what: &'static str,
