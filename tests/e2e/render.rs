@@ -75,6 +75,30 @@ fn bad_input_is_a_clear_error_and_writes_nothing() {
 }
 
 #[test]
+fn spectral_exr_is_written_for_fixed_wavelengths_only() {
+    let dir = scratch("render_spectral_exr");
+    let size = ["--width", "16", "--height", "12", "--quiet"];
+    let output = spectrace()
+        .current_dir(&dir)
+        .args(["render", "--spectral", "bins:8", "--spectral-exr", "s.exr", "-o", "x.exr"])
+        .args(size)
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(dir.join("s.exr").exists() && dir.join("x.exr").exists() && dir.join("x.png").exists());
+    // RGB has no wavelengths: an error before anything is rendered or written.
+    let output = spectrace()
+        .current_dir(&dir)
+        .args(["render", "--spectral", "rgb", "--spectral-exr", "t.exr", "-o", "y.exr"])
+        .args(size)
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    assert!(String::from_utf8_lossy(&output.stderr).contains("bins:N"));
+    assert!(!dir.join("t.exr").exists() && !dir.join("y.exr").exists());
+}
+
+#[test]
 fn load_errors_say_each_thing_once() {
     // The file name, the cause and the OS reason each appear once in the message (errors
     // that quote their source's message must not also chain it).

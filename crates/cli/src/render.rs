@@ -64,6 +64,11 @@ pub(crate) struct RenderArgs {
     /// Worker threads [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
+    /// Also write a spectral OpenEXR (Fichet et al. 2021 layout: one channel `S0.<λ>nm` per
+    /// wavelength, relative radiance). Needs fixed wavelengths: `--spectral bins:N`, or `auto`
+    /// where it chooses bins.
+    #[arg(long, value_name = "FILE.exr")]
+    spectral_exr: Option<PathBuf>,
     /// No progress bar or notes on stderr.
     #[arg(short, long)]
     quiet: bool,
@@ -126,8 +131,14 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         absorption: args.absorption,
         ambient: args.ambient,
         threads: args.threads,
+        spectral_film: args.spectral_exr.is_some(),
     };
     let png = png_path(&args.output)?;
+    if let Some(path) = &args.spectral_exr
+        && !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+    {
+        anyhow::bail!("{}: the spectral image must end in .exr", path.display());
+    }
 
     let cancel = Arc::new(AtomicBool::new(false));
     {
@@ -159,6 +170,9 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     image.write_exr(&args.output, options_display(args)).context("writing the EXR")?;
     image.write_png(&png, options_display(args)).context("writing the PNG")?;
+    if let Some(path) = &args.spectral_exr {
+        image.write_spectral_exr(path).context("writing the spectral EXR")?;
+    }
     if !args.quiet {
         let secs = stats.elapsed.as_secs_f64();
         eprintln!(

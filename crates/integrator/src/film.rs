@@ -45,13 +45,34 @@ pub struct Image {
     /// What each pixel's first camera ray hit (for per-object statistics in reports).
     ids: Vec<ObjectId>,
     nonfinite: u64,
+    /// Spectral radiance per pixel at fixed wavelengths, when the render kept it.
+    spectral: Option<SpectralFilm>,
+}
+
+/// Per-pixel radiance at the lanes' wavelengths (`RenderOptions::spectral_film`): what a
+/// spectral EXR stores. Values are pixel-major: `values[pixel * wavelengths.len() + i]`.
+#[derive(Debug, Clone)]
+pub(crate) struct SpectralFilm {
+    pub(crate) wavelengths: Vec<f32>,
+    pub(crate) values: Vec<f32>,
 }
 
 impl Image {
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
-        Self { width, height, xyz: vec![[0.0; 3]; n], ids: vec![ObjectId::Background; n], nonfinite: 0 }
+        Self { width, height, xyz: vec![[0.0; 3]; n], ids: vec![ObjectId::Background; n], nonfinite: 0, spectral: None }
+    }
+
+    pub(crate) fn set_spectral(&mut self, film: SpectralFilm) {
+        debug_assert_eq!(film.values.len(), self.xyz.len() * film.wavelengths.len());
+        self.spectral = Some(film);
+    }
+
+    /// The wavelengths (nm) and per-pixel radiance at them (pixel-major, row by row from the
+    /// top), if the render kept a spectral film.
+    pub fn spectral(&self) -> Option<(&[f32], &[f32])> {
+        self.spectral.as_ref().map(|f| (f.wavelengths.as_slice(), f.values.as_slice()))
     }
 
     /// Width in pixels.
@@ -97,6 +118,10 @@ impl Image {
                     self.nonfinite += 1;
                 }
             }
+        }
+        // A non-finite lane makes its pixel's XYZ non-finite too, so it is counted above.
+        if let Some(film) = &mut self.spectral {
+            film.values.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
         }
     }
 
@@ -155,6 +180,43 @@ impl Image {
         })
     }
 
+    /// Write the spectral film as an OpenEXR in the layout of Fichet, Pacanowski & Wilkie,
+    /// "An OpenEXR Layout for Spectral Images" (JCGT 10(3), 2021): one 32-bit channel per
+    /// wavelength named `S0.<nm with a decimal comma>nm` (emissive, Stokes component 0), and
+    /// the attribute `spectralLayoutVersion` = "1.0". Radiance is relative: every light is
+    /// scaled to luminance 1 × its intensity, so `emissiveUnits` is not claimed.
+    pub fn write_spectral_exr(&self, path: &Path) -> Result<()> {
+        let Some(film) = &self.spectral else {
+            return Err(Error::Write {
+                path: path.to_owned(),
+                message: "the render kept no spectral film (render with fixed wavelengths, bins:N)".to_owned(),
+            });
+        };
+        let (width, height) = (self.width as usize, self.height as usize);
+        let n = film.wavelengths.len();
+        write_atomically(path, |tmp| {
+            use exr::prelude::*;
+            let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = film
+                .wavelengths
+                .iter()
+                .enumerate()
+                .map(|(i, lambda)| {
+                    let samples: Vec<f32> = film.values.iter().skip(i).step_by(n).copied().collect();
+                    AnyChannel::new(fichet_channel_name(*lambda).as_str(), FlatSamples::F32(samples))
+                })
+                .collect();
+            let mut attributes = ImageAttributes::new(IntegerBounds::from_dimensions((width, height)));
+            attributes.other.insert(Text::from("spectralLayoutVersion"), AttributeValue::Text(Text::from("1.0")));
+            let layer = Layer::new(
+                (width, height),
+                LayerAttributes::named("spectral"),
+                Encoding::SMALL_LOSSLESS,
+                AnyChannels::sort(channels),
+            );
+            Image { attributes, layer_data: layer }.write().to_file(tmp).map_err(|e| e.to_string())
+        })
+    }
+
     /// Write an 8-bit display-encoded PNG atomically.
     pub fn write_png(&self, path: &Path, display: Display) -> Result<()> {
         let bytes = self.to_rgb8(display);
@@ -170,6 +232,11 @@ impl Image {
             .map_err(|e| e.to_string())
         })
     }
+}
+
+/// `S0.550,000000nm`: Fichet et al.'s emissive channel name (decimal comma, unit suffix).
+fn fichet_channel_name(lambda_nm: f32) -> String {
+    format!("S0.{lambda_nm:.6}nm").replace('.', ",").replacen(',', ".", 1)
 }
 
 /// Write through a temporary file in the same folder, then rename: a reader never sees a
@@ -201,6 +268,51 @@ mod tests {
         image.sanitize();
         assert_eq!(image.nonfinite_samples(), 2);
         assert_eq!(image.xyz(0, 0), [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn spectral_exr_reads_back_one_channel_per_wavelength() {
+        let dir = std::env::temp_dir().join(format!("spectrace-spectral-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("s.exr");
+        let mut image = Image::new(2, 1);
+        // Pixel-major: pixel 0 = (1, 2, 3), pixel 1 = (4, 5, 6) at 400, 500, 600 nm.
+        image.set_spectral(SpectralFilm {
+            wavelengths: vec![400.0, 500.0, 600.0],
+            values: vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+        });
+        image.write_spectral_exr(&path).unwrap();
+        let read = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+        let layer = &read.layer_data[0];
+        let channels: Vec<(String, Vec<f32>)> = layer
+            .channel_data
+            .list
+            .iter()
+            .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+            .collect();
+        assert_eq!(
+            channels,
+            vec![
+                ("S0.400,000000nm".to_owned(), vec![1.0, 4.0]),
+                ("S0.500,000000nm".to_owned(), vec![2.0, 5.0]),
+                ("S0.600,000000nm".to_owned(), vec![3.0, 6.0]),
+            ]
+        );
+        let key = exr::prelude::Text::from("spectralLayoutVersion");
+        // A single-part file has one header: the reader puts custom attributes with the layer.
+        let version = read.attributes.other.get(&key).or_else(|| layer.attributes.other.get(&key));
+        assert!(matches!(version, Some(exr::prelude::AttributeValue::Text(t)) if t == "1.0"));
+        // No film: a clear error, no file.
+        let err = Image::new(1, 1).write_spectral_exr(&dir.join("none.exr"));
+        assert!(matches!(err, Err(Error::Write { .. })));
+        assert!(!dir.join("none.exr").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn fichet_channel_names_use_a_decimal_comma() {
+        assert_eq!(fichet_channel_name(550.0), "S0.550,000000nm");
+        assert_eq!(fichet_channel_name(364.947_4), "S0.364,947388nm");
     }
 
     #[test]

@@ -25,7 +25,7 @@ use crate::bsdf::{Bsdf, Frame};
 use crate::error::{Error, Result};
 use crate::film::Image;
 use crate::light::{Light, LightKind};
-use crate::render::{Progress, RenderOptions, WavelengthPdf};
+use crate::render::{Progress, RenderOptions, SpectralRows, WavelengthPdf};
 use crate::sampling::{Rng, cosine_hemisphere, power_heuristic, uniform_sphere, uniform_triangle};
 use crate::spectral::{Lanes, SpectrumKind};
 use crate::whitted::{ObjectId, RayCount};
@@ -396,7 +396,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         l
     }
 
-    /// One sample of pixel (`x`, `y`): its XYZ and what the camera ray hit first.
+    /// One sample of pixel (`x`, `y`): its XYZ, what the camera ray hit first, and the lane
+    /// radiance behind the XYZ (fixed lanes: what a spectral film accumulates).
     /// `u_lambda` ∈ [0, 1) places the hero wavelengths (stratified by the caller).
     #[inline]
     pub(crate) fn sample_pixel(
@@ -407,7 +408,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         u_lambda: f32,
         rng: &mut Rng,
         count: &mut RayCount,
-    ) -> ([f32; 3], ObjectId) {
+    ) -> ([f32; 3], ObjectId, [f32; N]) {
         let mut lambda = match &self.wavelengths {
             Wavelengths::Fixed { lanes, .. } => SampledWavelengths::from_parts(lanes.lambda, [1.0; N]),
             Wavelengths::Visible => SampledWavelengths::sample_visible(u_lambda),
@@ -418,20 +419,25 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let mut lane = None;
         let (radiance, id) = self.li(&ray, &mut lambda, &mut lane, rng, count);
         debug_assert!(radiance.is_finite(), "non-finite radiance {radiance:?}");
-        let xyz = match &self.wavelengths {
-            Wavelengths::Fixed { lanes, active } => match lane {
-                // The path followed one lane past a dispersive surface, chosen with probability
-                // 1/active: that lane alone, weighted by `active`, is an unbiased estimate.
-                Some(j) => {
-                    let mut single = [0.0f32; N];
-                    single[j] = radiance.0[j] * *active as f32;
-                    lanes.xyz(&single)
-                }
-                None => lanes.xyz(&radiance.0),
-            },
-            Wavelengths::Visible | Wavelengths::Tabulated(_) => radiance.to_xyz(&lambda, Observer::Cie1931),
-        };
-        (xyz, id)
+        match &self.wavelengths {
+            Wavelengths::Fixed { lanes, active } => {
+                let values = match lane {
+                    // The path followed one lane past a dispersive surface, chosen with
+                    // probability 1/active: that lane alone, weighted by `active`, is an
+                    // unbiased estimate.
+                    Some(j) => {
+                        let mut single = [0.0f32; N];
+                        single[j] = radiance.0[j] * *active as f32;
+                        single
+                    }
+                    None => radiance.0,
+                };
+                (lanes.xyz(&values), id, values)
+            }
+            Wavelengths::Visible | Wavelengths::Tabulated(_) => {
+                (radiance.to_xyz(&lambda, Observer::Cie1931), id, radiance.0)
+            }
+        }
     }
 
     /// Index of refraction for this path, splitting it by wavelength at the first dispersive
@@ -698,6 +704,11 @@ pub(crate) fn render_path<const N: usize>(
 ) -> Result<PathOutput> {
     let (width, height) = (options.width, options.height);
     let camera = scene.camera(width, height)?;
+    let mut film = match &mode {
+        LaneMode::Fixed(lanes) => SpectralRows::new(options.spectral_film, lanes, width, height),
+        LaneMode::Hero(_) => SpectralRows::none(height),
+    };
+    let film_lanes = film.lanes();
     let tracer = PathTracer::<N>::new(scene, mode, options);
     let spp = options.spp;
     // With a time limit, passes of 1/16 of the samples (at least one) bound the overshoot.
@@ -713,8 +724,11 @@ pub(crate) fn render_path<const N: usize>(
         let first_sample = pass * pass_size;
         let last_sample = (first_sample + pass_size).min(spp);
         let (_, ids) = image.buffers_mut();
-        sums.par_chunks_mut(width as usize).zip(ids.par_chunks_mut(width as usize)).enumerate().try_for_each(
-            |(y, (row, ids))| -> Result<()> {
+        sums.par_chunks_mut(width as usize)
+            .zip(ids.par_chunks_mut(width as usize))
+            .zip(film.rows_mut())
+            .enumerate()
+            .try_for_each(|(y, ((row, ids), spectral))| -> Result<()> {
                 if cancel.load(Ordering::Relaxed) {
                     return Err(Error::Cancelled);
                 }
@@ -730,7 +744,7 @@ pub(crate) fn render_path<const N: usize>(
                         if u >= 1.0 {
                             u -= 1.0;
                         }
-                        let (xyz, object) = tracer.sample_pixel(
+                        let (xyz, object, values) = tracer.sample_pixel(
                             &camera,
                             (x as u32, y as u32),
                             (width, height),
@@ -744,6 +758,7 @@ pub(crate) fn render_path<const N: usize>(
                         for c in 0..3 {
                             sum[c] += f64::from(xyz[c]);
                         }
+                        SpectralRows::add(spectral, x, film_lanes, &values, 1.0);
                     }
                 }
                 let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
@@ -755,8 +770,7 @@ pub(crate) fn render_path<const N: usize>(
                     elapsed: start.elapsed(),
                 });
                 Ok(())
-            },
-        )?;
+            })?;
         done = last_sample;
         if options.time_limit.is_some_and(|limit| start.elapsed() >= limit) {
             break;
@@ -767,6 +781,7 @@ pub(crate) fn render_path<const N: usize>(
     for (p, s) in pixels.iter_mut().zip(&sums) {
         *p = s.map(|v| (v * inv) as f32);
     }
+    film.attach(&mut image, inv);
     image.sanitize();
     Ok(PathOutput { image, rays: rays.into_inner(), elapsed: start.elapsed(), spp: done })
 }

@@ -131,6 +131,10 @@ pub struct RenderOptions {
     pub ambient: Ambient,
     /// Worker threads (`None`: all cores).
     pub threads: Option<usize>,
+    /// Keep each pixel's radiance at the wavelengths rendered ([`Image::spectral`], written by
+    /// [`Image::write_spectral_exr`]); needs fixed wavelengths (`bins:N`, or `auto` choosing
+    /// bins).
+    pub spectral_film: bool,
 }
 
 impl Default for RenderOptions {
@@ -149,6 +153,7 @@ impl Default for RenderOptions {
             absorption: true,
             ambient: Ambient::Objects { k_a: DEFAULT_K_A, exponent: 1.0 },
             threads: None,
+            spectral_film: false,
         }
     }
 }
@@ -216,6 +221,7 @@ pub fn render(
         }
         mode => mode,
     };
+    check_spectral_film(options, spectral)?;
     let pool = thread_pool(options)?;
     let white = crate::scene_white(scene);
     let (image, rays, elapsed) = pool.install(|| match spectral {
@@ -259,6 +265,7 @@ fn render_path(
         SpectralMode::Auto => crate::choose_auto(scene, options.integrator),
         mode => mode,
     };
+    check_spectral_film(options, spectral)?;
     let pool = thread_pool(options)?;
     let pdf = options.wavelength_pdf;
     let white = crate::scene_white(scene);
@@ -301,6 +308,19 @@ fn render_path(
     Ok((out.image, RenderStats { spectral, rays: out.rays, elapsed: out.elapsed, nonfinite_samples, spp: out.spp }))
 }
 
+/// A spectral film stores radiance at fixed wavelengths: RGB has none, and hero wavelengths
+/// differ from sample to sample.
+fn check_spectral_film(options: &RenderOptions, spectral: SpectralMode) -> Result<()> {
+    if options.spectral_film && !matches!(spectral, SpectralMode::Bins(_)) {
+        return Err(Error::InvalidOption {
+            option: "spectral mode for a spectral image",
+            value: spectral.to_string(),
+            expected: "bins:N (fixed wavelengths; bins:95 is the 5 nm grid)",
+        });
+    }
+    Ok(())
+}
+
 fn thread_pool(options: &RenderOptions) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
@@ -325,7 +345,9 @@ fn run<const N: usize>(
     let offsets = pixel_offsets(options.spp);
     let inv_spp = 1.0 / options.spp as f32;
     let mut image = Image::new(width, height);
-    image.rows_mut().enumerate().try_for_each(|(y, (row, ids))| -> Result<()> {
+    let mut film = SpectralRows::new(options.spectral_film, &lanes, width, height);
+    let film_lanes = film.lanes();
+    image.rows_mut().zip(film.rows_mut()).enumerate().try_for_each(|(y, ((row, ids), spectral))| -> Result<()> {
         if cancel.load(Ordering::Relaxed) {
             return Err(Error::Cancelled);
         }
@@ -342,6 +364,7 @@ fn run<const N: usize>(
                 for c in 0..3 {
                     xyz[c] += s[c] * inv_spp;
                 }
+                SpectralRows::add(spectral, x, film_lanes, &radiance.0, f64::from(inv_spp));
             }
             *pixel = xyz;
         }
@@ -350,8 +373,66 @@ fn run<const N: usize>(
         progress(Progress { rows_done: done as u32, rows_total: height, rays: rays_now, elapsed: start.elapsed() });
         Ok(())
     })?;
+    film.attach(&mut image, 1.0);
     image.sanitize();
     Ok((image, rays.into_inner(), start.elapsed()))
+}
+
+/// The spectral film while rendering: per-pixel sums of lane radiance in f64, one chunk per
+/// image row. Without a film each row gets an empty chunk (`add` then does nothing).
+pub(crate) struct SpectralRows {
+    wavelengths: Vec<f32>,
+    sums: Vec<f64>,
+    row_len: usize,
+    height: usize,
+}
+
+impl SpectralRows {
+    pub(crate) fn new<const N: usize>(keep: bool, lanes: &Lanes<N>, width: u32, height: u32) -> Self {
+        let wavelengths = if keep && !lanes.rgb { lanes.lambda[..lanes.active()].to_vec() } else { Vec::new() };
+        let row_len = width as usize * wavelengths.len();
+        Self { sums: vec![0.0; row_len * height as usize], wavelengths, row_len, height: height as usize }
+    }
+
+    /// No film: empty row chunks.
+    pub(crate) fn none(height: u32) -> Self {
+        Self { wavelengths: Vec::new(), sums: Vec::new(), row_len: 0, height: height as usize }
+    }
+
+    /// Wavelengths per pixel (0 without a film).
+    pub(crate) fn lanes(&self) -> usize {
+        self.wavelengths.len()
+    }
+
+    /// One mutable chunk per image row (empty chunks without a film, so the zip with the
+    /// image's rows stays aligned).
+    pub(crate) fn rows_mut(&mut self) -> impl IndexedParallelIterator<Item = &mut [f64]> + '_ {
+        if self.row_len == 0 {
+            rayon::iter::Either::Left((0..self.height).into_par_iter().map(|_| -> &mut [f64] { &mut [] }))
+        } else {
+            rayon::iter::Either::Right(self.sums.par_chunks_mut(self.row_len))
+        }
+    }
+
+    /// Add `weight` × the first `lanes` values to pixel `x` of a row chunk (nothing when the
+    /// chunk is empty).
+    #[inline]
+    pub(crate) fn add<const N: usize>(row: &mut [f64], x: usize, lanes: usize, values: &[f32; N], weight: f64) {
+        if let Some(pixel) = row.get_mut(x * lanes..(x + 1) * lanes) {
+            for (sum, v) in pixel.iter_mut().zip(values) {
+                *sum += f64::from(*v) * weight;
+            }
+        }
+    }
+
+    /// Store the sums × `scale` in the image.
+    pub(crate) fn attach(self, image: &mut Image, scale: f64) {
+        if self.wavelengths.is_empty() {
+            return;
+        }
+        let values = self.sums.iter().map(|v| (v * scale) as f32).collect();
+        image.set_spectral(crate::film::SpectralFilm { wavelengths: self.wavelengths, values });
+    }
 }
 
 /// Deterministic sub-pixel positions: the pixel centre for one sample, otherwise the R2

@@ -162,7 +162,6 @@ impl<const N: usize> Lanes<N> {
     }
 
     /// Number of lanes actually in use.
-    #[cfg(test)]
     pub(crate) fn active(&self) -> usize {
         if self.rgb { 3 } else { self.to_xyz[1].iter().rposition(|&w| w != 0.0).map_or(N, |i| i + 1) }
     }

@@ -5,6 +5,7 @@ mod hard_cases;
 mod paper_model;
 mod path;
 mod prism;
+mod spectral_film;
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
