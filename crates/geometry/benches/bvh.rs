@@ -113,36 +113,23 @@ fn bench(c: &mut Criterion) {
             &mut std::time::Duration::default(),
         );
         let to_native = |r: &Ray| obvhs::ray::Ray::new_inf(r.origin.into(), r.dir.into());
-        let native_primary: Vec<_> = primary.iter().map(to_native).collect();
-        group.throughput(Throughput::Elements(native_primary.len() as u64));
-        group.bench_function("obvhs_moller_trumbore_primary", |bencher| {
-            bencher.iter(|| {
-                native_primary
-                    .iter()
-                    .filter(|r| {
-                        let mut hit = obvhs::ray::RayHit::none();
-                        native.ray_traverse(**r, &mut hit, |ray, id| {
-                            tris[native.primitive_indices[id] as usize].intersect(ray)
+        for (name, rays) in [("primary", &primary), ("incoherent", &incoherent)] {
+            let native_rays: Vec<_> = rays.iter().map(to_native).collect();
+            group.throughput(Throughput::Elements(native_rays.len() as u64));
+            group.bench_function(format!("obvhs_moller_trumbore_{name}"), |bencher| {
+                bencher.iter(|| {
+                    native_rays
+                        .iter()
+                        .filter(|r| {
+                            let mut hit = obvhs::ray::RayHit::none();
+                            native.ray_traverse(**r, &mut hit, |ray, id| {
+                                tris[native.primitive_indices[id] as usize].intersect(ray)
+                            })
                         })
-                    })
-                    .count()
-            })
-        });
-        let native_incoherent: Vec<_> = incoherent.iter().map(to_native).collect();
-        group.throughput(Throughput::Elements(native_incoherent.len() as u64));
-        group.bench_function("obvhs_moller_trumbore_incoherent", |bencher| {
-            bencher.iter(|| {
-                native_incoherent
-                    .iter()
-                    .filter(|r| {
-                        let mut hit = obvhs::ray::RayHit::none();
-                        native.ray_traverse(**r, &mut hit, |ray, id| {
-                            tris[native.primitive_indices[id] as usize].intersect(ray)
-                        })
-                    })
-                    .count()
-            })
-        });
+                        .count()
+                })
+            });
+        }
         group.finish();
         group_build(c, &mesh, triangles);
     }
