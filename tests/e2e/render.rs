@@ -77,22 +77,16 @@ fn bad_input_is_a_clear_error_and_writes_nothing() {
 #[test]
 fn spectral_exr_is_written_for_fixed_wavelengths_only() {
     let dir = scratch("render_spectral_exr");
-    let size = ["--width", "16", "--height", "12", "--quiet"];
-    let output = spectrace()
-        .current_dir(&dir)
-        .args(["render", "--spectral", "bins:8", "--spectral-exr", "s.exr", "-o", "x.exr"])
-        .args(size)
-        .output()
-        .unwrap();
+    let render = |spectral: &str, film: &str, out: &str| {
+        let args =
+            ["render", "--spectral", spectral, "--spectral-exr", film, "-o", out, "--width", "16", "--height", "12"];
+        spectrace().current_dir(&dir).args(args).arg("--quiet").output().unwrap()
+    };
+    let output = render("bins:8", "s.exr", "x.exr");
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     assert!(dir.join("s.exr").exists() && dir.join("x.exr").exists() && dir.join("x.png").exists());
     // RGB has no wavelengths: an error before anything is rendered or written.
-    let output = spectrace()
-        .current_dir(&dir)
-        .args(["render", "--spectral", "rgb", "--spectral-exr", "t.exr", "-o", "y.exr"])
-        .args(size)
-        .output()
-        .unwrap();
+    let output = render("rgb", "t.exr", "y.exr");
     assert!(!output.status.success());
     assert!(String::from_utf8_lossy(&output.stderr).contains("bins:N"));
     assert!(!dir.join("t.exr").exists() && !dir.join("y.exr").exists());

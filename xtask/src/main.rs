@@ -9,6 +9,7 @@
 //! - `paper`: the paper's figures 8–11 as side-by-side renders with their backing numbers.
 
 mod paper;
+mod stats;
 mod upsampling;
 mod validate;
 

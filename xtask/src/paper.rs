@@ -7,8 +7,9 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use anyhow::Context as _;
-use colorimetry::{Lab, Xyz, delta_e_2000};
 use integrator::{Ambient, Display, Image, ObjectId, RenderOptions, RenderScene, SpectralMode};
+
+use crate::stats::{delta_e_all, mean, p95};
 
 /// Arguments of `cargo xtask paper`.
 #[derive(Debug, clap::Args)]
@@ -34,9 +35,6 @@ struct Side {
     elapsed: Duration,
     spectral: SpectralMode,
 }
-
-/// The D65 white at Y = 1 (CIE 015:2018, 2°), the reference white of every scene here.
-const WHITE: Xyz = Xyz { x: 0.95047, y: 1.0, z: 1.08883 };
 
 pub(crate) fn run(args: &PaperArgs) -> anyhow::Result<()> {
     let root = crate::project_root();
@@ -187,22 +185,13 @@ fn mean_over(image: &Image, mask: &[bool]) -> (f64, [f64; 2]) {
 
 /// Mean and 95th percentile of the per-pixel ΔE00 between two images (optionally masked).
 pub(crate) fn delta_e_stats(a: &Image, b: &Image, mask: Option<&[bool]>) -> (f64, f64) {
-    let lab = |p: &[f32; 3]| Lab::from_xyz(Xyz { x: p[0].into(), y: p[1].into(), z: p[2].into() }, WHITE);
-    let mut de: Vec<f64> = a
-        .pixels()
-        .iter()
-        .zip(b.pixels())
+    let de: Vec<f64> = delta_e_all(a.pixels(), b.pixels())
+        .into_iter()
         .enumerate()
         .filter(|(i, _)| mask.is_none_or(|m| m[*i]))
-        .map(|(_, (p, q))| delta_e_2000(lab(p), lab(q)))
+        .map(|(_, d)| d)
         .collect();
-    if de.is_empty() {
-        return (0.0, 0.0);
-    }
-    de.sort_by(f64::total_cmp);
-    let mean = de.iter().sum::<f64>() / de.len() as f64;
-    let p95 = de[((de.len() - 1) as f64 * 0.95).round() as usize];
-    (mean, p95)
+    (mean(&de), p95(&de))
 }
 
 fn write_side_by_side(path: &Path, left: &Image, right: &Image) -> anyhow::Result<()> {
@@ -249,6 +238,5 @@ fn sampling_table(md: &mut String, base: &RenderOptions) -> anyhow::Result<()> {
 }
 
 fn max_delta_e(a: &Image, b: &Image) -> f64 {
-    let lab = |p: &[f32; 3]| Lab::from_xyz(Xyz { x: p[0].into(), y: p[1].into(), z: p[2].into() }, WHITE);
-    a.pixels().iter().zip(b.pixels()).map(|(p, q)| delta_e_2000(lab(p), lab(q))).fold(0.0, f64::max)
+    delta_e_all(a.pixels(), b.pixels()).into_iter().fold(0.0, f64::max)
 }

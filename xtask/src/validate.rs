@@ -28,6 +28,8 @@ use ::colorimetry::{
 use anyhow::Context as _;
 use integrator::{Ambient, Image, IntegratorKind, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
 
+use crate::stats::{WHITE, delta_e_all, mean, p95, xyz_of};
+
 /// Arguments of `cargo xtask validate`.
 #[derive(Debug, clap::Args)]
 pub(crate) struct ValidateArgs {
@@ -194,12 +196,39 @@ fn scene_in(json: &str, dir: &Path) -> anyhow::Result<RenderScene> {
     Ok(RenderScene::from_description(geometry::parse_manifest(json, dir, "<validate>")?)?)
 }
 
-fn xyz_of(p: [f32; 3]) -> Xyz {
-    Xyz { x: p[0].into(), y: p[1].into(), z: p[2].into() }
-}
-
 fn render(scene: &RenderScene, options: &RenderOptions) -> anyhow::Result<(Image, integrator::RenderStats)> {
     Ok(integrator::render(scene, options, &|_| {}, &AtomicBool::new(false))?)
+}
+
+/// Clear glass (k_t = 1, T_s = 1, no reflection or diffuse term) before a white background
+/// (Y = 1): whatever reaches the camera is the background times t^b, so answers are exact.
+/// The light is equal-energy like the background: with one emitter spectrum the wavelength
+/// lanes are calibrated to it, and the background's Y is exact at any bin count.
+pub(crate) fn clear_sphere(camera: &str, ior: f32, per_unit: f64, radius: f32) -> String {
+    format!(
+        r#"{{ "camera": {camera},
+        "lights": [{{"type": "point", "position": [5, 5, 10], "spectrum": "E", "intensity": 150}}],
+        "background": {{"spectrum": "E", "intensity": 1}},
+        "materials": {{"glass": {{"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": {ior}, "absorption": {{"per_unit": {per_unit}}}}}}},
+        "objects": [{{"type": "sphere", "center": [0, 0, 0], "radius": {radius}, "material": "glass"}}] }}"#
+    )
+}
+
+/// A clear slab of index 1 (k_t = 1, T_s = 1) keeping `per_unit` per unit thickness,
+/// `thickness` thick, its front face the square of half-size `half` at z = 0, before the same
+/// equal-energy background: a pixel looking through it sees Y = per_unit^b, b the path inside.
+pub(crate) fn clear_slab(camera: &str, half: f64, per_unit: f64, thickness: f64) -> String {
+    let size = 2.0 * half;
+    format!(
+        r#"{{ "camera": {camera},
+        "lights": [{{"type": "point", "position": [0, 0, 50], "intensity": 0}}],
+        "background": {{"spectrum": "E", "intensity": 1}},
+        "materials": {{"glass": {{"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": 1.0, "absorption": {{"per_unit": {per_unit}}}}}}},
+        "objects": [
+          {{"type": "quad", "corner": [-{half}, -{half}, 0], "edge_u": [{size}, 0, 0], "edge_v": [0, {size}, 0], "material": "glass"}},
+          {{"type": "quad", "corner": [-{half}, -{half}, -{thickness}], "edge_u": [0, {size}, 0], "edge_v": [{size}, 0, 0], "material": "glass"}}
+        ] }}"#
+    )
 }
 
 fn small(w: u32, h: u32) -> RenderOptions {
@@ -274,26 +303,6 @@ fn chart_relative_mse(image: &Image, reference: &[Xyz]) -> f64 {
         }
     }
     sum / n.max(1) as f64
-}
-
-fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len().max(1) as f64
-}
-
-fn p95(v: &[f64]) -> f64 {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    s.get(((s.len().max(1) - 1) as f64 * 0.95).round() as usize).copied().unwrap_or(0.0)
-}
-
-/// The D65 white at Y = 1: reference white of the ΔE00 comparisons between renders.
-const WHITE: Xyz = Xyz { x: 0.95047, y: 1.0, z: 1.08883 };
-
-fn delta_e_all(a: &[[f32; 3]], b: &[[f32; 3]]) -> Vec<f64> {
-    a.iter()
-        .zip(b)
-        .map(|(p, q)| delta_e_2000(Lab::from_xyz(xyz_of(*p), WHITE), Lab::from_xyz(xyz_of(*q), WHITE)))
-        .collect()
 }
 
 /// Mean over pixels and channels of (x − r)² / (r² + 0.01): relative squared error, with 0.01

@@ -15,7 +15,8 @@ pub(crate) struct InfoArgs {
 pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let (desc, scene) = match &args.scene {
         Some(path) => {
-            let desc = geometry::load_scene(path).map_err(|e| crate::loading(path, e))?;
+            // Loader errors name the file (and line) themselves.
+            let desc = geometry::load_scene(path)?;
             let scene = RenderScene::from_description(desc.clone())
                 .with_context(|| format!("assembling {}", path.display()))?;
             (desc, scene)

@@ -30,20 +30,6 @@ enum Command {
     Color(color::ColorArgs),
 }
 
-/// An error from loading `path`, named by it once: loader errors already start with the file
-/// (and line), others (a material's bad spectrum) get "loading PATH" in front.
-pub(crate) fn loading<E>(path: &std::path::Path, error: E) -> anyhow::Error
-where
-    E: std::error::Error + Send + Sync + 'static,
-{
-    let name = path.display().to_string();
-    if error.to_string().starts_with(&name) {
-        anyhow::Error::new(error)
-    } else {
-        anyhow::Error::new(error).context(format!("loading {name}"))
-    }
-}
-
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {

@@ -108,7 +108,8 @@ pub(crate) const EXIT_CANCELLED: u8 = 130;
 
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let scene = match &args.scene {
-        Some(path) => RenderScene::load(path).map_err(|e| crate::loading(path, e))?,
+        // Scene errors name the file (and line) themselves.
+        Some(path) => RenderScene::load(path)?,
         None => RenderScene::default_scene().context("building the default scene")?,
     };
     if !args.quiet {

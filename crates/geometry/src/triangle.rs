@@ -40,6 +40,12 @@ impl TriangleRay {
         let d = Vec3::new(dir[kx], dir[ky], dir[kz]);
         Self { origin, length, kz, sx: -d.x / d.z, sy: -d.y / d.z, sz: 1.0 / d.z }
     }
+
+    /// The axis the ray's direction is largest along (0, 1, 2): the z of the permutation.
+    #[inline]
+    pub(crate) fn axis(&self) -> usize {
+        self.kz
+    }
 }
 
 /// Barycentrics and ray parameter of a hit.
@@ -47,14 +53,6 @@ impl TriangleRay {
 pub(crate) struct TriangleHit {
     pub(crate) t: f32,
     pub(crate) b: [f32; 3],
-}
-
-impl TriangleRay {
-    /// The axis the ray's direction is largest along (0, 1, 2): the z of the permutation.
-    #[inline]
-    pub(crate) fn axis(&self) -> usize {
-        self.kz
-    }
 }
 
 /// Edge function x0·y1 − y0·x1 in f64, where both products are exact (24 + 24 bits < 53) and

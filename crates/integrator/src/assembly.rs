@@ -37,6 +37,7 @@ impl RenderScene {
     /// Load a scene file (manifest `.json`, `.gltf`/`.glb` or `.obj`) and assemble it.
     pub fn load(path: &Path) -> Result<Self> {
         Self::from_description(geometry::load_scene(path)?)
+            .map_err(|e| Error::SceneFile { path: path.to_owned(), source: Box::new(e) })
     }
 
     /// The paper's five transparent spheres (Lee, Lee, Lee & Ha 2004, Table 1), embedded in

@@ -8,6 +8,16 @@ pub enum Error {
     /// The scene description could not be loaded or built.
     #[error(transparent)]
     Geometry(#[from] geometry::Error),
+    /// A scene file whose content could not be assembled (a material's or light's spectrum);
+    /// the file's own loader errors already name it and are `Geometry`.
+    #[error("{}", path.display())]
+    SceneFile {
+        /// The scene file.
+        path: PathBuf,
+        /// What was wrong in it.
+        #[source]
+        source: Box<Error>,
+    },
     /// A material or light spectrum could not be built.
     #[error("material `{material}`")]
     Material {

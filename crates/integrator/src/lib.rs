@@ -112,7 +112,7 @@ pub(crate) fn scene_white(scene: &RenderScene) -> colorimetry::DenselySampledSpe
 }
 
 fn auto_bins(scene: &RenderScene) -> usize {
-    use colorimetry::{DenselySampledSpectrum, Integration, Lab, Observer, Xyz, delta_e_2000, emission_to_xyz};
+    use colorimetry::{DenselySampledSpectrum, Lab, Xyz, delta_e_2000};
     let lights = emitter_spectra(scene);
     let white = scene_white(scene);
     let mut surfaces = vec![DenselySampledSpectrum::constant(1.0)];
@@ -125,7 +125,10 @@ fn auto_bins(scene: &RenderScene) -> usize {
             }
         }
     }
-    let xyz = |s: &DenselySampledSpectrum| emission_to_xyz(s, Observer::Cie1931, &Integration::Step(1.0));
+    let xyz = |s: &DenselySampledSpectrum| {
+        let [x, y, z] = spectral::unit_xyz(s);
+        Xyz { x, y, z }
+    };
     // (lit surface spectrum, its light's 1 nm XYZ, its own 1 nm XYZ).
     let cases: Vec<_> = lights
         .iter()
@@ -135,14 +138,12 @@ fn auto_bins(scene: &RenderScene) -> usize {
             (lit, light_xyz, color)
         })
         .collect();
-    let ybar = xyz(&DenselySampledSpectrum::constant(1.0)).y;
     let lab = |c: Xyz, white: Xyz| Lab::from_xyz(c.scaled(1.0 / white.y), white.scaled(1.0 / white.y));
     for n in AUTO_CANDIDATES {
-        let lanes = spectral::Lanes::<{ MAX_BINS }>::bins(n).calibrated(&white);
-        // Lane XYZ in the 1 nm sums' units (the lanes give Y = 1 for an equal-energy 1).
+        let lanes = spectral::Lanes::<{ MAX_BINS }>::bins(n, &white);
         let lane_xyz = |s: &DenselySampledSpectrum| {
             let v = lanes.xyz(&lanes.project(s, spectral::SpectrumKind::Emission));
-            Xyz { x: f64::from(v[0]) * ybar, y: f64::from(v[1]) * ybar, z: f64::from(v[2]) * ybar }
+            Xyz { x: v[0].into(), y: v[1].into(), z: v[2].into() }
         };
         // Absolute error: the lanes' colour of each lit surface against its 1 nm colour, both
         // in CIELAB relative to the light's exact white (what the film's XYZ will be judged by).

@@ -758,7 +758,7 @@ pub(crate) fn render_path<const N: usize>(
                         for c in 0..3 {
                             sum[c] += f64::from(xyz[c]);
                         }
-                        SpectralRows::add(spectral, x, film_lanes, &values, 1.0);
+                        SpectralRows::add(spectral, x, film_lanes, &values);
                     }
                 }
                 let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;

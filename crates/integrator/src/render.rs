@@ -226,26 +226,14 @@ pub fn render(
     let white = crate::scene_white(scene);
     let (image, rays, elapsed) = pool.install(|| match spectral {
         SpectralMode::Rgb => run::<4>(scene, options, Lanes::rgb(), progress, cancel),
-        SpectralMode::Bins(n) if n <= 4 => {
-            run::<4>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 8 => {
-            run::<8>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 16 => {
-            run::<16>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 32 => {
-            run::<32>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 48 => {
-            run::<48>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 64 => {
-            run::<64>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
-        }
+        SpectralMode::Bins(n) if n <= 4 => run::<4>(scene, options, Lanes::bins(n, &white), progress, cancel),
+        SpectralMode::Bins(n) if n <= 8 => run::<8>(scene, options, Lanes::bins(n, &white), progress, cancel),
+        SpectralMode::Bins(n) if n <= 16 => run::<16>(scene, options, Lanes::bins(n, &white), progress, cancel),
+        SpectralMode::Bins(n) if n <= 32 => run::<32>(scene, options, Lanes::bins(n, &white), progress, cancel),
+        SpectralMode::Bins(n) if n <= 48 => run::<48>(scene, options, Lanes::bins(n, &white), progress, cancel),
+        SpectralMode::Bins(n) if n <= 64 => run::<64>(scene, options, Lanes::bins(n, &white), progress, cancel),
         SpectralMode::Bins(n) => {
-            run::<{ crate::spectral::MAX_BINS }>(scene, options, Lanes::bins(n).calibrated(&white), progress, cancel)
+            run::<{ crate::spectral::MAX_BINS }>(scene, options, Lanes::bins(n, &white), progress, cancel)
         }
         SpectralMode::Hero { .. } | SpectralMode::Auto => unreachable!("resolved above"),
     })?;
@@ -272,27 +260,27 @@ fn render_path(
     let out = pool.install(|| match spectral {
         SpectralMode::Rgb => run_path::<4>(scene, options, LaneMode::Fixed(Lanes::rgb()), progress, cancel),
         SpectralMode::Bins(n) if n <= 4 => {
-            run_path::<4>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
+            run_path::<4>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 8 => {
-            run_path::<8>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
+            run_path::<8>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 16 => {
-            run_path::<16>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
+            run_path::<16>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 32 => {
-            run_path::<32>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
+            run_path::<32>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 48 => {
-            run_path::<48>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
+            run_path::<48>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= 64 => {
-            run_path::<64>(scene, options, LaneMode::Fixed(Lanes::bins(n).calibrated(&white)), progress, cancel)
+            run_path::<64>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
         }
         SpectralMode::Bins(n) if n <= crate::spectral::MAX_BINS => run_path::<{ crate::spectral::MAX_BINS }>(
             scene,
             options,
-            LaneMode::Fixed(Lanes::bins(n).calibrated(&white)),
+            LaneMode::Fixed(Lanes::bins(n, &white)),
             progress,
             cancel,
         ),
@@ -364,7 +352,7 @@ fn run<const N: usize>(
                 for c in 0..3 {
                     xyz[c] += s[c] * inv_spp;
                 }
-                SpectralRows::add(spectral, x, film_lanes, &radiance.0, f64::from(inv_spp));
+                SpectralRows::add(spectral, x, film_lanes, &radiance.0);
             }
             *pixel = xyz;
         }
@@ -373,7 +361,7 @@ fn run<const N: usize>(
         progress(Progress { rows_done: done as u32, rows_total: height, rays: rays_now, elapsed: start.elapsed() });
         Ok(())
     })?;
-    film.attach(&mut image, 1.0);
+    film.attach(&mut image, 1.0 / f64::from(options.spp));
     image.sanitize();
     Ok((image, rays.into_inner(), start.elapsed()))
 }
@@ -414,18 +402,18 @@ impl SpectralRows {
         }
     }
 
-    /// Add `weight` × the first `lanes` values to pixel `x` of a row chunk (nothing when the
-    /// chunk is empty).
+    /// Add the first `lanes` values to pixel `x` of a row chunk (nothing when the chunk is
+    /// empty, i.e. without a film).
     #[inline]
-    pub(crate) fn add<const N: usize>(row: &mut [f64], x: usize, lanes: usize, values: &[f32; N], weight: f64) {
+    pub(crate) fn add<const N: usize>(row: &mut [f64], x: usize, lanes: usize, values: &[f32; N]) {
         if let Some(pixel) = row.get_mut(x * lanes..(x + 1) * lanes) {
             for (sum, v) in pixel.iter_mut().zip(values) {
-                *sum += f64::from(*v) * weight;
+                *sum += f64::from(*v);
             }
         }
     }
 
-    /// Store the sums × `scale` in the image.
+    /// Store the sums × `scale` (1 / samples per pixel) in the image.
     pub(crate) fn attach(self, image: &mut Image, scale: f64) {
         if self.wavelengths.is_empty() {
             return;

@@ -97,10 +97,28 @@ pub(crate) struct Lanes<const N: usize> {
 
 impl<const N: usize> Lanes<N> {
     /// `count` wavelengths over 360–830 nm, both ends included, each weighted by its spacing
-    /// (the paper's X = k Σ S R x̄ Δλ). The weights are normalised by the same discrete sum of
-    /// ȳ, so an equal-energy spectrum of value 1 gives exactly Y = 1 (the paper's k without the
-    /// factor 100).
-    pub(crate) fn bins(count: usize) -> Self {
+    /// (the paper's X = k Σ S R x̄ Δλ), calibrated to the scene's light `white`: each of X, Y,
+    /// Z is normalised so that `white` has exactly its 1 nm XYZ. The paper's k normalises Y
+    /// only; at coarse spacing the point-sampled x̄ and z̄ then put the light's own white off
+    /// (ΔE00 5 for an equal-energy light at 8 lanes). What remains is the error of lit
+    /// surfaces, which `choose_auto` bounds.
+    pub(crate) fn bins(count: usize, white: &DenselySampledSpectrum) -> Self {
+        let mut lanes = Self::point_sampled(count);
+        let exact = unit_xyz(white);
+        let got = lanes.xyz(&lanes.project(white, SpectrumKind::Emission));
+        for (c, row) in lanes.to_xyz.iter_mut().enumerate() {
+            // A black channel of the light (or a black light) keeps the plain weights.
+            if exact[c] > 0.0 && got[c] > 0.0 {
+                let scale = (exact[c] / f64::from(got[c])) as f32;
+                row.iter_mut().for_each(|w| *w *= scale);
+            }
+        }
+        lanes
+    }
+
+    /// The paper's weights as written: point samples of the CMFs normalised by Σ ȳ, so an
+    /// equal-energy spectrum of value 1 gives exactly Y = 1 (its k without the factor 100).
+    fn point_sampled(count: usize) -> Self {
         assert!((2..=N).contains(&count), "bins:{count} needs 2..={N} lanes");
         let step = (LAMBDA_MAX - LAMBDA_MIN) / (count - 1) as f32;
         let cmf = Observer::Cie1931.cmf();
@@ -118,34 +136,6 @@ impl<const N: usize> Lanes<N> {
         let norm: f64 = w[1].iter().sum();
         let to_xyz = w.map(|row| row.map(|v| (v / norm) as f32));
         Self { lambda, to_xyz, rgb: false }
-    }
-
-    /// The same lanes with each of X, Y, Z rescaled so that `white` (the scene's light) has
-    /// exactly its 1 nm XYZ. Point-sampled colour-matching functions at coarse spacing put a
-    /// flat spectrum's white off by up to ΔE00 5 (8 lanes, equal energy): the paper's k fixes
-    /// Y only, this fixes the chromaticity of the light too, and the remaining error of a lit
-    /// surface is what `choose_auto` bounds. RGB lanes and a black `white` are left as they are.
-    pub(crate) fn calibrated(mut self, white: &DenselySampledSpectrum) -> Self {
-        if self.rgb {
-            return self;
-        }
-        let exact = colorimetry::emission_to_xyz(white, Observer::Cie1931, &colorimetry::Integration::Step(1.0));
-        let ybar = colorimetry::emission_to_xyz(
-            &DenselySampledSpectrum::constant(1.0),
-            Observer::Cie1931,
-            &colorimetry::Integration::Step(1.0),
-        )
-        .y;
-        let exact = [exact.x / ybar, exact.y / ybar, exact.z / ybar];
-        let values = self.project(white, SpectrumKind::Emission);
-        let lanes = self.xyz(&values);
-        for (c, row) in self.to_xyz.iter_mut().enumerate() {
-            if exact[c] > 0.0 && lanes[c] > 0.0 {
-                let scale = (exact[c] / f64::from(lanes[c])) as f32;
-                row.iter_mut().for_each(|w| *w *= scale);
-            }
-        }
-        self
     }
 
     /// Three linear sRGB channels (N must be ≥ 3; lanes beyond 3 are unused).
@@ -210,6 +200,15 @@ impl<const N: usize> Lanes<N> {
     }
 }
 
+/// The 1 nm XYZ of an emission spectrum in the film's units: an equal-energy spectrum of
+/// value 1 has Y = 1.
+pub(crate) fn unit_xyz(s: &DenselySampledSpectrum) -> [f64; 3] {
+    let integration = colorimetry::Integration::Step(1.0);
+    let xyz = colorimetry::emission_to_xyz(s, Observer::Cie1931, &integration);
+    let ybar = colorimetry::emission_to_xyz(&DenselySampledSpectrum::constant(1.0), Observer::Cie1931, &integration).y;
+    [xyz.x / ybar, xyz.y / ybar, xyz.z / ybar]
+}
+
 /// The linear sRGB triple the paper's RGB baseline would use for a spectrum.
 pub(crate) fn spectrum_to_rgb(s: &DenselySampledSpectrum, kind: SpectrumKind) -> [f32; 3] {
     let observer = Observer::Cie1931;
@@ -221,9 +220,8 @@ pub(crate) fn spectrum_to_rgb(s: &DenselySampledSpectrum, kind: SpectrumKind) ->
             Xyz { x: xyz.x / 100.0, y: xyz.y / 100.0, z: xyz.z / 100.0 }
         }
         SpectrumKind::Emission => {
-            let xyz = colorimetry::emission_to_xyz(s, observer, &integration);
-            let ybar = colorimetry::emission_to_xyz(&DenselySampledSpectrum::constant(1.0), observer, &integration).y;
-            Xyz { x: xyz.x / ybar, y: xyz.y / ybar, z: xyz.z / ybar }
+            let [x, y, z] = unit_xyz(s);
+            Xyz { x, y, z }
         }
     };
     let rgb = RgbColorSpace::srgb().xyz_to_rgb(xyz);
@@ -249,7 +247,7 @@ mod tests {
     #[test]
     fn equal_energy_white_has_unit_luminance_in_every_lane_set() {
         for count in [8usize, 16, 32, 95] {
-            let lanes = Lanes::<96>::bins(count);
+            let lanes = Lanes::<96>::point_sampled(count);
             let ones = lanes.project(&DenselySampledSpectrum::constant(1.0), SpectrumKind::Emission);
             let xyz = lanes.xyz(&ones);
             assert!((xyz[1] - 1.0).abs() < 1e-5, "bins:{count} Y = {}", xyz[1]);
@@ -289,7 +287,7 @@ mod tests {
             let light = materials::named_spectrum(name).unwrap();
             let want = exact(&light);
             for count in [8usize, 16, 32, 95] {
-                let lanes = Lanes::<96>::bins(count).calibrated(&light);
+                let lanes = Lanes::<96>::bins(count, &light);
                 let got = lanes.xyz(&lanes.project(&light, SpectrumKind::Emission));
                 for c in 0..3 {
                     assert!(
@@ -302,7 +300,7 @@ mod tests {
         // Why: uncalibrated, the point-sampled CMFs at 8 wavelengths put an equal-energy
         // light's white ΔE00 ~5 off (measured 4.96), though its Y is exact.
         let e = DenselySampledSpectrum::constant(1.0);
-        let lanes = Lanes::<96>::bins(8);
+        let lanes = Lanes::<96>::point_sampled(8);
         let off = de(lanes.xyz(&lanes.project(&e, SpectrumKind::Emission)), exact(&e));
         assert!(off > 4.0, "ΔE00 {off}");
     }

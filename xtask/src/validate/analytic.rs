@@ -7,16 +7,8 @@ pub(crate) fn whitted_checks(report: &mut Report) -> anyhow::Result<()> {
     // Eq. 8 through a slab of thickness b keeping t per unit (index 1, k_t = 1, flat spectra):
     // Y = t^b exactly, up to f32 rounding (1e-5).
     for (b, t) in [(0.5f32, 0.99f32), (1.0, 0.95), (4.0, 0.5), (10.0, 0.1), (50.0, 0.01)] {
-        let json = format!(
-            r#"{{ "camera": {{"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 10}},
-            "lights": [{{"type": "point", "position": [0, 0, 50], "intensity": 0}}],
-            "background": {{"spectrum": "E", "intensity": 1}},
-            "materials": {{"glass": {{"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": 1.0, "absorption": {{"per_unit": {t}}}}}}},
-            "objects": [
-              {{"type": "quad", "corner": [-5, -5, 0], "edge_u": [10, 0, 0], "edge_v": [0, 10, 0], "material": "glass"}},
-              {{"type": "quad", "corner": [-5, -5, -{b}], "edge_u": [0, 10, 0], "edge_v": [10, 0, 0], "material": "glass"}}
-            ] }}"#
-        );
+        let camera = r#"{"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 10}"#;
+        let json = clear_slab(camera, 5.0, f64::from(t), f64::from(b));
         let (image, stats) = render(&scene(&json)?, &small(3, 3))?;
         let (y, expected) = (image.xyz(1, 1)[1], t.powf(b));
         let pass = (y - expected).abs() < 1e-5 && stats.nonfinite_samples == 0;
@@ -30,13 +22,8 @@ pub(crate) fn whitted_checks(report: &mut Report) -> anyhow::Result<()> {
         );
     }
     // IOR 1, k_t = 1: a glass sphere is invisible; the image is the background everywhere.
-    // Light and background share one spectrum (E), to which the lanes are calibrated exactly.
-    let json = r#"{ "camera": {"position": [0, 0, 5], "look_at": [0, 0, 0], "vfov_deg": 30},
-        "lights": [{"type": "point", "position": [5, 5, 10], "spectrum": "E", "intensity": 150}],
-        "background": {"spectrum": "E", "intensity": 1},
-        "materials": {"glass": {"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": 1.0}},
-        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glass"}] }"#;
-    let (image, _) = render(&scene(json)?, &small(16, 16))?;
+    let json = clear_sphere(r#"{"position": [0, 0, 5], "look_at": [0, 0, 0], "vfov_deg": 30}"#, 1.0, 1.0, 1.0);
+    let (image, _) = render(&scene(&json)?, &small(16, 16))?;
     let worst = image.pixels().iter().map(|p| (p[1] - 1.0).abs()).fold(0.0f32, f32::max);
     report.check(
         "analytic (whitted-hall)",
@@ -50,13 +37,9 @@ pub(crate) fn whitted_checks(report: &mut Report) -> anyhow::Result<()> {
     // seen, k_t = 1, T_s = 1, depth 30 and no weight cut-off: rays bounce inside past the
     // critical angle many times. The model has no gain, so no pixel may exceed the background
     // (Y = 1); 1e-4 allows f32 rounding over 30 bounces.
-    let json = r#"{ "camera": {"position": [0, 0, 4], "look_at": [0, 0, -100], "vfov_deg": 30},
-        "lights": [{"type": "point", "position": [5, 5, 10], "intensity": 150}],
-        "background": {"spectrum": "E", "intensity": 1},
-        "materials": {"glass": {"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": 2.4}},
-        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glass"}] }"#;
+    let json = clear_sphere(r#"{"position": [0, 0, 4], "look_at": [0, 0, -100], "vfov_deg": 30}"#, 2.4, 1.0, 1.0);
     let options = RenderOptions { min_weight: 0.0, max_depth: Some(30), ..small(24, 24) };
-    let (image, stats) = render(&scene(json)?, &options)?;
+    let (image, stats) = render(&scene(&json)?, &options)?;
     let brightest = image.pixels().iter().map(|p| p[1]).fold(0.0f32, f32::max);
     report.check(
         "analytic (whitted-hall)",

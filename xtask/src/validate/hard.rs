@@ -24,20 +24,6 @@ fn glass(camera: &str, ior: f32, per_unit: f64, radius: f32) -> String {
     )
 }
 
-/// Clear glass (k_t = 1, T_s = 1, no reflection or diffuse term) before a white background
-/// (Y = 1): whatever reaches the camera is the background times t^b, so answers are exact.
-/// The light is equal-energy like the background: with one emitter spectrum the wavelength
-/// lanes are calibrated to it, and the background's Y is exact at any bin count.
-fn clear_sphere(camera: &str, ior: f32, per_unit: f64, radius: f32) -> String {
-    format!(
-        r#"{{ "camera": {camera},
-        "lights": [{{"type": "point", "position": [5, 5, 10], "spectrum": "E", "intensity": 150}}],
-        "background": {{"spectrum": "E", "intensity": 1}},
-        "materials": {{"glass": {{"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": {ior}, "absorption": {{"per_unit": {per_unit}}}}}}},
-        "objects": [{{"type": "sphere", "center": [0, 0, 0], "radius": {radius}, "material": "glass"}}] }}"#
-    )
-}
-
 /// Every hard case in both integrators: no NaN/Inf and no negative value. Their expected
 /// colours are not closed-form (the exact variants are in [`exact`]).
 fn stability(report: &mut Report) -> anyhow::Result<()> {
@@ -108,16 +94,7 @@ fn exact(report: &mut Report) -> anyhow::Result<()> {
     let slab_t: f64 = 1e-30;
     let slab_b = 1e-4;
     let cos_corner = 1.0 / (1.0 + 2.0 * (10f64.to_radians().tan()).powi(2)).sqrt();
-    let slab = format!(
-        r#"{{ "camera": {{"position": [0, 0, 3], "look_at": [0, 0, 0], "vfov_deg": 20}},
-        "lights": [{{"type": "point", "position": [0, 0, 50], "intensity": 0}}],
-        "background": {{"spectrum": "E", "intensity": 1}},
-        "materials": {{"glass": {{"diffuse": 0, "ks": 0, "transmission": 1, "transmittance": 1, "ior": 1.0, "absorption": {{"per_unit": {slab_t}}}}}}},
-        "objects": [
-          {{"type": "quad", "corner": [-1, -1, 0], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0], "material": "glass"}},
-          {{"type": "quad", "corner": [-1, -1, -{slab_b}], "edge_u": [0, 2, 0], "edge_v": [2, 0, 0], "material": "glass"}}
-        ] }}"#
-    );
+    let slab = clear_slab(r#"{"position": [0, 0, 3], "look_at": [0, 0, 0], "vfov_deg": 20}"#, 1.0, slab_t, slab_b);
     let cases: [ExactCase; 4] = [
         (
             "camera at the centre of a glass sphere (n = 1.5, t = 0.5, r = 2): Y = t^r",

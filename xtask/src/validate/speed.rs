@@ -136,14 +136,8 @@ fn whitted_default(report: &mut Report, out: &Path, md: &mut String, quick: bool
     ] {
         let (image, stats) = render(&five, &RenderOptions { spectral: mode, ..base.clone() })?;
         let de = delta_e_all(image.pixels(), reference.pixels());
-        points.push(Point {
-            strategy: if mode == SpectralMode::Auto { format!("auto ({})", stats.spectral) } else { mode.to_string() },
-            spp: 1,
-            seconds: stats.elapsed.as_secs_f64(),
-            mean_de: mean(&de),
-            p95_de: p95(&de),
-            rel_mse: relative_mse(image.pixels(), reference.pixels()),
-        });
+        let label = mode.to_string();
+        points.push(Point::new(&label, mode, &stats, &de, relative_mse(image.pixels(), reference.pixels())));
     }
     writeln!(
         md,

@@ -3,6 +3,7 @@
 use colorimetry::{Illuminant, Integration, Observer};
 use integrator::{Ambient, SpectralMode};
 
+use crate::spectral_film::assert_pixel;
 use crate::{assert_all_finite, options, render_with, scene};
 
 /// A camera on the z axis looking down −z at whatever is at the origin.
@@ -58,6 +59,7 @@ fn white_lit_grey_plane_has_the_xyz_colorimetry_predicts() {
     let s = scene(&json);
     let opts = integrator::RenderOptions {
         spectral: SpectralMode::Bins(95),
+        spectral_film: true,
         absorption: false,
         ambient: Ambient::None,
         ..options(1, 1)
@@ -84,6 +86,12 @@ fn white_lit_grey_plane_has_the_xyz_colorimetry_predicts() {
         let e = (e / 100.0) as f32;
         assert!((g - e).abs() < 1e-4 * e.max(1e-3), "got {got:?}, expected {expected:?}/100");
     }
+    // Before the XYZ sums: the spectral film holds F_d(λ) S(λ) at each of the 95 wavelengths,
+    // S being D65 at unit luminance.
+    let (lambdas, values) = image.spectral().expect("a spectral film");
+    assert_eq!(lambdas.len(), 95);
+    let light = materials::luminance_normalized(&d65);
+    assert_pixel(lambdas, values, 0, |l| grey.eval(l) * light.eval(l), "grey plane");
 }
 
 #[test]

@@ -1,4 +1,5 @@
 //! The spectral film (`--spectral-exr`): each pixel's radiance at the rendered wavelengths.
+//! (The paper's model's film is checked with its grey plane in `paper_model.rs`.)
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -9,7 +10,7 @@ use materials::{luminance_normalized, named_spectrum};
 use crate::{assert_all_finite, options, render_with, scene};
 
 /// Check `values` (pixel-major, `lambdas.len()` per pixel) at `pixel` against `expected(λ)`.
-fn assert_pixel(lambdas: &[f32], values: &[f32], pixel: usize, expected: impl Fn(f64) -> f64, what: &str) {
+pub(crate) fn assert_pixel(lambdas: &[f32], values: &[f32], pixel: usize, expected: impl Fn(f64) -> f64, what: &str) {
     let n = lambdas.len();
     for (i, &lambda) in lambdas.iter().enumerate() {
         let (got, want) = (f64::from(values[pixel * n + i]), expected(f64::from(lambda)));
@@ -43,25 +44,6 @@ fn path_tracer_film_is_reflectance_times_the_environment() {
         let patch = named_spectrum(&format!("colorchecker:{}", pixel + 1)).unwrap();
         assert_pixel(lambdas, values, pixel, |l| patch.eval(l) * light.eval(l), &format!("patch {}", pixel + 1));
     }
-}
-
-#[test]
-fn papers_model_film_is_the_hall_diffuse_term() {
-    // A grey plane facing a D65 point light at distance 10 with intensity 10² (irradiance 1),
-    // no ambient: the Hall diffuse term is F_d(λ) S(λ) at every wavelength.
-    let json = r#"{ "camera": {"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 10},
-        "lights": [{"type": "point", "position": [0, 0, 10], "spectrum": "D65", "intensity": 100}],
-        "materials": {"grey": {"base_color": "colorchecker:22", "diffuse": 1, "ks": 0}},
-        "objects": [{"type": "quad", "corner": [-1, -1, 0], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0], "material": "grey"}] }"#;
-    let opts =
-        RenderOptions { spectral: SpectralMode::Bins(95), spectral_film: true, absorption: false, ..options(1, 1) };
-    let (image, stats) = render_with(&scene(json), &opts);
-    assert_all_finite(&image, &stats);
-    let (lambdas, values) = image.spectral().expect("a spectral film");
-    assert_eq!(lambdas.len(), 95);
-    let grey = named_spectrum("colorchecker:22").unwrap();
-    let light = luminance_normalized(&named_spectrum("D65").unwrap());
-    assert_pixel(lambdas, values, 0, |l| grey.eval(l) * light.eval(l), "grey plane");
 }
 
 #[test]
