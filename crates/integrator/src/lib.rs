@@ -92,7 +92,7 @@ fn emitter_spectra(scene: &RenderScene) -> Vec<&colorimetry::DenselySampledSpect
     lights
 }
 
-/// The white fixed wavelength lanes are calibrated to (`Lanes::calibrated`): the mean of the
+/// The white fixed wavelength lanes are calibrated to (`Lanes::bins`): the mean of the
 /// scene's emitter spectra, each at luminance 1. With one light spectrum (most scenes) that
 /// light's colour comes out exact; with several, their mixture does.
 pub(crate) fn scene_white(scene: &RenderScene) -> colorimetry::DenselySampledSpectrum {
