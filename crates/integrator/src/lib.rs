@@ -31,6 +31,7 @@ mod bsdf;
 mod error;
 mod film;
 mod light;
+mod output;
 mod path;
 mod render;
 mod sampling;
