@@ -7,7 +7,9 @@
 //! - `upsampling-report`: round-trip error and speed of the upsampling over a dense sRGB grid.
 //! - `validate`: the validation suite (colorimetry, analytic renders, hard cases, speed against error, scaling).
 //! - `paper`: the paper's figures 8–11 as side-by-side renders with their backing numbers.
+//! - `exr-diff`: the largest difference between two EXR files (refactorings must move no number).
 
+mod exr_diff;
 mod paper;
 mod stats;
 mod upsampling;
@@ -34,6 +36,8 @@ enum Command {
     Paper(paper::PaperArgs),
     /// Render the validation suite, check every number against its tolerance, write a report.
     Validate(validate::ValidateArgs),
+    /// The largest difference between two EXR files of the same layout.
+    ExrDiff(exr_diff::ExrDiffArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -42,6 +46,7 @@ fn main() -> anyhow::Result<()> {
         Command::UpsamplingReport(args) => upsampling::report(&args),
         Command::Paper(args) => paper::run(&args),
         Command::Validate(args) => validate::run(&args),
+        Command::ExrDiff(args) => exr_diff::run(&args),
     }
 }
 

@@ -67,7 +67,7 @@ pub(crate) fn run(args: &PaperArgs) -> anyhow::Result<()> {
             "Fig. 9 — without and with Bouguer–Beer absorption (eq. 8)",
             RenderScene::default_scene()?,
             [
-                ("no absorption".to_owned(), RenderOptions { absorption: false, ..base.clone() }),
+                ("no absorption".to_owned(), base.clone().whitted(|w| w.absorption = false)),
                 ("absorption".to_owned(), base.clone()),
             ],
         ),
@@ -76,7 +76,7 @@ pub(crate) fn run(args: &PaperArgs) -> anyhow::Result<()> {
             "Fig. 10 — 10 % constant ambient vs the object ambient (eq. 9)",
             RenderScene::default_scene()?,
             [
-                ("constant 10 %".to_owned(), RenderOptions { ambient: Ambient::Constant(0.1), ..base.clone() }),
+                ("constant 10 %".to_owned(), base.clone().whitted(|w| w.ambient = Ambient::Constant(0.1))),
                 ("object ambient".to_owned(), base.clone()),
             ],
         ),

@@ -26,7 +26,7 @@ use ::colorimetry::{
     delta_e_2000, reflectance_to_xyz, upsample_reflectance,
 };
 use anyhow::Context as _;
-use integrator::{Ambient, Image, IntegratorKind, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
+use integrator::{Ambient, Image, Integrator, PathOptions, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
 
 use crate::stats::{WHITE, delta_e_all, mean, p95, xyz_of};
 
@@ -232,14 +232,14 @@ pub(crate) fn clear_slab(camera: &str, half: f64, per_unit: f64, thickness: f64)
 }
 
 fn small(w: u32, h: u32) -> RenderOptions {
-    RenderOptions { width: w, height: h, ambient: Ambient::None, ..RenderOptions::default() }
+    RenderOptions { width: w, height: h, ..RenderOptions::default() }.whitted(|w| w.ambient = Ambient::None)
 }
 
 fn path_options(w: u32, h: u32, spectral: SpectralMode, spp: u32) -> RenderOptions {
     RenderOptions {
         width: w,
         height: h,
-        integrator: IntegratorKind::Path,
+        integrator: Integrator::Path(PathOptions::default()),
         spectral,
         spp,
         seed: 1,

@@ -6,7 +6,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
-use integrator::{Ambient, Display, IntegratorKind, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
+use integrator::{
+    Ambient, Display, Integrator, IntegratorKind, PathOptions, RenderOptions, RenderScene, SpectralMode, WavelengthPdf,
+    WhittedOptions,
+};
 
 /// Arguments of `spectrace render`.
 #[derive(Debug, clap::Args)]
@@ -25,12 +28,12 @@ pub(crate) struct RenderArgs {
     height: Option<u32>,
     /// Light transport: `whitted-hall` (the paper's model) or `path` (physically based
     /// spectral path tracing).
-    #[arg(long, default_value = "whitted-hall", value_parser = parse_integrator)]
+    #[arg(long, default_value = "whitted-hall")]
     integrator: IntegratorKind,
     /// Spectral sampling: `rgb`, `bins:N` (N wavelengths over 360-830 nm; bins:95 = 5 nm),
     /// `hero[:K]` (path tracer: K = 4 or 8 wavelengths drawn per sample) or `auto` (chosen from
     /// the scene's spectra).
-    #[arg(long, default_value = "auto", value_parser = parse_spectral)]
+    #[arg(long, default_value = "auto")]
     spectral: SpectralMode,
     /// Samples per pixel (deterministic sub-pixel positions).
     #[arg(long, default_value_t = 1)]
@@ -43,16 +46,16 @@ pub(crate) struct RenderArgs {
     time_limit: Option<std::time::Duration>,
     /// Path tracer with `hero:K`: wavelength density, `illuminant` (follows the lights'
     /// spectra) or `visible` (pbrt-v4's).
-    #[arg(long, default_value = "illuminant", value_parser = parse_wavelength_pdf)]
+    #[arg(long, default_value = "illuminant")]
     wavelength_pdf: WavelengthPdf,
     /// Bouguer-Beer absorption inside transparent objects (the paper's eq. 8).
     #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     absorption: bool,
     /// Ambient term: `objects` (the paper's eq. 9), `objects:K_A`, `constant:K_A` or `none`.
-    #[arg(long, default_value = "objects", value_parser = parse_ambient)]
+    #[arg(long, default_value = "objects")]
     ambient: Ambient,
     /// Output display: `srgb` or `paper9300` (the paper's 9300 K monitor, its eq. 4).
-    #[arg(long, default_value = "srgb", value_parser = parse_display)]
+    #[arg(long, default_value = "srgb")]
     display: Display,
     /// Maximum recursion depth [default: the scene's `max_depth`, else 20 for whitted-hall (the
     /// paper's value) or 64 for path].
@@ -74,26 +77,11 @@ pub(crate) struct RenderArgs {
     quiet: bool,
 }
 
-fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
-    IntegratorKind::parse(s).map_err(|e| e.to_string())
-}
-fn parse_spectral(s: &str) -> Result<SpectralMode, String> {
-    SpectralMode::parse(s).map_err(|e| e.to_string())
-}
-fn parse_wavelength_pdf(s: &str) -> Result<WavelengthPdf, String> {
-    WavelengthPdf::parse(s).map_err(|e| e.to_string())
-}
 fn parse_seconds(s: &str) -> Result<std::time::Duration, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 && v < 1e9 => Ok(std::time::Duration::from_secs_f64(v)),
         _ => Err(format!("expected a positive number of seconds, got `{s}`")),
     }
-}
-fn parse_ambient(s: &str) -> Result<Ambient, String> {
-    Ambient::parse(s).map_err(|e| e.to_string())
-}
-fn parse_display(s: &str) -> Result<Display, String> {
-    Display::parse(s).map_err(|e| e.to_string())
 }
 fn parse_on_off(s: &str) -> Result<bool, String> {
     match s {
@@ -118,19 +106,26 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
     }
     let (scene_width, scene_height) = scene.resolution();
+    let integrator = match args.integrator {
+        IntegratorKind::WhittedHall => Integrator::WhittedHall(WhittedOptions {
+            max_depth: args.max_depth,
+            min_weight: args.min_weight,
+            absorption: args.absorption,
+            ambient: args.ambient,
+        }),
+        IntegratorKind::Path => {
+            Integrator::Path(PathOptions { max_depth: args.max_depth, wavelength_pdf: args.wavelength_pdf })
+        }
+    };
     let options = RenderOptions {
         width: args.width.unwrap_or(scene_width),
         height: args.height.unwrap_or(scene_height),
-        integrator: args.integrator,
+        integrator,
         spectral: args.spectral,
         spp: args.spp,
+        samples: None,
         seed: args.seed,
         time_limit: args.time_limit,
-        wavelength_pdf: args.wavelength_pdf,
-        max_depth: args.max_depth,
-        min_weight: args.min_weight,
-        absorption: args.absorption,
-        ambient: args.ambient,
         threads: args.threads,
         spectral_film: args.spectral_exr.is_some(),
     };

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use integrator::{IntegratorKind, RenderOptions, RenderScene, SpectralMode, render};
+use integrator::{Integrator, PathOptions, RenderOptions, RenderScene, SpectralMode, render};
 
 fn run(scene: &RenderScene, options: &RenderOptions) -> u64 {
     let (_, stats) = render(scene, options, &|_| {}, &AtomicBool::new(false)).expect("render");
@@ -47,7 +47,7 @@ fn path(c: &mut Criterion) {
     let base = RenderOptions {
         width: 512,
         height: 512,
-        integrator: IntegratorKind::Path,
+        integrator: Integrator::Path(PathOptions::default()),
         spp: 4,
         threads: Some(1),
         ..RenderOptions::default()

@@ -1,9 +1,25 @@
-//! The film (XYZ per pixel) and display conversion; writing files is `output.rs`.
+//! The film: how each sample's wavelengths are chosen ([`Sensor`]), the exact per-pixel sums
+//! samples are added to ([`Film`]), and the resolved image ([`Image`]) with its display
+//! conversion. Writing files is `output.rs`.
+//!
+//! **Why fixed-point sums.** A render split by sample range over several processes or machines
+//! must merge to exactly the bits of one render. Floating-point addition is not associative,
+//! so a film of f64 sums would depend on the order in which parts are added. The film instead
+//! adds every sample value as a 128-bit integer with 64 fractional bits: integer addition is
+//! associative, so any partition of the samples, any thread count and any merge order give
+//! the same sums. An f32 sample value is converted exactly for |v| ≥ 2⁻⁴¹ (its 24-bit mantissa
+//! fits above the 2⁻⁶⁴ step) and truncated below (an error under 2⁻⁶⁴ per sample). The sums
+//! are then exact, which plain f64 sums of f32 values also are unless their exponents span
+//! more than 29 bits; so images come out bit-identical to f64 accumulation almost always, and
+//! otherwise within one f32 rounding.
 
-use colorimetry::{RgbColorSpace, Xyz};
+use colorimetry::{
+    DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, RgbColorSpace, SampledSpectrum, SampledWavelengths, Xyz,
+};
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::whitted::ObjectId;
+use crate::spectral::Lanes;
 
 /// Which display the output RGB is for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -14,16 +30,20 @@ pub enum Display {
     Paper9300,
 }
 
-impl Display {
-    /// Parse a `--display` value.
-    pub fn parse(s: &str) -> Result<Self> {
+impl std::str::FromStr for Display {
+    type Err = Error;
+
+    /// `srgb` or `paper9300`.
+    fn from_str(s: &str) -> Result<Self> {
         match s {
             "srgb" => Ok(Self::Srgb),
             "paper9300" => Ok(Self::Paper9300),
             _ => Err(Error::InvalidOption { option: "display", value: s.to_owned(), expected: "srgb or paper9300" }),
         }
     }
+}
 
+impl Display {
     /// The RGB colour space of the display.
     pub fn color_space(self) -> &'static RgbColorSpace {
         match self {
@@ -33,7 +53,418 @@ impl Display {
     }
 }
 
-/// A rendered image: CIE XYZ per pixel, scaled so a white diffuser under the scene's light
+/// What a pixel's first camera ray hit: a material (by index; `None` = the default material)
+/// or nothing. Reports use it to average over objects (e.g. "the spheres").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObjectId {
+    /// The ray escaped.
+    Background,
+    /// The ray hit a surface with this material index.
+    Material(Option<u32>),
+}
+
+/// Fractional bits of the first-moment sums (XYZ, spectral lanes).
+const FRACTION_BITS: i32 = 64;
+/// Fractional bits of the second-moment sum (Y²): squares need range more than resolution.
+const SQUARE_FRACTION_BITS: i32 = 32;
+/// Largest |sample value| added as it is: 2⁴² (4.4·10¹² — a directly seen sun is ~1.6·10⁹
+/// cd/m²). With at most 2²⁰ samples per pixel the sums stay below 2¹²⁷: 2⁴²·2⁶⁴·2²⁰ = 2¹²⁶.
+/// Larger values are clamped to it and counted.
+const MAX_SAMPLE_VALUE: f64 = 4_398_046_511_104.0;
+/// Largest samples per pixel a film accepts (see [`MAX_SAMPLE_VALUE`]).
+pub(crate) const MAX_SPP: u32 = 1 << 20;
+
+/// `v · 2^bits` as an integer, exact where representable, truncated towards zero below the
+/// last bit; `v` finite and |v| ≤ [`MAX_SAMPLE_VALUE`] (or its square for the second moment).
+#[inline]
+fn to_fixed(v: f64, bits: i32) -> i128 {
+    let raw = v.to_bits();
+    let exponent = ((raw >> 52) & 0x7ff) as i32;
+    if exponent == 0 {
+        return 0; // zero or subnormal (< 2⁻¹⁰²²): far below the last bit
+    }
+    let mantissa = i128::from((raw & ((1 << 52) - 1)) | (1 << 52));
+    // v = mantissa · 2^(exponent − 1075); fixed = mantissa · 2^(exponent − 1075 + bits).
+    let shift = exponent - 1075 + bits;
+    let magnitude = if shift >= 0 {
+        mantissa << shift.min(74)
+    } else if shift > -53 {
+        mantissa >> -shift
+    } else {
+        0
+    };
+    if raw >> 63 == 1 { -magnitude } else { magnitude }
+}
+
+#[inline]
+fn from_fixed(sum: i128, bits: i32) -> f64 {
+    // i128 → f64 rounds to nearest; the power of two scales exactly.
+    sum as f64 * (-f64::from(bits)).exp2()
+}
+
+/// One pixel's sums: Σ X, Σ Y, Σ Z, Σ Y² (fixed point) and the number of samples.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct PixelSums {
+    xyz: [i128; 3],
+    y2: i128,
+    count: u32,
+}
+
+/// The per-pixel sums of one render or of a range of its samples. Films of disjoint sample
+/// ranges of the same render merge ([`Film::merge`]) into exactly the film of their union.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Film {
+    width: u32,
+    height: u32,
+    pixels: Vec<PixelSums>,
+    /// Wavelengths of the spectral channels (empty: no spectral film).
+    wavelengths: Vec<f32>,
+    /// Σ lane radiance per pixel and wavelength, pixel-major.
+    spectral: Vec<i128>,
+    /// What each pixel's sample 0 hit (valid where `has_first_sample`).
+    ids: Vec<ObjectId>,
+    has_first_sample: bool,
+    /// Samples whose value was NaN or infinite (added as black; must be 0).
+    nonfinite: u64,
+    /// Samples whose value exceeded [`MAX_SAMPLE_VALUE`] (clamped).
+    clamped: u64,
+}
+
+/// One row of a film, lent to a worker thread.
+pub(crate) struct FilmRow<'a> {
+    pixels: &'a mut [PixelSums],
+    spectral: &'a mut [i128],
+    ids: &'a mut [ObjectId],
+    lanes: usize,
+    pub(crate) nonfinite: u64,
+    pub(crate) clamped: u64,
+}
+
+impl Film {
+    /// An empty film; `wavelengths` non-empty keeps per-wavelength sums too.
+    pub(crate) fn new(width: u32, height: u32, wavelengths: Vec<f32>) -> Self {
+        let n = width as usize * height as usize;
+        Self {
+            width,
+            height,
+            pixels: vec![PixelSums::default(); n],
+            spectral: vec![0; n * wavelengths.len()],
+            wavelengths,
+            ids: vec![ObjectId::Background; n],
+            has_first_sample: false,
+            nonfinite: 0,
+            clamped: 0,
+        }
+    }
+
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Samples taken in pixel (`x`, `y`).
+    pub fn sample_count(&self, x: u32, y: u32) -> u32 {
+        self.pixels[y as usize * self.width as usize + x as usize].count
+    }
+
+    /// Fewest samples taken in any pixel.
+    pub fn min_sample_count(&self) -> u32 {
+        self.pixels.iter().map(|p| p.count).min().unwrap_or(0)
+    }
+
+    /// Samples that were NaN or infinite (added as black).
+    pub fn nonfinite_samples(&self) -> u64 {
+        self.nonfinite
+    }
+
+    /// The rows, in parallel, for one pass of the pixel loop.
+    pub(crate) fn rows_mut(&mut self) -> impl IndexedParallelIterator<Item = FilmRow<'_>> + '_ {
+        let width = self.width as usize;
+        let lanes = self.wavelengths.len();
+        let spectral_row = (width * lanes).max(1);
+        // Without a spectral film each row gets an empty slice (chunks of an empty vector
+        // would be too few to zip).
+        let empty = self.spectral.is_empty();
+        let height = self.height as usize;
+        let spectral = if empty {
+            rayon::iter::Either::Left((0..height).into_par_iter().map(|_| -> &mut [i128] { &mut [] }))
+        } else {
+            rayon::iter::Either::Right(self.spectral.par_chunks_mut(spectral_row))
+        };
+        self.pixels
+            .par_chunks_mut(width)
+            .zip(self.ids.par_chunks_mut(width))
+            .zip(spectral)
+            .map(move |((pixels, ids), spectral)| FilmRow { pixels, spectral, ids, lanes, nonfinite: 0, clamped: 0 })
+    }
+
+    /// Add the counters of finished rows.
+    pub(crate) fn add_counts(&mut self, nonfinite: u64, clamped: u64) {
+        self.nonfinite += nonfinite;
+        self.clamped += clamped;
+    }
+
+    pub(crate) fn set_has_first_sample(&mut self) {
+        self.has_first_sample = true;
+    }
+
+    /// Add `other`, the film of a disjoint range of samples of the same render: the result is
+    /// bit for bit the film of both ranges rendered at once.
+    pub fn merge(&mut self, other: &Film) -> Result<()> {
+        if (self.width, self.height) != (other.width, other.height) || self.wavelengths != other.wavelengths {
+            return Err(Error::InvalidOption {
+                option: "film to merge",
+                value: format!("{}x{} with {} wavelengths", other.width, other.height, other.wavelengths.len()),
+                expected: "a film of the same size and wavelengths",
+            });
+        }
+        for (a, b) in self.pixels.iter_mut().zip(&other.pixels) {
+            for c in 0..3 {
+                a.xyz[c] += b.xyz[c];
+            }
+            a.y2 += b.y2;
+            a.count += b.count;
+        }
+        for (a, b) in self.spectral.iter_mut().zip(&other.spectral) {
+            *a += b;
+        }
+        if other.has_first_sample {
+            self.ids.copy_from_slice(&other.ids);
+            self.has_first_sample = true;
+        }
+        self.nonfinite += other.nonfinite;
+        self.clamped += other.clamped;
+        Ok(())
+    }
+
+    /// The image: each pixel's mean XYZ (and spectral radiance) over its samples.
+    pub fn to_image(&self) -> Image {
+        let mut image = Image::new(self.width, self.height);
+        let mean = |sum: i128, inv: f64| (from_fixed(sum, FRACTION_BITS) * inv) as f32;
+        for (out, p) in image.xyz.iter_mut().zip(&self.pixels) {
+            let inv = 1.0 / f64::from(p.count.max(1));
+            *out = p.xyz.map(|s| mean(s, inv));
+        }
+        image.ids.copy_from_slice(&self.ids);
+        image.nonfinite = self.nonfinite;
+        if !self.wavelengths.is_empty() {
+            let lanes = self.wavelengths.len();
+            let values = self
+                .spectral
+                .chunks(lanes)
+                .zip(&self.pixels)
+                .flat_map(|(sums, p)| {
+                    let inv = 1.0 / f64::from(p.count.max(1));
+                    sums.iter().map(move |&s| mean(s, inv))
+                })
+                .collect();
+            image.spectral = Some(SpectralFilm { wavelengths: self.wavelengths.clone(), values });
+        }
+        image.sanitize();
+        image
+    }
+
+    /// Per-pixel variance of the mean luminance, s²/n with s² the unbiased sample variance of
+    /// Y (0 where fewer than two samples were taken): what a relative-error image shows.
+    pub fn luminance_variance(&self) -> Vec<f32> {
+        self.pixels
+            .iter()
+            .map(|p| {
+                if p.count < 2 {
+                    return 0.0;
+                }
+                let n = f64::from(p.count);
+                let mean = from_fixed(p.xyz[1], FRACTION_BITS) / n;
+                let mean_sq = from_fixed(p.y2, SQUARE_FRACTION_BITS) / n;
+                ((mean_sq - mean * mean).max(0.0) * n / (n - 1.0) / n) as f32
+            })
+            .collect()
+    }
+}
+
+impl FilmRow<'_> {
+    /// Add one sample to pixel `x` of this row: its XYZ and, with a spectral film, its lane
+    /// values (the first `lanes` of them). A non-finite sample counts as black.
+    #[inline]
+    pub(crate) fn add_sample<const N: usize>(&mut self, x: usize, xyz: [f32; 3], values: &[f32; N]) {
+        let finite = xyz.iter().all(|v| v.is_finite()) && values.iter().take(self.lanes).all(|v| v.is_finite());
+        let pixel = &mut self.pixels[x];
+        pixel.count += 1;
+        if !finite {
+            self.nonfinite += 1;
+            return;
+        }
+        let mut clamp = |v: f32| {
+            let v = f64::from(v);
+            if v.abs() > MAX_SAMPLE_VALUE {
+                self.clamped += 1;
+                MAX_SAMPLE_VALUE.copysign(v)
+            } else {
+                v
+            }
+        };
+        let [x_, y, z] = xyz.map(&mut clamp);
+        pixel.xyz[0] += to_fixed(x_, FRACTION_BITS);
+        pixel.xyz[1] += to_fixed(y, FRACTION_BITS);
+        pixel.xyz[2] += to_fixed(z, FRACTION_BITS);
+        pixel.y2 += to_fixed(y * y, SQUARE_FRACTION_BITS);
+        if self.lanes > 0 {
+            let sums = &mut self.spectral[x * self.lanes..(x + 1) * self.lanes];
+            for (sum, &v) in sums.iter_mut().zip(values) {
+                *sum += to_fixed(clamp(v), FRACTION_BITS);
+            }
+        }
+    }
+
+    /// Record what pixel `x`'s sample 0 hit.
+    #[inline]
+    pub(crate) fn set_first_hit(&mut self, x: usize, id: ObjectId) {
+        self.ids[x] = id;
+    }
+}
+
+/// How a render's samples get their wavelengths and how lane values become XYZ: the film's
+/// side of spectral sampling (pbrt-v4 `Film::SampleWavelengths` and `Film::AddSample`).
+pub(crate) enum Sensor<const N: usize> {
+    /// Fixed lanes (`rgb`, `bins:N`): the same wavelengths for every sample.
+    Fixed(Lanes<N>),
+    /// `hero:N` with pbrt-v4's visible-range density.
+    Visible,
+    /// `hero:N` with a density tabulated from the scene's lights.
+    Tabulated(WavelengthTable),
+}
+
+impl<const N: usize> Sensor<N> {
+    /// The wavelengths of one sample; `u` ∈ [0, 1) places hero wavelengths.
+    #[inline]
+    pub(crate) fn sample_wavelengths(&self, u: f32) -> SampledWavelengths<N> {
+        match self {
+            Self::Fixed(lanes) => lanes.wavelengths,
+            Self::Visible => SampledWavelengths::sample_visible(u),
+            Self::Tabulated(t) => t.sample(u),
+        }
+    }
+
+    /// Wavelengths kept per pixel by a spectral film (fixed wavelength lanes only).
+    pub(crate) fn film_wavelengths(&self) -> Option<Vec<f32>> {
+        match self {
+            Self::Fixed(lanes) if !lanes.rgb => Some(lanes.wavelengths.lambdas()[..lanes.active()].to_vec()),
+            _ => None,
+        }
+    }
+
+    /// XYZ of a sample's radiance and the lane values behind it. `lane` is the one wavelength
+    /// lane a dispersive path kept (fixed lanes; chosen with probability 1/active, so that lane
+    /// alone weighted by `active` is an unbiased estimate).
+    #[inline]
+    pub(crate) fn to_xyz(
+        &self,
+        radiance: &SampledSpectrum<N>,
+        lambda: &SampledWavelengths<N>,
+        lane: Option<usize>,
+    ) -> ([f32; 3], [f32; N]) {
+        match self {
+            Self::Fixed(lanes) => {
+                let values = match lane {
+                    Some(j) => {
+                        let mut single = [0.0f32; N];
+                        single[j] = radiance.0[j] * lanes.active() as f32;
+                        single
+                    }
+                    None => radiance.0,
+                };
+                (lanes.xyz(&values), values)
+            }
+            Self::Visible | Self::Tabulated(_) => (radiance.to_xyz(lambda, Observer::Cie1931), radiance.0),
+        }
+    }
+}
+
+/// Share of the visible-range density mixed into the illuminant-aware wavelength density, so
+/// wavelengths where the lights are dark but a surface still matters (none in practice) keep a
+/// positive density and the estimator stays unbiased for any scene.
+const VISIBLE_MIX: f64 = 0.1;
+
+/// A tabulated wavelength density on the 1 nm grid, piecewise constant, and its CDF.
+pub(crate) struct WavelengthTable {
+    /// cdf[i] = P(λ < LAMBDA_MIN + i nm); 471 + 1 entries.
+    cdf: Vec<f32>,
+    /// Density (per nm) in bin i.
+    pdf: Vec<f32>,
+}
+
+impl WavelengthTable {
+    /// p(λ) ∝ (1 − VISIBLE_MIX) S(λ) (x̄ + ȳ + z̄)(λ) / ∫… + VISIBLE_MIX p_visible(λ), S the
+    /// sum of the scene's light spectra, each scaled to unit luminance (so a dim light still
+    /// shapes the density).
+    pub(crate) fn illuminant(lights: &[&DenselySampledSpectrum]) -> Self {
+        let cmf = Observer::Cie1931.cmf();
+        let bins = (LAMBDA_MAX - LAMBDA_MIN) as usize;
+        let centre = |i: usize| f64::from(LAMBDA_MIN) + i as f64 + 0.5;
+        let mut s = vec![0.0f64; bins];
+        for l in lights {
+            let y: f64 = (0..bins).map(|i| l.eval(centre(i)) * cmf.y.eval(centre(i))).sum();
+            if y > 0.0 {
+                for (i, v) in s.iter_mut().enumerate() {
+                    *v += l.eval(centre(i)) / y;
+                }
+            }
+        }
+        let f: Vec<f64> =
+            (0..bins).map(|i| s[i] * (cmf.x.eval(centre(i)) + cmf.y.eval(centre(i)) + cmf.z.eval(centre(i)))).collect();
+        let f_sum: f64 = f.iter().sum();
+        // pbrt-v4's visible density, integrated over each bin by its value at the centre.
+        let visible: Vec<f64> = (0..bins)
+            .map(|i| {
+                let c = (0.0072 * (centre(i) - 538.0)).cosh();
+                1.0 / (c * c)
+            })
+            .collect();
+        let v_sum: f64 = visible.iter().sum();
+        let mix = if f_sum > 0.0 { 1.0 - VISIBLE_MIX } else { 0.0 };
+        let p: Vec<f64> = (0..bins)
+            .map(|i| {
+                mix * f.get(i).map_or(0.0, |v| v / f_sum.max(f64::MIN_POSITIVE)) + (1.0 - mix) * visible[i] / v_sum
+            })
+            .collect();
+        let mut cdf = Vec::with_capacity(bins + 1);
+        let mut acc = 0.0f64;
+        cdf.push(0.0f32);
+        for v in &p {
+            acc += v;
+            cdf.push(acc as f32);
+        }
+        // Σ p = 1 up to rounding; pin the end so u < 1 always lands in a bin.
+        let last = cdf.len() - 1;
+        cdf[last] = 1.0;
+        Self { cdf, pdf: p.iter().map(|&v| v as f32).collect() }
+    }
+
+    /// N wavelengths stratified over the CDF: lane i uses (u + i/N) mod 1.
+    pub(crate) fn sample<const N: usize>(&self, u: f32) -> SampledWavelengths<N> {
+        let mut lambda = [0.0f32; N];
+        let mut pdf = [0.0f32; N];
+        for i in 0..N {
+            let mut up = u + i as f32 / N as f32;
+            if up >= 1.0 {
+                up -= 1.0;
+            }
+            let bin = self.cdf.partition_point(|&c| c <= up).saturating_sub(1).min(self.pdf.len() - 1);
+            let width = self.cdf[bin + 1] - self.cdf[bin];
+            let frac = if width > 0.0 { ((up - self.cdf[bin]) / width).clamp(0.0, 1.0) } else { 0.5 };
+            lambda[i] = LAMBDA_MIN + bin as f32 + frac;
+            pdf[i] = self.pdf[bin];
+        }
+        SampledWavelengths::from_parts(lambda, pdf)
+    }
+}
+
+/// A rendered image: mean CIE XYZ per pixel, scaled so a white diffuser under the scene's light
 /// has Y = 1 (the paper's k normalisation, without its factor 100).
 #[derive(Debug, Clone)]
 pub struct Image {
@@ -41,8 +472,8 @@ pub struct Image {
     pub(crate) height: u32,
     pub(crate) xyz: Vec<[f32; 3]>,
     /// What each pixel's first camera ray hit (for per-object statistics in reports).
-    ids: Vec<ObjectId>,
-    nonfinite: u64,
+    pub(crate) ids: Vec<ObjectId>,
+    pub(crate) nonfinite: u64,
     /// Spectral radiance per pixel at fixed wavelengths, when the render kept it.
     pub(crate) spectral: Option<SpectralFilm>,
 }
@@ -62,6 +493,7 @@ impl Image {
         Self { width, height, xyz: vec![[0.0; 3]; n], ids: vec![ObjectId::Background; n], nonfinite: 0, spectral: None }
     }
 
+    #[cfg(test)]
     pub(crate) fn set_spectral(&mut self, film: SpectralFilm) {
         debug_assert_eq!(film.values.len(), self.xyz.len() * film.wavelengths.len());
         self.spectral = Some(film);
@@ -86,10 +518,6 @@ impl Image {
     /// XYZ of every pixel, row by row from the top.
     pub fn pixels(&self) -> &[[f32; 3]] {
         &self.xyz
-    }
-
-    pub(crate) fn buffers_mut(&mut self) -> (&mut [[f32; 3]], &mut [ObjectId]) {
-        (&mut self.xyz, &mut self.ids)
     }
 
     /// What each pixel's first camera ray hit, row by row from the top.
@@ -147,6 +575,44 @@ impl Image {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fixed_point_is_exact_where_representable_and_sums_associate() {
+        for v in [1.0f32, -0.75, 3.0e-12, 2.0e9, 1.5e-6, -7.25e3, 1.0e-12] {
+            let back = from_fixed(to_fixed(f64::from(v), FRACTION_BITS), FRACTION_BITS);
+            assert_eq!(back, f64::from(v), "{v}");
+        }
+        // Below the last bit (2^-64) values truncate towards zero, symmetrically.
+        assert_eq!(to_fixed(1e-21, FRACTION_BITS), 0);
+        assert_eq!(to_fixed(-3.0 * 2f64.powi(-64), FRACTION_BITS), -3);
+        // Unlike f64, the order of additions does not matter.
+        let values = [1e8f64, 1e-9, -1e8, 3.3e-7];
+        let f64_fwd = values.iter().fold(0.0, |a, b| a + b);
+        let f64_rev = values.iter().rev().fold(0.0, |a, b| a + b);
+        assert_ne!(f64_fwd, f64_rev, "the example must show f64's order dependence");
+        let fwd: i128 = values.iter().map(|&v| to_fixed(v, FRACTION_BITS)).sum();
+        let rev: i128 = values.iter().rev().map(|&v| to_fixed(v, FRACTION_BITS)).sum();
+        assert_eq!(fwd, rev);
+    }
+
+    #[test]
+    fn non_finite_and_huge_samples_are_counted_not_summed() {
+        let mut film = Film::new(2, 1, Vec::new());
+        let (nonfinite, clamped) = {
+            let mut row = film.rows_mut().collect::<Vec<_>>().pop().unwrap();
+            row.add_sample::<4>(0, [f32::NAN, 1.0, 1.0], &[0.0; 4]);
+            row.add_sample::<4>(0, [1.0, 1.0, 1.0], &[0.0; 4]);
+            row.add_sample::<4>(1, [1e20, 1e20, 1e20], &[0.0; 4]);
+            (row.nonfinite, row.clamped)
+        };
+        film.add_counts(nonfinite, clamped);
+        assert_eq!((film.nonfinite_samples(), film.clamped), (1, 3));
+        let image = film.to_image();
+        // Pixel 0: a black sample and a white one; pixel 1: clamped to MAX_SAMPLE_VALUE.
+        assert_eq!(image.xyz(0, 0), [0.5, 0.5, 0.5]);
+        assert_eq!(image.xyz(1, 0)[1], MAX_SAMPLE_VALUE as f32);
+        assert_eq!(image.nonfinite_samples(), 1);
+    }
 
     #[test]
     fn sanitize_counts_and_zeroes_nonfinite_values() {

@@ -40,10 +40,12 @@ mod whitted;
 
 pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
 pub use error::{Error, Result};
-pub use film::{Display, Image};
-pub use render::{Ambient, DEFAULT_K_A, IntegratorKind, Progress, RenderOptions, RenderStats, WavelengthPdf, render};
+pub use film::{Display, Film, Image, ObjectId};
+pub use render::{
+    Ambient, DEFAULT_K_A, Integrator, IntegratorKind, PathOptions, Progress, RenderOptions, RenderStats, WavelengthPdf,
+    WhittedOptions, render, render_film,
+};
 pub use spectral::{MAX_BINS, SpectralMode};
-pub use whitted::ObjectId;
 
 /// Spikiness (see `materials::spikiness`) above which a spectrum counts as a line spectrum
 /// that coarse wavelength sampling would miss. Measured: F2 1.52, F11 1.01; D50 0.22,

@@ -11,24 +11,18 @@
 //! film accumulates the Monte Carlo estimate `SampledSpectrum::to_xyz`.
 //! `docs/path-tracer.md` documents the model and its choices.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::time::{Duration, Instant};
-
 use colorimetry::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, SampledSpectrum, SampledWavelengths};
-use geometry::{Camera, Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
+use geometry::{Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
 use glam::{Vec2, Vec3};
 use materials::{Ior, Scattering};
-use rayon::prelude::*;
 
 use crate::assembly::RenderScene;
 use crate::bsdf::{Bsdf, Frame};
-use crate::error::{Error, Result};
-use crate::film::Image;
+use crate::film::{ObjectId, Sensor, WavelengthTable};
 use crate::light::{Light, LightKind};
-use crate::render::{Progress, RenderOptions, SpectralRows, WavelengthPdf};
+use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
 use crate::sampling::{Rng, cosine_hemisphere, power_heuristic, uniform_sphere, uniform_triangle};
 use crate::spectral::{Lanes, SpectrumKind};
-use crate::whitted::{ObjectId, RayCount};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
 /// that Russian roulette, not the limit, ends almost every path.
@@ -42,21 +36,8 @@ const RR_START_DEPTH: u32 = 3;
 /// D line, where glass catalogues quote n_d (as the paper's model does).
 const LAMBDA_D: f32 = 589.0;
 
-/// Share of the visible-range density mixed into the illuminant-aware wavelength density, so
-/// wavelengths where the lights are dark but a surface still matters (none in practice) keep a
-/// positive density and the estimator stays unbiased for any scene.
-const VISIBLE_MIX: f64 = 0.1;
-
 /// Index into the render's spectrum table.
 type SpecId = u32;
-
-/// How lanes get their wavelengths.
-pub(crate) enum LaneMode<const N: usize> {
-    /// Fixed lanes (`rgb`, `bins:N`): spectra projected once per render.
-    Fixed(Lanes<N>),
-    /// `hero:N`: N stratified wavelengths per sample from the given density.
-    Hero(WavelengthPdf),
-}
 
 /// Every spectrum of the scene, either projected on fixed lanes or kept dense for hero sampling.
 enum Spectra<const N: usize> {
@@ -111,87 +92,6 @@ struct PathLight {
     spectrum: SpecId,
 }
 
-/// A tabulated wavelength density on the 1 nm grid, piecewise constant, and its CDF.
-struct WavelengthTable {
-    /// cdf[i] = P(λ < LAMBDA_MIN + i nm); 471 + 1 entries.
-    cdf: Vec<f32>,
-    /// Density (per nm) in bin i.
-    pdf: Vec<f32>,
-}
-
-impl WavelengthTable {
-    /// p(λ) ∝ (1 − VISIBLE_MIX) S(λ) (x̄ + ȳ + z̄)(λ) / ∫… + VISIBLE_MIX p_visible(λ), S the
-    /// sum of the scene's light spectra, each scaled to unit luminance (so a dim light still
-    /// shapes the density).
-    fn illuminant(lights: &[&DenselySampledSpectrum]) -> Self {
-        let cmf = Observer::Cie1931.cmf();
-        let bins = (LAMBDA_MAX - LAMBDA_MIN) as usize;
-        let centre = |i: usize| f64::from(LAMBDA_MIN) + i as f64 + 0.5;
-        let mut s = vec![0.0f64; bins];
-        for l in lights {
-            let y: f64 = (0..bins).map(|i| l.eval(centre(i)) * cmf.y.eval(centre(i))).sum();
-            if y > 0.0 {
-                for (i, v) in s.iter_mut().enumerate() {
-                    *v += l.eval(centre(i)) / y;
-                }
-            }
-        }
-        let f: Vec<f64> =
-            (0..bins).map(|i| s[i] * (cmf.x.eval(centre(i)) + cmf.y.eval(centre(i)) + cmf.z.eval(centre(i)))).collect();
-        let f_sum: f64 = f.iter().sum();
-        // pbrt-v4's visible density, integrated over each bin by its value at the centre.
-        let visible: Vec<f64> = (0..bins)
-            .map(|i| {
-                let c = (0.0072 * (centre(i) - 538.0)).cosh();
-                1.0 / (c * c)
-            })
-            .collect();
-        let v_sum: f64 = visible.iter().sum();
-        let mix = if f_sum > 0.0 { 1.0 - VISIBLE_MIX } else { 0.0 };
-        let p: Vec<f64> = (0..bins)
-            .map(|i| {
-                mix * f.get(i).map_or(0.0, |v| v / f_sum.max(f64::MIN_POSITIVE)) + (1.0 - mix) * visible[i] / v_sum
-            })
-            .collect();
-        let mut cdf = Vec::with_capacity(bins + 1);
-        let mut acc = 0.0f64;
-        cdf.push(0.0f32);
-        for v in &p {
-            acc += v;
-            cdf.push(acc as f32);
-        }
-        // Σ p = 1 up to rounding; pin the end so u < 1 always lands in a bin.
-        let last = cdf.len() - 1;
-        cdf[last] = 1.0;
-        Self { cdf, pdf: p.iter().map(|&v| v as f32).collect() }
-    }
-
-    /// N wavelengths stratified over the CDF: lane i uses (u + i/N) mod 1.
-    fn sample<const N: usize>(&self, u: f32) -> SampledWavelengths<N> {
-        let mut lambda = [0.0f32; N];
-        let mut pdf = [0.0f32; N];
-        for i in 0..N {
-            let mut up = u + i as f32 / N as f32;
-            if up >= 1.0 {
-                up -= 1.0;
-            }
-            let bin = self.cdf.partition_point(|&c| c <= up).saturating_sub(1).min(self.pdf.len() - 1);
-            let width = self.cdf[bin + 1] - self.cdf[bin];
-            let frac = if width > 0.0 { ((up - self.cdf[bin]) / width).clamp(0.0, 1.0) } else { 0.5 };
-            lambda[i] = LAMBDA_MIN + bin as f32 + frac;
-            pdf[i] = self.pdf[bin];
-        }
-        SampledWavelengths::from_parts(lambda, pdf)
-    }
-}
-
-/// How one render's wavelengths are chosen.
-enum Wavelengths<const N: usize> {
-    Fixed { lanes: Lanes<N>, active: usize },
-    Visible,
-    Tabulated(WavelengthTable),
-}
-
 /// Everything a path-traced render needs, precomputed.
 pub(crate) struct PathTracer<'a, const N: usize> {
     scene: &'a RenderScene,
@@ -208,7 +108,6 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     /// Index of the environment in `lights`, and its spectra (summed).
     environment: Option<usize>,
     environment_spectra: Vec<SpecId>,
-    wavelengths: Wavelengths<N>,
     max_depth: u32,
 }
 
@@ -226,7 +125,9 @@ fn relative_luminance(s: &DenselySampledSpectrum) -> f64 {
 }
 
 impl<'a, const N: usize> PathTracer<'a, N> {
-    pub(crate) fn new(scene: &'a RenderScene, mode: LaneMode<N>, options: &RenderOptions) -> Self {
+    /// The tracer for `scene` and the film's sensor: `fixed` lanes (`rgb`, `bins:N`), or hero
+    /// wavelengths (`None`) drawn from `options.wavelength_pdf`.
+    pub(crate) fn new(scene: &'a RenderScene, fixed: Option<Lanes<N>>, options: &PathOptions) -> (Self, Sensor<N>) {
         let mut table: Vec<(DenselySampledSpectrum, Kind)> = Vec::new();
         let mut add = |s: DenselySampledSpectrum, kind: Kind| -> SpecId {
             table.push((s, kind));
@@ -331,8 +232,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             })
             .collect();
 
-        let (spectra, wavelengths) = match mode {
-            LaneMode::Fixed(lanes) => {
+        let (spectra, sensor) = match fixed {
+            Some(lanes) => {
                 let projected = table
                     .iter()
                     .map(|(s, kind)| match kind {
@@ -341,32 +242,27 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         Kind::SigmaA => SampledSpectrum(lanes.project_sigma_a(s)),
                     })
                     .collect();
-                let active = if lanes.rgb {
-                    3
-                } else {
-                    (0..N).rposition(|i| lanes.to_xyz.iter().any(|row| row[i] != 0.0)).map_or(N, |i| i + 1)
-                };
-                (Spectra::Fixed(projected), Wavelengths::Fixed { lanes, active })
+                (Spectra::Fixed(projected), Sensor::Fixed(lanes))
             }
-            LaneMode::Hero(pdf) => {
-                let wavelengths = match pdf {
-                    WavelengthPdf::Visible => Wavelengths::Visible,
+            None => {
+                let sensor = match options.wavelength_pdf {
+                    WavelengthPdf::Visible => Sensor::Visible,
                     WavelengthPdf::Illuminant => {
                         let emitters: Vec<&DenselySampledSpectrum> = lights
                             .iter()
                             .map(|l| &table[l.spectrum as usize].0)
                             .chain(environment_spectra.iter().skip(1).map(|&id| &table[id as usize].0))
                             .collect();
-                        Wavelengths::Tabulated(WavelengthTable::illuminant(&emitters))
+                        Sensor::Tabulated(WavelengthTable::illuminant(&emitters))
                     }
                 };
-                (Spectra::Dense(table.into_iter().map(|(s, _)| s).collect()), wavelengths)
+                (Spectra::Dense(table.into_iter().map(|(s, _)| s).collect()), sensor)
             }
         };
         let max_depth = options
             .max_depth
             .unwrap_or_else(|| scene.setting_f64("max_depth").map_or(DEFAULT_MAX_DEPTH, |d| d.max(0.0) as u32));
-        Self {
+        let tracer = Self {
             scene,
             spectra,
             materials,
@@ -377,9 +273,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             area_light_of,
             environment,
             environment_spectra,
-            wavelengths,
             max_depth,
-        }
+        };
+        (tracer, sensor)
     }
 
     #[inline]
@@ -396,66 +292,29 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         l
     }
 
-    /// One sample of pixel (`x`, `y`): its XYZ, what the camera ray hit first, and the lane
-    /// radiance behind the XYZ (fixed lanes: what a spectral film accumulates).
-    /// `u_lambda` ∈ [0, 1) places the hero wavelengths (stratified by the caller).
-    #[inline]
-    pub(crate) fn sample_pixel(
-        &self,
-        camera: &Camera,
-        (x, y): (u32, u32),
-        (width, height): (u32, u32),
-        u_lambda: f32,
-        rng: &mut Rng,
-        count: &mut RayCount,
-    ) -> ([f32; 3], ObjectId, [f32; N]) {
-        let mut lambda = match &self.wavelengths {
-            Wavelengths::Fixed { lanes, .. } => SampledWavelengths::from_parts(lanes.lambda, [1.0; N]),
-            Wavelengths::Visible => SampledWavelengths::sample_visible(u_lambda),
-            Wavelengths::Tabulated(t) => t.sample(u_lambda),
-        };
-        let jitter = rng.uniform2();
-        let ray = camera.generate_ray(x as f32 + jitter.x, y as f32 + jitter.y, width, height);
-        let mut lane = None;
-        let (radiance, id) = self.li(&ray, &mut lambda, &mut lane, rng, count);
-        debug_assert!(radiance.is_finite(), "non-finite radiance {radiance:?}");
-        match &self.wavelengths {
-            Wavelengths::Fixed { lanes, active } => {
-                let values = match lane {
-                    // The path followed one lane past a dispersive surface, chosen with
-                    // probability 1/active: that lane alone, weighted by `active`, is an
-                    // unbiased estimate.
-                    Some(j) => {
-                        let mut single = [0.0f32; N];
-                        single[j] = radiance.0[j] * *active as f32;
-                        single
-                    }
-                    None => radiance.0,
-                };
-                (lanes.xyz(&values), id, values)
-            }
-            Wavelengths::Visible | Wavelengths::Tabulated(_) => {
-                (radiance.to_xyz(&lambda, Observer::Cie1931), id, radiance.0)
-            }
-        }
-    }
-
     /// Index of refraction for this path, splitting it by wavelength at the first dispersive
     /// surface: hero sampling keeps the hero wavelength (pbrt-v4 `TerminateSecondary`); fixed
     /// wavelength lanes keep one lane chosen uniformly; RGB lanes cannot split and use n_d.
-    fn eta(&self, ior: &Ior, lambda: &mut SampledWavelengths<N>, lane: &mut Option<usize>, rng: &mut Rng) -> f32 {
+    fn eta(
+        ior: &Ior,
+        lambda: &mut SampledWavelengths<N>,
+        sensor: &Sensor<N>,
+        lane: &mut Option<usize>,
+        rng: &mut Rng,
+    ) -> f32 {
         if !ior.is_dispersive() {
             return ior.eval(LAMBDA_D);
         }
-        let j = match (&self.wavelengths, *lane) {
+        let j = match (sensor, *lane) {
             (_, Some(j)) => j,
-            (Wavelengths::Fixed { lanes, .. }, None) if lanes.rgb => return ior.eval(LAMBDA_D),
-            (Wavelengths::Fixed { active, .. }, None) => {
-                let j = ((rng.uniform() * *active as f32) as usize).min(active - 1);
+            (Sensor::Fixed(lanes), None) if lanes.rgb => return ior.eval(LAMBDA_D),
+            (Sensor::Fixed(lanes), None) => {
+                let active = lanes.active();
+                let j = ((rng.uniform() * active as f32) as usize).min(active - 1);
                 *lane = Some(j);
                 j
             }
-            (Wavelengths::Visible | Wavelengths::Tabulated(_), None) => {
+            (Sensor::Visible | Sensor::Tabulated(_), None) => {
                 lambda.terminate_secondary();
                 *lane = Some(0);
                 0
@@ -465,10 +324,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     }
 
     /// Radiance along a camera ray (pbrt-v4 `PathIntegrator::Li`).
-    fn li(
+    fn trace(
         &self,
         camera_ray: &Ray,
         lambda: &mut SampledWavelengths<N>,
+        sensor: &Sensor<N>,
         lane: &mut Option<usize>,
         rng: &mut Rng,
         count: &mut RayCount,
@@ -530,7 +390,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 Scattering::Diffuse => Bsdf::Lambertian { r: self.spectra.eval(m.reflectance, lambda) },
                 Scattering::Conductor => Bsdf::Mirror { r: self.spectra.eval(m.reflectance, lambda) },
                 Scattering::Dielectric => {
-                    let eta = self.eta(&m.ior, lambda, lane, rng);
+                    let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                     Bsdf::Dielectric { eta, tint: self.spectra.eval(m.tint, lambda) }
                 }
             };
@@ -682,106 +542,21 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     }
 }
 
-/// What a finished path-traced render returns: the image, rays traced, wall time and the
-/// samples per pixel actually taken (fewer than asked when a time limit stopped it).
-pub(crate) struct PathOutput {
-    pub(crate) image: Image,
-    pub(crate) rays: u64,
-    pub(crate) elapsed: Duration,
-    pub(crate) spp: u32,
-}
+impl<const N: usize> Kernel<N> for PathTracer<'_, N> {
+    const RANDOM: bool = true;
 
-/// Render with the path tracer. Samples are taken in passes over the whole image (one pass
-/// without a time limit); after each pass the time limit and `cancel` are checked. The random
-/// numbers of sample i of pixel p depend only on (seed, p, i), so the image is the same for
-/// any thread count.
-pub(crate) fn render_path<const N: usize>(
-    scene: &RenderScene,
-    options: &RenderOptions,
-    mode: LaneMode<N>,
-    progress: &(dyn Fn(Progress) + Sync),
-    cancel: &AtomicBool,
-) -> Result<PathOutput> {
-    let (width, height) = (options.width, options.height);
-    let camera = scene.camera(width, height)?;
-    let mut film = match &mode {
-        LaneMode::Fixed(lanes) => SpectralRows::new(options.spectral_film, lanes, width, height),
-        LaneMode::Hero(_) => SpectralRows::none(height),
-    };
-    let film_lanes = film.lanes();
-    let tracer = PathTracer::<N>::new(scene, mode, options);
-    let spp = options.spp;
-    // With a time limit, passes of 1/16 of the samples (at least one) bound the overshoot.
-    let pass_size = if options.time_limit.is_some() { (spp / 16).max(1) } else { spp };
-    let passes = spp.div_ceil(pass_size);
-    let start = Instant::now();
-    let rays = AtomicU64::new(0);
-    let rows_done = AtomicU64::new(0);
-    let mut sums = vec![[0.0f64; 3]; width as usize * height as usize];
-    let mut image = Image::new(width, height);
-    let mut done = 0u32;
-    for pass in 0..passes {
-        let first_sample = pass * pass_size;
-        let last_sample = (first_sample + pass_size).min(spp);
-        let (_, ids) = image.buffers_mut();
-        sums.par_chunks_mut(width as usize)
-            .zip(ids.par_chunks_mut(width as usize))
-            .zip(film.rows_mut())
-            .enumerate()
-            .try_for_each(|(y, ((row, ids), spectral))| -> Result<()> {
-                if cancel.load(Ordering::Relaxed) {
-                    return Err(Error::Cancelled);
-                }
-                let mut count = RayCount::default();
-                for (x, (sum, id)) in row.iter_mut().zip(ids.iter_mut()).enumerate() {
-                    let pixel = y as u64 * u64::from(width) + x as u64;
-                    // A random rotation per pixel of the stratified wavelength offsets, so a
-                    // partial set of strata (time limit) is still unbiased.
-                    let rotation = Rng::new(options.seed, pixel, u64::MAX).uniform();
-                    for i in first_sample..last_sample {
-                        let mut rng = Rng::new(options.seed, pixel, u64::from(i));
-                        let mut u = rotation + (i as f32 + rng.uniform()) / spp as f32;
-                        if u >= 1.0 {
-                            u -= 1.0;
-                        }
-                        let (xyz, object, values) = tracer.sample_pixel(
-                            &camera,
-                            (x as u32, y as u32),
-                            (width, height),
-                            u.min(0.999_999_9),
-                            &mut rng,
-                            &mut count,
-                        );
-                        if i == 0 {
-                            *id = object;
-                        }
-                        for c in 0..3 {
-                            sum[c] += f64::from(xyz[c]);
-                        }
-                        SpectralRows::add(spectral, x, film_lanes, &values);
-                    }
-                }
-                let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
-                let rows = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(Progress {
-                    rows_done: rows as u32,
-                    rows_total: height * passes,
-                    rays: rays_now,
-                    elapsed: start.elapsed(),
-                });
-                Ok(())
-            })?;
-        done = last_sample;
-        if options.time_limit.is_some_and(|limit| start.elapsed() >= limit) {
-            break;
-        }
+    #[inline]
+    fn li(
+        &self,
+        ray: &Ray,
+        lambda: &mut SampledWavelengths<N>,
+        sensor: &Sensor<N>,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Radiance<N> {
+        let mut lane = None;
+        let (l, first) = self.trace(ray, lambda, sensor, &mut lane, rng, count);
+        debug_assert!(l.is_finite(), "non-finite radiance {l:?}");
+        Radiance { l, first, lane }
     }
-    let inv = 1.0 / f64::from(done.max(1));
-    let (pixels, _) = image.buffers_mut();
-    for (p, s) in pixels.iter_mut().zip(&sums) {
-        *p = s.map(|v| (v * inv) as f32);
-    }
-    film.attach(&mut image, inv);
-    image.sanitize();
-    Ok(PathOutput { image, rays: rays.into_inner(), elapsed: start.elapsed(), spp: done })
 }

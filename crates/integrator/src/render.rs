@@ -1,17 +1,29 @@
-//! Render options, the parallel pixel loop and its progress reporting.
+//! Render options, the one pixel loop, the lane-count dispatcher and progress reporting.
+//!
+//! One sample's trip (pbrt-v4 `RayIntegrator::EvaluatePixelSample`): the pixel loop
+//! ([`render_film`] → `render_pixels`) asks the film's [`Sensor`] for the sample's
+//! wavelengths and the camera for its ray, the integrator [`Kernel`] for the radiance along it
+//! (`whitted.rs` or `path.rs`), and adds the result to the [`Film`] row (`film.rs`).
 
+use std::ops::Range;
+use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
+use colorimetry::{SampledSpectrum, SampledWavelengths};
+use geometry::{Camera, Ray};
 use rayon::prelude::*;
 
 use crate::assembly::RenderScene;
 use crate::error::{Error, Result};
-use crate::film::Image;
-use crate::spectral::{Lanes, SpectralMode};
-use crate::whitted::{RayCount, Whitted};
+use crate::film::{Film, Image, MAX_SPP, ObjectId, Sensor};
+use crate::path::PathTracer;
+use crate::sampling::Rng;
+use crate::spectral::{Lanes, MAX_BINS, SpectralMode};
+use crate::whitted::Whitted;
 
-/// Which light transport model renders the image.
+/// Which light transport model renders the image (the selector; [`Integrator`] carries each
+/// model's own options).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum IntegratorKind {
     /// The paper's model: Whitted ray tracing with Hall's spectral shading.
@@ -20,9 +32,11 @@ pub enum IntegratorKind {
     Path,
 }
 
-impl IntegratorKind {
-    /// Parse an `--integrator` value.
-    pub fn parse(s: &str) -> Result<Self> {
+impl FromStr for IntegratorKind {
+    type Err = Error;
+
+    /// `whitted-hall` (also `whitted`, `paper`) or `path`.
+    fn from_str(s: &str) -> Result<Self> {
         match s {
             "whitted-hall" | "whitted" | "paper" => Ok(Self::WhittedHall),
             "path" => Ok(Self::Path),
@@ -45,9 +59,11 @@ pub enum WavelengthPdf {
     Illuminant,
 }
 
-impl WavelengthPdf {
-    /// Parse `visible` or `illuminant`.
-    pub fn parse(s: &str) -> Result<Self> {
+impl FromStr for WavelengthPdf {
+    type Err = Error;
+
+    /// `visible` or `illuminant`.
+    fn from_str(s: &str) -> Result<Self> {
         match s {
             "visible" => Ok(Self::Visible),
             "illuminant" => Ok(Self::Illuminant),
@@ -76,9 +92,11 @@ pub enum Ambient {
     },
 }
 
-impl Ambient {
-    /// Parse `objects`, `objects:K_A`, `constant:K_A` or `none`.
-    pub fn parse(s: &str) -> Result<Self> {
+impl FromStr for Ambient {
+    type Err = Error;
+
+    /// `objects`, `objects:K_A`, `constant:K_A` or `none`.
+    fn from_str(s: &str) -> Result<Self> {
         let bad = || Error::InvalidOption {
             option: "ambient",
             value: s.to_owned(),
@@ -99,27 +117,9 @@ impl Ambient {
 /// ambient modes have the same overall strength and differ only in colour.
 pub const DEFAULT_K_A: f32 = 0.1;
 
-/// Everything that controls a render besides the scene.
-#[derive(Debug, Clone)]
-pub struct RenderOptions {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Light transport model.
-    pub integrator: IntegratorKind,
-    /// Spectral sampling strategy.
-    pub spectral: SpectralMode,
-    /// Samples per pixel (stratified, deterministic for the paper's model).
-    pub spp: u32,
-    /// Seed of the path tracer's random numbers (each sample's stream is derived from the
-    /// seed, the pixel and the sample index, so images do not depend on the thread count).
-    pub seed: u64,
-    /// Path tracer: stop after the pass during which this much time has passed (the image
-    /// averages the samples taken; [`RenderStats::spp`] says how many).
-    pub time_limit: Option<Duration>,
-    /// Path tracer with `hero:K`: the wavelength density.
-    pub wavelength_pdf: WavelengthPdf,
+/// Options of the paper's model (`whitted-hall`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WhittedOptions {
     /// Recursion limit (the paper uses 20); `None` takes the scene's `max_depth` or 20.
     pub max_depth: Option<u32>,
     /// Branches whose coefficient product falls below this are not traced (0 traces the
@@ -129,6 +129,83 @@ pub struct RenderOptions {
     pub absorption: bool,
     /// Ambient term.
     pub ambient: Ambient,
+}
+
+impl Default for WhittedOptions {
+    fn default() -> Self {
+        Self {
+            max_depth: None,
+            min_weight: 1e-3,
+            absorption: true,
+            ambient: Ambient::Objects { k_a: DEFAULT_K_A, exponent: 1.0 },
+        }
+    }
+}
+
+/// Options of the path tracer (`path`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PathOptions {
+    /// Bounce limit; `None` takes the scene's `max_depth` or 64.
+    pub max_depth: Option<u32>,
+    /// With `hero:K`: the wavelength density.
+    pub wavelength_pdf: WavelengthPdf,
+}
+
+impl Default for PathOptions {
+    fn default() -> Self {
+        Self { max_depth: None, wavelength_pdf: WavelengthPdf::Illuminant }
+    }
+}
+
+/// The light transport model with its options: only meaningful combinations can be written.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Integrator {
+    /// The paper's model.
+    WhittedHall(WhittedOptions),
+    /// The physically based path tracer.
+    Path(PathOptions),
+}
+
+impl Integrator {
+    /// Which model this is.
+    pub fn kind(&self) -> IntegratorKind {
+        match self {
+            Self::WhittedHall(_) => IntegratorKind::WhittedHall,
+            Self::Path(_) => IntegratorKind::Path,
+        }
+    }
+}
+
+impl Default for Integrator {
+    fn default() -> Self {
+        Self::WhittedHall(WhittedOptions::default())
+    }
+}
+
+/// Everything that controls a render besides the scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderOptions {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Light transport model and its options.
+    pub integrator: Integrator,
+    /// Spectral sampling strategy.
+    pub spectral: SpectralMode,
+    /// Samples per pixel (deterministic sub-pixel positions for the paper's model).
+    pub spp: u32,
+    /// Render only these sample indices of the `spp` (a part of a render split across
+    /// processes; `None`: all). The parts' films merge into exactly the whole render's.
+    pub samples: Option<Range<u32>>,
+    /// Seed of the random numbers (each sample's stream is derived from the seed, the pixel
+    /// and the sample index, so images do not depend on the thread count).
+    pub seed: u64,
+    /// Stop once this much time has passed: samples are then taken in passes of one per
+    /// pixel, and rows not yet started are skipped once the time is up, so the limit is kept
+    /// to within about one row's time after the first pass (each pixel averages the samples it
+    /// got; [`RenderStats::spp`] says the fewest).
+    pub time_limit: Option<Duration>,
     /// Worker threads (`None`: all cores).
     pub threads: Option<usize>,
     /// Keep each pixel's radiance at the wavelengths rendered ([`Image::spectral`], written by
@@ -142,28 +219,46 @@ impl Default for RenderOptions {
         Self {
             width: crate::DEFAULT_RESOLUTION.0,
             height: crate::DEFAULT_RESOLUTION.1,
-            integrator: IntegratorKind::WhittedHall,
+            integrator: Integrator::default(),
             spectral: SpectralMode::Auto,
             spp: 1,
+            samples: None,
             seed: 0,
             time_limit: None,
-            wavelength_pdf: WavelengthPdf::Illuminant,
-            max_depth: None,
-            min_weight: 1e-3,
-            absorption: true,
-            ambient: Ambient::Objects { k_a: DEFAULT_K_A, exponent: 1.0 },
             threads: None,
             spectral_film: false,
         }
     }
 }
 
+impl RenderOptions {
+    /// These options with the paper's model, changed by `f` from its defaults.
+    pub fn whitted(self, f: impl FnOnce(&mut WhittedOptions)) -> Self {
+        let mut o = match self.integrator {
+            Integrator::WhittedHall(o) => o,
+            Integrator::Path(_) => WhittedOptions::default(),
+        };
+        f(&mut o);
+        Self { integrator: Integrator::WhittedHall(o), ..self }
+    }
+
+    /// These options with the path tracer, changed by `f` from its defaults.
+    pub fn path(self, f: impl FnOnce(&mut PathOptions)) -> Self {
+        let mut o = match self.integrator {
+            Integrator::Path(o) => o,
+            Integrator::WhittedHall(_) => PathOptions::default(),
+        };
+        f(&mut o);
+        Self { integrator: Integrator::Path(o), ..self }
+    }
+}
+
 /// Progress of a running render, reported after each finished row.
 #[derive(Debug, Clone, Copy)]
 pub struct Progress {
-    /// Rows finished.
+    /// Rows finished (over all passes).
     pub rows_done: u32,
-    /// Rows in the image.
+    /// Rows to render (image rows × passes).
     pub rows_total: u32,
     /// Rays traced so far (camera, secondary and shadow rays).
     pub rays: u64,
@@ -180,10 +275,44 @@ pub struct RenderStats {
     pub rays: u64,
     /// Wall time of the pixel loop (scene assembly excluded).
     pub elapsed: Duration,
-    /// Samples whose value was NaN or infinite (replaced by black; must be 0).
+    /// Samples whose value was NaN or infinite (added as black; must be 0).
     pub nonfinite_samples: u64,
-    /// Samples per pixel actually taken (fewer than asked if a time limit stopped the render).
+    /// Fewest samples any pixel got (fewer than asked if a time limit stopped the render).
     pub spp: u32,
+}
+
+/// Per-thread counters.
+#[derive(Debug, Default, Clone, Copy)]
+pub(crate) struct RayCount {
+    pub(crate) rays: u64,
+}
+
+/// What an integrator returns for one camera sample.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Radiance<const N: usize> {
+    /// Radiance at the sample's lanes.
+    pub(crate) l: SampledSpectrum<N>,
+    /// What the camera ray hit first.
+    pub(crate) first: ObjectId,
+    /// With fixed lanes, the one lane a dispersive path kept (see [`Sensor::to_xyz`]).
+    pub(crate) lane: Option<usize>,
+}
+
+/// An integrator as the pixel loop sees it: radiance along a camera ray.
+pub(crate) trait Kernel<const N: usize>: Sync {
+    /// Whether samples are random (camera jitter and hero wavelengths drawn from the sample's
+    /// own stream); otherwise sub-pixel positions are the deterministic R2 sequence.
+    const RANDOM: bool;
+
+    /// Radiance arriving along `ray` at `lambda` (which a dispersive path may narrow).
+    fn li(
+        &self,
+        ray: &Ray,
+        lambda: &mut SampledWavelengths<N>,
+        sensor: &Sensor<N>,
+        rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Radiance<N>;
 }
 
 /// Render `scene`. `progress` is called from worker threads after each row; setting `cancel`
@@ -194,25 +323,44 @@ pub fn render(
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Image, RenderStats)> {
+    let (film, stats) = render_film(scene, options, progress, cancel)?;
+    Ok((film.to_image(), stats))
+}
+
+/// Render `scene` (or the sample range `options.samples` of it) into a [`Film`], which can be
+/// merged with the films of the other ranges.
+pub fn render_film(
+    scene: &RenderScene,
+    options: &RenderOptions,
+    progress: &(dyn Fn(Progress) + Sync),
+    cancel: &AtomicBool,
+) -> Result<(Film, RenderStats)> {
     if options.width == 0 || options.height == 0 || options.width > 65_536 || options.height > 65_536 {
         return Err(Error::OutOfRange {
             what: "image size",
-            value: f64::from(options.width.max(options.height)),
+            value: f64::from(if options.width == 0 || options.width > 65_536 { options.width } else { options.height }),
             range: "1..=65536 pixels per side",
         });
     }
-    if options.spp == 0 || options.spp > 1 << 20 {
+    if options.spp == 0 || options.spp > MAX_SPP {
         return Err(Error::OutOfRange { what: "spp", value: f64::from(options.spp), range: "1..=1048576" });
     }
-    if !(options.min_weight.is_finite() && options.min_weight >= 0.0) {
-        return Err(Error::OutOfRange { what: "min weight", value: options.min_weight.into(), range: ">= 0" });
+    let samples = options.samples.clone().unwrap_or(0..options.spp);
+    if samples.start >= samples.end || samples.end > options.spp {
+        return Err(Error::InvalidOption {
+            option: "sample range",
+            value: format!("{}..{}", samples.start, samples.end),
+            expected: "a non-empty range within 0..spp",
+        });
     }
-    if options.integrator == IntegratorKind::Path {
-        return render_path(scene, options, progress, cancel);
+    if let Integrator::WhittedHall(w) = &options.integrator
+        && !(w.min_weight.is_finite() && w.min_weight >= 0.0)
+    {
+        return Err(Error::OutOfRange { what: "min weight", value: w.min_weight.into(), range: ">= 0" });
     }
     let spectral = match options.spectral {
-        SpectralMode::Auto => crate::choose_auto(scene, options.integrator),
-        SpectralMode::Hero { .. } => {
+        SpectralMode::Auto => crate::choose_auto(scene, options.integrator.kind()),
+        SpectralMode::Hero { .. } if options.integrator.kind() == IntegratorKind::WhittedHall => {
             return Err(Error::InvalidOption {
                 option: "spectral mode",
                 value: options.spectral.to_string(),
@@ -221,84 +369,6 @@ pub fn render(
         }
         mode => mode,
     };
-    check_spectral_film(options, spectral)?;
-    let pool = thread_pool(options)?;
-    let white = crate::scene_white(scene);
-    let (image, rays, elapsed) = pool.install(|| match spectral {
-        SpectralMode::Rgb => run::<4>(scene, options, Lanes::rgb(), progress, cancel),
-        SpectralMode::Bins(n) if n <= 4 => run::<4>(scene, options, Lanes::bins(n, &white), progress, cancel),
-        SpectralMode::Bins(n) if n <= 8 => run::<8>(scene, options, Lanes::bins(n, &white), progress, cancel),
-        SpectralMode::Bins(n) if n <= 16 => run::<16>(scene, options, Lanes::bins(n, &white), progress, cancel),
-        SpectralMode::Bins(n) if n <= 32 => run::<32>(scene, options, Lanes::bins(n, &white), progress, cancel),
-        SpectralMode::Bins(n) if n <= 48 => run::<48>(scene, options, Lanes::bins(n, &white), progress, cancel),
-        SpectralMode::Bins(n) if n <= 64 => run::<64>(scene, options, Lanes::bins(n, &white), progress, cancel),
-        SpectralMode::Bins(n) => {
-            run::<{ crate::spectral::MAX_BINS }>(scene, options, Lanes::bins(n, &white), progress, cancel)
-        }
-        SpectralMode::Hero { .. } | SpectralMode::Auto => unreachable!("resolved above"),
-    })?;
-    let nonfinite_samples = image.nonfinite_samples();
-    Ok((image, RenderStats { spectral, rays, elapsed, nonfinite_samples, spp: options.spp }))
-}
-
-/// The path tracer's dispatch: lane count from the spectral strategy.
-fn render_path(
-    scene: &RenderScene,
-    options: &RenderOptions,
-    progress: &(dyn Fn(Progress) + Sync),
-    cancel: &AtomicBool,
-) -> Result<(Image, RenderStats)> {
-    use crate::path::{LaneMode, render_path as run_path};
-    let spectral = match options.spectral {
-        SpectralMode::Auto => crate::choose_auto(scene, options.integrator),
-        mode => mode,
-    };
-    check_spectral_film(options, spectral)?;
-    let pool = thread_pool(options)?;
-    let pdf = options.wavelength_pdf;
-    let white = crate::scene_white(scene);
-    let out = pool.install(|| match spectral {
-        SpectralMode::Rgb => run_path::<4>(scene, options, LaneMode::Fixed(Lanes::rgb()), progress, cancel),
-        SpectralMode::Bins(n) if n <= 4 => {
-            run_path::<4>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 8 => {
-            run_path::<8>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 16 => {
-            run_path::<16>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 32 => {
-            run_path::<32>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 48 => {
-            run_path::<48>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= 64 => {
-            run_path::<64>(scene, options, LaneMode::Fixed(Lanes::bins(n, &white)), progress, cancel)
-        }
-        SpectralMode::Bins(n) if n <= crate::spectral::MAX_BINS => run_path::<{ crate::spectral::MAX_BINS }>(
-            scene,
-            options,
-            LaneMode::Fixed(Lanes::bins(n, &white)),
-            progress,
-            cancel,
-        ),
-        SpectralMode::Hero { count: 4 } => run_path::<4>(scene, options, LaneMode::Hero(pdf), progress, cancel),
-        SpectralMode::Hero { count: 8 } => run_path::<8>(scene, options, LaneMode::Hero(pdf), progress, cancel),
-        other => Err(Error::InvalidOption {
-            option: "spectral mode",
-            value: other.to_string(),
-            expected: "rgb, bins:N (2..=96), hero:4, hero:8 or auto",
-        }),
-    })?;
-    let nonfinite_samples = out.image.nonfinite_samples();
-    Ok((out.image, RenderStats { spectral, rays: out.rays, elapsed: out.elapsed, nonfinite_samples, spp: out.spp }))
-}
-
-/// A spectral film stores radiance at fixed wavelengths: RGB has none, and hero wavelengths
-/// differ from sample to sample.
-fn check_spectral_film(options: &RenderOptions, spectral: SpectralMode) -> Result<()> {
     if options.spectral_film && !matches!(spectral, SpectralMode::Bins(_)) {
         return Err(Error::InvalidOption {
             option: "spectral mode for a spectral image",
@@ -306,7 +376,192 @@ fn check_spectral_film(options: &RenderOptions, spectral: SpectralMode) -> Resul
             expected: "bins:N (fixed wavelengths; bins:95 is the 5 nm grid)",
         });
     }
-    Ok(())
+    let lanes = lane_count(spectral)?;
+    let pool = thread_pool(options)?;
+    let job = RenderJob { scene, options, spectral, samples, progress, cancel };
+    pool.install(|| with_lanes(lanes, job))
+}
+
+/// Lane counts the renderer is compiled for, smallest first.
+const LANE_COUNTS: [usize; 7] = [4, 8, 16, 32, 48, 64, MAX_BINS];
+
+/// The lanes a spectral strategy needs.
+fn lane_count(spectral: SpectralMode) -> Result<usize> {
+    let bad = || Error::InvalidOption {
+        option: "spectral mode",
+        value: spectral.to_string(),
+        expected: "rgb, bins:N (2..=96), hero:4, hero:8 or auto",
+    };
+    match spectral {
+        SpectralMode::Rgb => Ok(4),
+        SpectralMode::Bins(n) => LANE_COUNTS.iter().copied().find(|&lanes| n <= lanes).ok_or_else(bad),
+        SpectralMode::Hero { count: count @ (4 | 8) } => Ok(count),
+        SpectralMode::Hero { .. } | SpectralMode::Auto => Err(bad()),
+    }
+}
+
+/// Work generic over the lane count, for [`with_lanes`].
+trait LaneJob {
+    type Output;
+    fn run<const N: usize>(self) -> Self::Output;
+}
+
+/// The one place that turns a run-time lane count into a compile-time one.
+fn with_lanes<J: LaneJob>(lanes: usize, job: J) -> J::Output {
+    match lanes {
+        0..=4 => job.run::<4>(),
+        5..=8 => job.run::<8>(),
+        9..=16 => job.run::<16>(),
+        17..=32 => job.run::<32>(),
+        33..=48 => job.run::<48>(),
+        49..=64 => job.run::<64>(),
+        _ => job.run::<MAX_BINS>(),
+    }
+}
+
+struct RenderJob<'a> {
+    scene: &'a RenderScene,
+    options: &'a RenderOptions,
+    spectral: SpectralMode,
+    samples: Range<u32>,
+    progress: &'a (dyn Fn(Progress) + Sync),
+    cancel: &'a AtomicBool,
+}
+
+impl LaneJob for RenderJob<'_> {
+    type Output = Result<(Film, RenderStats)>;
+
+    fn run<const N: usize>(self) -> Self::Output {
+        let fixed = || match self.spectral {
+            SpectralMode::Rgb => Lanes::<N>::rgb(),
+            SpectralMode::Bins(n) => Lanes::bins(n, &crate::scene_white(self.scene)),
+            SpectralMode::Hero { .. } | SpectralMode::Auto => unreachable!("no fixed lanes for {}", self.spectral),
+        };
+        match &self.options.integrator {
+            Integrator::WhittedHall(o) => {
+                let sensor = Sensor::Fixed(fixed());
+                let kernel = Whitted::new(self.scene, &sensor, o);
+                render_pixels(&kernel, &sensor, self)
+            }
+            Integrator::Path(o) => {
+                let sensor = match self.spectral {
+                    SpectralMode::Hero { .. } => None,
+                    _ => Some(fixed()),
+                };
+                let (kernel, sensor) = PathTracer::<N>::new(self.scene, sensor, o);
+                render_pixels(&kernel, &sensor, self)
+            }
+        }
+    }
+}
+
+/// The pixel loop: samples `job.samples` of every pixel, in passes over the image (one pass
+/// without a time limit), rows in parallel. The random numbers of sample i of pixel p depend
+/// only on (seed, p, i) and the film's sums are exact, so the image is the same for any thread
+/// count, pass size or split into sample ranges.
+fn render_pixels<const N: usize, K: Kernel<N>>(
+    kernel: &K,
+    sensor: &Sensor<N>,
+    job: RenderJob<'_>,
+) -> Result<(Film, RenderStats)> {
+    let RenderJob { scene, options, spectral, samples, progress, cancel } = job;
+    let (width, height) = (options.width, options.height);
+    let camera = scene.camera(width, height)?;
+    let wavelengths = if options.spectral_film { sensor.film_wavelengths().unwrap_or_default() } else { Vec::new() };
+    let mut film = Film::new(width, height, wavelengths);
+    let spp = options.spp;
+    let offsets = if K::RANDOM { Vec::new() } else { pixel_offsets(spp) };
+    // With a time limit, passes of one sample each spread the samples taken evenly over the
+    // image when it stops, and every row of a pass is short whatever the spp. The first pass
+    // ignores the limit, so every pixel gets at least one sample.
+    let pass_size = if options.time_limit.is_some() { 1 } else { samples.len() as u32 };
+    let passes = (samples.len() as u32).div_ceil(pass_size);
+    let start = Instant::now();
+    let out_of_time = || options.time_limit.is_some_and(|limit| start.elapsed() >= limit);
+    let rays = AtomicU64::new(0);
+    let rows_done = AtomicU64::new(0);
+    for pass in 0..passes {
+        let first_sample = samples.start + pass * pass_size;
+        let last_sample = (first_sample + pass_size).min(samples.end);
+        let counts: Vec<(u64, u64)> = film
+            .rows_mut()
+            .enumerate()
+            .map(|(y, mut row)| -> Result<(u64, u64)> {
+                if cancel.load(Ordering::Relaxed) {
+                    return Err(Error::Cancelled);
+                }
+                if pass > 0 && out_of_time() {
+                    return Ok((0, 0));
+                }
+                let mut count = RayCount::default();
+                let mut fixed_rng = Rng::new(0, 0, 0);
+                for x in 0..width as usize {
+                    let pixel = y as u64 * u64::from(width) + x as u64;
+                    // A random rotation per pixel of the stratified wavelength offsets, so a
+                    // partial set of strata (time limit, sample range) is still unbiased.
+                    let rotation = if K::RANDOM { Rng::new(options.seed, pixel, u64::MAX).uniform() } else { 0.0 };
+                    for i in first_sample..last_sample {
+                        let mut sample_rng;
+                        let (rng, mut lambda, ray) = if K::RANDOM {
+                            sample_rng = Rng::new(options.seed, pixel, u64::from(i));
+                            let mut u = rotation + (i as f32 + sample_rng.uniform()) / spp as f32;
+                            if u >= 1.0 {
+                                u -= 1.0;
+                            }
+                            let lambda = sensor.sample_wavelengths(u.min(0.999_999_9));
+                            let jitter = sample_rng.uniform2();
+                            let ray = camera_ray(&camera, x, y, jitter.x, jitter.y, width, height);
+                            (&mut sample_rng, lambda, ray)
+                        } else {
+                            let (dx, dy) = offsets[i as usize];
+                            (
+                                &mut fixed_rng,
+                                sensor.sample_wavelengths(0.0),
+                                camera_ray(&camera, x, y, dx, dy, width, height),
+                            )
+                        };
+                        let r = kernel.li(&ray, &mut lambda, sensor, rng, &mut count);
+                        if i == 0 {
+                            row.set_first_hit(x, r.first);
+                        }
+                        let (xyz, values) = sensor.to_xyz(&r.l, &lambda, r.lane);
+                        row.add_sample(x, xyz, &values);
+                    }
+                }
+                let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
+                let rows = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(Progress {
+                    rows_done: rows as u32,
+                    rows_total: height * passes,
+                    rays: rays_now,
+                    elapsed: start.elapsed(),
+                });
+                Ok((row.nonfinite, row.clamped))
+            })
+            .collect::<Result<_>>()?;
+        for (nonfinite, clamped) in counts {
+            film.add_counts(nonfinite, clamped);
+        }
+        if first_sample == 0 {
+            film.set_has_first_sample();
+        }
+        if out_of_time() {
+            break;
+        }
+    }
+    let stats = RenderStats {
+        spectral,
+        rays: rays.into_inner(),
+        elapsed: start.elapsed(),
+        nonfinite_samples: film.nonfinite_samples(),
+        spp: film.min_sample_count(),
+    };
+    Ok((film, stats))
+}
+
+#[inline]
+fn camera_ray(camera: &Camera, x: usize, y: usize, dx: f32, dy: f32, width: u32, height: u32) -> Ray {
+    camera.generate_ray(x as f32 + dx, y as f32 + dy, width, height)
 }
 
 fn thread_pool(options: &RenderOptions) -> Result<rayon::ThreadPool> {
@@ -315,115 +570,6 @@ fn thread_pool(options: &RenderOptions) -> Result<rayon::ThreadPool> {
         builder = builder.num_threads(n.max(1));
     }
     builder.build().map_err(|e| Error::ThreadPool(e.to_string()))
-}
-
-fn run<const N: usize>(
-    scene: &RenderScene,
-    options: &RenderOptions,
-    lanes: Lanes<N>,
-    progress: &(dyn Fn(Progress) + Sync),
-    cancel: &AtomicBool,
-) -> Result<(Image, u64, Duration)> {
-    let (width, height) = (options.width, options.height);
-    let camera = scene.camera(width, height)?;
-    let whitted = Whitted::<N>::new(scene, &lanes, options);
-    let start = Instant::now();
-    let rays = AtomicU64::new(0);
-    let rows_done = AtomicU64::new(0);
-    let offsets = pixel_offsets(options.spp);
-    let inv_spp = 1.0 / options.spp as f32;
-    let mut image = Image::new(width, height);
-    let mut film = SpectralRows::new(options.spectral_film, &lanes, width, height);
-    let film_lanes = film.lanes();
-    image.rows_mut().zip(film.rows_mut()).enumerate().try_for_each(|(y, ((row, ids), spectral))| -> Result<()> {
-        if cancel.load(Ordering::Relaxed) {
-            return Err(Error::Cancelled);
-        }
-        let mut count = RayCount::default();
-        for (x, (pixel, id)) in row.iter_mut().zip(ids.iter_mut()).enumerate() {
-            let mut xyz = [0.0f32; 3];
-            for (i, &(dx, dy)) in offsets.iter().enumerate() {
-                let ray = camera.generate_ray(x as f32 + dx, y as f32 + dy, width, height);
-                let (radiance, object) = whitted.trace_camera_ray(&ray, &mut count);
-                if i == 0 {
-                    *id = object;
-                }
-                let s = lanes.xyz(&radiance.0);
-                for c in 0..3 {
-                    xyz[c] += s[c] * inv_spp;
-                }
-                SpectralRows::add(spectral, x, film_lanes, &radiance.0);
-            }
-            *pixel = xyz;
-        }
-        let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
-        let done = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
-        progress(Progress { rows_done: done as u32, rows_total: height, rays: rays_now, elapsed: start.elapsed() });
-        Ok(())
-    })?;
-    film.attach(&mut image, 1.0 / f64::from(options.spp));
-    image.sanitize();
-    Ok((image, rays.into_inner(), start.elapsed()))
-}
-
-/// The spectral film while rendering: per-pixel sums of lane radiance in f64, one chunk per
-/// image row. Without a film each row gets an empty chunk (`add` then does nothing).
-pub(crate) struct SpectralRows {
-    wavelengths: Vec<f32>,
-    sums: Vec<f64>,
-    row_len: usize,
-    height: usize,
-}
-
-impl SpectralRows {
-    pub(crate) fn new<const N: usize>(keep: bool, lanes: &Lanes<N>, width: u32, height: u32) -> Self {
-        let wavelengths = if keep && !lanes.rgb { lanes.lambda[..lanes.active()].to_vec() } else { Vec::new() };
-        let row_len = width as usize * wavelengths.len();
-        Self { sums: vec![0.0; row_len * height as usize], wavelengths, row_len, height: height as usize }
-    }
-
-    /// No film: empty row chunks.
-    pub(crate) fn none(height: u32) -> Self {
-        Self { wavelengths: Vec::new(), sums: Vec::new(), row_len: 0, height: height as usize }
-    }
-
-    /// Wavelengths per pixel (0 without a film).
-    pub(crate) fn lanes(&self) -> usize {
-        self.wavelengths.len()
-    }
-
-    /// One mutable chunk per image row (empty chunks without a film, so the zip with the
-    /// image's rows stays aligned).
-    pub(crate) fn rows_mut(&mut self) -> impl IndexedParallelIterator<Item = &mut [f64]> + '_ {
-        if self.row_len == 0 {
-            rayon::iter::Either::Left((0..self.height).into_par_iter().map(|_| -> &mut [f64] { &mut [] }))
-        } else {
-            rayon::iter::Either::Right(self.sums.par_chunks_mut(self.row_len))
-        }
-    }
-
-    /// Add the first `lanes` values to pixel `x` of a row chunk (nothing without a film: the
-    /// test keeps a render without one at its old speed, measured 2–4 % slower without it).
-    #[inline(always)]
-    pub(crate) fn add<const N: usize>(row: &mut [f64], x: usize, lanes: usize, values: &[f32; N]) {
-        if lanes == 0 {
-            return;
-        }
-        if let Some(pixel) = row.get_mut(x * lanes..(x + 1) * lanes) {
-            for (sum, v) in pixel.iter_mut().zip(values) {
-                *sum += f64::from(*v);
-            }
-        }
-    }
-
-    /// Store the sums × `scale` (1 / samples per pixel) in the image.
-    pub(crate) fn attach(self, image: &mut Image, scale: f64) {
-        if self.wavelengths.is_empty() {
-            return;
-        }
-        let values = self.sums.iter().map(|v| (v * scale) as f32).collect();
-        image.set_spectral(crate::film::SpectralFilm { wavelengths: self.wavelengths, values });
-    }
 }
 
 /// Deterministic sub-pixel positions: the pixel centre for one sample, otherwise the R2
@@ -439,33 +585,22 @@ fn pixel_offsets(spp: u32) -> Vec<(f32, f32)> {
     (0..spp).map(|i| (((0.5 + A1 * f64::from(i)) % 1.0) as f32, ((0.5 + A2 * f64::from(i)) % 1.0) as f32)).collect()
 }
 
-impl Image {
-    /// Rows of pixels and of first-hit ids, in parallel (rayon work-stealing, one row a task).
-    fn rows_mut(
-        &mut self,
-    ) -> rayon::iter::Zip<rayon::slice::ChunksMut<'_, [f32; 3]>, rayon::slice::ChunksMut<'_, crate::ObjectId>> {
-        let width = self.width() as usize;
-        let (pixels, ids) = self.buffers_mut();
-        pixels.par_chunks_mut(width).zip(ids.par_chunks_mut(width))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn ambient_and_integrator_options_parse() {
-        assert_eq!(Ambient::parse("constant:0.1").unwrap(), Ambient::Constant(0.1));
-        assert_eq!(Ambient::parse("objects").unwrap(), Ambient::Objects { k_a: DEFAULT_K_A, exponent: 1.0 });
-        assert_eq!(Ambient::parse("none").unwrap(), Ambient::None);
-        assert!(matches!(Ambient::parse("constant:-1"), Err(Error::InvalidOption { .. })));
-        assert!(matches!(Ambient::parse("sky"), Err(Error::InvalidOption { .. })));
-        assert_eq!(IntegratorKind::parse("whitted-hall").unwrap(), IntegratorKind::WhittedHall);
-        assert_eq!(IntegratorKind::parse("path").unwrap(), IntegratorKind::Path);
-        assert!(IntegratorKind::parse("bdpt").is_err());
-        assert_eq!(WavelengthPdf::parse("visible").unwrap(), WavelengthPdf::Visible);
-        assert!(WavelengthPdf::parse("uniform").is_err());
+        assert_eq!("constant:0.1".parse::<Ambient>().unwrap(), Ambient::Constant(0.1));
+        assert_eq!("objects".parse::<Ambient>().unwrap(), Ambient::Objects { k_a: DEFAULT_K_A, exponent: 1.0 });
+        assert_eq!("none".parse::<Ambient>().unwrap(), Ambient::None);
+        assert!(matches!("constant:-1".parse::<Ambient>(), Err(Error::InvalidOption { .. })));
+        assert!(matches!("sky".parse::<Ambient>(), Err(Error::InvalidOption { .. })));
+        assert_eq!("whitted-hall".parse::<IntegratorKind>().unwrap(), IntegratorKind::WhittedHall);
+        assert_eq!("path".parse::<IntegratorKind>().unwrap(), IntegratorKind::Path);
+        assert!("bdpt".parse::<IntegratorKind>().is_err());
+        assert_eq!("visible".parse::<WavelengthPdf>().unwrap(), WavelengthPdf::Visible);
+        assert!("uniform".parse::<WavelengthPdf>().is_err());
     }
 
     #[test]
@@ -475,5 +610,15 @@ mod tests {
             assert_eq!(o.len(), spp as usize);
             assert!(o.iter().all(|&(x, y)| (0.0..1.0).contains(&x) && (0.0..1.0).contains(&y)));
         }
+    }
+
+    #[test]
+    fn every_spectral_mode_gets_enough_lanes() {
+        assert_eq!(lane_count(SpectralMode::Rgb).unwrap(), 4);
+        assert_eq!(lane_count(SpectralMode::Bins(5)).unwrap(), 8);
+        assert_eq!(lane_count(SpectralMode::Bins(95)).unwrap(), 96);
+        assert_eq!(lane_count(SpectralMode::Hero { count: 8 }).unwrap(), 8);
+        assert!(lane_count(SpectralMode::Hero { count: 5 }).is_err());
+        assert!(lane_count(SpectralMode::Bins(97)).is_err());
     }
 }

@@ -10,7 +10,7 @@
 
 use std::fmt;
 
-use colorimetry::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, RgbColorSpace, Xyz};
+use colorimetry::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, RgbColorSpace, SampledWavelengths, Xyz};
 
 use crate::error::{Error, Result};
 
@@ -34,9 +34,11 @@ pub enum SpectralMode {
 /// Largest `bins:N` supported: one lane per 5 nm over 360–830 nm, rounded up to a multiple of 8.
 pub const MAX_BINS: usize = 96;
 
-impl SpectralMode {
-    /// Parse `rgb`, `bins:N`, `hero`, `hero:K` or `auto`.
-    pub fn parse(s: &str) -> Result<Self> {
+impl std::str::FromStr for SpectralMode {
+    type Err = Error;
+
+    /// `rgb`, `bins:N`, `hero`, `hero:K` or `auto`.
+    fn from_str(s: &str) -> Result<Self> {
         let bad = || Error::InvalidOption {
             option: "spectral mode",
             value: s.to_owned(),
@@ -87,8 +89,9 @@ pub(crate) enum SpectrumKind {
 /// into XYZ.
 #[derive(Debug, Clone)]
 pub(crate) struct Lanes<const N: usize> {
-    /// Wavelength of each lane (nm); unused lanes repeat the last wavelength with zero weight.
-    pub(crate) lambda: [f32; N],
+    /// Wavelength of each lane (nm; density 1, unused); unused lanes repeat the last
+    /// wavelength with zero weight.
+    pub(crate) wavelengths: SampledWavelengths<N>,
     /// XYZ = Σ_i weight[c][i] · L_i.
     pub(crate) to_xyz: [[f32; N]; 3],
     /// Whether lanes are RGB channels rather than wavelengths.
@@ -135,7 +138,7 @@ impl<const N: usize> Lanes<N> {
         // Δλ cancels between the sum and its normalisation; only Σ ȳ remains.
         let norm: f64 = w[1].iter().sum();
         let to_xyz = w.map(|row| row.map(|v| (v / norm) as f32));
-        Self { lambda, to_xyz, rgb: false }
+        Self { wavelengths: SampledWavelengths::from_parts(lambda, [1.0; N]), to_xyz, rgb: false }
     }
 
     /// Three linear sRGB channels (N must be ≥ 3; lanes beyond 3 are unused).
@@ -148,12 +151,16 @@ impl<const N: usize> Lanes<N> {
                 row[i] = m[c][i] as f32;
             }
         }
-        Self { lambda: [550.0; N], to_xyz, rgb: true }
+        Self { wavelengths: SampledWavelengths::from_parts([550.0; N], [1.0; N]), to_xyz, rgb: true }
     }
 
     /// Number of lanes actually in use.
     pub(crate) fn active(&self) -> usize {
-        if self.rgb { 3 } else { self.to_xyz[1].iter().rposition(|&w| w != 0.0).map_or(N, |i| i + 1) }
+        if self.rgb {
+            3
+        } else {
+            (0..N).rposition(|i| self.to_xyz.iter().any(|row| row[i] != 0.0)).map_or(N, |i| i + 1)
+        }
     }
 
     /// XYZ (white Y = 1) of lane values.
@@ -173,7 +180,7 @@ impl<const N: usize> Lanes<N> {
             let rgb = spectrum_to_rgb(s, kind);
             out[..3].copy_from_slice(&rgb);
         } else {
-            for (o, &l) in out.iter_mut().zip(&self.lambda) {
+            for (o, &l) in out.iter_mut().zip(self.wavelengths.lambdas()) {
                 *o = s.eval(f64::from(l)) as f32;
             }
         }
@@ -234,13 +241,13 @@ mod tests {
 
     #[test]
     fn parses_every_mode_and_rejects_the_rest() {
-        assert_eq!(SpectralMode::parse("rgb").unwrap(), SpectralMode::Rgb);
-        assert_eq!(SpectralMode::parse("bins:95").unwrap(), SpectralMode::Bins(95));
-        assert_eq!(SpectralMode::parse("hero").unwrap(), SpectralMode::Hero { count: 4 });
-        assert_eq!(SpectralMode::parse("HERO:8").unwrap(), SpectralMode::Hero { count: 8 });
-        assert_eq!(SpectralMode::parse("auto").unwrap(), SpectralMode::Auto);
+        assert_eq!("rgb".parse::<SpectralMode>().unwrap(), SpectralMode::Rgb);
+        assert_eq!("bins:95".parse::<SpectralMode>().unwrap(), SpectralMode::Bins(95));
+        assert_eq!("hero".parse::<SpectralMode>().unwrap(), SpectralMode::Hero { count: 4 });
+        assert_eq!("HERO:8".parse::<SpectralMode>().unwrap(), SpectralMode::Hero { count: 8 });
+        assert_eq!("auto".parse::<SpectralMode>().unwrap(), SpectralMode::Auto);
         for bad in ["bins:1", "bins:97", "bins:x", "hero:3", "rgbx", ""] {
-            assert!(matches!(SpectralMode::parse(bad), Err(Error::InvalidOption { .. })), "{bad}");
+            assert!(matches!(bad.parse::<SpectralMode>(), Err(Error::InvalidOption { .. })), "{bad}");
         }
     }
 

@@ -6,14 +6,16 @@
 //! so the inner loop does no table look-ups. The geometry of the ray tree is the same for every
 //! wavelength (the paper's IOR does not vary with λ), so one tree carries all lanes.
 
-use colorimetry::SampledSpectrum;
+use colorimetry::{SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Ray, spawn_ray, spawn_ray_to};
 use glam::Vec3;
 use materials::{hall, scattering};
 
 use crate::assembly::RenderScene;
+use crate::film::{ObjectId, Sensor};
 use crate::light::{Light, LightKind};
-use crate::render::{Ambient, RenderOptions};
+use crate::render::{Ambient, Kernel, Radiance, RayCount, WhittedOptions};
+use crate::sampling::Rng;
 use crate::spectral::{Lanes, SpectrumKind};
 
 /// Most surfaces a shadow ray may cross before the light counts as blocked: enough for the
@@ -59,24 +61,9 @@ pub(crate) struct Whitted<'a, const N: usize> {
     min_weight: f32,
 }
 
-/// What a camera ray hit first: a material (by index; `None` = the default material) or
-/// nothing. Reports use it to average over objects (e.g. "the spheres").
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ObjectId {
-    /// The ray escaped.
-    Background,
-    /// The ray hit a surface with this material index.
-    Material(Option<u32>),
-}
-
-/// Per-thread counters.
-#[derive(Debug, Default, Clone, Copy)]
-pub(crate) struct RayCount {
-    pub(crate) rays: u64,
-}
-
 impl<'a, const N: usize> Whitted<'a, N> {
-    pub(crate) fn new(scene: &'a RenderScene, lanes: &Lanes<N>, options: &RenderOptions) -> Self {
+    pub(crate) fn new(scene: &'a RenderScene, sensor: &Sensor<N>, options: &WhittedOptions) -> Self {
+        let Sensor::Fixed(lanes) = sensor else { unreachable!("the paper's model renders fixed lanes") };
         let project = |s: &colorimetry::DenselySampledSpectrum, kind| SampledSpectrum(lanes.project(s, kind));
         let refl = SpectrumKind::Reflectance;
 
@@ -146,11 +133,6 @@ impl<'a, const N: usize> Whitted<'a, N> {
     #[inline]
     fn material(&self, index: Option<u32>) -> &LaneMaterial<N> {
         index.and_then(|i| self.materials.get(i as usize)).unwrap_or(&self.default_material)
-    }
-
-    /// Radiance (lane values) arriving along a camera ray, and what the ray saw first.
-    pub(crate) fn trace_camera_ray(&self, ray: &Ray, count: &mut RayCount) -> (SampledSpectrum<N>, ObjectId) {
-        self.trace_with_id(ray, 0, 1.0, None, count)
     }
 
     /// Eqs. 1–2: the ray tree. `weight` is the largest lane of the product of coefficients
@@ -351,6 +333,25 @@ impl<'a, const N: usize> Whitted<'a, N> {
             current = spawn_ray(&h, current.dir);
         }
         None
+    }
+}
+
+impl<const N: usize> Kernel<N> for Whitted<'_, N> {
+    /// The paper's model is deterministic: fixed sub-pixel positions, fixed lanes.
+    const RANDOM: bool = false;
+
+    /// Radiance (lane values) arriving along a camera ray, and what the ray saw first.
+    #[inline]
+    fn li(
+        &self,
+        ray: &Ray,
+        _lambda: &mut SampledWavelengths<N>,
+        _sensor: &Sensor<N>,
+        _rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> Radiance<N> {
+        let (l, first) = self.trace_with_id(ray, 0, 1.0, None, count);
+        Radiance { l, first, lane: None }
     }
 }
 

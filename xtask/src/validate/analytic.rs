@@ -38,7 +38,10 @@ pub(crate) fn whitted_checks(report: &mut Report) -> anyhow::Result<()> {
     // critical angle many times. The model has no gain, so no pixel may exceed the background
     // (Y = 1); 1e-4 allows f32 rounding over 30 bounces.
     let json = clear_sphere(r#"{"position": [0, 0, 4], "look_at": [0, 0, -100], "vfov_deg": 30}"#, 2.4, 1.0, 1.0);
-    let options = RenderOptions { min_weight: 0.0, max_depth: Some(30), ..small(24, 24) };
+    let options = small(24, 24).whitted(|w| {
+        w.min_weight = 0.0;
+        w.max_depth = Some(30);
+    });
     let (image, stats) = render(&scene(&json)?, &options)?;
     let brightest = image.pixels().iter().map(|p| p[1]).fold(0.0f32, f32::max);
     report.check(
@@ -59,7 +62,7 @@ pub(crate) fn whitted_checks(report: &mut Report) -> anyhow::Result<()> {
         "lights": [{"type": "point", "position": [0, 0, 10], "spectrum": "D65", "intensity": 100}],
         "materials": {"grey": {"base_color": "colorchecker:22", "diffuse": 1, "ks": 0}},
         "objects": [{"type": "quad", "corner": [-1, -1, 0], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0], "material": "grey"}] }"#;
-    let options = RenderOptions { spectral: SpectralMode::Bins(95), absorption: false, ..small(1, 1) };
+    let options = RenderOptions { spectral: SpectralMode::Bins(95), ..small(1, 1) }.whitted(|w| w.absorption = false);
     let (image, _) = render(&scene(json)?, &options)?;
     let grey = materials::named_spectrum("colorchecker:22")?;
     let d65 = Illuminant::D65.spectrum()?;

@@ -60,7 +60,13 @@ fn total_internal_reflection_keeps_energy_inside() {
     // hitting past the critical angle reflect with the full k_t. Renders stay finite and no
     // pixel exceeds the background (the model has no gain: k_t = 1, T_s = 1, no lights seen).
     let s = scene(&glass_sphere_scene(2.4, 1.0, 4.0, 1.0));
-    let (image, stats) = render_with(&s, &RenderOptions { min_weight: 0.0, max_depth: Some(30), ..options(24, 24) });
+    let (image, stats) = render_with(
+        &s,
+        &options(24, 24).whitted(|w| {
+            w.min_weight = 0.0;
+            w.max_depth = Some(30);
+        }),
+    );
     assert_all_finite(&image, &stats);
     for p in image.pixels() {
         assert!(p[1] <= 1.0 + 1e-4, "{p:?}");
@@ -80,8 +86,13 @@ fn facing_mirrors_stop_at_the_depth_limit() {
         ] }"#;
     let s = scene(json);
     for depth in [0u32, 5, 20] {
-        let (image, stats) =
-            render_with(&s, &RenderOptions { max_depth: Some(depth), min_weight: 0.0, ..options(1, 1) });
+        let (image, stats) = render_with(
+            &s,
+            &options(1, 1).whitted(|w| {
+                w.max_depth = Some(depth);
+                w.min_weight = 0.0;
+            }),
+        );
         assert_all_finite(&image, &stats);
         // One camera ray + `depth` reflections, each with at most one shadow ray (+1 crossing
         // walk if blocked).
@@ -111,8 +122,8 @@ fn every_committed_scene_renders_without_nan() {
     for path in files {
         let s = integrator::RenderScene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         for spectral in [integrator::SpectralMode::Rgb, integrator::SpectralMode::Auto] {
-            let opts =
-                RenderOptions { spectral, ambient: Ambient::Objects { k_a: 0.1, exponent: 1.0 }, ..options(12, 9) };
+            let opts = RenderOptions { spectral, ..options(12, 9) }
+                .whitted(|w| w.ambient = Ambient::Objects { k_a: 0.1, exponent: 1.0 });
             let (image, stats) = render_with(&s, &opts);
             assert_eq!(stats.nonfinite_samples, 0, "{}", path.display());
             assert!(image.pixels().iter().flatten().all(|v| v.is_finite()), "{}", path.display());

@@ -1,6 +1,7 @@
 //! Integration tests of the integrator: analytic answers and hard cases, rendered at tiny
 //! resolutions.
 
+mod film;
 mod hard_cases;
 mod paper_model;
 mod path;
@@ -25,11 +26,17 @@ pub(crate) fn render_with(scene: &RenderScene, options: &RenderOptions) -> (Imag
 
 /// Small render options: `w`×`h`, no ambient unless asked.
 pub(crate) fn options(w: u32, h: u32) -> RenderOptions {
-    RenderOptions { width: w, height: h, ambient: integrator::Ambient::None, threads: Some(1), ..Default::default() }
+    RenderOptions { width: w, height: h, threads: Some(1), ..Default::default() }
+        .whitted(|w| w.ambient = integrator::Ambient::None)
 }
 
 /// Every pixel finite (the film replaces non-finite values, so check its counter too).
 pub(crate) fn assert_all_finite(image: &Image, stats: &RenderStats) {
     assert_eq!(stats.nonfinite_samples, 0, "non-finite samples reached the film");
     assert!(image.pixels().iter().flatten().all(|v| v.is_finite()));
+}
+
+/// A scene of `scenes/reference/`.
+pub(crate) fn reference(name: &str) -> RenderScene {
+    RenderScene::load(&path::reference_path(name)).expect("reference scene loads")
 }

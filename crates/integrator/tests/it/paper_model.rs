@@ -36,7 +36,7 @@ fn slab_attenuates_by_t_to_the_power_b() {
         let y = image.xyz(1, 1)[1];
         assert!((y - t.powf(b)).abs() < 1e-5, "b = {b}, t = {t}: Y = {y}, expected {}", t.powf(b));
         // Absorption off: the slab is clear.
-        let (clear, _) = render_with(&s, &integrator::RenderOptions { absorption: false, ..options(3, 3) });
+        let (clear, _) = render_with(&s, &options(3, 3).whitted(|w| w.absorption = false));
         assert!((clear.xyz(1, 1)[1] - 1.0).abs() < 1e-5);
     }
 }
@@ -57,13 +57,11 @@ fn white_lit_grey_plane_has_the_xyz_colorimetry_predicts() {
         }}"#
     );
     let s = scene(&json);
-    let opts = integrator::RenderOptions {
-        spectral: SpectralMode::Bins(95),
-        spectral_film: true,
-        absorption: false,
-        ambient: Ambient::None,
-        ..options(1, 1)
-    };
+    let opts = integrator::RenderOptions { spectral: SpectralMode::Bins(95), spectral_film: true, ..options(1, 1) }
+        .whitted(|w| {
+            w.absorption = false;
+            w.ambient = Ambient::None;
+        });
     let (image, stats) = render_with(&s, &opts);
     assert_all_finite(&image, &stats);
     let grey = materials::named_spectrum("colorchecker:22").unwrap();
@@ -110,13 +108,13 @@ fn object_ambient_matches_eq_9_by_hand() {
         ] }}"#
     );
     let s = scene(&json);
-    let opts = integrator::RenderOptions { ambient: Ambient::Objects { k_a: 0.1, exponent: 1.0 }, ..options(1, 1) };
+    let opts = options(1, 1).whitted(|w| w.ambient = Ambient::Objects { k_a: 0.1, exponent: 1.0 });
     let (image, _) = render_with(&s, &opts);
     let expected = 0.2 * 0.1 * (0.25 * 0.2 + 0.75 * 0.8);
     let y = image.xyz(0, 0)[1];
     assert!((y - expected).abs() < 1e-5, "Y = {y}, expected {expected}");
     // The constant ambient of the same strength gives k_d R_1 · K_a.
-    let (constant, _) = render_with(&s, &integrator::RenderOptions { ambient: Ambient::Constant(0.1), ..opts });
+    let (constant, _) = render_with(&s, &opts.clone().whitted(|w| w.ambient = Ambient::Constant(0.1)));
     assert!((constant.xyz(0, 0)[1] - 0.2 * 0.1).abs() < 1e-5);
 }
 

@@ -7,15 +7,13 @@
 use std::path::{Path, PathBuf};
 
 use colorimetry::{Illuminant, Integration, Lab, Observer, Xyz, delta_e_2000, reflectance_to_xyz};
-use integrator::{Image, IntegratorKind, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
+use integrator::{
+    Image, Integrator, IntegratorKind, PathOptions, RenderOptions, RenderScene, SpectralMode, WavelengthPdf,
+};
 
-use crate::{assert_all_finite, render_with};
+use crate::{assert_all_finite, reference, render_with};
 
-fn reference(name: &str) -> RenderScene {
-    RenderScene::load(&reference_path(name)).expect("reference scene loads")
-}
-
-fn reference_path(name: &str) -> PathBuf {
+pub(crate) fn reference_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/reference").join(name)
 }
 
@@ -23,7 +21,7 @@ fn path_options(w: u32, h: u32, spectral: SpectralMode, spp: u32) -> RenderOptio
     RenderOptions {
         width: w,
         height: h,
-        integrator: IntegratorKind::Path,
+        integrator: Integrator::Path(PathOptions::default()),
         spectral,
         spp,
         seed: 1,
@@ -58,7 +56,7 @@ fn white_furnace_renders_as_the_environment() {
     // Hero wavelengths: the spectral estimate of Y is noisy; its mean over 16×16 pixels must
     // be 1 within 5 standard errors.
     for pdf in [WavelengthPdf::Visible, WavelengthPdf::Illuminant] {
-        let options = RenderOptions { wavelength_pdf: pdf, ..path_options(16, 16, SpectralMode::Hero { count: 4 }, 4) };
+        let options = path_options(16, 16, SpectralMode::Hero { count: 4 }, 4).path(|p| p.wavelength_pdf = pdf);
         let (image, stats) = render_with(&scene, &options);
         assert_all_finite(&image, &stats);
         let (mean, se) = mean_and_se(&image, 1);
@@ -192,12 +190,26 @@ fn every_reference_scene_renders_without_nan() {
 
 #[test]
 fn time_limit_stops_after_a_pass_and_reports_the_samples_taken() {
-    // A zero time limit ends the render after its first pass: spp/16 samples.
+    // A zero time limit ends the render after its first pass: one sample per pixel.
     let scene = reference("white_furnace.json");
     let options =
         RenderOptions { time_limit: Some(std::time::Duration::ZERO), ..path_options(4, 4, SpectralMode::Bins(8), 32) };
     let (image, stats) = render_with(&scene, &options);
-    assert_eq!(stats.spp, 2);
+    assert_eq!(stats.spp, 1);
+    assert!((image.xyz(0, 0)[1] - 1.0).abs() < 1e-4);
+}
+
+#[test]
+fn time_limit_is_kept_at_any_spp() {
+    // 2^20 samples of 16 pixels would take minutes; passes of one sample stop it early (before
+    // this fix a pass was spp/16 = 65536 samples, so the limit waited for the first pass).
+    let scene = reference("white_furnace.json");
+    let options = RenderOptions {
+        time_limit: Some(std::time::Duration::from_millis(50)),
+        ..path_options(4, 4, SpectralMode::Bins(8), 1 << 20)
+    };
+    let (image, stats) = render_with(&scene, &options);
+    assert!(stats.spp >= 1 && stats.spp < 1 << 20, "{} spp", stats.spp);
     assert!((image.xyz(0, 0)[1] - 1.0).abs() < 1e-4);
 }
 

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::DVec2;
-use integrator::{IntegratorKind, RenderOptions, RenderScene, SpectralMode};
+use integrator::{Integrator, PathOptions, RenderOptions, RenderScene, SpectralMode};
 use materials::Ior;
 use serde_json::{Value, json};
 
@@ -121,7 +121,7 @@ fn measured_row(scene: &RenderScene, n: f64) -> f64 {
     let options = RenderOptions {
         width: WIDTH,
         height: HEIGHT,
-        integrator: IntegratorKind::Path,
+        integrator: Integrator::Path(PathOptions::default()),
         spectral: SpectralMode::Hero { count: 8 },
         spp: 32,
         seed: 3,

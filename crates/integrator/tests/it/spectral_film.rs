@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use integrator::{Error, IntegratorKind, RenderOptions, RenderScene, SpectralMode};
+use integrator::{Error, Integrator, PathOptions, RenderOptions, RenderScene, SpectralMode};
 use materials::{luminance_normalized, named_spectrum};
 
 use crate::{assert_all_finite, options, render_with, scene};
@@ -28,7 +28,7 @@ fn path_tracer_film_is_reflectance_times_the_environment() {
     let options = RenderOptions {
         width: 6,
         height: 4,
-        integrator: IntegratorKind::Path,
+        integrator: Integrator::Path(PathOptions::default()),
         spectral: SpectralMode::Bins(16),
         spectral_film: true,
         threads: Some(2),
@@ -54,9 +54,9 @@ fn a_film_needs_fixed_wavelengths() {
         "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}] }"#,
     );
     let cases = [
-        (IntegratorKind::WhittedHall, SpectralMode::Rgb),
-        (IntegratorKind::Path, SpectralMode::Rgb),
-        (IntegratorKind::Path, SpectralMode::Hero { count: 4 }),
+        (Integrator::default(), SpectralMode::Rgb),
+        (Integrator::Path(PathOptions::default()), SpectralMode::Rgb),
+        (Integrator::Path(PathOptions::default()), SpectralMode::Hero { count: 4 }),
     ];
     for (integrator, spectral) in cases {
         let opts = RenderOptions { integrator, spectral, spectral_film: true, ..options(4, 4) };

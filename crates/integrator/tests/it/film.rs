@@ -1,0 +1,96 @@
+//! The film's sums merge exactly: sample ranges rendered apart equal the whole render.
+
+use std::sync::atomic::AtomicBool;
+
+use integrator::{Film, Integrator, PathOptions, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
+
+use crate::reference;
+
+fn film(scene: &RenderScene, options: &RenderOptions) -> Film {
+    integrator::render_film(scene, options, &|_| {}, &AtomicBool::new(false)).expect("render succeeds").0
+}
+
+/// Samples 0..k and k..n rendered separately (and k..n split again) merge into exactly the
+/// film of 0..n: every sum, count and first-hit id, bit for bit.
+#[test]
+fn films_of_disjoint_sample_ranges_merge_into_the_whole_render() {
+    let cases: [(&str, Integrator, SpectralMode, bool); 5] = [
+        ("cornell_box.json", Integrator::default(), SpectralMode::Bins(16), true),
+        ("cornell_box.json", Integrator::Path(PathOptions::default()), SpectralMode::Bins(16), true),
+        ("cornell_box.json", Integrator::Path(PathOptions::default()), SpectralMode::Rgb, false),
+        ("prism.json", Integrator::Path(PathOptions::default()), SpectralMode::Hero { count: 8 }, false),
+        (
+            "slab_beer.json",
+            Integrator::Path(PathOptions { wavelength_pdf: WavelengthPdf::Visible, ..PathOptions::default() }),
+            SpectralMode::Hero { count: 4 },
+            false,
+        ),
+    ];
+    for (file, integrator, spectral, spectral_film) in cases {
+        let scene = reference(file);
+        let base = RenderOptions {
+            width: 12,
+            height: 9,
+            integrator,
+            spectral,
+            spp: 7,
+            seed: 5,
+            threads: Some(2),
+            spectral_film,
+            ..RenderOptions::default()
+        };
+        let whole = film(&scene, &base);
+        let part = |range: std::ops::Range<u32>| film(&scene, &RenderOptions { samples: Some(range), ..base.clone() });
+        // Merged in a different order than rendered, and in uneven pieces.
+        let mut merged = part(5..7);
+        merged.merge(&part(0..2)).unwrap();
+        merged.merge(&part(2..5)).unwrap();
+        assert!(merged == whole, "{file} {spectral}: merged film differs from the whole render");
+        assert_eq!(merged.min_sample_count(), 7);
+        let (a, b) = (merged.to_image(), whole.to_image());
+        assert_eq!(a.pixels(), b.pixels());
+        assert_eq!(a.object_ids(), b.object_ids());
+        assert_eq!(a.spectral(), b.spectral());
+        // The sums are not trivially equal: a film missing one range differs.
+        let mut partial = part(0..2);
+        partial.merge(&part(2..5)).unwrap();
+        assert!(partial != whole && partial.min_sample_count() == 5);
+    }
+}
+
+#[test]
+fn films_of_different_renders_do_not_merge() {
+    let scene = reference("cornell_box.json");
+    let base = RenderOptions { width: 4, height: 3, spectral: SpectralMode::Bins(8), ..RenderOptions::default() };
+    let mut a = film(&scene, &base);
+    let b = film(&scene, &RenderOptions { width: 5, ..base.clone() });
+    assert!(a.merge(&b).is_err());
+    let c = film(&scene, &RenderOptions { spectral_film: true, ..base });
+    assert!(a.merge(&c).is_err(), "a spectral film needs the same wavelengths");
+}
+
+#[test]
+fn luminance_variance_is_the_variance_of_the_mean() {
+    // The white furnace at fixed bins is noise-free: variance 0 up to rounding.
+    let furnace = reference("white_furnace.json");
+    let opts = RenderOptions {
+        width: 8,
+        height: 8,
+        integrator: Integrator::Path(PathOptions::default()),
+        spectral: SpectralMode::Bins(8),
+        spp: 8,
+        ..RenderOptions::default()
+    };
+    assert!(film(&furnace, &opts).luminance_variance().iter().all(|v| *v < 1e-10));
+    // With hero wavelengths each sample's Y is an independent estimate of 1: the variance of
+    // the mean falls as 1/spp. Summed over 64 pixels the ratio for 4× the samples is 4 with a
+    // relative standard error of about √(2/63 + 2/255) ≈ 0.2; accept 2.5..6.5.
+    let noisy = |spp| {
+        let o = RenderOptions { spectral: SpectralMode::Hero { count: 4 }, spp, ..opts.clone() };
+        film(&furnace, &o).luminance_variance().iter().map(|&x| f64::from(x)).sum::<f64>()
+    };
+    let (v16, v64) = (noisy(16), noisy(64));
+    assert!(v16 > 0.0);
+    let ratio = v16 / v64;
+    assert!((2.5..6.5).contains(&ratio), "variance ratio {ratio}");
+}
