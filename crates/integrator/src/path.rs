@@ -17,16 +17,17 @@ use std::time::{Duration, Instant};
 use colorimetry::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, SampledSpectrum, SampledWavelengths};
 use geometry::{Camera, Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
 use glam::{Vec2, Vec3};
+use materials::bsdf::{Bsdf, Frame};
+use materials::sampling::cosine_hemisphere;
 use materials::{Ior, Scattering};
 use rayon::prelude::*;
 
 use crate::assembly::RenderScene;
-use crate::bsdf::{Bsdf, Frame};
 use crate::error::{Error, Result};
 use crate::film::Image;
 use crate::light::{Light, LightKind};
 use crate::render::{Progress, RenderOptions, SpectralRows, WavelengthPdf};
-use crate::sampling::{Rng, cosine_hemisphere, power_heuristic, uniform_sphere, uniform_triangle};
+use crate::sampling::{Rng, power_heuristic, uniform_sphere, uniform_triangle};
 use crate::spectral::{Lanes, SpectrumKind};
 use crate::whitted::{ObjectId, RayCount};
 
