@@ -21,13 +21,14 @@ use glam::{Vec2, Vec3};
 use super::microfacet::TrowbridgeReitz;
 use crate::scattering::{fr_dielectric, refract};
 
-/// Grid of the conductor table: μ = cos θ_o and α, both uniform on [0, 1].
+/// Grid of the conductor table: √μ (μ = cos θ_o) and √α, both uniform on [0, 1]: dense near
+/// grazing and near smooth, where the albedo changes fastest.
 const CONDUCTOR_MU: usize = 32;
 const CONDUCTOR_ALPHA: usize = 32;
 /// Stratified visible-normal samples per conductor cell (side of the square).
 const CONDUCTOR_STRATA: usize = 24;
 
-/// Grid of the dielectric tables: μ, α uniform on [0, 1], η uniform on [1, DIELECTRIC_ETA_MAX].
+/// Grid of the dielectric tables: √μ, √α uniform on [0, 1], η uniform on [1, DIELECTRIC_ETA_MAX].
 const DIELECTRIC_MU: usize = 16;
 const DIELECTRIC_ALPHA: usize = 16;
 const DIELECTRIC_ETA: usize = 16;
@@ -66,10 +67,10 @@ fn lerp(a: f32, b: f32, t: f32) -> f32 {
     a + t * (b - a)
 }
 
-/// A direction at μ = cos θ in the xz plane.
+/// The direction in the xz plane at grid node `s` = √μ.
 #[inline]
-fn direction(mu: f32) -> Vec3 {
-    let mu = mu.max(MU_FLOOR);
+fn direction(s: f32) -> Vec3 {
+    let mu = (s * s).max(MU_FLOOR);
     Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu)
 }
 
@@ -125,31 +126,31 @@ impl ConductorTable {
         let mut e = vec![1.0; CONDUCTOR_MU * CONDUCTOR_ALPHA];
         let mut e_avg = vec![1.0; CONDUCTOR_ALPHA];
         for a in 1..CONDUCTOR_ALPHA {
-            let d = TrowbridgeReitz::isotropic(a as f32 / (CONDUCTOR_ALPHA - 1) as f32);
+            let d = TrowbridgeReitz::isotropic((a as f32 / (CONDUCTOR_ALPHA - 1) as f32).powi(2));
             let row = &mut e[a * CONDUCTOR_MU..(a + 1) * CONDUCTOR_MU];
             for (m, cell) in row.iter_mut().enumerate() {
                 *cell = conductor_albedo(&d, direction(m as f32 / (CONDUCTOR_MU - 1) as f32), CONDUCTOR_STRATA);
             }
-            // E_avg = 2 ∫ E(μ) μ dμ, trapezoidal rule on the μ grid.
+            // E_avg = 2 ∫ E(μ) μ dμ = 4 ∫ E(s²) s³ ds, trapezoidal rule on the s = √μ grid.
             let h = 1.0 / (CONDUCTOR_MU - 1) as f32;
-            let integrand = |m: usize| row[m] * m as f32 * h;
+            let integrand = |m: usize| 2.0 * row[m] * (m as f32 * h).powi(3);
             let inner: f32 = (1..CONDUCTOR_MU - 1).map(integrand).sum();
             e_avg[a] = 2.0 * h * (inner + 0.5 * (integrand(0) + integrand(CONDUCTOR_MU - 1)));
         }
         Self { e, e_avg }
     }
 
-    /// E(μ, α), bilinear.
+    /// E(μ, α), bilinear in (√μ, √α).
     pub(crate) fn e(&self, mu: f32, alpha: f32) -> f32 {
-        let (m, tm) = locate(mu, 0.0, 1.0, CONDUCTOR_MU);
-        let (a, ta) = locate(alpha, 0.0, 1.0, CONDUCTOR_ALPHA);
+        let (m, tm) = locate(mu.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_MU);
+        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_ALPHA);
         let at = |a: usize, m: usize| self.e[a * CONDUCTOR_MU + m];
         lerp(lerp(at(a, m), at(a, m + 1), tm), lerp(at(a + 1, m), at(a + 1, m + 1), tm), ta)
     }
 
-    /// E_avg(α), linear.
+    /// E_avg(α), linear in √α.
     pub(crate) fn e_avg(&self, alpha: f32) -> f32 {
-        let (a, ta) = locate(alpha, 0.0, 1.0, CONDUCTOR_ALPHA);
+        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_ALPHA);
         lerp(self.e_avg[a], self.e_avg[a + 1], ta)
     }
 }
@@ -161,7 +162,7 @@ impl DielectricTable {
         for k in 0..DIELECTRIC_ETA {
             let eta = 1.0 + (DIELECTRIC_ETA_MAX - 1.0) * k as f32 / (DIELECTRIC_ETA - 1) as f32;
             for a in 1..DIELECTRIC_ALPHA {
-                let d = TrowbridgeReitz::isotropic(a as f32 / (DIELECTRIC_ALPHA - 1) as f32);
+                let d = TrowbridgeReitz::isotropic((a as f32 / (DIELECTRIC_ALPHA - 1) as f32).powi(2));
                 for m in 0..DIELECTRIC_MU {
                     let wo = direction(m as f32 / (DIELECTRIC_MU - 1) as f32);
                     let i = (k * DIELECTRIC_ALPHA + a) * DIELECTRIC_MU + m;
@@ -174,13 +175,13 @@ impl DielectricTable {
     }
 
     /// E(μ, α, η) for a ray on the side z > 0 (`from_inside` false) or z < 0 of an interface
-    /// of index `eta` (inside over outside), trilinear; η clamped to [1, 3] (η < 1 is read as
+    /// of index `eta` (inside over outside), trilinear in (√μ, √α, η); η clamped to [1, 3] (η < 1 is read as
     /// the same interface seen from the other side).
     pub(crate) fn e(&self, mu: f32, alpha: f32, eta: f32, from_inside: bool) -> f32 {
         let (eta, from_inside) = if eta < 1.0 { (1.0 / eta, !from_inside) } else { (eta, from_inside) };
         let table = if from_inside { &self.inside } else { &self.outside };
-        let (m, tm) = locate(mu, 0.0, 1.0, DIELECTRIC_MU);
-        let (a, ta) = locate(alpha, 0.0, 1.0, DIELECTRIC_ALPHA);
+        let (m, tm) = locate(mu.max(0.0).sqrt(), 0.0, 1.0, DIELECTRIC_MU);
+        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, DIELECTRIC_ALPHA);
         let (k, tk) = locate(eta, 1.0, DIELECTRIC_ETA_MAX, DIELECTRIC_ETA);
         let at = |k: usize, a: usize, m: usize| table[(k * DIELECTRIC_ALPHA + a) * DIELECTRIC_MU + m];
         let plane =

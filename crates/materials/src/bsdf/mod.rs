@@ -210,11 +210,11 @@ impl Local {
         Self { t, b, n }
     }
     #[inline]
-    fn to_local(&self, w: Vec3) -> Vec3 {
+    fn local(&self, w: Vec3) -> Vec3 {
         Vec3::new(w.dot(self.t), w.dot(self.b), w.dot(self.n))
     }
     #[inline]
-    fn from_local(&self, w: Vec3) -> Vec3 {
+    fn world(&self, w: Vec3) -> Vec3 {
         w.x * self.t + w.y * self.b + w.z * self.n
     }
 }
@@ -296,13 +296,13 @@ impl<const N: usize> Bsdf<N> {
                     return black;
                 }
                 let l = Local::new(ns);
-                let (wo_l, wi_l) = (l.to_local(wo), l.to_local(wi));
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
                 (c.f(wo_l, wi_l), wi_l.z.abs())
             }
             Self::RoughDielectric(d) => {
                 let n = frame.interface_normal(wo);
                 let l = Local::new(n);
-                let (wo_l, wi_l) = (l.to_local(wo), l.to_local(wi));
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
                 // Reflection or transmission as the shading frame sees it must agree with the
                 // geometric normal, or light would leak through the surface.
                 if (wo_l.z * wi_l.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
@@ -330,11 +330,11 @@ impl<const N: usize> Bsdf<N> {
                     return 0.0;
                 }
                 let l = Local::new(ns);
-                c.pdf(l.to_local(wo), l.to_local(wi))
+                c.pdf(l.local(wo), l.local(wi))
             }
             Self::RoughDielectric(d) => {
                 let l = Local::new(frame.interface_normal(wo));
-                let (wo_l, wi_l) = (l.to_local(wo), l.to_local(wi));
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
                 if (wo_l.z * wi_l.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
                     return 0.0;
                 }
@@ -416,8 +416,8 @@ impl<const N: usize> Bsdf<N> {
             }
             Self::Conductor(c) => {
                 let l = Local::new(ns);
-                let s = c.sample_f(l.to_local(wo), uc, u)?;
-                let wi = l.from_local(s.wi);
+                let s = c.sample_f(l.local(wo), uc, u)?;
+                let wi = l.world(s.wi);
                 if ng.dot(wi) <= 0.0 {
                     return None;
                 }
@@ -428,9 +428,9 @@ impl<const N: usize> Bsdf<N> {
                     return Bsdf::Dielectric { eta: d.eta(), tint: d.tint() }.sample_f(frame, wo, uc, u);
                 }
                 let l = Local::new(frame.interface_normal(wo));
-                let wo_l = l.to_local(wo);
+                let wo_l = l.local(wo);
                 let s = d.sample_f(wo_l, uc, u)?;
-                let wi = l.from_local(s.wi);
+                let wi = l.world(s.wi);
                 if (wo_l.z * s.wi.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
                     return None;
                 }
