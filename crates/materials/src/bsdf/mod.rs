@@ -14,7 +14,8 @@
 //! - [`Bsdf::RoughDielectric`]: a GGX rough dielectric interface (Walter et al. 2007, pbrt-v4
 //!   `DielectricBxDF` rough branch), with optional energy compensation (Turquin 2019);
 //! - [`Bsdf::ThinDielectric`]: a thin slab with inter-reflection summed in closed form (pbrt-v4
-//!   `ThinDielectricBxDF`), for glTF transmission without volume.
+//!   `ThinDielectricBxDF`), for glTF transmission without volume;
+//! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B).
 //!
 //! The first three are what the path tracer has always used; their arithmetic is unchanged
 //! (the lead checks renders bit for bit). The rough lobes work in a local shading frame
@@ -24,6 +25,7 @@
 mod compensation;
 mod conductor;
 mod dielectric;
+mod gltf;
 mod microfacet;
 mod spectral_ior;
 #[cfg(test)]
@@ -38,6 +40,7 @@ use glam::{Vec2, Vec3};
 
 pub use conductor::ConductorBxdf;
 pub use dielectric::{RoughDielectricBxdf, ThinDielectricBxdf};
+pub use gltf::GltfMetalRoughBxdf;
 pub use microfacet::TrowbridgeReitz;
 pub use spectral_ior::{KNOWN_METALS, Metal, MetalIor};
 
@@ -193,6 +196,8 @@ pub enum Bsdf<const N: usize> {
     RoughDielectric(RoughDielectricBxdf<N>),
     /// A thin-walled dielectric slab (no refraction of the direction).
     ThinDielectric(ThinDielectricBxdf<N>),
+    /// The glTF 2.0 metallic–roughness BRDF.
+    GltfMetalRough(GltfMetalRoughBxdf<N>),
 }
 
 /// Local shading coordinates: `z` along `n`, `x`, `y` along [`basis`]`(n)`.
@@ -236,6 +241,7 @@ impl<const N: usize> Bsdf<N> {
             Self::Conductor(c) => c.flags(),
             Self::RoughDielectric(d) => d.flags(),
             Self::ThinDielectric(d) => d.flags(),
+            Self::GltfMetalRough(g) => g.flags(),
         }
     }
 
@@ -310,6 +316,15 @@ impl<const N: usize> Bsdf<N> {
                 }
                 (d.f(wo_l, wi_l), wi_l.z.abs())
             }
+            Self::GltfMetalRough(g) => {
+                let (ng, ns) = frame.facing(wo);
+                if ng.dot(wi) <= 0.0 {
+                    return black;
+                }
+                let l = Local::new(ns);
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
+                (g.f(wo_l, wi_l), wi_l.z.abs())
+            }
             Self::Lambertian { .. } | Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => black,
         }
     }
@@ -339,6 +354,14 @@ impl<const N: usize> Bsdf<N> {
                     return 0.0;
                 }
                 d.pdf(wo_l, wi_l)
+            }
+            Self::GltfMetalRough(g) => {
+                let (ng, ns) = frame.facing(wo);
+                if ng.dot(wi) <= 0.0 {
+                    return 0.0;
+                }
+                let l = Local::new(ns);
+                g.pdf(l.local(wo), l.local(wi))
             }
         }
     }
@@ -432,6 +455,17 @@ impl<const N: usize> Bsdf<N> {
                 let s = d.sample_f(wo_l, uc, u)?;
                 let wi = l.world(s.wi);
                 if (wo_l.z * s.wi.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
+                    return None;
+                }
+                Some(world_sample(s, wi))
+            }
+            Self::GltfMetalRough(g) => {
+                let l = Local::new(ns);
+                let s = g.sample_f(l.local(wo), uc, u)?;
+                // The delta layer mirrors like `Mirror` (geometric fallback); the rest must stay
+                // above the geometric surface.
+                let wi = if s.flags.is_specular() { mirror(wo, ns, ng) } else { l.world(s.wi) };
+                if ng.dot(wi) <= 0.0 {
                     return None;
                 }
                 Some(world_sample(s, wi))
