@@ -40,11 +40,13 @@ const DIELECTRIC_STRATA: usize = 16;
 /// defined; the limit is approached closely enough.
 const MU_FLOOR: f32 = 2e-3;
 
-/// E(μ, α) of a white GGX mirror and E_avg(α).
+/// E(μ, α) of a white GGX mirror and E_avg(α); the same for the Schlick-weighted albedo E₂.
 #[derive(Debug)]
 pub(crate) struct ConductorTable {
     e: Vec<f32>,
     e_avg: Vec<f32>,
+    e_schlick: Vec<f32>,
+    e_schlick_avg: Vec<f32>,
 }
 
 /// E(μ, α, η) of a GGX dielectric interface seen from outside (η ≥ 1) and from inside.
@@ -84,18 +86,27 @@ fn stratum(i: usize, j: usize, s: usize) -> Vec2 {
 
 /// Single-scattering albedo of a white GGX mirror seen from `wo`.
 pub(crate) fn conductor_albedo(d: &TrowbridgeReitz, wo: Vec3, strata: usize) -> f32 {
+    mirror_albedos(d, wo, strata).0
+}
+
+/// The white GGX mirror's albedo E₁ and its Schlick-weighted albedo E₂ = ∫ (1 − ω_o·ω_m)⁵ f cos
+/// (so that a Schlick-Fresnel lobe of normal reflectance f0 reflects f0 E₁ + (1 − f0) E₂).
+pub(crate) fn mirror_albedos(d: &TrowbridgeReitz, wo: Vec3, strata: usize) -> (f32, f32) {
     let g1 = d.g1(wo);
-    let mut sum = 0.0f64;
+    let (mut e1, mut e2) = (0.0f64, 0.0f64);
     for i in 0..strata {
         for j in 0..strata {
             let wm = d.sample_wm(wo, stratum(i, j, strata));
             let wi = 2.0 * wo.dot(wm) * wm - wo;
             if wi.z > 0.0 {
-                sum += f64::from(d.g(wo, wi) / g1);
+                let w = f64::from(d.g(wo, wi) / g1);
+                e1 += w;
+                e2 += w * f64::from((1.0 - wo.dot(wm).clamp(0.0, 1.0)).powi(5));
             }
         }
     }
-    (sum / (strata * strata) as f64) as f32
+    let n = (strata * strata) as f64;
+    ((e1 / n) as f32, (e2 / n) as f32)
 }
 
 /// Single-scattering albedo (reflection + transmission, radiance scaling undone) of a GGX
@@ -123,21 +134,45 @@ pub(crate) fn dielectric_albedo(d: &TrowbridgeReitz, wo: Vec3, eta: f32, strata:
 
 impl ConductorTable {
     fn compute() -> Self {
-        let mut e = vec![1.0; CONDUCTOR_MU * CONDUCTOR_ALPHA];
-        let mut e_avg = vec![1.0; CONDUCTOR_ALPHA];
+        let cells = CONDUCTOR_MU * CONDUCTOR_ALPHA;
+        let (mut e, mut e_schlick) = (vec![1.0; cells], vec![0.0; cells]);
+        let node = |m: usize| m as f32 / (CONDUCTOR_MU - 1) as f32;
+        // α = 0: a smooth mirror reflects all (E₁ = 1) and E₂ = (1 − μ)⁵.
+        for m in 0..CONDUCTOR_MU {
+            e_schlick[m] = (1.0 - node(m) * node(m)).powi(5);
+        }
         for a in 1..CONDUCTOR_ALPHA {
             let d = TrowbridgeReitz::isotropic((a as f32 / (CONDUCTOR_ALPHA - 1) as f32).powi(2));
-            let row = &mut e[a * CONDUCTOR_MU..(a + 1) * CONDUCTOR_MU];
-            for (m, cell) in row.iter_mut().enumerate() {
-                *cell = conductor_albedo(&d, direction(m as f32 / (CONDUCTOR_MU - 1) as f32), CONDUCTOR_STRATA);
+            for m in 0..CONDUCTOR_MU {
+                (e[a * CONDUCTOR_MU + m], e_schlick[a * CONDUCTOR_MU + m]) =
+                    mirror_albedos(&d, direction(node(m)), CONDUCTOR_STRATA);
             }
-            // E_avg = 2 ∫ E(μ) μ dμ = 4 ∫ E(s²) s³ ds, trapezoidal rule on the s = √μ grid.
-            let h = 1.0 / (CONDUCTOR_MU - 1) as f32;
-            let integrand = |m: usize| 2.0 * row[m] * (m as f32 * h).powi(3);
-            let inner: f32 = (1..CONDUCTOR_MU - 1).map(integrand).sum();
-            e_avg[a] = 2.0 * h * (inner + 0.5 * (integrand(0) + integrand(CONDUCTOR_MU - 1)));
         }
-        Self { e, e_avg }
+        // Averages 2 ∫ E(μ) μ dμ = 4 ∫ E(s²) s³ ds, trapezoidal rule on the s = √μ grid.
+        let average = |table: &[f32], a: usize| {
+            let row = &table[a * CONDUCTOR_MU..(a + 1) * CONDUCTOR_MU];
+            let h = 1.0 / (CONDUCTOR_MU - 1) as f32;
+            let integrand = |m: usize| 2.0 * row[m] * node(m).powi(3);
+            let inner: f32 = (1..CONDUCTOR_MU - 1).map(integrand).sum();
+            2.0 * h * (inner + 0.5 * (integrand(0) + integrand(CONDUCTOR_MU - 1)))
+        };
+        let e_avg = (0..CONDUCTOR_ALPHA).map(|a| if a == 0 { 1.0 } else { average(&e, a) }).collect();
+        let e_schlick_avg = (0..CONDUCTOR_ALPHA).map(|a| average(&e_schlick, a)).collect();
+        Self { e, e_avg, e_schlick, e_schlick_avg }
+    }
+
+    /// The Schlick-weighted albedo E₂(μ, α), bilinear in (√μ, √α).
+    pub(crate) fn e_schlick(&self, mu: f32, alpha: f32) -> f32 {
+        let (m, tm) = locate(mu.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_MU);
+        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_ALPHA);
+        let at = |a: usize, m: usize| self.e_schlick[a * CONDUCTOR_MU + m];
+        lerp(lerp(at(a, m), at(a, m + 1), tm), lerp(at(a + 1, m), at(a + 1, m + 1), tm), ta)
+    }
+
+    /// The average of E₂, linear in √α.
+    pub(crate) fn e_schlick_avg(&self, alpha: f32) -> f32 {
+        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_ALPHA);
+        lerp(self.e_schlick_avg[a], self.e_schlick_avg[a + 1], ta)
     }
 
     /// E(μ, α), bilinear in (√μ, √α).

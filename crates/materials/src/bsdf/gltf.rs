@@ -13,12 +13,22 @@
 //! equal [`TrowbridgeReitz::d`] and [`TrowbridgeReitz::g`] / (4 cos θ_o cos θ_i)). The model
 //! is not energy-compensated: the spec does not compensate. Below roughness² = 1e-3 the
 //! specular layer is a delta lobe.
+//!
+//! The spec's `fresnel_mix` weights the diffuse layer by 1 − F(V·H) for each light direction
+//! while the specular layer reflects about F(N·V) in total, so at grazing view a dielectric
+//! reflects more than it receives (measured: albedo 1.59 for smooth white plastic at 85°, 1.11
+//! at roughness 0.5). [`GltfMetalRoughBxdf::energy_conserving`] keeps the specular and metal
+//! layers as written and couples the diffuse layer by albedo scaling instead (Kelemen &
+//! Szirmay-Kalos 2001; Kulla & Conty 2017): f_d = base (1 − E_s(μ_o)) (1 − E_s(μ_i)) /
+//! (π (1 − E_s,avg)), E_s the specular layer's directional albedo, which is reciprocal and
+//! makes a white dielectric reflect exactly 1 in a furnace.
 
 use std::f32::consts::FRAC_1_PI;
 
 use colorimetry::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
+use super::compensation::conductor_table;
 use super::microfacet::TrowbridgeReitz;
 use super::{BxdfFlags, LocalSample};
 use crate::sampling::cosine_hemisphere;
@@ -38,6 +48,8 @@ pub struct GltfMetalRoughBxdf<const N: usize> {
     distrib: TrowbridgeReitz,
     /// Dielectric reflectance at normal incidence, ((1 − ior) / (1 + ior))².
     f0: f32,
+    /// Albedo-scaled diffuse coupling instead of the spec's `fresnel_mix`.
+    conserving: bool,
 }
 
 impl<const N: usize> GltfMetalRoughBxdf<N> {
@@ -53,7 +65,35 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
             metallic,
             distrib: TrowbridgeReitz::isotropic(roughness * roughness),
             f0,
+            conserving: false,
         }
+    }
+
+    /// The same model with the diffuse layer coupled by albedo scaling (module docs), so that
+    /// it never reflects more than it receives.
+    pub fn energy_conserving(base: SampledSpectrum<N>, metallic: f32, roughness: f32, ior: f32) -> Self {
+        Self { conserving: true, ..Self::new(base, metallic, roughness, ior) }
+    }
+
+    /// Directional albedo of the dielectric specular layer at μ: f0 E₁ + (1 − f0) E₂.
+    #[inline]
+    fn specular_albedo(&self, mu: f32) -> f32 {
+        if self.is_smooth() {
+            return self.f0 + (1.0 - self.f0) * schlick_weight(mu);
+        }
+        let (t, alpha) = (conductor_table(), self.distrib.alpha_iso());
+        self.f0 * t.e(mu, alpha) + (1.0 - self.f0) * t.e_schlick(mu, alpha)
+    }
+
+    /// Cosine-weighted average of [`Self::specular_albedo`].
+    #[inline]
+    fn specular_albedo_avg(&self) -> f32 {
+        if self.is_smooth() {
+            // 2 ∫ (1 − μ)⁵ μ dμ = 1/21.
+            return self.f0 + (1.0 - self.f0) / 21.0;
+        }
+        let (t, alpha) = (conductor_table(), self.distrib.alpha_iso());
+        self.f0 * t.e_avg(alpha) + (1.0 - self.f0) * t.e_schlick_avg(alpha)
     }
 
     /// Whether the specular layer is a delta lobe.
@@ -82,11 +122,22 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         conductor * self.metallic + (1.0 - self.metallic) * dielectric
     }
 
-    /// The diffuse layer's value at |V·H| = `vh`: (1 − metallic)(1 − F_dielectric) base / π.
+    /// The diffuse layer's value: (1 − metallic)(1 − F_dielectric(|V·H|)) base / π as the spec
+    /// writes it, or the albedo-scaled coupling.
     #[inline]
-    fn diffuse(&self, vh: f32) -> SampledSpectrum<N> {
-        let fr = self.f0 + (1.0 - self.f0) * schlick_weight(vh);
-        self.base * ((1.0 - self.metallic) * (1.0 - fr) * FRAC_1_PI)
+    fn diffuse(&self, wo: Vec3, wi: Vec3, vh: f32) -> SampledSpectrum<N> {
+        let weight = if self.conserving {
+            let avg = self.specular_albedo_avg();
+            if avg >= 1.0 {
+                0.0
+            } else {
+                let (eo, ei) = (self.specular_albedo(wo.z), self.specular_albedo(wi.z));
+                ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - avg)
+            }
+        } else {
+            1.0 - (self.f0 + (1.0 - self.f0) * schlick_weight(vh))
+        };
+        self.base * ((1.0 - self.metallic) * weight * FRAC_1_PI)
     }
 
     /// Probability of sampling the specular layer from `wo`: its share of the energy estimated
@@ -106,7 +157,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         }
         let wm = (wo + wi).normalize();
         let vh = wo.dot(wm).abs();
-        let mut f = self.diffuse(vh);
+        let mut f = self.diffuse(wo, wi, vh);
         if !self.is_smooth() {
             let spec = self.distrib.d(wm) * self.distrib.g(wo, wi) / (4.0 * wo.z * wi.z);
             f += self.specular_fresnel(vh) * spec;
