@@ -84,7 +84,8 @@ fn stratum(i: usize, j: usize, s: usize) -> Vec2 {
     Vec2::new((i as f32 + jx) / s as f32, (j as f32 + jy) / s as f32)
 }
 
-/// Single-scattering albedo of a white GGX mirror seen from `wo`.
+/// Single-scattering albedo of a white GGX mirror seen from `wo` (the tests' reference).
+#[cfg(test)]
 pub(crate) fn conductor_albedo(d: &TrowbridgeReitz, wo: Vec3, strata: usize) -> f32 {
     mirror_albedos(d, wo, strata).0
 }
@@ -138,8 +139,8 @@ impl ConductorTable {
         let (mut e, mut e_schlick) = (vec![1.0; cells], vec![0.0; cells]);
         let node = |m: usize| m as f32 / (CONDUCTOR_MU - 1) as f32;
         // α = 0: a smooth mirror reflects all (E₁ = 1) and E₂ = (1 − μ)⁵.
-        for m in 0..CONDUCTOR_MU {
-            e_schlick[m] = (1.0 - node(m) * node(m)).powi(5);
+        for (m, cell) in e_schlick.iter_mut().take(CONDUCTOR_MU).enumerate() {
+            *cell = (1.0 - node(m) * node(m)).powi(5);
         }
         for a in 1..CONDUCTOR_ALPHA {
             let d = TrowbridgeReitz::isotropic((a as f32 / (CONDUCTOR_ALPHA - 1) as f32).powi(2));
