@@ -27,7 +27,6 @@
 #![warn(missing_docs)]
 
 mod assembly;
-mod bsdf;
 mod error;
 mod film;
 mod light;

@@ -13,6 +13,14 @@ pub enum Error {
         /// The names that are accepted.
         known: &'static str,
     },
+    /// A metal name with no built-in optical constants.
+    #[error("unknown metal `{name}` (known: {known})")]
+    UnknownMetal {
+        /// The name as written.
+        name: String,
+        /// The names that are accepted.
+        known: &'static str,
+    },
     /// A CSV file has no column of the requested name.
     #[error("{}: no column named `{column}` (columns: {})", path.display(), available.join(", "))]
     MissingColumn {

@@ -2,7 +2,9 @@
 //!
 //! Spectral reflectance and transmittance, index of refraction (constant or dispersive),
 //! Bouguer–Beer absorption (the paper's eq. 8), emission, Fresnel, reflection and
-//! refraction, and the paper's Hall shading terms (eqs. 6–7) as pure functions.
+//! refraction, the path tracer's BSDFs ([`bsdf::Bsdf`]: Lambertian, smooth and rough
+//! dielectrics and conductors with measured metals) and the paper's Hall shading terms
+//! (eqs. 6–7) as pure functions.
 //!
 //! **Invariant:** depends on `colorimetry` only (and glam for vectors in a local frame).
 //! Nothing here casts rays, recurses or samples lights: that is the integrator's job.
@@ -21,10 +23,12 @@
 #![warn(missing_docs)]
 
 mod absorption;
+pub mod bsdf;
 mod error;
 pub mod hall;
 mod ior;
 mod material;
+pub mod sampling;
 pub mod scattering;
 mod spectra;
 

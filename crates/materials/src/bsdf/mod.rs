@@ -1,0 +1,512 @@
+//! Scattering models evaluated at a path's wavelengths: a per-hit value type [`Bsdf`] with
+//! `f`, `sample_f`, `pdf` and [`BxdfFlags`] (pbrt-v4 `base/bxdf.h`, `bxdfs.h`), in world
+//! space around a [`Frame`] of geometric and shading normals.
+//!
+//! The lobes:
+//! - [`Bsdf::Lambertian`]: reflectance `r`, reflecting on the side the light arrives from
+//!   (surfaces are two-sided);
+//! - [`Bsdf::Dielectric`]: a smooth interface with the exact Fresnel equations; transmission
+//!   is tinted by `tint` and radiance is scaled by 1/η² when it crosses (pbrt-v4
+//!   `DielectricBxDF` in radiance mode);
+//! - [`Bsdf::Mirror`]: a smooth mirror with reflectance `r`;
+//! - [`Bsdf::Conductor`]: a Trowbridge–Reitz (GGX) rough conductor with a spectral complex
+//!   index η + iκ and optional multiple-scattering compensation (Kulla & Conty 2017);
+//! - [`Bsdf::RoughDielectric`]: a GGX rough dielectric interface (Walter et al. 2007, pbrt-v4
+//!   `DielectricBxDF` rough branch), with optional energy compensation (Turquin 2019);
+//! - [`Bsdf::ThinDielectric`]: a thin slab with inter-reflection summed in closed form (pbrt-v4
+//!   `ThinDielectricBxDF`), for glTF transmission without volume;
+//! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B).
+//!
+//! The first three are what the path tracer has always used; their arithmetic is unchanged
+//! (the lead checks renders bit for bit). The rough lobes work in a local shading frame
+//! (z = shading normal, x/y = [`crate::sampling::basis`] of it, which also orients
+//! anisotropy until hits carry a tangent).
+
+mod compensation;
+mod conductor;
+mod dielectric;
+mod gltf;
+mod microfacet;
+mod spectral_ior;
+#[cfg(test)]
+pub(crate) mod test_support;
+#[cfg(test)]
+mod tests;
+
+use std::ops::BitOr;
+
+use colorimetry::SampledSpectrum;
+use glam::{Vec2, Vec3};
+
+pub use conductor::ConductorBxdf;
+pub use dielectric::{RoughDielectricBxdf, ThinDielectricBxdf};
+pub use gltf::GltfMetalRoughBxdf;
+pub use microfacet::TrowbridgeReitz;
+pub use spectral_ior::{KNOWN_METALS, Metal, MetalIor};
+
+use crate::sampling::{basis, cosine_hemisphere};
+use crate::scattering::{fr_dielectric, reflect, refract};
+
+/// What kind of scattering a lobe (or a sampled direction) is (pbrt-v4 `BxDFFlags`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BxdfFlags(u8);
+
+impl BxdfFlags {
+    /// No scattering at all.
+    pub const UNSET: Self = Self(0);
+    /// Light leaves on the side it arrived from.
+    pub const REFLECTION: Self = Self(1);
+    /// Light crosses the surface.
+    pub const TRANSMISSION: Self = Self(2);
+    /// A smooth, wide lobe (Lambertian).
+    pub const DIFFUSE: Self = Self(4);
+    /// A lobe with a finite density (rough microfacets).
+    pub const GLOSSY: Self = Self(8);
+    /// A Dirac delta: no density, no light sampling, no MIS.
+    pub const SPECULAR: Self = Self(16);
+
+    /// Whether all of `other`'s bits are set.
+    #[inline]
+    pub fn contains(self, other: Self) -> bool {
+        self.0 & other.0 == other.0 && other.0 != 0
+    }
+    /// Whether any reflection is possible.
+    #[inline]
+    pub fn is_reflective(self) -> bool {
+        self.contains(Self::REFLECTION)
+    }
+    /// Whether any transmission is possible.
+    #[inline]
+    pub fn is_transmissive(self) -> bool {
+        self.contains(Self::TRANSMISSION)
+    }
+    /// Whether a diffuse lobe is present.
+    #[inline]
+    pub fn is_diffuse(self) -> bool {
+        self.contains(Self::DIFFUSE)
+    }
+    /// Whether a glossy lobe is present.
+    #[inline]
+    pub fn is_glossy(self) -> bool {
+        self.contains(Self::GLOSSY)
+    }
+    /// Whether a delta lobe is present.
+    #[inline]
+    pub fn is_specular(self) -> bool {
+        self.contains(Self::SPECULAR)
+    }
+    /// Whether a lobe with a density is present (diffuse or glossy): light sampling helps.
+    #[inline]
+    pub fn is_non_specular(self) -> bool {
+        self.0 & (Self::DIFFUSE.0 | Self::GLOSSY.0) != 0
+    }
+}
+
+impl BitOr for BxdfFlags {
+    type Output = Self;
+    #[inline]
+    fn bitor(self, rhs: Self) -> Self {
+        Self(self.0 | rhs.0)
+    }
+}
+
+/// Where a surface scatters: `n` the geometric normal as stored (outward for closed
+/// objects), `ns` the shading normal in `n`'s hemisphere.
+#[derive(Debug, Clone, Copy)]
+pub struct Frame {
+    /// Geometric normal, unit, as stored.
+    pub n: Vec3,
+    /// Shading (interpolated) normal, unit, in `n`'s hemisphere.
+    pub ns: Vec3,
+}
+
+impl Frame {
+    /// Geometric and shading normals turned to the side of `wo`; the shading normal falls back
+    /// to the geometric one where interpolation tilts it past `wo`.
+    #[inline]
+    pub fn facing(&self, wo: Vec3) -> (Vec3, Vec3) {
+        let ng = if self.n.dot(wo) >= 0.0 { self.n } else { -self.n };
+        let ns = if self.ns.dot(ng) >= 0.0 { self.ns } else { -self.ns };
+        let ns = if ns.dot(wo) > 0.0 { ns } else { ng };
+        (ng, ns)
+    }
+
+    /// The shading normal on the stored side, unless it disagrees with the geometric normal
+    /// about which side `wo` is on (then the geometric one): the normal an interface's η
+    /// refers to.
+    #[inline]
+    fn interface_normal(&self, wo: Vec3) -> Vec3 {
+        if self.ns.dot(wo).signum() == self.n.dot(wo).signum() { self.ns } else { self.n }
+    }
+}
+
+/// A sampled scattering direction.
+#[derive(Debug, Clone, Copy)]
+pub struct BsdfSample<const N: usize> {
+    /// Unit direction towards where the light comes from.
+    pub wi: Vec3,
+    /// f · |cos θ_i| / pdf: the factor the path throughput is multiplied by.
+    pub weight: SampledSpectrum<N>,
+    /// Density of `wi` per steradian (for MIS); for specular samples the discrete probability
+    /// of the chosen lobe (meaningless for MIS).
+    pub pdf: f32,
+    /// Whether the lobe is a Dirac delta (no light sampling, no MIS); `flags.is_specular()`.
+    pub specular: bool,
+    /// η² of a refraction (1 otherwise): radiance scaling undone in Russian roulette
+    /// (pbrt-v4's `etaScale`).
+    pub eta_scale: f32,
+    /// The kind of scattering sampled (reflection or transmission; diffuse, glossy or specular).
+    pub flags: BxdfFlags,
+}
+
+/// A sample in the local shading frame (pbrt-v4 `BSDFSample`): `f` the BSDF value (not
+/// divided by the density), `etap` the relative index crossed (1 for reflection).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LocalSample<const N: usize> {
+    pub(crate) wi: Vec3,
+    pub(crate) f: SampledSpectrum<N>,
+    pub(crate) pdf: f32,
+    pub(crate) flags: BxdfFlags,
+    pub(crate) etap: f32,
+}
+
+/// A scattering model with its spectra evaluated at the path's wavelengths.
+#[derive(Debug, Clone, Copy)]
+pub enum Bsdf<const N: usize> {
+    /// Lambertian reflection, reflectance `r`.
+    Lambertian {
+        /// Reflectance per wavelength, in [0, 1].
+        r: SampledSpectrum<N>,
+    },
+    /// A smooth dielectric interface.
+    Dielectric {
+        /// Index inside over outside (0: glTF's "Fresnel ≡ 1" mode).
+        eta: f32,
+        /// Transmission filter applied at each crossing.
+        tint: SampledSpectrum<N>,
+    },
+    /// A smooth mirror.
+    Mirror {
+        /// Reflectance per wavelength.
+        r: SampledSpectrum<N>,
+    },
+    /// A rough (or, below α = 1e-3, smooth) conductor with a spectral complex index.
+    Conductor(ConductorBxdf<N>),
+    /// A rough (or, below α = 1e-3, smooth) dielectric interface.
+    RoughDielectric(RoughDielectricBxdf<N>),
+    /// A thin-walled dielectric slab (no refraction of the direction).
+    ThinDielectric(ThinDielectricBxdf<N>),
+    /// The glTF 2.0 metallic–roughness BRDF.
+    GltfMetalRough(GltfMetalRoughBxdf<N>),
+}
+
+/// Local shading coordinates: `z` along `n`, `x`, `y` along [`basis`]`(n)`.
+#[derive(Debug, Clone, Copy)]
+struct Local {
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+}
+
+impl Local {
+    #[inline]
+    fn new(n: Vec3) -> Self {
+        let (t, b) = basis(n);
+        Self { t, b, n }
+    }
+    #[inline]
+    fn local(&self, w: Vec3) -> Vec3 {
+        Vec3::new(w.dot(self.t), w.dot(self.b), w.dot(self.n))
+    }
+    #[inline]
+    fn world(&self, w: Vec3) -> Vec3 {
+        w.x * self.t + w.y * self.b + w.z * self.n
+    }
+}
+
+impl<const N: usize> Bsdf<N> {
+    /// What the model can do.
+    #[inline]
+    pub fn flags(&self) -> BxdfFlags {
+        match self {
+            Self::Lambertian { .. } => BxdfFlags::REFLECTION | BxdfFlags::DIFFUSE,
+            Self::Mirror { .. } => BxdfFlags::REFLECTION | BxdfFlags::SPECULAR,
+            Self::Dielectric { eta, .. } => {
+                if *eta <= 0.0 {
+                    BxdfFlags::REFLECTION | BxdfFlags::SPECULAR
+                } else {
+                    BxdfFlags::REFLECTION | BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR
+                }
+            }
+            Self::Conductor(c) => c.flags(),
+            Self::RoughDielectric(d) => d.flags(),
+            Self::ThinDielectric(d) => d.flags(),
+            Self::GltfMetalRough(g) => g.flags(),
+        }
+    }
+
+    /// Whether the model has only delta lobes (light sampling is pointless there).
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        match self {
+            Self::Lambertian { .. } => false,
+            Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => true,
+            _ => !self.flags().is_non_specular(),
+        }
+    }
+
+    /// f(wo, wi), the BSDF value (0 for delta lobes, whose value at a given direction is zero
+    /// with probability one).
+    #[inline]
+    pub fn f(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> SampledSpectrum<N> {
+        match *self {
+            Self::Lambertian { r } => {
+                let (ng, ns) = frame.facing(wo);
+                if ns.dot(wi) <= 0.0 || ng.dot(wi) <= 0.0 {
+                    return SampledSpectrum([0.0; N]);
+                }
+                r * std::f32::consts::FRAC_1_PI
+            }
+            _ => self.f_and_cos(frame, wo, wi).0,
+        }
+    }
+
+    /// f(wo, wi) · |cos θ_i| for non-specular models (0 for delta lobes).
+    #[inline]
+    pub fn f_cos(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> SampledSpectrum<N> {
+        match *self {
+            Self::Lambertian { r } => {
+                let (ng, ns) = frame.facing(wo);
+                // Both normals must agree that wi is on wo's side: no light leaks through.
+                let cos = ns.dot(wi);
+                if cos <= 0.0 || ng.dot(wi) <= 0.0 {
+                    return SampledSpectrum([0.0; N]);
+                }
+                r * (cos * std::f32::consts::FRAC_1_PI)
+            }
+            Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => SampledSpectrum([0.0; N]),
+            _ => {
+                let (f, cos) = self.f_and_cos(frame, wo, wi);
+                f * cos
+            }
+        }
+    }
+
+    /// The rough lobes' f and |cos θ_i| in their local frame.
+    fn f_and_cos(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> (SampledSpectrum<N>, f32) {
+        let black = (SampledSpectrum([0.0; N]), 0.0);
+        match self {
+            Self::Conductor(c) => {
+                let (ng, ns) = frame.facing(wo);
+                if ng.dot(wi) <= 0.0 {
+                    return black;
+                }
+                let l = Local::new(ns);
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
+                (c.f(wo_l, wi_l), wi_l.z.abs())
+            }
+            Self::RoughDielectric(d) => {
+                let n = frame.interface_normal(wo);
+                let l = Local::new(n);
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
+                // Reflection or transmission as the shading frame sees it must agree with the
+                // geometric normal, or light would leak through the surface.
+                if (wo_l.z * wi_l.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
+                    return black;
+                }
+                (d.f(wo_l, wi_l), wi_l.z.abs())
+            }
+            Self::GltfMetalRough(g) => {
+                let (ng, ns) = frame.facing(wo);
+                if ng.dot(wi) <= 0.0 {
+                    return black;
+                }
+                let l = Local::new(ns);
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
+                (g.f(wo_l, wi_l), wi_l.z.abs())
+            }
+            Self::Lambertian { .. } | Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => black,
+        }
+    }
+
+    /// Density per steradian with which [`Bsdf::sample_f`] picks `wi` (0 for delta lobes).
+    #[inline]
+    pub fn pdf(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Self::Lambertian { .. } => {
+                let (ng, ns) = frame.facing(wo);
+                let cos = ns.dot(wi);
+                if cos <= 0.0 || ng.dot(wi) <= 0.0 { 0.0 } else { cos * std::f32::consts::FRAC_1_PI }
+            }
+            Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => 0.0,
+            Self::Conductor(c) => {
+                let (ng, ns) = frame.facing(wo);
+                if ng.dot(wi) <= 0.0 {
+                    return 0.0;
+                }
+                let l = Local::new(ns);
+                c.pdf(l.local(wo), l.local(wi))
+            }
+            Self::RoughDielectric(d) => {
+                let l = Local::new(frame.interface_normal(wo));
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
+                if (wo_l.z * wi_l.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
+                    return 0.0;
+                }
+                d.pdf(wo_l, wi_l)
+            }
+            Self::GltfMetalRough(g) => {
+                let (ng, ns) = frame.facing(wo);
+                if ng.dot(wi) <= 0.0 {
+                    return 0.0;
+                }
+                let l = Local::new(ns);
+                g.pdf(l.local(wo), l.local(wi))
+            }
+        }
+    }
+
+    /// The name the path tracer calls [`Bsdf::sample_f`] by.
+    #[inline]
+    pub fn sample(&self, frame: &Frame, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample<N>> {
+        self.sample_f(frame, wo, uc, u)
+    }
+
+    /// Sample an incident direction; `uc` chooses between lobes (reflection or refraction),
+    /// `u` the direction. `None` when the sample carries no light.
+    #[inline]
+    pub fn sample_f(&self, frame: &Frame, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample<N>> {
+        let (ng, ns) = frame.facing(wo);
+        match *self {
+            Self::Lambertian { r } => {
+                let wi = cosine_hemisphere(ns, u);
+                let cos = ns.dot(wi);
+                if cos <= 0.0 || ng.dot(wi) <= 0.0 {
+                    return None;
+                }
+                Some(BsdfSample {
+                    wi,
+                    weight: r,
+                    pdf: cos * std::f32::consts::FRAC_1_PI,
+                    specular: false,
+                    eta_scale: 1.0,
+                    flags: BxdfFlags::REFLECTION | BxdfFlags::DIFFUSE,
+                })
+            }
+            Self::Mirror { r } => {
+                let wi = mirror(wo, ns, ng);
+                Some(BsdfSample {
+                    wi,
+                    weight: r,
+                    pdf: 1.0,
+                    specular: true,
+                    eta_scale: 1.0,
+                    flags: BxdfFlags::REFLECTION | BxdfFlags::SPECULAR,
+                })
+            }
+            Self::Dielectric { eta, tint } => {
+                // Fresnel against the stored normal keeps track of inside and outside.
+                // (The shading normal lies in the stored normal's hemisphere; where it puts wo on
+                // the other side than the geometric normal does, trust the geometric one.)
+                let n_out = frame.interface_normal(wo);
+                let f = fr_dielectric(n_out.dot(wo), eta);
+                if uc < f {
+                    // Reflection with probability F: weight F / F = 1.
+                    let wi = mirror(wo, ns, ng);
+                    return Some(BsdfSample {
+                        wi,
+                        weight: SampledSpectrum([1.0; N]),
+                        pdf: f,
+                        specular: true,
+                        eta_scale: 1.0,
+                        flags: BxdfFlags::REFLECTION | BxdfFlags::SPECULAR,
+                    });
+                }
+                let (wi, etap) = match refract(wo, n_out, eta) {
+                    Some((wi, etap)) if wi.dot(ng) < 0.0 => (wi, etap),
+                    Some(_) => refract(wo, frame.n, eta)?,
+                    None => return None, // F = 1 then, so this branch has probability 0.
+                };
+                // Transmission with probability 1 − F: weight (1 − F) T / ((1 − F) η'²).
+                Some(BsdfSample {
+                    wi,
+                    weight: tint * (1.0 / (etap * etap)),
+                    pdf: 1.0 - f,
+                    specular: true,
+                    eta_scale: etap * etap,
+                    flags: BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR,
+                })
+            }
+            Self::Conductor(c) => {
+                let l = Local::new(ns);
+                let s = c.sample_f(l.local(wo), uc, u)?;
+                let wi = l.world(s.wi);
+                if ng.dot(wi) <= 0.0 {
+                    return None;
+                }
+                Some(world_sample(s, wi))
+            }
+            Self::RoughDielectric(d) => {
+                if d.is_smooth() {
+                    return Bsdf::Dielectric { eta: d.eta(), tint: d.tint() }.sample_f(frame, wo, uc, u);
+                }
+                let l = Local::new(frame.interface_normal(wo));
+                let wo_l = l.local(wo);
+                let s = d.sample_f(wo_l, uc, u)?;
+                let wi = l.world(s.wi);
+                if (wo_l.z * s.wi.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
+                    return None;
+                }
+                Some(world_sample(s, wi))
+            }
+            Self::GltfMetalRough(g) => {
+                let l = Local::new(ns);
+                let s = g.sample_f(l.local(wo), uc, u)?;
+                // The delta layer mirrors like `Mirror` (geometric fallback); the rest must stay
+                // above the geometric surface.
+                let wi = if s.flags.is_specular() { mirror(wo, ns, ng) } else { l.world(s.wi) };
+                if ng.dot(wi) <= 0.0 {
+                    return None;
+                }
+                Some(world_sample(s, wi))
+            }
+            Self::ThinDielectric(d) => {
+                let (reflected, s) = d.sample(frame.interface_normal(wo).dot(wo), uc)?;
+                let wi = if reflected { mirror(wo, ns, ng) } else { -wo };
+                Some(s.with_wi(wi))
+            }
+        }
+    }
+}
+
+impl<const N: usize> BsdfSample<N> {
+    #[inline]
+    fn with_wi(mut self, wi: Vec3) -> Self {
+        self.wi = wi;
+        self
+    }
+}
+
+/// A local sample turned into the path tracer's weight form, direction already in world space.
+#[inline]
+fn world_sample<const N: usize>(s: LocalSample<N>, wi: Vec3) -> BsdfSample<N> {
+    let specular = s.flags.is_specular();
+    let weight = if specular { s.f } else { s.f * (s.wi.z.abs() / s.pdf) };
+    let transmitted = s.flags.is_transmissive();
+    BsdfSample {
+        wi,
+        weight,
+        pdf: s.pdf,
+        specular,
+        eta_scale: if transmitted { s.etap * s.etap } else { 1.0 },
+        flags: s.flags,
+    }
+}
+
+/// Mirror reflection about the shading normal, falling back to the geometric normal where the
+/// shading normal would send the ray below the surface.
+#[inline]
+fn mirror(wo: Vec3, ns: Vec3, ng: Vec3) -> Vec3 {
+    let wi = reflect(wo, ns);
+    if wi.dot(ng) > 0.0 { wi } else { reflect(wo, ng) }
+}
