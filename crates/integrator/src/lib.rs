@@ -41,6 +41,7 @@ mod whitted;
 pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
 pub use error::{Error, Result};
 pub use film::{Display, Image};
+pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};
 pub use render::{Ambient, DEFAULT_K_A, IntegratorKind, Progress, RenderOptions, RenderStats, WavelengthPdf, render};
 pub use spectral::{MAX_BINS, SpectralMode};
 pub use whitted::ObjectId;
