@@ -1,5 +1,3 @@
-//! Binary glTF bytes → load → assemble → info → 8×8 renders.
+//! Fuzz target `glb`: see `spectrace_fuzz::glb` (fuzz/src/lib.rs).
 #![no_main]
-libfuzzer_sys::fuzz_target!(|data: &[u8]| {
-    spectrace_fuzz::run_file(&spectrace_fuzz::put("fuzz.glb", data));
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| spectrace_fuzz::glb(data));

@@ -1,5 +1,3 @@
-//! glTF (JSON) bytes → load → assemble → info → 8×8 renders.
+//! Fuzz target `gltf`: see `spectrace_fuzz::gltf` (fuzz/src/lib.rs).
 #![no_main]
-libfuzzer_sys::fuzz_target!(|data: &[u8]| {
-    spectrace_fuzz::run_file(&spectrace_fuzz::put("fuzz.gltf", data));
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| spectrace_fuzz::gltf(data));
