@@ -10,10 +10,13 @@ use std::path::PathBuf;
 #[allow(dead_code, unreachable_pub)]
 mod pipeline;
 
+/// One fuzz target's entry point.
+type Target = fn(&[u8]);
+
 #[test]
 fn every_fuzz_regression_replays_without_a_panic() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/regressions");
-    let targets: [(&str, fn(&[u8])); 5] = [
+    let targets: [(&str, Target); 5] = [
         ("gltf", pipeline::gltf),
         ("glb", pipeline::glb),
         ("obj_mtl", pipeline::obj_mtl),
