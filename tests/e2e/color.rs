@@ -164,3 +164,49 @@ fn bad_arguments_and_cells_are_errors() {
     let out = color(&[&fixture("three_patches.csv"), "--illuminant", "D3000"]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("4000..=25000"));
 }
+
+#[test]
+fn hostile_spectra_and_steps_are_errors_not_crashes_or_nulls() {
+    // Issue 16 items 4 and 9, each once a panic, a terabyte allocation or a `null` in the JSON.
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("e2e-color-hostile");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        path.display().to_string()
+    };
+    let tiny = file("tiny.csv", "wavelength_nm,a\n1e-300,0.5\n2e-300,0.5\n");
+    let close = file("close.csv", "wavelength_nm,a\n500,0.5\n500.0000000001,0.5\n");
+    let uv = file("uv.csv", "wavelength_nm,a\n100,0.5\n200,0.5\n300,0.5\n");
+    let huge = file("huge.csv", "wavelength_nm,a\n400,1e308\n500,1e308\n");
+    let black = file("black.csv", "wavelength_nm,e\n400,0\n800,0\n");
+    let good = fixture("three_patches.csv");
+    for (args, needle) in [
+        (vec![tiny.as_str()], format!("{tiny}:3: wavelength 2e-300 nm is only 1e-300 nm after")),
+        (vec![close.as_str()], format!("{close}:3: wavelength 500.0000000001 nm")),
+        (vec![uv.as_str()], format!("{uv}: column `a`: spectrum defined only at 100–300 nm, outside the visible")),
+        (vec![huge.as_str()], format!("{huge}:2: column `a`: 1e308 is too large")),
+        (vec![good.as_str(), "--step", "1e-9"], "--step 1e-9 is out of range [0.001, 100] nm".to_owned()),
+        (vec![good.as_str(), "--illuminant", uv.as_str()], format!("{uv}: column `a`: spectrum defined only")),
+        (vec![good.as_str(), "--illuminant", black.as_str()], "no light in 360–830 nm".to_owned()),
+        (vec!["/dev/zero"], "/dev/zero: not a regular file".to_owned()),
+    ] {
+        let out = color(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(&needle), "{args:?}: {stderr}");
+        assert!(out.stdout.is_empty(), "{args:?}: nothing printed");
+    }
+}
+
+#[test]
+fn a_commented_file_gives_the_same_colour_as_the_bare_one() {
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("e2e-color-comments");
+    std::fs::create_dir_all(&dir).unwrap();
+    let bare = std::fs::read_to_string(fixture("three_patches.csv")).unwrap();
+    let path = dir.join("commented.csv");
+    std::fs::write(&path, format!("# measured by hand\n#\n\n{}", bare.replace('\n', "\n# row\n"))).unwrap();
+    let a = lines(&color(&[&fixture("three_patches.csv")]));
+    let b = lines(&color(&[&path.display().to_string()]));
+    assert_eq!(a, b);
+}

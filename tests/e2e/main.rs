@@ -1,3 +1,4 @@
 //! End-to-end tests of the `spectrace` binary.
 mod color;
+mod fuzz_replay;
 mod render;

@@ -132,3 +132,108 @@ fn info_reports_what_the_default_scene_needs() {
     // product within ΔE00 0.1 of the 1 nm integral (see `integrator::choose_auto`).
     assert_eq!(json["spectral_auto"], "bins:32");
 }
+
+#[test]
+fn image_and_pool_limits_are_checked_before_rendering() {
+    // Issue 16 items 3, 8, 9: 65536² passed the per-side check and aborted allocating 51 GB;
+    // `--threads 100000` hung; `--width 0` reported "480".
+    let dir = scratch("render_limits");
+    for (args, needle) in [
+        (
+            vec!["--width", "65536", "--height", "65536"],
+            "65536x65536 = 4294967296 pixels is more than the limit of 134217728",
+        ),
+        (vec!["--width", "0"], "--width 0 is out of range: 1..=65536 pixels per side"),
+        (vec!["--height", "70000"], "--height 70000 is out of range"),
+        (vec!["--threads", "100000"], "--threads 100000 is out of range: 1..=1024"),
+        (vec!["--threads", "0"], "--threads 0 is out of range"),
+        (
+            vec!["--width", "2000", "--height", "2000", "--spectral", "bins:95", "--spectral-exr", "s.exr"],
+            "4000000 pixels x 95 wavelengths = 380000000 samples is more than the limit of 268435456",
+        ),
+    ] {
+        let output = spectrace().current_dir(&dir).arg("render").args(&args).arg("--quiet").output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+    }
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}
+
+#[test]
+fn one_path_for_two_outputs_is_refused_before_rendering() {
+    // `-o X.exr --spectral-exr X.exr` silently replaced the RGB EXR.
+    let dir = scratch("render_same_path");
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    for film in ["X.exr", "./X.exr", "sub/../X.exr"] {
+        let output = spectrace()
+            .current_dir(&dir)
+            .args(["render", "-o", "X.exr", "--spectral", "bins:8", "--spectral-exr", film, "--quiet"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{film}: {stderr}");
+        assert!(stderr.contains("given for two outputs") && stderr.contains("-o X.exr also writes X.png"), "{stderr}");
+    }
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "only sub/");
+}
+
+#[test]
+fn a_failed_spectral_exr_leaves_neither_exr_nor_png() {
+    // It left out.exr and out.png with exit 1.
+    let dir = scratch("render_failed_spectral");
+    let output = spectrace()
+        .current_dir(&dir)
+        .args(["render", "-o", "out.exr", "--spectral", "bins:8", "--spectral-exr", "missing/s.exr"])
+        .args(["--width", "16", "--height", "12", "--quiet"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("missing/s.exr") && stderr.contains("none was written"), "{stderr}");
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "no out.exr, out.png or temporary");
+}
+
+#[test]
+fn a_full_disk_is_an_error_exit_with_nothing_left() {
+    // A 64 KiB tmpfs holds the 61.6 KB EXR of a 94×60 render but not the PNG beside it: the
+    // PNG came out as 0 bytes with exit 0 (its write sat in a buffer whose flush error was
+    // dropped). Mounting needs root; elsewhere the unit test `a_full_disk_is_an_error_even_
+    // when_the_image_fits_the_buffer` (integrator output.rs) covers the same path.
+    let dir = scratch("render_full_disk");
+    let mounted = Command::new("mount").args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"]).arg(&dir).status();
+    if !mounted.is_ok_and(|s| s.success()) {
+        eprintln!("skipped: cannot mount a small tmpfs here (needs root)");
+        return;
+    }
+    let output = spectrace()
+        .current_dir(&dir)
+        .args(["render", "-o", "out.exr", "--width", "94", "--height", "60", "--quiet"])
+        .output()
+        .unwrap();
+    let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    let _ = Command::new("umount").arg(&dir).status();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("No space left on device"), "{stderr}");
+    assert!(names.is_empty(), "left behind: {names:?}");
+}
+
+#[test]
+fn sigterm_during_a_render_exits_130_and_writes_nothing() {
+    // SIGTERM used to kill the process outright (no cleanup); it is now handled like Ctrl-C.
+    let dir = scratch("render_sigterm");
+    let child = spectrace()
+        .current_dir(&dir)
+        .args(["render", "--width", "2000", "--height", "2000", "--spectral", "bins:32", "--threads", "1", "--quiet"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Long enough for the handler to be installed (the scene loads in milliseconds).
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let killed = Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    let output = child.wait_with_output().unwrap();
+    assert_eq!(output.status.code(), Some(130), "{}", String::from_utf8_lossy(&output.stderr));
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+}

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use colorimetry::{
-    DenselySampledSpectrum, Illuminant, Integration, Observer, RgbColorSpace, Xyz, bradford, quantize_u8,
-    read_spectra_csv, reflectance_to_xyz, srgb_encode,
+    DenselySampledSpectrum, Illuminant, Integration, MIN_STEP_NM, NamedSpectrum, Observer, RgbColorSpace, Xyz,
+    bradford, quantize_u8, read_spectra_csv, reflectance_to_xyz, srgb_encode,
 };
 
 /// Arguments of `spectrace color`.
@@ -27,7 +27,8 @@ pub(crate) struct ColorArgs {
     /// Observer: 2 (CIE 1931) or 10 (CIE 1964).
     #[arg(long, default_value = "2", value_parser = parse_observer)]
     observer: Observer,
-    /// Wavelength step in nm: the tables are resampled to 360, 360+step, … 830 nm before summing.
+    /// Wavelength step in nm, 0.001 to 100: the tables are resampled to 360, 360+step, … 830 nm
+    /// before summing.
     #[arg(long, default_value_t = 1.0)]
     step: f64,
 }
@@ -46,20 +47,31 @@ fn illuminant(name: &str) -> anyhow::Result<DenselySampledSpectrum> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) || path.is_file() {
         let table = read_spectra_csv(path)?;
         let first = table.into_iter().next().with_context(|| format!("{}: no spectrum column", path.display()))?;
-        return Ok(first.spectrum.held_to_visible());
+        return held(first, path);
     }
     Ok(Illuminant::parse(name)?.spectrum()?)
 }
 
+/// A file's column extended to 360–830 nm; the error names the file and the column (a
+/// spectrum that misses the visible range, or whose extension is too large a grid).
+fn held(column: NamedSpectrum, path: &Path) -> anyhow::Result<DenselySampledSpectrum> {
+    column.spectrum.held_to_visible().with_context(|| format!("{}: column `{}`", path.display(), column.name))
+}
+
+/// The coarsest `--step` (nm): a sum over the visible range needs a few nodes at least.
+const MAX_STEP_NM: f64 = 100.0;
+
 pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
-    if !(args.step > 0.0 && args.step <= 100.0) {
-        anyhow::bail!("--step {} is out of range (0, 100] nm", args.step);
+    // The finest step is the spectrum grids' own bound (`--step 1e-9` once asked for 7.5 TB
+    // of integration nodes).
+    if !(args.step >= MIN_STEP_NM && args.step <= MAX_STEP_NM) {
+        anyhow::bail!("--step {} is out of range [{MIN_STEP_NM}, {MAX_STEP_NM}] nm", colorimetry::Num(args.step));
     }
     let illuminant = illuminant(&args.illuminant).with_context(|| format!("illuminant `{}`", args.illuminant))?;
-    let spectra: Vec<_> = read_spectra_csv(&args.reflectance)?
+    let spectra = read_spectra_csv(&args.reflectance)?
         .into_iter()
-        .map(|s| colorimetry::NamedSpectrum { spectrum: s.spectrum.held_to_visible(), name: s.name })
-        .collect();
+        .map(|s| Ok(NamedSpectrum { name: s.name.clone(), spectrum: held(s, &args.reflectance)? }))
+        .collect::<anyhow::Result<Vec<_>>>()?;
     let selected: Vec<_> = match &args.column {
         Some(c) => {
             let found: Vec<_> = spectra.iter().filter(|s| &s.name == c).collect();
@@ -73,6 +85,11 @@ pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
     };
     let integration = Integration::Step(args.step);
     let white = reflectance_to_xyz(&DenselySampledSpectrum::constant(1.0), &illuminant, args.observer, &integration);
+    if !(white.y > 0.0 && white.y.is_finite()) {
+        // An illuminant that is black over 360–830 nm has no white to normalise or adapt to
+        // (the Bradford matrix would be 0/0 and the JSON would print `null`).
+        anyhow::bail!("illuminant `{}`: no light in 360–830 nm (its white has Y = {})", args.illuminant, white.y);
+    }
     // sRGB's white is D65 (x, y = 0.3127, 0.3290, IEC 61966-2-1): adapt other whites to it.
     // The CIE D65 table's own white (0.31272, 0.32903) is adapted too, by a matrix within
     // 3e-4 of identity (measured 2.2e-4), so that a perfect reflector under D65 is exactly
@@ -85,6 +102,11 @@ pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
         let xyz = reflectance_to_xyz(&s.spectrum, &illuminant, args.observer, &integration);
         let linear = srgb.xyz_to_rgb(xyz.transformed(adapt).scaled(0.01));
         let rgb = [linear.r, linear.g, linear.b];
+        // Inputs are bounded (colorimetry::MAX_SPECTRUM_VALUE), so this holds; a JSON `null`
+        // must never be printed as if it were a colour.
+        if ![xyz.x, xyz.y, xyz.z, rgb[0], rgb[1], rgb[2]].iter().all(|v| v.is_finite()) {
+            anyhow::bail!("{}: column `{}`: the colour is not finite", args.reflectance.display(), s.name);
+        }
         let json = serde_json::json!({
             "name": s.name,
             "XYZ": [xyz.x, xyz.y, xyz.z],

@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
 use integrator::{
-    Ambient, Display, Integrator, IntegratorKind, PathOptions, RenderOptions, RenderScene, SpectralMode, WavelengthPdf,
-    WhittedOptions,
+    Ambient, Display, Integrator, IntegratorKind, OutputFile, OutputKind, PathOptions, RenderOptions, RenderScene,
+    SpectralMode, WavelengthPdf, WhittedOptions,
 };
 
 /// Arguments of `spectrace render`.
@@ -64,7 +64,7 @@ pub(crate) struct RenderArgs {
     /// Skip ray-tree branches whose weight is below this (0 = trace the full tree).
     #[arg(long, default_value_t = 1e-3)]
     min_weight: f32,
-    /// Worker threads [default: all cores].
+    /// Worker threads, 1 to 1024 [default: all cores].
     #[arg(long)]
     threads: Option<usize>,
     /// Also write a spectral OpenEXR (Fichet et al. 2021 layout: one channel `S0.<λ>nm` per
@@ -94,7 +94,96 @@ fn parse_on_off(s: &str) -> Result<bool, String> {
 /// Exit status for a render stopped by Ctrl-C (128 + SIGINT, the shell convention).
 pub(crate) const EXIT_CANCELLED: u8 = 130;
 
+/// Longest image side (pixels): the integrator's own per-side limit.
+pub(crate) const MAX_SIDE: u32 = 65_536;
+
+/// Most pixels in one image: 2²⁷ (e.g. 16384 × 8192). Measured peak memory of an RGB render
+/// is 34 bytes per pixel (43.7 MB at 1000², 17.9 MB at 500², `/usr/bin/time -v`), so this
+/// is about 4.6 GB; `--width 65536 --height 65536` (2³² pixels) passed the per-side check and
+/// aborted allocating 51 GB.
+pub(crate) const MAX_PIXELS: u64 = 1 << 27;
+
+/// Most pixel × wavelength samples of a spectral EXR: 2²⁸. Measured 12 bytes per sample at
+/// peak (1.14 GB for 1000² × 95 wavelengths: the film, the per-channel copies and the
+/// encoder), so about 3.2 GB; e.g. 1680² pixels at 95 wavelengths.
+pub(crate) const MAX_SPECTRAL_SAMPLES: u64 = 1 << 28;
+
+/// Most worker threads: 1024. Each thread reserves a stack and a share of the film's rows;
+/// `--threads 100000` hung creating the pool.
+pub(crate) const MAX_THREADS: usize = 1024;
+
+/// The CLI's limits on the image and the pool, checked before the scene is rendered (the
+/// library checks only the per-side size today). Errors say which limit.
+fn check_limits(options: &RenderOptions, args: &RenderArgs) -> anyhow::Result<()> {
+    for (name, value, given) in
+        [("--width", options.width, args.width.is_some()), ("--height", options.height, args.height.is_some())]
+    {
+        if value == 0 || value > MAX_SIDE {
+            let from = if given { "" } else { " (the scene's)" };
+            anyhow::bail!("{name} {value}{from} is out of range: 1..={MAX_SIDE} pixels per side");
+        }
+    }
+    let pixels = u64::from(options.width) * u64::from(options.height);
+    if pixels > MAX_PIXELS {
+        anyhow::bail!(
+            "{}x{} = {pixels} pixels is more than the limit of {MAX_PIXELS} pixels per image (2^27, about 4.6 GB)",
+            options.width,
+            options.height
+        );
+    }
+    if options.spectral_film {
+        // `auto` resolves during the render: count the most wavelengths it may choose.
+        let wavelengths = match options.spectral {
+            SpectralMode::Bins(n) => n as u64,
+            _ => integrator::MAX_BINS as u64,
+        };
+        let samples = pixels * wavelengths;
+        if samples > MAX_SPECTRAL_SAMPLES {
+            anyhow::bail!(
+                "--spectral-exr: {pixels} pixels x {wavelengths} wavelengths = {samples} samples is more than the \
+                 limit of {MAX_SPECTRAL_SAMPLES} (2^28, about 3.2 GB); use fewer pixels or bins:N with a smaller N"
+            );
+        }
+    }
+    if let Some(threads) = options.threads
+        && !(1..=MAX_THREADS).contains(&threads)
+    {
+        anyhow::bail!("--threads {threads} is out of range: 1..={MAX_THREADS}");
+    }
+    Ok(())
+}
+
+/// Whether the outputs are being written: a signal then removes their temporaries and exits.
+static WRITING: AtomicBool = AtomicBool::new(false);
+
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    let png = png_path(&args.output)?;
+    if let Some(path) = &args.spectral_exr
+        && !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+    {
+        anyhow::bail!("{}: the spectral image must end in .exr", path.display());
+    }
+    let mut outputs = vec![
+        OutputFile { path: args.output.clone(), kind: OutputKind::Exr(args.display) },
+        OutputFile { path: png.clone(), kind: OutputKind::Png(args.display) },
+    ];
+    if let Some(path) = &args.spectral_exr {
+        outputs.push(OutputFile { path: path.clone(), kind: OutputKind::SpectralExr });
+    }
+    // Before loading or rendering anything: two outputs on one path would replace each other.
+    let paths: Vec<&Path> = outputs.iter().map(|o| o.path.as_path()).collect();
+    integrator::check_distinct_outputs(&paths).map_err(|e| match e {
+        integrator::Error::Write { path, message } => {
+            anyhow::anyhow!(
+                "{}: {message} (-o {} also writes {})",
+                path.display(),
+                args.output.display(),
+                png.display()
+            )
+        }
+        other => other.into(),
+    })?;
+
     let scene = match &args.scene {
         // Scene errors name the file (and line) themselves.
         Some(path) => RenderScene::load(path)?,
@@ -129,18 +218,21 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         threads: args.threads,
         spectral_film: args.spectral_exr.is_some(),
     };
-    let png = png_path(&args.output)?;
-    if let Some(path) = &args.spectral_exr
-        && !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"))
-    {
-        anyhow::bail!("{}: the spectral image must end in .exr", path.display());
-    }
+    check_limits(&options, args)?;
 
     let cancel = Arc::new(AtomicBool::new(false));
     {
         let cancel = Arc::clone(&cancel);
-        // A second Ctrl-C while we wind down falls back to the default (immediate exit).
-        let _ = ctrlc::set_handler(move || cancel.store(true, Ordering::Relaxed));
+        // SIGINT and SIGTERM (ctrlc's `termination` feature): during the render, stop at the
+        // next row; during the write, remove the temporaries and exit at once.
+        let _ = ctrlc::set_handler(move || {
+            cancel.store(true, Ordering::SeqCst);
+            if WRITING.load(Ordering::SeqCst) {
+                integrator::remove_pending_outputs();
+                eprintln!("spectrace: interrupted while writing; nothing was written");
+                std::process::exit(i32::from(EXIT_CANCELLED));
+            }
+        });
     }
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(u64::from(options.height)) };
     bar.set_style(
@@ -157,22 +249,27 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let result = integrator::render(&scene, &options, &report, &cancel);
     bar.finish_and_clear();
     let (image, stats) = match result {
-        Err(integrator::Error::Cancelled) => {
-            eprintln!("spectrace: render cancelled; nothing was written");
-            std::process::exit(i32::from(EXIT_CANCELLED));
-        }
+        Err(integrator::Error::Cancelled) => cancelled(),
         other => other?,
     };
 
-    image.write_exr(&args.output, options_display(args)).context("writing the EXR")?;
-    image.write_png(&png, options_display(args)).context("writing the PNG")?;
-    if let Some(path) = &args.spectral_exr {
-        image.write_spectral_exr(path).context("writing the spectral EXR")?;
+    // Set before checking `cancel`, as the handler sets `cancel` before checking this: a
+    // signal arriving now is seen by one side or the other (or both, which is harmless).
+    WRITING.store(true, Ordering::SeqCst);
+    if cancel.load(Ordering::SeqCst) {
+        cancelled();
     }
+    // All or nothing: every file is written to a temporary and fsynced, then all are renamed.
+    image.write_outputs(&outputs).context("writing the outputs (none was written)")?;
+    WRITING.store(false, Ordering::SeqCst);
     if !args.quiet {
         let secs = stats.elapsed.as_secs_f64();
+        let mut written = format!("{}, {}", args.output.display(), png.display());
+        if let Some(path) = &args.spectral_exr {
+            written.push_str(&format!(", {}", path.display()));
+        }
         eprintln!(
-            "spectrace: {}x{} {} {} spp in {:.3} s ({} rays, {:.2} Mrays/s, {} non-finite samples) -> {}, {}",
+            "spectrace: {}x{} {} {} spp in {:.3} s ({} rays, {:.2} Mrays/s, {} non-finite samples) -> {written}",
             options.width,
             options.height,
             stats.spectral,
@@ -181,15 +278,15 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             stats.rays,
             stats.rays as f64 / secs.max(1e-9) / 1e6,
             stats.nonfinite_samples,
-            args.output.display(),
-            png.display()
         );
     }
     Ok(())
 }
 
-fn options_display(args: &RenderArgs) -> Display {
-    args.display
+/// A render stopped by SIGINT or SIGTERM: nothing written, exit 130.
+fn cancelled() -> ! {
+    eprintln!("spectrace: render cancelled; nothing was written");
+    std::process::exit(i32::from(EXIT_CANCELLED));
 }
 
 /// `out.exr` → `out.png`; the output must be an `.exr` so the pair is unambiguous.

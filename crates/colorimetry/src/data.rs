@@ -34,7 +34,11 @@ fn embedded(text: &str, name: &str, allow_negative: bool) -> Vec<NamedSpectrum> 
 /// Illuminant tables extended to 360–830 nm by holding their end values (CIE: "hold the
 /// 780 nm value above 780 nm" for D65); colour-science extrapolates the same way.
 fn illuminant_table(text: &str, name: &str) -> DenselySampledSpectrum {
-    embedded(text, name, false).remove(0).spectrum.held_to_visible()
+    embedded(text, name, false)
+        .remove(0)
+        .spectrum
+        .held_to_visible()
+        .unwrap_or_else(|e| panic!("embedded table {name} does not extend: {e}"))
 }
 
 /// Colour-matching functions x̄, ȳ, z̄ at 1 nm over 360–830 nm.
@@ -67,7 +71,10 @@ static F11: LazyLock<DenselySampledSpectrum> = LazyLock::new(|| illuminant_table
 static COLORCHECKER: LazyLock<Vec<NamedSpectrum>> = LazyLock::new(|| {
     embedded(COLORCHECKER_CSV, "colorchecker_reflectance.csv", false)
         .into_iter()
-        .map(|c| NamedSpectrum { name: c.name, spectrum: c.spectrum.held_to_visible() })
+        .map(|c| NamedSpectrum {
+            spectrum: c.spectrum.held_to_visible().unwrap_or_else(|e| panic!("embedded ColorChecker: {e}")),
+            name: c.name,
+        })
         .collect()
 });
 static TCS: LazyLock<Vec<NamedSpectrum>> = LazyLock::new(|| embedded(TCS_CSV, "cie_tcs_1995_5nm.csv", false));
@@ -242,12 +249,12 @@ fn daylight_spectrum(cct: f64) -> Result<DenselySampledSpectrum> {
     let m1 = round3((-1.3515 - 1.7703 * x + 5.9114 * y) / m);
     let m2 = round3((0.0300 - 31.4424 * x + 30.0717 * y) / m);
     let [s0, s1, s2] = &*DAYLIGHT_BASIS;
-    Ok(DenselySampledSpectrum::new(
+    DenselySampledSpectrum::new(
         s0.lambda_min(),
         s0.step(),
         s0.values().iter().zip(s1.values()).zip(s2.values()).map(|((a, b), c)| a + m1 * b + m2 * c).collect(),
     )?
-    .held_to_visible())
+    .held_to_visible()
 }
 
 /// Planck's law: spectral radiance of a black body at `kelvin`, W·sr⁻¹·m⁻²·nm⁻¹, at

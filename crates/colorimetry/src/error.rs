@@ -22,7 +22,7 @@ pub enum Error {
         cell: String,
     },
     /// A NaN or infinite value.
-    #[error("{origin}:{line}: column `{column}`: {value} is not finite")]
+    #[error("{origin}:{line}: column `{column}`: {} is not finite", num(*value))]
     NotFinite {
         /// File name.
         origin: String,
@@ -34,7 +34,7 @@ pub enum Error {
         value: f64,
     },
     /// A negative spectral value where only non-negative ones make sense.
-    #[error("{origin}:{line}: column `{column}`: {value} is negative (spectra must be >= 0)")]
+    #[error("{origin}:{line}: column `{column}`: {} is negative (spectra must be >= 0)", num(*value))]
     Negative {
         /// File name.
         origin: String,
@@ -46,7 +46,7 @@ pub enum Error {
         value: f64,
     },
     /// Wavelengths out of order or repeated.
-    #[error("{origin}:{line}: wavelength {lambda} nm after {previous} nm (must increase)")]
+    #[error("{origin}:{line}: wavelength {} nm after {} nm (must increase)", num(*lambda), num(*previous))]
     Unsorted {
         /// File name.
         origin: String,
@@ -58,7 +58,7 @@ pub enum Error {
         previous: f64,
     },
     /// A wavelength that is zero or negative.
-    #[error("{origin}:{line}: wavelength {lambda} nm must be > 0")]
+    #[error("{origin}:{line}: wavelength {} nm must be > 0", num(*lambda))]
     BadWavelength {
         /// File name.
         origin: String,
@@ -66,6 +66,97 @@ pub enum Error {
         line: usize,
         /// The wavelength.
         lambda: f64,
+    },
+    /// A wavelength beyond the longest a spectrum may name ([`crate::MAX_WAVELENGTH_NM`]).
+    #[error("{origin}:{line}: wavelength {} nm is beyond the longest supported, {} nm", num(*lambda), num(*max))]
+    WavelengthTooLong {
+        /// File name.
+        origin: String,
+        /// 1-based line number (the sample's index where there is no file).
+        line: usize,
+        /// The wavelength.
+        lambda: f64,
+        /// The limit (nm).
+        max: f64,
+    },
+    /// Two rows closer in wavelength than a grid may be ([`crate::MIN_STEP_NM`]).
+    #[error(
+        "{origin}:{line}: wavelength {} nm is only {} nm after {} nm (rows must be at least {} nm apart)",
+        num(*lambda), num(lambda - previous), num(*previous), num(*min)
+    )]
+    RowsTooClose {
+        /// File name.
+        origin: String,
+        /// 1-based line number.
+        line: usize,
+        /// This row's wavelength.
+        lambda: f64,
+        /// The previous row's wavelength.
+        previous: f64,
+        /// The minimum spacing (nm).
+        min: f64,
+    },
+    /// A grid step finer than [`crate::MIN_STEP_NM`].
+    #[error("{origin}: wavelength step {} nm is finer than the minimum, {} nm", num(*step), num(*min))]
+    StepTooSmall {
+        /// What the grid belongs to.
+        origin: String,
+        /// The step (nm).
+        step: f64,
+        /// The minimum (nm).
+        min: f64,
+    },
+    /// A grid (or table) with more samples than allowed; checked before allocating.
+    #[error("{origin}: {} samples, more than the limit of {limit}", num(*samples))]
+    TooManySamples {
+        /// What the grid belongs to.
+        origin: String,
+        /// Samples it would need (f64: the count may not fit an integer).
+        samples: f64,
+        /// The limit.
+        limit: usize,
+    },
+    /// A spectrum with no wavelength in the visible range, which holding its end values would
+    /// turn into a flat spectrum made up across 360–830 nm.
+    #[error("spectrum defined only at {}–{} nm, outside the visible range 360–830 nm", num(*lambda_min), num(*lambda_max))]
+    OutsideVisible {
+        /// First wavelength (nm).
+        lambda_min: f64,
+        /// Last wavelength (nm).
+        lambda_max: f64,
+    },
+    /// A value so large that the colour sums would overflow ([`crate::MAX_SPECTRUM_VALUE`]).
+    #[error("{origin}:{line}: column `{column}`: {} is too large (spectra must be <= {})", num(*value), num(*max))]
+    ValueTooLarge {
+        /// File name.
+        origin: String,
+        /// 1-based line number.
+        line: usize,
+        /// Column header.
+        column: String,
+        /// The value.
+        value: f64,
+        /// The limit.
+        max: f64,
+    },
+    /// A header with more columns than a table may have.
+    #[error("{origin}:1: {columns} columns, more than the limit of {limit}")]
+    TooManyColumns {
+        /// File name.
+        origin: String,
+        /// Columns in the header.
+        columns: usize,
+        /// The limit.
+        limit: usize,
+    },
+    /// A spectra file that is not a regular file (a device, a FIFO, a folder) or is larger
+    /// than [`crate::MAX_CSV_BYTES`]; checked before reading.
+    #[error("{path}: {reason}")]
+    NotReadable {
+        /// The path.
+        path: String,
+        /// Why, in words (with the size and limit where that is the reason).
+        reason: String,
     },
     /// A row with the wrong number of cells.
     #[error("{origin}:{line}: {found} cells, the header has {expected}")]
@@ -104,7 +195,7 @@ pub enum Error {
         known: &'static str,
     },
     /// A parameter outside its valid range.
-    #[error("{what} = {value} is out of range ({range})")]
+    #[error("{what} = {} is out of range ({range})", num(*value))]
     OutOfRange {
         /// Which parameter.
         what: &'static str,
@@ -116,6 +207,27 @@ pub enum Error {
     /// Primaries and white that do not define a colour space (collinear, or y = 0).
     #[error("colour space `{0}`: primaries and white point are degenerate")]
     DegenerateColorSpace(String),
+}
+
+/// A number as an error message shows it: plain for ordinary magnitudes (`545`, `-0.1`,
+/// `0.001`), scientific beyond them (`1e-300`, `1e308`), so a hostile value does not print
+/// three hundred digits.
+#[derive(Debug, Clone, Copy)]
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-4..1e7).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+fn num(v: f64) -> Num {
+    Num(v)
 }
 
 /// Result with this crate's [`Error`].

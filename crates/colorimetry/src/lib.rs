@@ -33,12 +33,18 @@ mod rgb;
 mod spectrum;
 mod xyz;
 
-pub use csv::{NamedSpectrum, parse_spectra_csv, read_spectra_csv};
+pub use csv::{
+    MAX_CSV_BYTES, MAX_CSV_COLUMNS, MAX_SPECTRUM_VALUE, MAX_TABLE_SAMPLES, NamedSpectrum, parse_spectra_csv,
+    read_spectra_csv,
+};
 pub use data::{Cmf, Illuminant, KNOWN_ILLUMINANTS, Observer, blackbody, colorchecker, daylight_chromaticity, tcs};
-pub use error::{Error, Result};
+pub use error::{Error, Num, Result};
 pub use lab::{Lab, delta_e_2000};
 pub use rgb::{Rgb, RgbColorSpace, bradford, quantize_u8, srgb_decode, srgb_encode};
-pub use spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, SampledSpectrum, SampledWavelengths};
+pub use spectrum::{
+    DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, MAX_SPECTRUM_SAMPLES, MAX_WAVELENGTH_NM, MIN_STEP_NM,
+    SampledSpectrum, SampledWavelengths,
+};
 pub use xyz::{Integration, Xyz, emission_to_xyz, reflectance_to_xyz};
 
 // --- upsampling ---

@@ -12,6 +12,22 @@ pub const LAMBDA_MIN: f32 = 360.0;
 /// Longest wavelength of the visible range used throughout (nm): the last CIE table row.
 pub const LAMBDA_MAX: f32 = 830.0;
 
+/// Finest wavelength step a spectrum grid may have (nm). Laboratory spectrometers resolve
+/// about 0.01–0.1 nm and the CIE tables are at 1 or 5 nm, so 0.001 nm leaves a factor of ten
+/// below the finest real data, while keeping the visible range (470 nm) within
+/// [`MAX_SPECTRUM_SAMPLES`] at that step. A finer step (`500, 500.0000000001` in a file, or
+/// `--step 1e-9`) asked for terabytes before this bound.
+pub const MIN_STEP_NM: f64 = 1e-3;
+
+/// Most samples one spectrum grid may hold: 2²⁰ f64 = 8 MiB. It fits 360–830 nm at
+/// [`MIN_STEP_NM`] (470 001 samples) and a table resampled at 1 nm up to
+/// [`MAX_WAVELENGTH_NM`] (100 001 samples).
+pub const MAX_SPECTRUM_SAMPLES: usize = 1 << 20;
+
+/// Longest wavelength a spectrum may name (nm): 100 µm, the far infrared, 120 × the visible
+/// range's end. Solar and lamp tables stop at 2500–4000 nm; nothing here is used above 830 nm.
+pub const MAX_WAVELENGTH_NM: f64 = 1e5;
+
 /// ∫ ȳ(λ) dλ of each observer, summed at 1 nm over 360–830 nm (the tables' own sums,
 /// quoted in `data/PROVENANCE.md`: Σȳ = 106.856917, Σȳ₁₀ = 116.661877; the unit test
 /// `y_integrals_are_the_table_sums` recomputes them). Normalises Monte Carlo XYZ estimates so
@@ -33,16 +49,32 @@ pub struct DenselySampledSpectrum {
 }
 
 impl DenselySampledSpectrum {
-    /// Samples `values` at `lambda_min + i·step` nm.
+    /// Samples `values` at `lambda_min + i·step` nm. The grid is bounded: step ≥
+    /// [`MIN_STEP_NM`], at most [`MAX_SPECTRUM_SAMPLES`] values.
     pub fn new(lambda_min: f64, step: f64, values: Vec<f64>) -> Result<Self> {
+        Self::new_in("spectrum", lambda_min, step, values)
+    }
+
+    /// [`Self::new`] with `origin` naming the source in errors.
+    pub(crate) fn new_in(origin: &str, lambda_min: f64, step: f64, values: Vec<f64>) -> Result<Self> {
         if !(step > 0.0 && step.is_finite()) {
             return Err(Error::OutOfRange { what: "wavelength step", value: step, range: "> 0, finite" });
+        }
+        if step < MIN_STEP_NM {
+            return Err(Error::StepTooSmall { origin: origin.to_owned(), step, min: MIN_STEP_NM });
         }
         if !lambda_min.is_finite() {
             return Err(Error::OutOfRange { what: "first wavelength", value: lambda_min, range: "finite" });
         }
         if values.is_empty() {
-            return Err(Error::Empty { origin: "spectrum".to_owned() });
+            return Err(Error::Empty { origin: origin.to_owned() });
+        }
+        if values.len() > MAX_SPECTRUM_SAMPLES {
+            return Err(Error::TooManySamples {
+                origin: origin.to_owned(),
+                samples: values.len() as f64,
+                limit: MAX_SPECTRUM_SAMPLES,
+            });
         }
         if let Some(&v) = values.iter().find(|v| !v.is_finite()) {
             return Err(Error::OutOfRange { what: "spectrum value", value: v, range: "finite" });
@@ -52,35 +84,50 @@ impl DenselySampledSpectrum {
 
     /// A piecewise-linear spectrum through `(lambdas[i], values[i])`: kept on its own grid
     /// when evenly spaced (exact), otherwise resampled at every whole nanometre of its range
-    /// (exact at those wavelengths). Zero outside the given range.
+    /// (exact at those wavelengths). Zero outside the given range. The grid bounds of
+    /// [`Self::new`] apply; the resampled grid is checked before it is allocated.
     pub fn from_samples(lambdas: &[f64], values: &[f64]) -> Result<Self> {
+        Self::from_samples_in("spectrum samples", lambdas, values)
+    }
+
+    /// [`Self::from_samples`] with `origin` naming the source in errors.
+    pub(crate) fn from_samples_in(origin: &str, lambdas: &[f64], values: &[f64]) -> Result<Self> {
         if lambdas.is_empty() || lambdas.len() != values.len() {
-            return Err(Error::Empty { origin: "spectrum samples".to_owned() });
+            return Err(Error::Empty { origin: origin.to_owned() });
         }
         for (i, w) in lambdas.windows(2).enumerate() {
             if !(w[1] > w[0]) {
                 // No file here: `line` is the 1-based index of the offending sample.
-                return Err(Error::Unsorted {
-                    origin: "spectrum samples".to_owned(),
-                    line: i + 2,
-                    lambda: w[1],
-                    previous: w[0],
-                });
+                return Err(Error::Unsorted { origin: origin.to_owned(), line: i + 2, lambda: w[1], previous: w[0] });
             }
         }
+        if let Some(i) = lambdas.iter().position(|l| !(*l <= MAX_WAVELENGTH_NM)) {
+            return Err(Error::WavelengthTooLong {
+                origin: origin.to_owned(),
+                line: i + 1,
+                lambda: lambdas[i],
+                max: MAX_WAVELENGTH_NM,
+            });
+        }
         if lambdas.len() == 1 {
-            return Self::new(lambdas[0], 1.0, values.to_vec());
+            return Self::new_in(origin, lambdas[0], 1.0, values.to_vec());
         }
         let step = lambdas[1] - lambdas[0];
         let even = lambdas.windows(2).all(|w| ((w[1] - w[0]) - step).abs() <= 1e-9 * step.max(1.0));
         if even {
-            return Self::new(lambdas[0], step, values.to_vec());
+            return Self::new_in(origin, lambdas[0], step, values.to_vec());
         }
         let (first, last) = (lambdas[0].ceil(), lambdas[lambdas.len() - 1].floor());
         if last < first {
-            return Err(Error::Empty { origin: "spectrum samples (no whole nanometre in their range)".to_owned() });
+            return Err(Error::Empty { origin: format!("{origin} (no whole nanometre in their range)") });
         }
-        let count = (last - first) as usize + 1;
+        // Counted in f64 and checked before the cast and the allocation (a 1e300 nm row used
+        // to overflow here).
+        let samples = last - first + 1.0;
+        if samples > MAX_SPECTRUM_SAMPLES as f64 {
+            return Err(Error::TooManySamples { origin: origin.to_owned(), samples, limit: MAX_SPECTRUM_SAMPLES });
+        }
+        let count = samples as usize;
         let mut out = Vec::with_capacity(count);
         let mut segment = 0;
         for i in 0..count {
@@ -92,7 +139,7 @@ impl DenselySampledSpectrum {
             let f = ((l - l0) / (l1 - l0)).clamp(0.0, 1.0);
             out.push(values[segment] * (1.0 - f) + values[segment + 1] * f);
         }
-        Self::new(first, 1.0, out)
+        Self::new_in(origin, first, 1.0, out)
     }
 
     /// The same value at every nanometre of 360–830 nm.
@@ -186,27 +233,53 @@ impl DenselySampledSpectrum {
     }
 
     /// Resampled onto `count` points from `lambda_min` every `step` nm (linear interpolation;
-    /// exact where the new grid contains the old points).
-    pub fn resampled(&self, lambda_min: f64, step: f64, count: usize) -> Self {
-        let values = (0..count.max(1)).map(|i| self.eval(lambda_min + step * i as f64)).collect();
-        Self { lambda_min, step: if step > 0.0 { step } else { 1.0 }, values }
+    /// exact where the new grid contains the old points). The grid bounds of [`Self::new`]
+    /// are checked before anything is allocated.
+    pub fn resampled(&self, lambda_min: f64, step: f64, count: usize) -> Result<Self> {
+        if count > MAX_SPECTRUM_SAMPLES {
+            return Err(Error::TooManySamples {
+                origin: "resampled spectrum".to_owned(),
+                samples: count as f64,
+                limit: MAX_SPECTRUM_SAMPLES,
+            });
+        }
+        let values = (0..count).map(|i| self.eval(lambda_min + step * i as f64)).collect();
+        Self::new_in("resampled spectrum", lambda_min, step, values)
     }
 
     /// The same spectrum, defined over at least 360–830 nm by holding its first and last
     /// values outside its own range (the CIE's convention for D65 above 780 nm; colour-science
     /// extrapolates tables the same way). The embedded illuminants and ColorChecker are
     /// extended like this; `spectrace color` does the same to the files it reads.
-    pub fn held_to_visible(&self) -> Self {
-        let lo = f64::from(LAMBDA_MIN).min(self.lambda_min);
-        let hi = f64::from(LAMBDA_MAX).max(self.lambda_max());
-        let before = ((self.lambda_min - lo) / self.step).ceil() as usize;
-        let after = ((hi - self.lambda_max()) / self.step).ceil() as usize;
+    ///
+    /// Errors: a spectrum that does not reach into 360–830 nm at all (holding one end value
+    /// across the whole visible range would silently make up a flat spectrum), and an
+    /// extended grid of more than [`MAX_SPECTRUM_SAMPLES`] (checked before allocating).
+    pub fn held_to_visible(&self) -> Result<Self> {
+        let (visible_min, visible_max) = (f64::from(LAMBDA_MIN), f64::from(LAMBDA_MAX));
+        if self.lambda_max() < visible_min || self.lambda_min > visible_max {
+            return Err(Error::OutsideVisible { lambda_min: self.lambda_min, lambda_max: self.lambda_max() });
+        }
+        let lo = visible_min.min(self.lambda_min);
+        let hi = visible_max.max(self.lambda_max());
+        let before = ((self.lambda_min - lo) / self.step).ceil();
+        let after = ((hi - self.lambda_max()) / self.step).ceil();
+        let samples = before + after + self.values.len() as f64;
+        if !(samples <= MAX_SPECTRUM_SAMPLES as f64) {
+            return Err(Error::TooManySamples {
+                origin: format!("spectrum extended to {visible_min}–{visible_max} nm at its {} nm step", self.step),
+                samples,
+                limit: MAX_SPECTRUM_SAMPLES,
+            });
+        }
+        let (before, after) = (before as usize, after as usize);
         let first = self.values[0];
         let last = self.values[self.values.len() - 1];
-        let mut values = vec![first; before];
+        let mut values = Vec::with_capacity(samples as usize);
+        values.extend(std::iter::repeat_n(first, before));
         values.extend_from_slice(&self.values);
         values.extend(std::iter::repeat_n(last, after));
-        Self { lambda_min: self.lambda_min - before as f64 * self.step, step: self.step, values }
+        Ok(Self { lambda_min: self.lambda_min - before as f64 * self.step, step: self.step, values })
     }
 }
 
@@ -597,7 +670,7 @@ mod tests {
 
     #[test]
     fn held_to_visible_extends_with_the_end_values() {
-        let s = DenselySampledSpectrum::new(380.0, 5.0, vec![0.2, 0.4, 0.6]).unwrap().held_to_visible();
+        let s = DenselySampledSpectrum::new(380.0, 5.0, vec![0.2, 0.4, 0.6]).unwrap().held_to_visible().unwrap();
         assert_eq!(s.lambda_min(), 360.0);
         assert!(s.lambda_max() >= 830.0);
         // Interpolation between equal held values: exact up to one rounding.
@@ -607,12 +680,58 @@ mod tests {
         assert_eq!(s.step(), 5.0);
     }
 
+    #[test]
+    fn every_grid_is_bounded_before_it_is_allocated() {
+        // Issue 16 item 4: the grid was unbounded (terabyte allocations, `capacity overflow`,
+        // an integer overflow in `from_samples`).
+        let step = DenselySampledSpectrum::new(500.0, 1e-10, vec![1.0, 1.0]).unwrap_err();
+        assert_eq!(step.to_string(), "spectrum: wavelength step 1e-10 nm is finer than the minimum, 0.001 nm");
+        let many = DenselySampledSpectrum::new(400.0, 1.0, vec![0.0; MAX_SPECTRUM_SAMPLES + 1]).unwrap_err();
+        assert!(matches!(many, Error::TooManySamples { limit: MAX_SPECTRUM_SAMPLES, .. }), "{many}");
+        // A far last sample made `(last - first) as usize + 1` overflow.
+        let far = DenselySampledSpectrum::from_samples(&[400.0, 401.0, 1e300], &[1.0; 3]).unwrap_err();
+        assert_eq!(
+            far.to_string(),
+            "spectrum samples:3: wavelength 1e300 nm is beyond the longest supported, 100000 nm"
+        );
+        // Uneven samples resampling to more than the limit: refused from the count.
+        let wide = DenselySampledSpectrum::from_samples(&[0.5, 2.0, 1.5e5], &[1.0; 3]).unwrap_err();
+        assert!(matches!(wide, Error::WavelengthTooLong { line: 3, .. }), "{wide}");
+        assert!(matches!(
+            DenselySampledSpectrum::constant(1.0).resampled(360.0, 1.0, MAX_SPECTRUM_SAMPLES + 1),
+            Err(Error::TooManySamples { .. })
+        ));
+        assert!(matches!(
+            DenselySampledSpectrum::constant(1.0).resampled(360.0, 1e-9, 2),
+            Err(Error::StepTooSmall { .. })
+        ));
+        // Extending a fine grid far from the visible range would need 1e8 samples.
+        let fine_ir = DenselySampledSpectrum::new(99_000.0, MIN_STEP_NM, vec![1.0; 2]).unwrap();
+        assert!(matches!(fine_ir.held_to_visible(), Err(Error::OutsideVisible { .. })));
+        let fine_reaching = DenselySampledSpectrum::new(800.0, MIN_STEP_NM, vec![1.0; 999_000]).unwrap();
+        let err = fine_reaching.held_to_visible().unwrap_err();
+        assert!(matches!(err, Error::TooManySamples { .. }), "{err}");
+        // The finest step still fits the visible range: 470 001 samples.
+        let finest = DenselySampledSpectrum::new(360.0, MIN_STEP_NM, vec![1.0; 2]).unwrap().held_to_visible().unwrap();
+        assert_eq!(finest.values().len(), 470_001);
+    }
+
+    #[test]
+    fn numbers_in_messages_are_short() {
+        use crate::error::Num;
+        let shown: Vec<String> = [545.0, -0.1, 0.001, 0.0, 1e-300, 1e308, 2.5e7, f64::INFINITY]
+            .iter()
+            .map(|&v| Num(v).to_string())
+            .collect();
+        assert_eq!(shown, ["545", "-0.1", "0.001", "0", "1e-300", "1e308", "2.5e7", "inf"]);
+    }
+
     proptest! {
         #[test]
         fn resampling_onto_a_finer_grid_and_back_is_exact(values in prop::collection::vec(0.0f64..1.0, 2..40)) {
             let s = DenselySampledSpectrum::new(400.0, 5.0, values.clone()).unwrap();
-            let fine = s.resampled(400.0, 1.0, (values.len() - 1) * 5 + 1);
-            let back = fine.resampled(400.0, 5.0, values.len());
+            let fine = s.resampled(400.0, 1.0, (values.len() - 1) * 5 + 1).unwrap();
+            let back = fine.resampled(400.0, 5.0, values.len()).unwrap();
             for (a, b) in back.values().iter().zip(&values) {
                 prop_assert!((a - b).abs() < 1e-12);
             }

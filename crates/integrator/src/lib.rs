@@ -40,6 +40,7 @@ mod whitted;
 pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
 pub use error::{Error, Result};
 pub use film::{Display, Film, Image, ObjectId};
+pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};
 pub use render::{
     Ambient, DEFAULT_K_A, Integrator, IntegratorKind, PathOptions, Progress, RenderOptions, RenderStats, WavelengthPdf,
     WhittedOptions, render, render_film,

@@ -1,45 +1,43 @@
-//! Image files: linear-RGB OpenEXR, spectral OpenEXR (Fichet et al. 2021) and 8-bit PNG,
-//! each written through a temporary file and renamed, so a reader never sees half a file.
+//! Image files: linear-RGB OpenEXR, spectral OpenEXR (Fichet et al. 2021) and 8-bit PNG.
+//!
+//! All-or-nothing: [`Image::write_outputs`] writes every file of a render to a temporary file
+//! beside it, checks every write (the buffered writer's final flush included) and fsyncs it,
+//! and only when all of them succeeded renames them into place; on any error every temporary
+//! is removed and no output appears. A signal handler can call
+//! [`remove_pending_outputs`] to delete the temporaries of a write in progress before exiting.
 
+use std::fs::File;
+use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use crate::error::{Error, Result};
 use crate::film::{Display, Image};
 
+/// What one output file holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputKind {
+    /// Linear RGB OpenEXR (32-bit float) in the display's primaries.
+    Exr(Display),
+    /// 8-bit PNG, display-encoded.
+    Png(Display),
+    /// The spectral film as an OpenEXR (Fichet et al. 2021 layout).
+    SpectralExr,
+}
+
+/// One file to write: where, and what.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OutputFile {
+    /// Destination path.
+    pub path: PathBuf,
+    /// Its content.
+    pub kind: OutputKind,
+}
+
 impl Image {
     /// Write a linear-RGB OpenEXR (32-bit float, the display's primaries) atomically.
     pub fn write_exr(&self, path: &Path, display: Display) -> Result<()> {
-        let rgb = self.to_linear_rgb(display);
-        let width = self.width as usize;
-        write_atomically(path, |tmp| {
-            use exr::prelude::*;
-            let space = display.color_space();
-            let white = space.white();
-            let p = space.primaries();
-            let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
-                let c = rgb[pos.y() * width + pos.x()];
-                (c[0], c[1], c[2])
-            });
-            let mut attributes =
-                ImageAttributes::new(IntegerBounds::from_dimensions((self.width as usize, self.height as usize)));
-            attributes.chromaticities = Some(attribute::Chromaticities {
-                red: Vec2(p[0][0] as f32, p[0][1] as f32),
-                green: Vec2(p[1][0] as f32, p[1][1] as f32),
-                blue: Vec2(p[2][0] as f32, p[2][1] as f32),
-                white: Vec2(white[0] as f32, white[1] as f32),
-            });
-            attributes.other.insert(
-                Text::from("colorSpace"),
-                AttributeValue::Text(Text::from(format!("linear {}", space.name()).as_str())),
-            );
-            let layer = Layer::new(
-                (self.width as usize, self.height as usize),
-                LayerAttributes::named("rgb"),
-                Encoding::SMALL_LOSSLESS,
-                channels,
-            );
-            Image { attributes, layer_data: layer }.write().to_file(tmp).map_err(|e| e.to_string())
-        })
+        self.write_outputs(&[OutputFile { path: path.to_owned(), kind: OutputKind::Exr(display) }])
     }
 
     /// Write the spectral film as an OpenEXR in the layout of Fichet, Pacanowski & Wilkie,
@@ -48,75 +46,260 @@ impl Image {
     /// the attribute `spectralLayoutVersion` = "1.0". Radiance is relative: every light is
     /// scaled to luminance 1 × its intensity, so `emissiveUnits` is not claimed.
     pub fn write_spectral_exr(&self, path: &Path) -> Result<()> {
-        let Some(film) = &self.spectral else {
-            return Err(Error::Write {
-                path: path.to_owned(),
-                message: "the render kept no spectral film (render with fixed wavelengths, bins:N)".to_owned(),
-            });
-        };
-        let (width, height) = (self.width as usize, self.height as usize);
-        let n = film.wavelengths.len();
-        write_atomically(path, |tmp| {
-            use exr::prelude::*;
-            let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = film
-                .wavelengths
-                .iter()
-                .enumerate()
-                .map(|(i, lambda)| {
-                    let samples: Vec<f32> = film.values.iter().skip(i).step_by(n).copied().collect();
-                    AnyChannel::new(fichet_channel_name(*lambda).as_str(), FlatSamples::F32(samples))
-                })
-                .collect();
-            let mut attributes = ImageAttributes::new(IntegerBounds::from_dimensions((width, height)));
-            attributes.other.insert(Text::from("spectralLayoutVersion"), AttributeValue::Text(Text::from("1.0")));
-            let layer = Layer::new(
-                (width, height),
-                LayerAttributes::named("spectral"),
-                Encoding::SMALL_LOSSLESS,
-                AnyChannels::sort(channels),
-            );
-            Image { attributes, layer_data: layer }.write().to_file(tmp).map_err(|e| e.to_string())
-        })
+        self.write_outputs(&[OutputFile { path: path.to_owned(), kind: OutputKind::SpectralExr }])
     }
 
     /// Write an 8-bit display-encoded PNG atomically.
     pub fn write_png(&self, path: &Path, display: Display) -> Result<()> {
+        self.write_outputs(&[OutputFile { path: path.to_owned(), kind: OutputKind::Png(display) }])
+    }
+
+    /// Write every output, all or nothing: each to a temporary file beside it, checked and
+    /// fsynced; then, only when all succeeded, each renamed into place. On an error (a full
+    /// disk, a missing folder, no spectral film) every temporary is removed, nothing is
+    /// renamed, and the error names the file that failed. Two outputs on one path are refused
+    /// before anything is written (see [`check_distinct_outputs`]).
+    pub fn write_outputs(&self, outputs: &[OutputFile]) -> Result<()> {
+        let paths: Vec<&Path> = outputs.iter().map(|o| o.path.as_path()).collect();
+        check_distinct_outputs(&paths)?;
+        if outputs.iter().any(|o| o.kind == OutputKind::SpectralExr) && self.spectral.is_none() {
+            let path = outputs.iter().find(|o| o.kind == OutputKind::SpectralExr).map(|o| o.path.clone());
+            return Err(Error::Write {
+                path: path.unwrap_or_default(),
+                message: "the render kept no spectral film (render with fixed wavelengths, bins:N)".to_owned(),
+            });
+        }
+        let mut staged: Vec<(PathBuf, &Path)> = Vec::with_capacity(outputs.len());
+        for output in outputs {
+            let result = temporary_path(&output.path).and_then(|tmp| {
+                register(&tmp).map_err(|message| Error::Write { path: output.path.clone(), message })?;
+                staged.push((tmp.clone(), &output.path));
+                write_file(&tmp, |w| self.encode(output.kind, w))
+                    .map_err(|message| Error::Write { path: output.path.clone(), message })
+            });
+            if let Err(e) = result {
+                discard(&staged);
+                return Err(e);
+            }
+        }
+        // Every temporary is complete and on disk: rename them all. The registry stays locked
+        // so that a signal handler's cleanup waits for the renames instead of racing them.
+        let mut pending = lock_pending();
+        for (i, (tmp, path)) in staged.iter().enumerate() {
+            if let Err(e) = std::fs::rename(tmp, path) {
+                drop(pending);
+                // The ones already renamed are complete files; the rest are removed.
+                discard(&staged[i..]);
+                return Err(Error::Write { path: path.to_path_buf(), message: format!("rename: {e}") });
+            }
+            pending.paths.retain(|p| p != tmp);
+        }
+        drop(pending);
+        // Make the renames themselves durable (the folder entries), best effort: not every
+        // file system supports fsync on a folder.
+        for (_, path) in &staged {
+            if let Some(dir) = path.parent().map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d }) {
+                let _ = File::open(dir).and_then(|d| d.sync_all());
+            }
+        }
+        Ok(())
+    }
+
+    /// Encode one output into `w`.
+    fn encode<W: Write + Seek>(&self, kind: OutputKind, w: &mut W) -> std::result::Result<(), String> {
+        match kind {
+            OutputKind::Exr(display) => self.encode_exr(display, w),
+            OutputKind::Png(display) => self.encode_png(display, w),
+            OutputKind::SpectralExr => self.encode_spectral_exr(w),
+        }
+    }
+
+    fn encode_exr<W: Write + Seek>(&self, display: Display, w: &mut W) -> std::result::Result<(), String> {
+        use exr::prelude::*;
+        let rgb = self.to_linear_rgb(display);
+        let width = self.width as usize;
+        let space = display.color_space();
+        let white = space.white();
+        let p = space.primaries();
+        let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+            let c = rgb[pos.y() * width + pos.x()];
+            (c[0], c[1], c[2])
+        });
+        let mut attributes =
+            ImageAttributes::new(IntegerBounds::from_dimensions((self.width as usize, self.height as usize)));
+        attributes.chromaticities = Some(attribute::Chromaticities {
+            red: Vec2(p[0][0] as f32, p[0][1] as f32),
+            green: Vec2(p[1][0] as f32, p[1][1] as f32),
+            blue: Vec2(p[2][0] as f32, p[2][1] as f32),
+            white: Vec2(white[0] as f32, white[1] as f32),
+        });
+        attributes.other.insert(
+            Text::from("colorSpace"),
+            AttributeValue::Text(Text::from(format!("linear {}", space.name()).as_str())),
+        );
+        let layer = Layer::new(
+            (self.width as usize, self.height as usize),
+            LayerAttributes::named("rgb"),
+            Encoding::SMALL_LOSSLESS,
+            channels,
+        );
+        Image { attributes, layer_data: layer }.write().to_buffered(w).map_err(|e| e.to_string())
+    }
+
+    fn encode_spectral_exr<W: Write + Seek>(&self, w: &mut W) -> std::result::Result<(), String> {
+        use exr::prelude::*;
+        let Some(film) = &self.spectral else {
+            return Err("the render kept no spectral film (render with fixed wavelengths, bins:N)".to_owned());
+        };
+        let (width, height) = (self.width as usize, self.height as usize);
+        let n = film.wavelengths.len();
+        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = film
+            .wavelengths
+            .iter()
+            .enumerate()
+            .map(|(i, lambda)| {
+                let samples: Vec<f32> = film.values.iter().skip(i).step_by(n).copied().collect();
+                AnyChannel::new(fichet_channel_name(*lambda).as_str(), FlatSamples::F32(samples))
+            })
+            .collect();
+        let mut attributes = ImageAttributes::new(IntegerBounds::from_dimensions((width, height)));
+        attributes.other.insert(Text::from("spectralLayoutVersion"), AttributeValue::Text(Text::from("1.0")));
+        let layer = Layer::new(
+            (width, height),
+            LayerAttributes::named("spectral"),
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(channels),
+        );
+        Image { attributes, layer_data: layer }.write().to_buffered(w).map_err(|e| e.to_string())
+    }
+
+    fn encode_png<W: Write>(&self, display: Display, w: &mut W) -> std::result::Result<(), String> {
+        use image::ImageEncoder as _;
         let bytes = self.to_rgb8(display);
-        write_atomically(path, |tmp| {
-            image::save_buffer_with_format(
-                tmp,
-                &bytes,
-                self.width,
-                self.height,
-                image::ExtendedColorType::Rgb8,
-                image::ImageFormat::Png,
-            )
+        image::codecs::png::PngEncoder::new(w)
+            .write_image(&bytes, self.width, self.height, image::ExtendedColorType::Rgb8)
             .map_err(|e| e.to_string())
-        })
     }
 }
 
-/// `S0.550,000000nm`: Fichet et al.'s emissive channel name (decimal comma, unit suffix).
-fn fichet_channel_name(lambda_nm: f32) -> String {
-    format!("S0.{lambda_nm:.6}nm").replace('.', ",").replacen(',', ".", 1)
+/// Refuse two outputs on one path (`-o x.exr --spectral-exr x.exr` silently replaced the RGB
+/// EXR). Paths are compared after resolving their folder (symbolic links, `..`), so
+/// `out/x.exr` and `out/../out/x.exr` clash too; a folder that does not exist is compared as
+/// written (the write then fails on it anyway).
+pub fn check_distinct_outputs(paths: &[&Path]) -> Result<()> {
+    let key = |p: &Path| -> PathBuf {
+        let parent = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        match (std::fs::canonicalize(parent), p.file_name()) {
+            (Ok(dir), Some(name)) => dir.join(name),
+            _ => p.to_owned(),
+        }
+    };
+    for (i, a) in paths.iter().enumerate() {
+        for b in &paths[..i] {
+            if key(a) == key(b) {
+                return Err(Error::Write {
+                    path: a.to_path_buf(),
+                    message: format!("given for two outputs (also {}); each output needs its own file", b.display()),
+                });
+            }
+        }
+    }
+    Ok(())
 }
 
-/// Write through a temporary file in the same folder, then rename: a reader never sees a
-/// half-written image, and a failed or cancelled write leaves the old file untouched.
-fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> std::result::Result<(), String>) -> Result<()> {
+/// Temporaries of writes in progress, for [`remove_pending_outputs`]. `closed` once a
+/// cleanup ran: the process is exiting, so no new temporary may appear after it.
+struct Pending {
+    paths: Vec<PathBuf>,
+    closed: bool,
+}
+
+static PENDING: Mutex<Pending> = Mutex::new(Pending { paths: Vec::new(), closed: false });
+
+fn lock_pending() -> std::sync::MutexGuard<'static, Pending> {
+    lock(&PENDING)
+}
+
+fn lock(registry: &Mutex<Pending>) -> std::sync::MutexGuard<'_, Pending> {
+    // A panic while the lock was held leaves a list of paths that is still valid.
+    registry.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+fn register(tmp: &Path) -> std::result::Result<(), String> {
+    register_in(&PENDING, tmp)
+}
+
+fn register_in(registry: &Mutex<Pending>, tmp: &Path) -> std::result::Result<(), String> {
+    let mut pending = lock(registry);
+    if pending.closed {
+        return Err("the process is exiting (interrupted)".to_owned());
+    }
+    pending.paths.push(tmp.to_owned());
+    Ok(())
+}
+
+/// Remove the given temporaries and forget them.
+fn discard(staged: &[(PathBuf, &Path)]) {
+    let mut pending = lock_pending();
+    for (tmp, _) in staged {
+        let _ = std::fs::remove_file(tmp);
+        pending.paths.retain(|p| p != tmp);
+    }
+}
+
+/// Delete the temporary files of every write in progress and refuse new ones; for a SIGINT
+/// or SIGTERM handler that is about to exit the process. If the final renames are under way
+/// it waits for them (the outputs are then complete). Returns how many files it removed.
+pub fn remove_pending_outputs() -> usize {
+    remove_pending_in(&PENDING)
+}
+
+fn remove_pending_in(registry: &Mutex<Pending>) -> usize {
+    let mut pending = lock(registry);
+    pending.closed = true;
+    let removed = pending.paths.iter().filter(|p| std::fs::remove_file(p).is_ok()).count();
+    pending.paths.clear();
+    removed
+}
+
+/// `.out.exr.<pid>.tmp` beside `out.exr`: the same folder, so the rename cannot cross file
+/// systems.
+fn temporary_path(path: &Path) -> Result<PathBuf> {
     let file_name = path
         .file_name()
         .ok_or_else(|| Error::Write { path: path.to_owned(), message: "not a file name".to_owned() })?;
     let mut tmp_name = std::ffi::OsString::from(".");
     tmp_name.push(file_name);
     tmp_name.push(format!(".{}.tmp", std::process::id()));
-    let tmp: PathBuf = path.with_file_name(tmp_name);
-    let result = write(&tmp).and_then(|()| std::fs::rename(&tmp, path).map_err(|e| e.to_string()));
-    if let Err(message) = result {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::Write { path: path.to_owned(), message });
-    }
-    Ok(())
+    Ok(path.with_file_name(tmp_name))
+}
+
+/// Create `tmp`, encode into it through a buffer whose final flush is checked, and fsync it.
+/// (The `image` crate's `save_buffer` drops its `BufWriter`, and a drop ignores the flush
+/// error: on a full disk a PNG that fitted in the 8 KiB buffer came out as 0 bytes with
+/// success reported.)
+fn write_file(
+    tmp: &Path,
+    encode: impl FnOnce(&mut BufWriter<File>) -> std::result::Result<(), String>,
+) -> std::result::Result<(), String> {
+    let file = File::create(tmp).map_err(|e| e.to_string())?;
+    let file = encode_checked(file, encode)?;
+    file.sync_all().map_err(|e| format!("fsync: {e}"))
+}
+
+/// Encode into `inner` through a buffer and return it after a checked flush.
+fn encode_checked<W: Write>(
+    inner: W,
+    encode: impl FnOnce(&mut BufWriter<W>) -> std::result::Result<(), String>,
+) -> std::result::Result<W, String> {
+    let mut w = BufWriter::new(inner);
+    encode(&mut w)?;
+    w.into_inner().map_err(|e| e.error().to_string())
+}
+
+/// `S0.550,000000nm`: Fichet et al.'s emissive channel name (decimal comma, unit suffix).
+fn fichet_channel_name(lambda_nm: f32) -> String {
+    format!("S0.{lambda_nm:.6}nm").replace('.', ",").replacen(',', ".", 1)
 }
 
 #[cfg(test)]
@@ -169,17 +352,116 @@ mod tests {
         assert_eq!(fichet_channel_name(364.947_4), "S0.364,947388nm");
     }
 
+    /// A disk that is full: every write fails with ENOSPC.
+    struct FullDisk;
+    impl Write for FullDisk {
+        fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
+            Err(std::io::Error::from_raw_os_error(28))
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+    impl Seek for FullDisk {
+        fn seek(&mut self, _: std::io::SeekFrom) -> std::io::Result<u64> {
+            Ok(0)
+        }
+    }
+
     #[test]
-    fn failed_write_leaves_no_file_behind() {
-        let dir = std::env::temp_dir().join(format!("spectrace-film-{}", std::process::id()));
+    fn a_full_disk_is_an_error_even_when_the_image_fits_the_buffer() {
+        // Issue 16 item 5: the PNG fits BufWriter's 8 KiB buffer, so the encoder itself never
+        // sees the failing disk; only the final flush does. Dropping the buffer (what
+        // `image::save_buffer_with_format` does) swallows that error: the bug, shown here.
+        let image = Image::new(4, 4);
+        let mut unchecked = BufWriter::new(FullDisk);
+        assert!(image.encode_png(Display::Srgb, &mut unchecked).is_ok(), "the encoder alone does not see it");
+        drop(unchecked);
+        // The checked path reports it, for each kind of output.
+        for kind in [OutputKind::Png(Display::Srgb), OutputKind::Exr(Display::Srgb)] {
+            let err = encode_checked(FullDisk, |w| image.encode(kind, w)).map(|_| ()).unwrap_err();
+            assert!(err.contains("No space left on device"), "{kind:?}: {err}");
+        }
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("spectrace-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
-        let target = dir.join("out.png");
-        let err = write_atomically(&target, |tmp| {
-            std::fs::write(tmp, b"partial").unwrap();
-            Err("disk full".to_owned())
-        });
-        assert!(matches!(err, Err(Error::Write { .. })));
-        assert!(std::fs::read_dir(&dir).unwrap().next().is_none(), "temporary file removed, no output");
+        dir
+    }
+
+    #[test]
+    fn outputs_are_all_or_nothing() {
+        let dir = scratch("all-or-nothing");
+        let image = Image::new(3, 2);
+        let out = |name: &str, kind| OutputFile { path: dir.join(name), kind };
+        // The spectral EXR cannot be written (no film): neither the EXR nor the PNG appears.
+        let err = image
+            .write_outputs(&[
+                out("x.exr", OutputKind::Exr(Display::Srgb)),
+                out("x.png", OutputKind::Png(Display::Srgb)),
+                out("s.exr", OutputKind::SpectralExr),
+            ])
+            .unwrap_err();
+        assert!(err.to_string().contains("s.exr: the render kept no spectral film"), "{err}");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        // A failure after the first file is complete (a missing folder for the second): the
+        // first one's temporary is removed, nothing renamed.
+        let err = image
+            .write_outputs(&[
+                out("x.exr", OutputKind::Exr(Display::Srgb)),
+                out("missing/x.png", OutputKind::Png(Display::Srgb)),
+            ])
+            .unwrap_err();
+        assert!(matches!(&err, Error::Write { path, .. } if path.ends_with("missing/x.png")), "{err}");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0);
+        // Success: both files, no temporaries.
+        image
+            .write_outputs(&[
+                out("x.exr", OutputKind::Exr(Display::Srgb)),
+                out("x.png", OutputKind::Png(Display::Srgb)),
+            ])
+            .unwrap();
+        let mut names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        names.sort();
+        assert_eq!(names, ["x.exr", "x.png"]);
+        assert_eq!(&std::fs::read(dir.join("x.png")).unwrap()[1..4], b"PNG");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn two_outputs_on_one_path_are_refused_before_writing() {
+        let dir = scratch("same-path");
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let a = dir.join("x.exr");
+        let b = dir.join("sub/../x.exr");
+        let err = check_distinct_outputs(&[&a, &dir.join("x.png"), &b]).unwrap_err();
+        assert!(err.to_string().contains("given for two outputs"), "{err}");
+        let err = Image::new(1, 1)
+            .write_outputs(&[
+                OutputFile { path: a.clone(), kind: OutputKind::Exr(Display::Srgb) },
+                OutputFile { path: a.clone(), kind: OutputKind::Exr(Display::Srgb) },
+            ])
+            .unwrap_err();
+        assert!(matches!(err, Error::Write { .. }));
+        assert!(check_distinct_outputs(&[&a, &dir.join("x.png")]).is_ok());
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "only `sub`");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_signal_cleanup_removes_pending_temporaries_and_refuses_new_ones() {
+        // A registry of its own: closing the process-wide one would fail the other tests
+        // running in parallel.
+        let registry = Mutex::new(Pending { paths: Vec::new(), closed: false });
+        let dir = scratch("pending");
+        let tmp = dir.join(".x.exr.1.tmp");
+        std::fs::write(&tmp, b"partial").unwrap();
+        register_in(&registry, &tmp).unwrap();
+        assert_eq!(remove_pending_in(&registry), 1);
+        assert!(!tmp.exists());
+        assert!(register_in(&registry, &dir.join(".y.tmp")).is_err(), "no new temporary after the cleanup");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -65,3 +65,110 @@ fn each_bad_file_is_an_error_naming_the_file_and_line() {
     let empty = write("empty.csv", "");
     assert!(matches!(read_spectra_csv(&empty), Err(Error::Empty { origin }) if origin == empty.display().to_string()));
 }
+
+#[test]
+fn comment_and_blank_lines_are_skipped_but_counted() {
+    // Issue 16: a file whose first lines are `#` comments was rejected. Comments may come
+    // before the header and between rows (indented too), with CRLF line ends.
+    let text = "# Measured 2026-12-01, 1 nm\r\n#\r\n\r\nwavelength_nm,a\r\n  # a comment between rows\r\n400,0.25\r\n\r\n410,0.75\r\n";
+    let path = write("commented.csv", text);
+    let table = read_spectra_csv(&path).unwrap();
+    assert_eq!(table.len(), 1);
+    assert_eq!(table[0].name, "a");
+    assert_eq!(table[0].spectrum.step(), 10.0);
+    assert_eq!(table[0].spectrum.eval(405.0), 0.5);
+    // Errors still name the file's own line (line 7: two comments, a blank, the header, …).
+    let bad = write("commented_bad.csv", "# c\n#\n\nwavelength_nm,a\n# c\n400,1\nx,1\n");
+    let err = read_spectra_csv(&bad).unwrap_err();
+    assert_eq!(err.to_string(), format!("{}:7: column `wavelength_nm`: `x` is not a number", bad.display()));
+    // A file of comments only has no data.
+    let only = write("comments_only.csv", "# nothing\n# here\n");
+    assert!(matches!(read_spectra_csv(&only), Err(Error::Empty { .. })));
+}
+
+#[test]
+fn hostile_grids_are_errors_naming_the_file_and_line_not_allocations() {
+    // Issue 16 item 4: each of these panicked (`capacity overflow`), aborted allocating
+    // terabytes, or overflowed an integer; now each is a one-line error with the file and line.
+    let cases: [(&str, &str, &str); 5] = [
+        (
+            "tiny_wavelengths.csv",
+            "wavelength_nm,a\n1e-300,0.5\n2e-300,0.5\n",
+            ":3: wavelength 2e-300 nm is only 1e-300 nm after 1e-300 nm (rows must be at least 0.001 nm apart)",
+        ),
+        (
+            "close_rows.csv",
+            "wavelength_nm,a\n500,0.5\n500.0000000001,0.5\n",
+            ":3: wavelength 500.0000000001 nm is only 9.99875737761613e-11 nm after 500 nm (rows must be at least 0.001 nm apart)",
+        ),
+        (
+            "far_wavelength.csv",
+            "wavelength_nm,a\n400,0.5\n401,0.5\n1e300,0.5\n",
+            ":4: wavelength 1e300 nm is beyond the longest supported, 100000 nm",
+        ),
+        (
+            "huge_value.csv",
+            "wavelength_nm,a\n400,1e308\n500,1\n",
+            ":2: column `a`: 1e308 is too large (spectra must be <= 1e30)",
+        ),
+        (
+            "long_cell.csv",
+            &format!("wavelength_nm,a\n400,{}\n", "x".repeat(100_000)),
+            ":2: column `a`: `xxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxxx…` is not a number",
+        ),
+    ];
+    for (name, text, message) in cases {
+        let path = write(name, text);
+        let err = read_spectra_csv(&path).unwrap_err();
+        assert_eq!(err.to_string(), format!("{}{message}", path.display()), "{name}");
+    }
+    // A header of 5000 columns is refused from its count, before a column is allocated.
+    let wide = write("wide_header.csv", &format!("wavelength_nm{}\n400{}\n", ",a".repeat(4999), ",1".repeat(4999)));
+    let err = read_spectra_csv(&wide).unwrap_err();
+    assert_eq!(err.to_string(), format!("{}:1: 5000 columns, more than the limit of 4096", wide.display()));
+    // Uneven rows from 1 to 100 000 nm in 200 columns would resample to 2e7 values
+    // (160 MB): refused as a whole before any column is built.
+    let header: String = (0..200).map(|i| format!(",c{i}")).collect();
+    let row = |l: &str| format!("{l}{}\n", ",0.5".repeat(200));
+    let uneven = write("uneven_wide.csv", &format!("wavelength_nm{header}\n{}{}{}", row("1"), row("3"), row("100000")));
+    let err = read_spectra_csv(&uneven).unwrap_err();
+    assert!(matches!(err, Error::TooManySamples { .. }), "{err}");
+    assert!(err.to_string().starts_with(&format!("{}:", uneven.display())), "{err}");
+}
+
+#[test]
+fn only_regular_files_of_bounded_size_are_read() {
+    // A device would be read forever (`/dev/zero`); a FIFO would block on open.
+    #[cfg(unix)]
+    {
+        let err = read_spectra_csv(std::path::Path::new("/dev/zero")).unwrap_err();
+        assert_eq!(err.to_string(), "/dev/zero: not a regular file");
+    }
+    let folder = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("colorimetry-csv");
+    std::fs::create_dir_all(&folder).unwrap();
+    assert!(matches!(read_spectra_csv(&folder), Err(Error::NotReadable { .. })));
+    // A sparse file one byte over the limit: refused from its size, without reading it.
+    let big = folder.join("too_big.csv");
+    std::fs::File::create(&big).unwrap().set_len(colorimetry::MAX_CSV_BYTES + 1).unwrap();
+    let err = read_spectra_csv(&big).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        format!("{}: 67108865 bytes, more than the limit for a spectra file (67108864 bytes)", big.display())
+    );
+    std::fs::remove_file(&big).unwrap();
+}
+
+#[test]
+fn a_spectrum_outside_the_visible_range_is_not_held_across_it() {
+    // Issue 16 item 9: 100–300 nm was held flat over 360–830 nm, silently.
+    let path = write("ultraviolet.csv", "wavelength_nm,a\n100,0.5\n200,0.5\n300,0.5\n");
+    let table = read_spectra_csv(&path).unwrap();
+    let err = table[0].spectrum.held_to_visible().unwrap_err();
+    assert_eq!(err.to_string(), "spectrum defined only at 100–300 nm, outside the visible range 360–830 nm");
+    // One that overlaps the range is extended as before.
+    let path = write("partly_visible.csv", "wavelength_nm,a\n300,0.5\n400,0.25\n");
+    let held = read_spectra_csv(&path).unwrap()[0].spectrum.held_to_visible().unwrap();
+    // Linear from 0.5 at 300 nm to 0.25 at 400 nm: 0.35 at 360 nm, to one rounding.
+    assert!((held.eval(360.0) - 0.35).abs() < 1e-15, "{}", held.eval(360.0));
+    assert_eq!((held.eval(400.0), held.eval(830.0)), (0.25, 0.25));
+}

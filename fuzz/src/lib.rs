@@ -1,0 +1,138 @@
+//! What every fuzz target does with its bytes: put them in a file of the format's name, load
+//! it, assemble it (materials, lights, BVH), summarise it as `spectrace info` does, and render
+//! 8×8 pixels with both integrators. Errors are the expected outcome for most inputs; only a
+//! panic, an abort (out of memory), a hang or a non-finite pixel is a finding.
+//!
+//! The same file is compiled into the end-to-end tests (`tests/e2e/fuzz_replay.rs`), which
+//! replay every input in `fuzz/regressions/<target>/` on the stable toolchain.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use integrator::{Integrator, IntegratorKind, PathOptions, RenderOptions, RenderScene, SpectralMode, WhittedOptions};
+
+/// A folder of this process's own for the files a target writes (in RAM when /dev/shm
+/// exists, so the disk is not worn by millions of executions).
+pub fn scratch() -> PathBuf {
+    let shm = Path::new("/dev/shm");
+    let base = if shm.is_dir() { shm.to_path_buf() } else { std::env::temp_dir() };
+    let dir = base.join(format!("spectrace-fuzz-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    dir
+}
+
+/// Write `bytes` to `name` in the scratch folder and return its path.
+pub fn put(name: &str, bytes: &[u8]) -> PathBuf {
+    let path = scratch().join(name);
+    std::fs::write(&path, bytes).expect("scratch file");
+    path
+}
+
+/// Load the scene file and run it through the whole pipeline.
+pub fn run_file(path: &Path) {
+    let Ok(desc) = geometry::load_scene(path) else { return };
+    run_description(desc);
+}
+
+/// Assemble, summarise and render a loaded scene description.
+pub fn run_description(desc: geometry::SceneDescription) {
+    let Ok(scene) = RenderScene::from_description(desc.clone()) else { return };
+    let summary = geometry::summarize(&desc, scene.geometry());
+    std::hint::black_box(serde_json::to_string(&summary).expect("summary serialises"));
+    let _ = integrator::choose_auto(&scene, IntegratorKind::WhittedHall);
+    for (integrator, spectral) in [
+        (
+            Integrator::WhittedHall(WhittedOptions { max_depth: Some(8), ..WhittedOptions::default() }),
+            SpectralMode::Auto,
+        ),
+        (
+            Integrator::Path(PathOptions { max_depth: Some(8), ..PathOptions::default() }),
+            SpectralMode::Hero { count: 4 },
+        ),
+    ] {
+        let options =
+            RenderOptions { width: 8, height: 8, integrator, spectral, threads: Some(1), ..RenderOptions::default() };
+        if let Ok((image, stats)) = integrator::render(&scene, &options, &|_| {}, &AtomicBool::new(false)) {
+            assert_eq!(stats.nonfinite_samples, 0, "non-finite samples reached the film");
+            for c in image.to_linear_rgb(integrator::Display::Srgb) {
+                assert!(c.iter().all(|v| v.is_finite()), "non-finite pixel {c:?}");
+            }
+        }
+    }
+}
+
+/// Split an OBJ+MTL input at its first `%%mtl` line: (OBJ bytes, MTL bytes).
+pub fn split_obj_mtl(data: &[u8]) -> (&[u8], &[u8]) {
+    const MARK: &[u8] = b"\n%%mtl\n";
+    match data.windows(MARK.len()).position(|w| w == MARK) {
+        Some(i) => (&data[..i], &data[i + MARK.len()..]),
+        None => (data, &[]),
+    }
+}
+
+/// The committed scenes folder, from the fuzz crate (`fuzz/`) or a workspace crate
+/// (`crates/cli/`, for the replay tests).
+pub fn scenes_dir() -> PathBuf {
+    let here = Path::new(env!("CARGO_MANIFEST_DIR"));
+    [here.join("../scenes"), here.join("../../scenes")].into_iter().find(|p| p.is_dir()).expect("scenes folder")
+}
+
+/// Target `gltf`: glTF (JSON) bytes.
+pub fn gltf(data: &[u8]) {
+    run_file(&put("fuzz.gltf", data));
+}
+
+/// Target `glb`: binary glTF bytes.
+pub fn glb(data: &[u8]) {
+    run_file(&put("fuzz.glb", data));
+}
+
+/// Target `obj_mtl`: the OBJ text, then (after a line `%%mtl`) its material library. The OBJ
+/// gets `mtllib fuzz.mtl` prepended so every input exercises both parsers.
+pub fn obj_mtl(data: &[u8]) {
+    let (obj, mtl) = split_obj_mtl(data);
+    put("fuzz.mtl", mtl);
+    let mut text = b"mtllib fuzz.mtl\n".to_vec();
+    text.extend_from_slice(obj);
+    run_file(&put("fuzz.obj", &text));
+}
+
+/// Target `manifest`: manifest JSON text; references resolve under `scenes/reference/`, so
+/// mutated manifests also load the committed meshes and spectra.
+pub fn manifest(data: &[u8]) {
+    let text = String::from_utf8_lossy(data);
+    if let Ok(desc) = geometry::parse_manifest(&text, &scenes_dir().join("reference"), "fuzz.json") {
+        run_description(desc);
+    }
+}
+
+/// Target `csv`: CSV spectra parsed, extended to the visible range as `spectrace color` does
+/// (their XYZ must be finite), then used as a material's reflectance and a light's spectrum in
+/// a one-sphere scene rendered 8×8.
+pub fn csv(data: &[u8]) {
+    let text = String::from_utf8_lossy(data);
+    if let Ok(table) = colorimetry::parse_spectra_csv(&text, "fuzz.csv") {
+        for column in &table {
+            if let Ok(held) = column.spectrum.held_to_visible() {
+                let white = colorimetry::DenselySampledSpectrum::constant(1.0);
+                let xyz = colorimetry::reflectance_to_xyz(
+                    &held,
+                    &white,
+                    colorimetry::Observer::Cie1931,
+                    &colorimetry::Integration::Step(1.0),
+                );
+                assert!(xyz.x.is_finite() && xyz.y.is_finite() && xyz.z.is_finite(), "{xyz:?}");
+            }
+        }
+    }
+    put("fuzz.csv", data);
+    let manifest = r#"{
+        "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "vfov_deg": 40},
+        "lights": [{"type": "point", "position": [2, 2, 4], "spectrum": {"csv": "fuzz.csv"}}],
+        "materials": {"m": {"model": "diffuse", "base_color": {"csv": "fuzz.csv"}}},
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}]
+    }"#;
+    if let Ok(desc) = geometry::parse_manifest(manifest, &scratch(), "fuzz.json") {
+        run_description(desc);
+    }
+}
