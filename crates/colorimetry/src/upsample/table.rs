@@ -88,6 +88,24 @@ pub(crate) struct Table {
     resolution: usize,
     z_samples: Vec<f64>,
     coefficients: Vec<f32>,
+    /// `z_samples` in f32, for [`Table::lookup_f32`].
+    z_samples_f32: Vec<f32>,
+    /// `inverse_sigmoid(z_samples[k])` in f32 (the last, `+∞` at z = 1, is not used).
+    z_inverse: Vec<f32>,
+}
+
+/// The inverse of the sigmoid `s(x) = ½ + x / (2√(1 + x²))`:
+/// `x = (2s − 1) / (2√(s (1 − s)))` (from `(2s − 1)² = x² / (1 + x²)`).
+///
+/// The z axis of [`Table::lookup_f32`] is interpolated in this variable: along a
+/// grey column the coefficients are `(0, 0, s⁻¹(z))`, so the interpolation is
+/// exact there, and for dark colours (`s(x) ≈ 1/(4x²)`, coefficients ∝ 1/√z) it
+/// follows the coefficients' own growth. Measured on the committed table: mean
+/// ΔE00 at the midpoints between z samples 0.031 instead of 0.18 with weights
+/// linear in z.
+#[inline]
+fn inverse_sigmoid(s: f32) -> f32 {
+    (2.0 * s - 1.0) / (2.0 * (s * (1.0 - s)).sqrt())
 }
 
 impl Table {
@@ -120,7 +138,10 @@ impl Table {
         if let Some(index) = coefficients.iter().position(|c| !c.is_finite()) {
             return Err(TableError::NonFinite { index });
         }
-        Ok(Self { resolution, z_samples: z_samples(resolution), coefficients })
+        let z_samples = z_samples(resolution);
+        let z_samples_f32: Vec<f32> = z_samples.iter().map(|&z| z as f32).collect();
+        let z_inverse = z_samples_f32.iter().map(|&z| inverse_sigmoid(z)).collect();
+        Ok(Self { resolution, z_samples, coefficients, z_samples_f32, z_inverse })
     }
 
     /// The resolution from the header.
@@ -175,6 +196,68 @@ impl Table {
         self.interpolate(l, [(k, 1.0 - dz), (k + 1, dz)], (j, dy), (i, dx))
     }
 
+    /// The texel path (`RgbSigmoid::from_rgb`): the same table as [`Table::lookup`],
+    /// in f32, with the z weight taken in the inverse-sigmoid variable (see
+    /// [`inverse_sigmoid`]). No fit: one binary search over the z samples and a
+    /// trilinear blend of 8 entries. Needs `rgb ∈ [0, 1]³` with a positive largest
+    /// channel.
+    ///
+    /// [`Table::lookup`] stays as it is because it is the start of the exact fit:
+    /// changing it would move every fitted scene colour by rounding.
+    #[inline]
+    pub(crate) fn lookup_f32(&self, rgb: [f32; 3]) -> [f32; 3] {
+        // Channel order of block l: z on l, x on l + 1, y on l + 2 (mod 3).
+        const NEXT: [usize; 3] = [1, 2, 0];
+        const AFTER_NEXT: [usize; 3] = [2, 0, 1];
+        let res = self.resolution;
+        let l = if rgb[0] >= rgb[1] && rgb[0] >= rgb[2] {
+            0
+        } else if rgb[1] >= rgb[2] {
+            1
+        } else {
+            2
+        };
+        let z = rgb[l];
+        debug_assert!(z > 0.0 && z <= 1.0, "lookup needs a positive largest channel, got {rgb:?}");
+        let scale = (res - 1) as f32 / z;
+        let (i, dx) = cell_f32(rgb[NEXT[l]] * scale, res);
+        let (j, dy) = cell_f32(rgb[AFTER_NEXT[l]] * scale, res);
+        let w = inverse_sigmoid(z);
+        if z < self.z_samples_f32[1] {
+            // Below the first non-black sample (see `lookup`): the k = 1 fits scaled to
+            // the requested darkness, coefficients ∝ s⁻¹(z) (∝ 1/√z in the sigmoid's tail).
+            let factor = w / self.z_inverse[1];
+            return self.blend_f32(l, 1, 0.0, (j, dy), (i, dx)).map(|c| c * factor);
+        }
+        let k = self.z_samples_f32.partition_point(|&s| s <= z).saturating_sub(1).min(res - 2);
+        let dz = if k + 2 == res {
+            // s⁻¹(1) = +∞: the last cell blends linearly in z.
+            (z - self.z_samples_f32[k]) / (self.z_samples_f32[k + 1] - self.z_samples_f32[k])
+        } else {
+            (w - self.z_inverse[k]) / (self.z_inverse[k + 1] - self.z_inverse[k])
+        };
+        self.blend_f32(l, k, dz.clamp(0.0, 1.0), (j, dy), (i, dx))
+    }
+
+    /// Trilinear blend in f32 of block `l`'s entries at `(k, k + 1) × (j, j + 1) × (i, i + 1)`.
+    #[inline]
+    fn blend_f32(&self, l: usize, k: usize, dz: f32, (j, dy): (usize, f32), (i, dx): (usize, f32)) -> [f32; 3] {
+        let res = self.resolution;
+        let mut out = [0.0f32; 3];
+        for (corner_k, weight_k) in [(k, 1.0 - dz), (k + 1, dz)] {
+            for (corner_j, weight_j) in [(j, 1.0 - dy), (j + 1, dy)] {
+                let row = entry_offset(res, l, corner_k, corner_j, i);
+                let pair = &self.coefficients[row..row + 6];
+                let weight = weight_k * weight_j;
+                let (w0, w1) = (weight * (1.0 - dx), weight * dx);
+                for c in 0..3 {
+                    out[c] += w0 * pair[c] + w1 * pair[3 + c];
+                }
+            }
+        }
+        out
+    }
+
     /// Weighted sum of block `l`'s entries over the given `z` samples and the
     /// `(j, j + 1) × (i, i + 1)` cell with fractions `dy`, `dx`.
     fn interpolate<const N: usize>(
@@ -205,6 +288,14 @@ fn cell(u: f64, res: usize) -> (usize, f64) {
     let u = u.clamp(0.0, (res - 1) as f64);
     let index = (u.floor() as usize).min(res - 2);
     (index, u - index as f64)
+}
+
+/// [`cell`] in f32.
+#[inline]
+fn cell_f32(u: f32, res: usize) -> (usize, f32) {
+    let u = u.clamp(0.0, (res - 1) as f32);
+    let index = (u as usize).min(res - 2);
+    (index, u - index as f32)
 }
 
 /// Residual (ΔE*ab) above which a table fit counts as inexact and is retried.
