@@ -92,7 +92,19 @@ pub(crate) struct Table {
     z_samples_f32: Vec<f32>,
     /// `inverse_sigmoid(z_samples[k])` in f32 (the last, `+∞` at z = 1, is not used).
     z_inverse: Vec<f32>,
+    /// `1 / (z_inverse[k + 1] − z_inverse[k])`, except in the last cell
+    /// `1 / (z_samples[k + 1] − z_samples[k])` (see [`Table::lookup_f32`]).
+    z_cell_scale: Vec<f32>,
+    /// For each of [`Z_BINS`] even bins of z, the last sample `k ≤ res − 2` with
+    /// `z_samples[k] ≤` the bin's start: the binary search of `lookup` becomes an index
+    /// and a step or two.
+    z_bin_start: Vec<u8>,
+    /// `res − 1` in f32.
+    last_index_f32: f32,
 }
+
+/// Even z bins of the `lookup_f32` index (resolution ≤ 128 fits in a `u8`).
+const Z_BINS: usize = 256;
 
 /// The inverse of the sigmoid `s(x) = ½ + x / (2√(1 + x²))`:
 /// `x = (2s − 1) / (2√(s (1 − s)))` (from `(2s − 1)² = x² / (1 + x²)`).
@@ -140,8 +152,33 @@ impl Table {
         }
         let z_samples = z_samples(resolution);
         let z_samples_f32: Vec<f32> = z_samples.iter().map(|&z| z as f32).collect();
-        let z_inverse = z_samples_f32.iter().map(|&z| inverse_sigmoid(z)).collect();
-        Ok(Self { resolution, z_samples, coefficients, z_samples_f32, z_inverse })
+        let z_inverse: Vec<f32> = z_samples_f32.iter().map(|&z| inverse_sigmoid(z)).collect();
+        let z_cell_scale = (0..resolution - 1)
+            .map(|k| {
+                if k + 2 == resolution {
+                    1.0 / (z_samples_f32[k + 1] - z_samples_f32[k])
+                } else {
+                    1.0 / (z_inverse[k + 1] - z_inverse[k])
+                }
+            })
+            .collect();
+        let z_bin_start = (0..Z_BINS)
+            .map(|bin| {
+                let start = bin as f32 / Z_BINS as f32;
+                (z_samples_f32.partition_point(|&z| z <= start).saturating_sub(1).min(resolution - 2)) as u8
+            })
+            .collect();
+        let last_index_f32 = (resolution - 1) as f32;
+        Ok(Self {
+            resolution,
+            z_samples,
+            coefficients,
+            z_samples_f32,
+            z_inverse,
+            z_cell_scale,
+            z_bin_start,
+            last_index_f32,
+        })
     }
 
     /// The resolution from the header.
@@ -198,30 +235,27 @@ impl Table {
 
     /// The texel path (`RgbSigmoid::from_rgb`): the same table as [`Table::lookup`],
     /// in f32, with the z weight taken in the inverse-sigmoid variable (see
-    /// [`inverse_sigmoid`]). No fit: one binary search over the z samples and a
-    /// trilinear blend of 8 entries. Needs `rgb ∈ [0, 1]³` with a positive largest
-    /// channel.
+    /// [`inverse_sigmoid`]). No fit: an index into the z samples and a trilinear blend
+    /// of 8 entries (about 150 instructions). Needs `rgb ∈ [0, 1]³` with a positive
+    /// largest channel.
     ///
     /// [`Table::lookup`] stays as it is because it is the start of the exact fit:
     /// changing it would move every fitted scene colour by rounding.
     #[inline]
     pub(crate) fn lookup_f32(&self, rgb: [f32; 3]) -> [f32; 3] {
-        // Channel order of block l: z on l, x on l + 1, y on l + 2 (mod 3).
-        const NEXT: [usize; 3] = [1, 2, 0];
-        const AFTER_NEXT: [usize; 3] = [2, 0, 1];
-        let res = self.resolution;
-        let l = if rgb[0] >= rgb[1] && rgb[0] >= rgb[2] {
-            0
-        } else if rgb[1] >= rgb[2] {
-            1
+        let [r, g, b] = rgb;
+        // Block l: z on channel l, x on l + 1, y on l + 2 (mod 3).
+        let (l, z, x, y) = if r >= g && r >= b {
+            (0, r, g, b)
+        } else if g >= b {
+            (1, g, b, r)
         } else {
-            2
+            (2, b, r, g)
         };
-        let z = rgb[l];
         debug_assert!(z > 0.0 && z <= 1.0, "lookup needs a positive largest channel, got {rgb:?}");
-        let scale = (res - 1) as f32 / z;
-        let (i, dx) = cell_f32(rgb[NEXT[l]] * scale, res);
-        let (j, dy) = cell_f32(rgb[AFTER_NEXT[l]] * scale, res);
+        let scale = self.last_index_f32 / z;
+        let (i, dx) = self.cell_f32(x * scale);
+        let (j, dy) = self.cell_f32(y * scale);
         let w = inverse_sigmoid(z);
         if z < self.z_samples_f32[1] {
             // Below the first non-black sample (see `lookup`): the k = 1 fits scaled to
@@ -229,27 +263,50 @@ impl Table {
             let factor = w / self.z_inverse[1];
             return self.blend_f32(l, 1, 0.0, (j, dy), (i, dx)).map(|c| c * factor);
         }
-        let k = self.z_samples_f32.partition_point(|&s| s <= z).saturating_sub(1).min(res - 2);
+        // Last sample ≤ z (kept ≤ res − 2 so that k + 1 exists): the bin's start, then
+        // forward over the samples inside the bin (several only in the first bins, where
+        // the samples crowd near black).
+        let res = self.resolution;
+        let mut k = usize::from(self.z_bin_start[((z * Z_BINS as f32) as usize).min(Z_BINS - 1)]);
+        while k + 2 < res && self.z_samples_f32[k + 1] <= z {
+            k += 1;
+        }
         let dz = if k + 2 == res {
             // s⁻¹(1) = +∞: the last cell blends linearly in z.
-            (z - self.z_samples_f32[k]) / (self.z_samples_f32[k + 1] - self.z_samples_f32[k])
+            (z - self.z_samples_f32[k]) * self.z_cell_scale[k]
         } else {
-            (w - self.z_inverse[k]) / (self.z_inverse[k + 1] - self.z_inverse[k])
+            (w - self.z_inverse[k]) * self.z_cell_scale[k]
         };
-        self.blend_f32(l, k, dz.clamp(0.0, 1.0), (j, dy), (i, dx))
+        self.blend_f32(l, k, dz.max(0.0).min(1.0), (j, dy), (i, dx))
+    }
+
+    /// Cell index `≤ res − 2` and fraction of a grid coordinate `u ∈ [0, res − 1]`.
+    #[inline(always)]
+    fn cell_f32(&self, u: f32) -> (usize, f32) {
+        // max/min rather than clamp: no min ≤ max check at run time (NaN becomes 0).
+        let u = u.max(0.0).min(self.last_index_f32);
+        // i32 conversions: one instruction each (u ≤ 127, so no saturation is needed).
+        let index = (u as i32).min(self.resolution as i32 - 2);
+        (index as usize, u - index as f32)
     }
 
     /// Trilinear blend in f32 of block `l`'s entries at `(k, k + 1) × (j, j + 1) × (i, i + 1)`.
-    #[inline]
+    #[inline(always)]
     fn blend_f32(&self, l: usize, k: usize, dz: f32, (j, dy): (usize, f32), (i, dx): (usize, f32)) -> [f32; 3] {
         let res = self.resolution;
+        // Entries (k, j, i) and (k, j, i + 1) are adjacent: one slice of 6 floats per (k, j),
+        // the four of them `3·res` (next j) and `3·res²` (next k) floats apart.
+        let base = entry_offset(res, l, k, j, i);
+        let (next_j, next_k) = (3 * res, 3 * res * res);
+        let cube = &self.coefficients[base..base + next_k + next_j + 6];
+        let (wx0, wx1) = (1.0 - dx, dx);
         let mut out = [0.0f32; 3];
-        for (corner_k, weight_k) in [(k, 1.0 - dz), (k + 1, dz)] {
-            for (corner_j, weight_j) in [(j, 1.0 - dy), (j + 1, dy)] {
-                let row = entry_offset(res, l, corner_k, corner_j, i);
-                let pair = &self.coefficients[row..row + 6];
+        for (offset_k, weight_k) in [(0, 1.0 - dz), (next_k, dz)] {
+            for (offset_j, weight_j) in [(0, 1.0 - dy), (next_j, dy)] {
+                let at = offset_k + offset_j;
+                let pair = &cube[at..at + 6];
                 let weight = weight_k * weight_j;
-                let (w0, w1) = (weight * (1.0 - dx), weight * dx);
+                let (w0, w1) = (weight * wx0, weight * wx1);
                 for c in 0..3 {
                     out[c] += w0 * pair[c] + w1 * pair[3 + c];
                 }
@@ -288,14 +345,6 @@ fn cell(u: f64, res: usize) -> (usize, f64) {
     let u = u.clamp(0.0, (res - 1) as f64);
     let index = (u.floor() as usize).min(res - 2);
     (index, u - index as f64)
-}
-
-/// [`cell`] in f32.
-#[inline]
-fn cell_f32(u: f32, res: usize) -> (usize, f32) {
-    let u = u.clamp(0.0, (res - 1) as f32);
-    let index = (u as usize).min(res - 2);
-    (index, u - index as f32)
 }
 
 /// Residual (ΔE*ab) above which a table fit counts as inexact and is retried.
