@@ -100,6 +100,19 @@ fn old_path(c: &mut Criterion) {
             black_box(dense.sample(&lambdas[i]))
         })
     });
+    // Load-time alternatives for exact colours: lookup + 2 Newton evaluations, and the fit.
+    group.bench_function("refined", |b| {
+        b.iter(|| {
+            i = (i + 1) % INPUTS;
+            black_box(RgbSigmoid::refined(black_box(colors[i])))
+        })
+    });
+    group.bench_function("fit", |b| {
+        b.iter(|| {
+            i = (i + 1) % INPUTS;
+            black_box(RgbSigmoid::fit(black_box(colors[i]).map(f64::from)))
+        })
+    });
     // The dense table's evaluation alone, for the per-hit comparison with `sample_4`.
     let dense: Vec<DenselySampledSpectrum> =
         colors.iter().take(64).map(|&rgb| upsample_reflectance(rgb.map(f64::from)).to_spectrum()).collect();

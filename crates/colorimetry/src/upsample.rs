@@ -48,6 +48,10 @@ static SRGB_MODEL: LazyLock<ForwardModel> = LazyLock::new(srgb_d65_model);
 /// that cannot be reached exactly (see [`upsample_reflectance`]).
 const REFINE_ITERATIONS: usize = 60;
 
+/// Forward-model evaluations of [`RgbSigmoid::refined`]: two take the table's ΔE00 ≈ 0.05
+/// below 1e-3 (Newton's quadratic convergence); a third would reach 1e-6.
+const REFINED_EVALUATIONS: usize = 2;
+
 /// Iteration budget of the fallback fit from flat grey (see [`upsample_reflectance`]).
 const FALLBACK_ITERATIONS: usize = 400;
 
@@ -147,12 +151,14 @@ impl RgbSigmoid {
     /// as 0): one binary search and a trilinear blend, no fit (a few ns; criterion bench
     /// `rgb_albedo` in `crates/colorimetry/benches/spectrum.rs`).
     ///
-    /// Accuracy: the interpolated coefficients are not refitted, so the round trip is not
-    /// exact. Measured over 20 000 random colours of the cube: ΔE00 mean 0.045, median
-    /// 0.038, 99th percentile 0.18, max 1.2 (saturated dark reds, where the coefficients
-    /// are large; test `rgb_sigmoid_table_round_trip_error_is_as_measured`). Where the
-    /// project's ΔE00 < 0.01 must hold, use [`RgbSigmoid::fit`] (about 20 µs) once per
-    /// colour.
+    /// Accuracy: the interpolated coefficients are not refitted, so the round trip (under
+    /// D65, as [`upsample_reflectance`] is checked) is not exact. Measured over 20 000 random
+    /// colours of the cube: ΔE00 mean 0.045, median 0.039, 99th percentile 0.17, max 1.2
+    /// (saturated reds, where the coefficients are large); up to 2.2 in the sliver next to
+    /// white that no reflectance reaches (test
+    /// `rgb_albedo_table_round_trip_error_is_as_measured`). Only 4.5 % of colours are
+    /// within the project's ΔE00 0.01: where that must hold, use [`RgbSigmoid::fit`]
+    /// (about 20 µs) once per colour.
     #[inline]
     pub fn from_rgb(table: &RgbToSpectrumTable, rgb: [f32; 3]) -> Self {
         let rgb = rgb.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) });
@@ -160,6 +166,24 @@ impl RgbSigmoid {
             return Self::BLACK;
         }
         Self { coefficients: table.table.lookup_f32(rgb) }
+    }
+
+    /// The table lookup of [`RgbSigmoid::from_rgb`] followed by [`REFINED_EVALUATIONS`]
+    /// Gauss–Newton evaluations of the 1 nm forward model: for colours loaded once (texels,
+    /// per unique colour) where the lookup's ΔE00 ≈ 0.05 is too much. Measured over 3000
+    /// random colours: max ΔE00 8e-4 (one evaluation: 0.12); on the 17³ grid, white
+    /// included, below 0.01 (test `rgb_albedo_refined_round_trips_within_target`). About
+    /// half the cost of [`RgbSigmoid::fit`], which iterates to 1e-10 ΔE*ab.
+    pub fn refined(rgb: [f32; 3]) -> Self {
+        let rgb = rgb.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) });
+        let start = Self::from_rgb(RgbToSpectrumTable::srgb(), rgb);
+        if start == Self::BLACK {
+            return start;
+        }
+        let target = rgb.map(f64::from);
+        let result =
+            fit::fit(&SRGB_MODEL, target, start.coefficients.map(f64::from), REFINED_EVALUATIONS, f64::INFINITY);
+        Self { coefficients: result.coefficients.map(|c| c as f32) }
     }
 
     /// The exact fit of [`upsample_reflectance`] (round trip ΔE00 below 1e-8 except next to

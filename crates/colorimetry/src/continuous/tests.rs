@@ -42,11 +42,23 @@ fn rgb_albedo_fit_round_trips_within_target() {
     assert!(worst < 0.01, "worst ΔE00 {worst}");
 }
 
+#[test]
+fn rgb_albedo_refined_round_trips_within_target() {
+    let mut worst: f64 = 0.0;
+    for rgb in grid_17() {
+        let spectrum = Spectrum::RgbAlbedo(RgbSigmoid::refined(rgb.map(|c| c as f32)));
+        worst = worst.max(round_trip_delta_e00(rgb, &spectrum));
+    }
+    eprintln!("refined on 17³: max ΔE00 {worst:e}");
+    assert!(worst < 0.01, "worst ΔE00 {worst}");
+}
+
 /// The table lookup alone (no fit). Not within 0.01: these are its measured errors, so a
 /// change to the lookup or the table that makes it worse fails here. Measured on the 17³
-/// grid with the committed table (resolution 32): mean 0.048, max 0.45 away from white
-/// (dark saturated colours), 2.2 in the sliver next to white that no reflectance reaches
-/// exactly (where the table's fits stop at a coefficient bound).
+/// grid with the committed table (resolution 32): mean 0.041, max 0.20 away from white
+/// (saturated colours), 0.087 next to white. (On a 33³ grid the sliver next to white that no
+/// reflectance reaches exactly, where the table's fits stop at a coefficient bound, reaches
+/// 2.2; 20 000 random colours: mean 0.045, 99th percentile 0.17, max 1.2.)
 #[test]
 fn rgb_albedo_table_round_trip_error_is_as_measured() {
     let table = RgbToSpectrumTable::srgb();
@@ -64,9 +76,11 @@ fn rgb_albedo_table_round_trip_error_is_as_measured() {
     }
     let mean = sum / count as f64;
     eprintln!("table lookup on 17³: mean ΔE00 {mean:.4}, max {worst:.4}, next to white {worst_near_white:.4}");
-    assert!(mean < 0.06, "mean ΔE00 {mean}");
-    assert!(worst < 0.5, "max ΔE00 away from white {worst}");
-    assert!(worst_near_white < 2.5, "max ΔE00 next to white {worst_near_white}");
+    // Bounds: the measured values plus a quarter (f32 rounding of the blend differs
+    // between compilers by far less).
+    assert!(mean < 0.05, "mean ΔE00 {mean}");
+    assert!(worst < 0.25, "max ΔE00 away from white {worst}");
+    assert!(worst_near_white < 0.11, "max ΔE00 next to white {worst_near_white}");
 }
 
 #[test]
@@ -86,10 +100,10 @@ fn rgb_albedo_matches_the_existing_upsampler_at_sample_wavelengths() {
     }
     // Fit in f32 against the f64 fit on its 1 nm grid, linear in between: the grid's
     // interpolation error (h²/8 · R'', R'' ≤ about 1e-4 /nm² for these smooth colours) plus
-    // f32 rounding. Measured 1.0e-5.
+    // f32 rounding. Measured 2.4e-5.
     assert!(fit_worst < 5e-5, "fit: {fit_worst}");
-    // The lookup's coefficients are interpolated, not fitted: measured 6.2e-3 in reflectance.
-    assert!(table_worst < 0.02, "table: {table_worst}");
+    // The lookup's coefficients are interpolated, not fitted: measured 3.5e-3 in reflectance.
+    assert!(table_worst < 5e-3, "table: {table_worst}");
     eprintln!("max |Δ| against upsample_reflectance: fit {fit_worst:e}, table {table_worst:e}");
 }
 
