@@ -277,7 +277,7 @@ impl Table {
         } else {
             (w - self.z_inverse[k]) * self.z_cell_scale[k]
         };
-        self.blend_f32(l, k, dz.max(0.0).min(1.0), (j, dy), (i, dx))
+        self.blend_f32(l, k, dz.clamp(0.0, 1.0), (j, dy), (i, dx))
     }
 
     /// Cell index `≤ res − 2` and fraction of a grid coordinate `u ∈ [0, res − 1]`.
