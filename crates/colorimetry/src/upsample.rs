@@ -27,14 +27,18 @@ use std::sync::LazyLock;
 use fit::{Coefficients, ForwardModel, T_ORIGIN_NM, T_SPAN_NM};
 use table::{Table, TableError};
 
-use crate::{DenselySampledSpectrum, Illuminant, Integration, Observer, RgbColorSpace, reflectance_to_xyz};
+use crate::{
+    DenselySampledSpectrum, Illuminant, Integration, Observer, RgbColorSpace, SampledSpectrum, SampledWavelengths,
+    reflectance_to_xyz,
+};
 
 /// The committed coefficient table (see the `table` submodule for the format).
 static TABLE_BYTES: &[u8] = include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/rgb_to_spectrum_srgb.bin"));
 
 /// The decoded table. A unit test requires it to parse; should a broken file
 /// ever be embedded, upsampling still works, starting each fit from a flat grey.
-static TABLE: LazyLock<Result<Table, TableError>> = LazyLock::new(|| Table::parse(TABLE_BYTES));
+static TABLE: LazyLock<Result<RgbToSpectrumTable, TableError>> =
+    LazyLock::new(|| Table::parse(TABLE_BYTES).map(|table| RgbToSpectrumTable { table }));
 
 /// The sRGB / D65 / CIE 1931 forward model on the 1 nm grid.
 static SRGB_MODEL: LazyLock<ForwardModel> = LazyLock::new(srgb_d65_model);
@@ -43,6 +47,10 @@ static SRGB_MODEL: LazyLock<ForwardModel> = LazyLock::new(srgb_d65_model);
 /// Newton steps reach [`fit::EXACT_RESIDUAL`]; the budget bounds the colours
 /// that cannot be reached exactly (see [`upsample_reflectance`]).
 const REFINE_ITERATIONS: usize = 60;
+
+/// Forward-model evaluations of [`RgbSigmoid::refined`]: two take the table's ΔE00 ≈ 0.05
+/// below 1e-3 (Newton's quadratic convergence); a third would reach 1e-6.
+const REFINED_EVALUATIONS: usize = 2;
 
 /// Iteration budget of the fallback fit from flat grey (see [`upsample_reflectance`]).
 const FALLBACK_ITERATIONS: usize = 400;
@@ -93,6 +101,163 @@ impl SigmoidPolynomial {
     }
 }
 
+impl From<SigmoidPolynomial> for RgbSigmoid {
+    /// The exact fit, stored in f32 (relative rounding 2⁻²⁴ per coefficient).
+    fn from(polynomial: SigmoidPolynomial) -> Self {
+        Self { coefficients: polynomial.normalised.map(|c| c as f32) }
+    }
+}
+
+/// The embedded Jakob–Hanika coefficient table for linear sRGB under D65 (pbrt-v4
+/// `RGBToSpectrumTable`), made by `cargo xtask gen-upsampling-table`.
+#[derive(Debug)]
+pub struct RgbToSpectrumTable {
+    table: Table,
+}
+
+impl RgbToSpectrumTable {
+    /// The table for linear sRGB (D65 white, CIE 1931 2°), decoded once.
+    ///
+    /// # Panics
+    /// Never for the committed file: the unit test `embedded_table_header_is_current`
+    /// requires it to parse (the table is embedded, not read at run time).
+    pub fn srgb() -> &'static Self {
+        TABLE.as_ref().expect("the embedded table parses (tested)")
+    }
+}
+
+/// The sigmoid polynomial of one RGB colour in f32: `R(λ) = s(a t² + b t + c)` with
+/// `t = (λ − 360 nm)/470 nm` and `s(x) = ½ + x / (2√(1 + x²))` (Jakob & Hanika 2019,
+/// eqs. 2–3; pbrt-v4 `RGBSigmoidPolynomial`, which stores the same three numbers in nm).
+///
+/// 12 bytes, made once per colour (or texel) and evaluated per hit: [`RgbSigmoid::from_rgb`]
+/// is a table lookup without a fit, [`RgbSigmoid::sample`] a polynomial, a square root and
+/// a division per wavelength. The coefficients are in `t` rather than nm because in f32 the
+/// nm form loses digits to cancellation (terms of 1e4 and more summing to order 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RgbSigmoid {
+    coefficients: [f32; 3],
+}
+
+/// `t = λ / 470 − 360/470`: the normalised wavelength of the fit (see `fit.rs`).
+const T_SCALE: f32 = (1.0 / T_SPAN_NM) as f32;
+const T_OFFSET: f32 = (T_ORIGIN_NM / T_SPAN_NM) as f32;
+
+impl RgbSigmoid {
+    /// `R ≡ 0` (the limit `c → −∞`).
+    pub const BLACK: Self = Self { coefficients: [0.0, 0.0, f32::NEG_INFINITY] };
+
+    /// The table's coefficients for linear sRGB `rgb` (each channel clamped to [0, 1], NaN
+    /// as 0): one binary search and a trilinear blend, no fit (a few ns; criterion bench
+    /// `rgb_albedo` in `crates/colorimetry/benches/spectrum.rs`).
+    ///
+    /// Accuracy: the interpolated coefficients are not refitted, so the round trip (under
+    /// D65, as [`upsample_reflectance`] is checked) is not exact. Measured over 20 000 random
+    /// colours of the cube: ΔE00 mean 0.045, median 0.039, 99th percentile 0.17, max 1.2
+    /// (saturated reds, where the coefficients are large); up to 2.2 in the sliver next to
+    /// white that no reflectance reaches (test
+    /// `rgb_albedo_table_round_trip_error_is_as_measured`). Only 4.5 % of colours are
+    /// within the project's ΔE00 0.01: where that must hold, use [`RgbSigmoid::fit`]
+    /// (about 20 µs) once per colour.
+    #[inline]
+    pub fn from_rgb(table: &RgbToSpectrumTable, rgb: [f32; 3]) -> Self {
+        let rgb = rgb.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) });
+        if rgb[0] == 0.0 && rgb[1] == 0.0 && rgb[2] == 0.0 {
+            return Self::BLACK;
+        }
+        Self { coefficients: table.table.lookup_f32(rgb) }
+    }
+
+    /// The table lookup of [`RgbSigmoid::from_rgb`] followed by [`REFINED_EVALUATIONS`]
+    /// Gauss–Newton evaluations of the 1 nm forward model: for colours loaded once (texels,
+    /// per unique colour) where the lookup's ΔE00 ≈ 0.05 is too much. Measured over 3000
+    /// random colours: max ΔE00 8e-4 (one evaluation: 0.12); on the 17³ grid, white
+    /// included, below 0.01 (test `rgb_albedo_refined_round_trips_within_target`). About
+    /// half the cost of [`RgbSigmoid::fit`], which iterates to 1e-10 ΔE*ab.
+    pub fn refined(rgb: [f32; 3]) -> Self {
+        let rgb = rgb.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) });
+        let start = Self::from_rgb(RgbToSpectrumTable::srgb(), rgb);
+        if start == Self::BLACK {
+            return start;
+        }
+        let target = rgb.map(f64::from);
+        let result =
+            fit::fit(&SRGB_MODEL, target, start.coefficients.map(f64::from), REFINED_EVALUATIONS, f64::INFINITY);
+        Self { coefficients: result.coefficients.map(|c| c as f32) }
+    }
+
+    /// The exact fit of [`upsample_reflectance`] (round trip ΔE00 below 1e-8 except next to
+    /// white, where it is below 0.005), stored in f32.
+    pub fn fit(rgb: [f64; 3]) -> Self {
+        upsample_reflectance(rgb).into()
+    }
+
+    /// From stored `[a, b, c]` (as [`RgbSigmoid::coefficients`] gives them). Any
+    /// coefficients give values in [0, 1]; NaN in any of them gives black.
+    pub fn from_coefficients(coefficients: [f32; 3]) -> Self {
+        if coefficients.iter().any(|c| c.is_nan()) { Self::BLACK } else { Self { coefficients } }
+    }
+
+    /// `[a, b, c]` of `s(a t² + b t + c)`, `t = (λ − 360)/470`.
+    pub fn coefficients(&self) -> [f32; 3] {
+        self.coefficients
+    }
+
+    /// The value at `lambda_nm` (f64 arithmetic on the f32 coefficients), in [0, 1].
+    #[inline]
+    pub fn eval(&self, lambda_nm: f64) -> f64 {
+        let c = self.coefficients.map(f64::from);
+        fit::sigmoid(fit::polynomial(&c, (lambda_nm - T_ORIGIN_NM) / T_SPAN_NM))
+    }
+
+    /// Values at the sampled wavelengths, in f32: the per-hit evaluation.
+    #[inline]
+    pub fn sample<const N: usize>(&self, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+        let [a, b, c] = self.coefficients;
+        SampledSpectrum(lambda.lambdas().map(|l| {
+            let t = l * T_SCALE - T_OFFSET;
+            sigmoid_f32((a * t + b) * t + c)
+        }))
+    }
+
+    /// The largest value over 360–830 nm: `s` is increasing, so it is `s` of the
+    /// polynomial's largest value, at an end or at the vertex (pbrt-v4 `MaxValue`).
+    pub fn max_value(&self) -> f64 {
+        let c = self.coefficients.map(f64::from);
+        let mut x = fit::polynomial(&c, 0.0).max(fit::polynomial(&c, 1.0));
+        if c[0] != 0.0 {
+            let vertex = -c[1] / (2.0 * c[0]);
+            if (0.0..=1.0).contains(&vertex) {
+                x = x.max(fit::polynomial(&c, vertex));
+            }
+        }
+        fit::sigmoid(x)
+    }
+
+    /// The constant value when the polynomial is constant (`a = b = 0`): flat without a scan.
+    pub fn constant_value(&self) -> Option<f64> {
+        let [a, b, c] = self.coefficients;
+        (a == 0.0 && b == 0.0).then(|| fit::sigmoid(f64::from(c)))
+    }
+}
+
+/// The f64 sigmoid, for the continuous spectrum's tests.
+#[cfg(test)]
+pub(crate) fn fit_sigmoid(x: f64) -> f64 {
+    fit::sigmoid(x)
+}
+
+/// The sigmoid in f32 without cancellation or overflow (see `fit::sigmoid`): with
+/// `h = √(1 + x²)`, `s(−|x|) = 1 / (2h (h + |x|))` and `s(x) = 1 − s(−x)`. ±∞ (black's
+/// `c = −∞`, or `x²` overflowing) give exactly 0 or 1, never NaN. Branch-free so that a
+/// loop over lanes vectorises.
+#[inline]
+fn sigmoid_f32(x: f32) -> f32 {
+    let h = (1.0 + x * x).sqrt();
+    let lower = 0.5 / (h * (h + x.abs()));
+    if x > 0.0 { 1.0 - lower } else { lower }
+}
+
 /// Upsamples a linear sRGB reflectance colour to a smooth spectrum in `[0, 1]`.
 ///
 /// Each channel is first clamped to `[0, 1]` (NaN counts as 0): a reflectance
@@ -116,7 +281,7 @@ pub fn upsample_reflectance(rgb: [f64; 3]) -> SigmoidPolynomial {
         return SigmoidPolynomial::BLACK;
     }
     let start = match &*TABLE {
-        Ok(table) => table.lookup(rgb),
+        Ok(table) => table.table.lookup(rgb),
         Err(_) => [0.0; 3],
     };
     let mut result = fit::fit(&SRGB_MODEL, rgb, start, REFINE_ITERATIONS, f64::INFINITY);
@@ -156,7 +321,7 @@ pub fn upsample_illuminant(rgb: [f64; 3]) -> (SigmoidPolynomial, f64) {
 /// 360–830 nm: `scale · polynomial(λ) · D65(λ) · Σȳ / Σ D65 ȳ`.
 pub fn upsample_illuminant_spectrum(rgb: [f64; 3]) -> DenselySampledSpectrum {
     let (polynomial, scale) = upsample_illuminant(rgb);
-    let d65 = &*D65_UNIT_LUMINANCE;
+    let d65 = crate::srgb_illuminant().values();
     let values = d65.iter().zip(grid_lambdas()).map(|(s, lambda)| scale * s * polynomial.eval(lambda)).collect();
     DenselySampledSpectrum::new(T_ORIGIN_NM, GRID_STEP_NM, values)
         .expect("finite scale times finite values on a fixed grid")
@@ -197,15 +362,6 @@ fn grid_lambdas() -> impl Iterator<Item = f64> {
 fn d65() -> DenselySampledSpectrum {
     Illuminant::D65.spectrum().expect("D65 is an embedded, tested table")
 }
-
-/// D65 on the 1 nm grid, times `Σȳ / Σ D65 ȳ` (the luminance of the constant 1).
-static D65_UNIT_LUMINANCE: LazyLock<Vec<f64>> = LazyLock::new(|| {
-    let d65 = d65();
-    let y_bar = &Observer::Cie1931.cmf().y;
-    let y_sum: f64 = grid_lambdas().map(|lambda| y_bar.eval(lambda)).sum();
-    let d65_y_sum: f64 = grid_lambdas().map(|lambda| d65.eval(lambda) * y_bar.eval(lambda)).sum();
-    grid_lambdas().map(|lambda| d65.eval(lambda) * y_sum / d65_y_sum).collect()
-});
 
 /// The forward model of the fit: the XYZ (white Y = 1) of a unit reflectance at
 /// each grid wavelength, taken from [`reflectance_to_xyz`] itself (D65, CIE
@@ -278,7 +434,7 @@ mod tests {
     #[test]
     fn embedded_table_header_is_current() {
         assert_eq!(TABLE_BYTES[0..8], MAGIC);
-        let table = TABLE.as_ref().expect("the embedded table parses");
+        let table = &TABLE.as_ref().expect("the embedded table parses").table;
         assert_eq!(table.resolution(), COMMITTED_RESOLUTION);
         assert_eq!(TABLE_BYTES.len(), HEADER_LEN + 36 * COMMITTED_RESOLUTION.pow(3));
     }
@@ -288,7 +444,7 @@ mod tests {
     /// layout or polynomial variable) leaves residuals far above these bounds.
     #[test]
     fn embedded_table_is_not_stale() {
-        let table = TABLE.as_ref().expect("the embedded table parses");
+        let table = &TABLE.as_ref().expect("the embedded table parses").table;
         let res = table.resolution();
         let model = &*SRGB_MODEL;
         // SplitMix64 (Steele et al. 2014) with a fixed seed: the same entries every run.

@@ -2,7 +2,8 @@
 
 use std::path::Path;
 
-use colorimetry::{DenselySampledSpectrum, Illuminant, Observer};
+pub use colorimetry::luminance_normalized;
+use colorimetry::{DenselySampledSpectrum, Illuminant};
 
 use crate::error::{Error, Result};
 
@@ -56,8 +57,17 @@ pub fn reflectance_from_rgb(rgb: [f32; 3]) -> DenselySampledSpectrum {
 }
 
 /// An emission spectrum for a light given as a linear sRGB colour: the smooth reflectance
-/// of the colour's chromaticity times D65 (pbrt-v4's `RGBIlluminantSpectrum`), normalised to
-/// luminance and scaled by the colour's luminance, so white (1, 1, 1) is D65 with Y = 1.
+/// of `rgb / max(rgb)` times D65, normalised to luminance and scaled by the colour's
+/// luminance, so white (1, 1, 1) is D65 with Y = 1.
+///
+/// This is the recipe every scene with an RGB light (glTF lights and emissive materials, OBJ
+/// `Ke`) has been rendered with; it is kept as it is so that renders stay bit-identical.
+/// pbrt-v4's `RGBIlluminantSpectrum` ([`colorimetry::RgbIlluminantSpectrum`]) divides by
+/// `2 · max(rgb)` instead, which keeps the sigmoid's colour inside the reachable set (here
+/// white is off by ΔE00 0.0035) but gives other metamers: measured, the same light colours
+/// agree in luminance to 2e-4 and in colour to ΔE00 0.004, yet ColorChecker patches lit by
+/// saturated lights differ by up to ΔE00 10 (a red (1, 0, 0) light; 0.5 for (1, 0.8, 0.6)).
+/// Switching is a rendering change to make on purpose, not a refactoring.
 pub fn illuminant_from_rgb(rgb: [f32; 3]) -> Result<DenselySampledSpectrum> {
     let max = rgb.iter().copied().fold(0.0f32, f32::max);
     if !(max.is_finite()) || rgb.iter().any(|&c| c < 0.0) {
@@ -72,22 +82,6 @@ pub fn illuminant_from_rgb(rgb: [f32; 3]) -> Result<DenselySampledSpectrum> {
     // Luminance of the requested linear sRGB colour (Rec. 709 Y coefficients, IEC 61966-2-1).
     let luminance = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
     Ok(spd.scaled(f64::from(luminance)))
-}
-
-/// Scale an emission spectrum so that its luminance is 1: Σ S ȳ Δλ = Σ ȳ Δλ (CIE 1931, 1 nm).
-/// Every light then has "intensity 1 = luminance of an equal-energy light of value 1", which
-/// is the paper's k = 100 / Σ S ȳ Δλ without the factor 100. A black spectrum stays black.
-pub fn luminance_normalized(spd: &DenselySampledSpectrum) -> DenselySampledSpectrum {
-    let y = &Observer::Cie1931.cmf().y;
-    let (mut sy, mut yy) = (0.0, 0.0);
-    let mut lambda = colorimetry::LAMBDA_MIN as f64;
-    while lambda <= colorimetry::LAMBDA_MAX as f64 {
-        let ybar = y.eval(lambda);
-        sy += spd.eval(lambda) * ybar;
-        yy += ybar;
-        lambda += 1.0;
-    }
-    if sy > 0.0 { spd.scaled(yy / sy) } else { spd.clone() }
 }
 
 /// Whether a spectrum is the same at every wavelength of the visible range: such spectra
@@ -143,13 +137,35 @@ mod tests {
     fn luminance_normalisation_gives_unit_luminance() {
         let d65 = named_spectrum("D65").unwrap();
         let n = luminance_normalized(&d65);
-        let y = &Observer::Cie1931.cmf().y;
+        let y = &colorimetry::Observer::Cie1931.cmf().y;
         let (mut sy, mut yy) = (0.0, 0.0);
         for l in 360..=830 {
             sy += n.eval(l as f64) * y.eval(l as f64);
             yy += y.eval(l as f64);
         }
         assert!((sy / yy - 1.0).abs() < 1e-12);
+    }
+
+    /// The RGB light recipe, written out as before the shared luminance code: same bits.
+    #[test]
+    fn illuminant_from_rgb_is_unchanged() {
+        let y = &colorimetry::Observer::Cie1931.cmf().y;
+        let d65 = Illuminant::D65.spectrum().unwrap();
+        for rgb in [[1.0f32, 1.0, 1.0], [1.0, 0.8, 0.6], [0.2, 0.4, 1.0], [3.0, 0.0, 0.5]] {
+            let max = rgb.iter().copied().fold(0.0f32, f32::max);
+            let shape = reflectance_from_rgb(rgb.map(|c| c / max)).product(&d65);
+            let (mut sy, mut yy) = (0.0, 0.0);
+            let mut lambda = 360.0;
+            while lambda <= 830.0 {
+                let ybar = y.eval(lambda);
+                sy += shape.eval(lambda) * ybar;
+                yy += ybar;
+                lambda += 1.0;
+            }
+            let luminance = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+            let before = shape.scaled(yy / sy).scaled(f64::from(luminance));
+            assert_eq!(illuminant_from_rgb(rgb).unwrap(), before, "{rgb:?}");
+        }
     }
 
     #[test]

@@ -88,6 +88,36 @@ pub(crate) struct Table {
     resolution: usize,
     z_samples: Vec<f64>,
     coefficients: Vec<f32>,
+    /// `z_samples` in f32, for [`Table::lookup_f32`].
+    z_samples_f32: Vec<f32>,
+    /// `inverse_sigmoid(z_samples[k])` in f32 (the last, `+∞` at z = 1, is not used).
+    z_inverse: Vec<f32>,
+    /// `1 / (z_inverse[k + 1] − z_inverse[k])`, except in the last cell
+    /// `1 / (z_samples[k + 1] − z_samples[k])` (see [`Table::lookup_f32`]).
+    z_cell_scale: Vec<f32>,
+    /// For each of [`Z_BINS`] even bins of z, the last sample `k ≤ res − 2` with
+    /// `z_samples[k] ≤` the bin's start: the binary search of `lookup` becomes an index
+    /// and a step or two.
+    z_bin_start: Vec<u8>,
+    /// `res − 1` in f32.
+    last_index_f32: f32,
+}
+
+/// Even z bins of the `lookup_f32` index (resolution ≤ 128 fits in a `u8`).
+const Z_BINS: usize = 256;
+
+/// The inverse of the sigmoid `s(x) = ½ + x / (2√(1 + x²))`:
+/// `x = (2s − 1) / (2√(s (1 − s)))` (from `(2s − 1)² = x² / (1 + x²)`).
+///
+/// The z axis of [`Table::lookup_f32`] is interpolated in this variable: along a
+/// grey column the coefficients are `(0, 0, s⁻¹(z))`, so the interpolation is
+/// exact there, and for dark colours (`s(x) ≈ 1/(4x²)`, coefficients ∝ 1/√z) it
+/// follows the coefficients' own growth. Measured on the committed table: mean
+/// ΔE00 at the midpoints between z samples 0.031 instead of 0.18 with weights
+/// linear in z.
+#[inline]
+fn inverse_sigmoid(s: f32) -> f32 {
+    (2.0 * s - 1.0) / (2.0 * (s * (1.0 - s)).sqrt())
 }
 
 impl Table {
@@ -120,7 +150,35 @@ impl Table {
         if let Some(index) = coefficients.iter().position(|c| !c.is_finite()) {
             return Err(TableError::NonFinite { index });
         }
-        Ok(Self { resolution, z_samples: z_samples(resolution), coefficients })
+        let z_samples = z_samples(resolution);
+        let z_samples_f32: Vec<f32> = z_samples.iter().map(|&z| z as f32).collect();
+        let z_inverse: Vec<f32> = z_samples_f32.iter().map(|&z| inverse_sigmoid(z)).collect();
+        let z_cell_scale = (0..resolution - 1)
+            .map(|k| {
+                if k + 2 == resolution {
+                    1.0 / (z_samples_f32[k + 1] - z_samples_f32[k])
+                } else {
+                    1.0 / (z_inverse[k + 1] - z_inverse[k])
+                }
+            })
+            .collect();
+        let z_bin_start = (0..Z_BINS)
+            .map(|bin| {
+                let start = bin as f32 / Z_BINS as f32;
+                (z_samples_f32.partition_point(|&z| z <= start).saturating_sub(1).min(resolution - 2)) as u8
+            })
+            .collect();
+        let last_index_f32 = (resolution - 1) as f32;
+        Ok(Self {
+            resolution,
+            z_samples,
+            coefficients,
+            z_samples_f32,
+            z_inverse,
+            z_cell_scale,
+            z_bin_start,
+            last_index_f32,
+        })
     }
 
     /// The resolution from the header.
@@ -173,6 +231,88 @@ impl Table {
         let k = self.z_samples.partition_point(|&s| s <= z).saturating_sub(1).min(res - 2);
         let dz = ((z - self.z_samples[k]) / (self.z_samples[k + 1] - self.z_samples[k])).clamp(0.0, 1.0);
         self.interpolate(l, [(k, 1.0 - dz), (k + 1, dz)], (j, dy), (i, dx))
+    }
+
+    /// The texel path (`RgbSigmoid::from_rgb`): the same table as [`Table::lookup`],
+    /// in f32, with the z weight taken in the inverse-sigmoid variable (see
+    /// [`inverse_sigmoid`]). No fit: an index into the z samples and a trilinear blend
+    /// of 8 entries (about 150 instructions). Needs `rgb ∈ [0, 1]³` with a positive
+    /// largest channel.
+    ///
+    /// [`Table::lookup`] stays as it is because it is the start of the exact fit:
+    /// changing it would move every fitted scene colour by rounding.
+    #[inline]
+    pub(crate) fn lookup_f32(&self, rgb: [f32; 3]) -> [f32; 3] {
+        let [r, g, b] = rgb;
+        // Block l: z on channel l, x on l + 1, y on l + 2 (mod 3).
+        let (l, z, x, y) = if r >= g && r >= b {
+            (0, r, g, b)
+        } else if g >= b {
+            (1, g, b, r)
+        } else {
+            (2, b, r, g)
+        };
+        debug_assert!(z > 0.0 && z <= 1.0, "lookup needs a positive largest channel, got {rgb:?}");
+        let scale = self.last_index_f32 / z;
+        let (i, dx) = self.cell_f32(x * scale);
+        let (j, dy) = self.cell_f32(y * scale);
+        let w = inverse_sigmoid(z);
+        if z < self.z_samples_f32[1] {
+            // Below the first non-black sample (see `lookup`): the k = 1 fits scaled to
+            // the requested darkness, coefficients ∝ s⁻¹(z) (∝ 1/√z in the sigmoid's tail).
+            let factor = w / self.z_inverse[1];
+            return self.blend_f32(l, 1, 0.0, (j, dy), (i, dx)).map(|c| c * factor);
+        }
+        // Last sample ≤ z (kept ≤ res − 2 so that k + 1 exists): the bin's start, then
+        // forward over the samples inside the bin (several only in the first bins, where
+        // the samples crowd near black).
+        let res = self.resolution;
+        let mut k = usize::from(self.z_bin_start[((z * Z_BINS as f32) as usize).min(Z_BINS - 1)]);
+        while k + 2 < res && self.z_samples_f32[k + 1] <= z {
+            k += 1;
+        }
+        let dz = if k + 2 == res {
+            // s⁻¹(1) = +∞: the last cell blends linearly in z.
+            (z - self.z_samples_f32[k]) * self.z_cell_scale[k]
+        } else {
+            (w - self.z_inverse[k]) * self.z_cell_scale[k]
+        };
+        self.blend_f32(l, k, dz.clamp(0.0, 1.0), (j, dy), (i, dx))
+    }
+
+    /// Cell index `≤ res − 2` and fraction of a grid coordinate `u ∈ [0, res − 1]`.
+    #[inline(always)]
+    fn cell_f32(&self, u: f32) -> (usize, f32) {
+        // max/min rather than clamp: no min ≤ max check at run time (NaN becomes 0).
+        let u = u.max(0.0).min(self.last_index_f32);
+        // i32 conversions: one instruction each (u ≤ 127, so no saturation is needed).
+        let index = (u as i32).min(self.resolution as i32 - 2);
+        (index as usize, u - index as f32)
+    }
+
+    /// Trilinear blend in f32 of block `l`'s entries at `(k, k + 1) × (j, j + 1) × (i, i + 1)`.
+    #[inline(always)]
+    fn blend_f32(&self, l: usize, k: usize, dz: f32, (j, dy): (usize, f32), (i, dx): (usize, f32)) -> [f32; 3] {
+        let res = self.resolution;
+        // Entries (k, j, i) and (k, j, i + 1) are adjacent: one slice of 6 floats per (k, j),
+        // the four of them `3·res` (next j) and `3·res²` (next k) floats apart.
+        let base = entry_offset(res, l, k, j, i);
+        let (next_j, next_k) = (3 * res, 3 * res * res);
+        let cube = &self.coefficients[base..base + next_k + next_j + 6];
+        let (wx0, wx1) = (1.0 - dx, dx);
+        let mut out = [0.0f32; 3];
+        for (offset_k, weight_k) in [(0, 1.0 - dz), (next_k, dz)] {
+            for (offset_j, weight_j) in [(0, 1.0 - dy), (next_j, dy)] {
+                let at = offset_k + offset_j;
+                let pair = &cube[at..at + 6];
+                let weight = weight_k * weight_j;
+                let (w0, w1) = (weight * wx0, weight * wx1);
+                for c in 0..3 {
+                    out[c] += w0 * pair[c] + w1 * pair[3 + c];
+                }
+            }
+        }
+        out
     }
 
     /// Weighted sum of block `l`'s entries over the given `z` samples and the

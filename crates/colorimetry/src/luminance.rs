@@ -1,0 +1,125 @@
+//! Luminance relative to an equal-energy spectrum of value 1: the one place for
+//! `Σ S ȳ / Σ ȳ` (CIE 1931 2°, 1 nm steps over 360–830 nm).
+//!
+//! This is the paper's `k = 100 / Σ S ȳ Δλ` without the factor 100, and the scale
+//! every light in spectrace is given in ("intensity 1 = the luminance of an
+//! equal-energy light of value 1"). The sums run in the same order, over the same
+//! wavelengths, as the four copies they replace (`materials::luminance_normalized`,
+//! the integrator's `relative_luminance` and `unit_xyz`, and the D65 of the RGB
+//! illuminant), so each result is bit-identical to the copy it replaces.
+
+use std::sync::LazyLock;
+
+use crate::data::Observer;
+use crate::spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN};
+use crate::xyz::{Integration, Xyz, emission_to_xyz};
+
+/// `Σ ȳ(λ)` at λ = 360, 361, …, 830 nm (CIE 1931 2°), summed in that order: 106.856917
+/// (`data/PROVENANCE.md`; the unit test recomputes it).
+static Y_SUM: LazyLock<f64> = LazyLock::new(|| y_weighted_sum(|_| 1.0));
+
+/// `Σ f(λ) ȳ(λ)` over λ = 360, 361, …, 830 nm (CIE 1931 2°), in that order.
+pub(crate) fn y_weighted_sum(f: impl Fn(f64) -> f64) -> f64 {
+    let y = &Observer::Cie1931.cmf().y;
+    let mut sum = 0.0;
+    // Whole nanometres: the f64 steps are exact.
+    let mut lambda = f64::from(LAMBDA_MIN);
+    while lambda <= f64::from(LAMBDA_MAX) {
+        sum += f(lambda) * y.eval(lambda);
+        lambda += 1.0;
+    }
+    sum
+}
+
+/// `Σ ȳ` at 1 nm over 360–830 nm (CIE 1931 2°): the luminance sum of the constant 1.
+pub fn y_sum() -> f64 {
+    *Y_SUM
+}
+
+/// Luminance of an emission spectrum relative to an equal-energy spectrum of value 1:
+/// `Σ S ȳ / Σ ȳ` at 1 nm over 360–830 nm (CIE 1931 2°). D65 scaled by
+/// [`luminance_normalized`] gives 1.
+pub fn relative_luminance(spd: &DenselySampledSpectrum) -> f64 {
+    y_weighted_sum(|lambda| spd.eval(lambda)) / y_sum()
+}
+
+/// The spectrum scaled to relative luminance 1 ([`relative_luminance`]): every value times
+/// `Σ ȳ / Σ S ȳ`. A spectrum of zero or negative luminance is returned unchanged.
+pub fn luminance_normalized(spd: &DenselySampledSpectrum) -> DenselySampledSpectrum {
+    let sy = y_weighted_sum(|lambda| spd.eval(lambda));
+    if sy > 0.0 { spd.scaled(y_sum() / sy) } else { spd.clone() }
+}
+
+/// XYZ of an emission spectrum relative to an equal-energy spectrum of value 1:
+/// `X = Σ S x̄ / Σ ȳ` (and Y, Z alike) at 1 nm over 360–830 nm (CIE 1931 2°), so Y is
+/// [`relative_luminance`].
+pub fn relative_xyz(spd: &DenselySampledSpectrum) -> Xyz {
+    let xyz = emission_to_xyz(spd, Observer::Cie1931, &Integration::Step(1.0));
+    let y = y_sum();
+    Xyz { x: xyz.x / y, y: xyz.y / y, z: xyz.z / y }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::Illuminant;
+
+    #[test]
+    fn y_sum_is_the_table_sum() {
+        // data/PROVENANCE.md quotes Σȳ = 106.856917 (6 decimals).
+        assert!((y_sum() - 106.856_917).abs() < 1e-6, "{}", y_sum());
+        assert_eq!(relative_luminance(&DenselySampledSpectrum::constant(1.0)), 1.0);
+    }
+
+    #[test]
+    fn normalised_d65_has_unit_luminance() {
+        let d65 = Illuminant::D65.spectrum().unwrap();
+        // D65 at S(560) = 100 has relative luminance about 100 (a spectrum of 100 everywhere
+        // would have exactly 100; D65 is near 100 where ȳ is large).
+        let raw = relative_luminance(&d65);
+        assert!((raw - 100.0).abs() < 5.0, "{raw}");
+        let unit = luminance_normalized(&d65);
+        assert!((relative_luminance(&unit) - 1.0).abs() < 1e-15, "{}", relative_luminance(&unit));
+        assert!((relative_xyz(&unit).y - 1.0).abs() < 1e-15);
+        // Chromaticity unchanged by the scale: CIE 015:2018 D65 xy (0.31272, 0.32903) to the
+        // 3e-5 the 1 nm interpolated table reproduces (see `d65_white_point_matches_cie015`).
+        let [x, y] = relative_xyz(&unit).chromaticity();
+        assert!((x - 0.31272).abs() < 3e-5 && (y - 0.32903).abs() < 3e-5, "{x} {y}");
+        // Black stays black (no division by zero).
+        let black = DenselySampledSpectrum::constant(0.0);
+        assert_eq!(luminance_normalized(&black), black);
+    }
+
+    /// The replaced copies, written out as they were, give the same bits.
+    #[test]
+    fn results_are_bit_identical_to_the_copies_they_replace() {
+        let y = &Observer::Cie1931.cmf().y;
+        for spd in [
+            Illuminant::D65.spectrum().unwrap(),
+            Illuminant::F11.spectrum().unwrap(),
+            Illuminant::A.spectrum().unwrap(),
+            DenselySampledSpectrum::new(400.5, 3.25, vec![0.1, 2.0, 0.7, 5.0, 1e-3]).unwrap(),
+        ] {
+            // materials::luminance_normalized and integrator path.rs relative_luminance.
+            let (mut sy, mut yy) = (0.0, 0.0);
+            let mut lambda = 360.0;
+            while lambda <= 830.0 {
+                let ybar = y.eval(lambda);
+                sy += spd.eval(lambda) * ybar;
+                yy += ybar;
+                lambda += 1.0;
+            }
+            assert_eq!(relative_luminance(&spd).to_bits(), (sy / yy).to_bits());
+            assert_eq!(luminance_normalized(&spd), spd.scaled(yy / sy));
+            // integrator spectral.rs unit_xyz.
+            let integration = Integration::Step(1.0);
+            let xyz = emission_to_xyz(&spd, Observer::Cie1931, &integration);
+            let ybar = emission_to_xyz(&DenselySampledSpectrum::constant(1.0), Observer::Cie1931, &integration).y;
+            let got = relative_xyz(&spd);
+            assert_eq!(
+                [got.x, got.y, got.z].map(f64::to_bits),
+                [xyz.x / ybar, xyz.y / ybar, xyz.z / ybar].map(f64::to_bits)
+            );
+        }
+    }
+}
