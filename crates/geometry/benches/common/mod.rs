@@ -148,7 +148,10 @@ pub(crate) fn export(dir: &str, name: &str, mesh: &Mesh, primary: &[Ray], incohe
 
 /// The issue-15 scenes: 2·224² ≈ 100k and 2·708² ≈ 1.0M terrain triangles, a closed
 /// 20·4⁸ = 1,310,720-triangle icosphere.
-pub(crate) const SCENES: [(&str, fn() -> Mesh); 3] = [
+/// A named scene generator.
+pub(crate) type SceneMaker = (&'static str, fn() -> Mesh);
+
+pub(crate) const SCENES: [SceneMaker; 3] = [
     ("terrain_100k", || terrain(224)),
     ("terrain_1m", || terrain(708)),
     ("icosphere_1_3m", || icosphere(8, Vec3::ZERO, 1.0)),
