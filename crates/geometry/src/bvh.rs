@@ -12,6 +12,7 @@ use obvhs::{Boundable, BvhBuildParams};
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
 use crate::shapes::{Mesh, Sphere};
+use crate::simd::{Kernel, NodeTest, SimdLevel, dispatch};
 use crate::sphere::{intersect_sphere, sphere_hit_point};
 use crate::triangle::{TriangleRay, intersect_permuted, triangle_point_error};
 use crate::wide::{MAX_PRIMITIVES, WideBvh};
@@ -85,6 +86,8 @@ pub struct Scene {
     ordered: Vec<([Vec3; 3], u32)>,
     bounds: (Vec3, Vec3),
     build_time: Duration,
+    /// Instruction-set level of the queries ([`SimdLevel::default_level`] at build).
+    simd: SimdLevel,
 }
 
 impl Scene {
@@ -151,6 +154,7 @@ impl Scene {
             ordered,
             bounds,
             build_time: start.elapsed(),
+            simd: SimdLevel::default_level(),
         })
     }
 
@@ -159,13 +163,7 @@ impl Scene {
         if !Self::valid(ray) {
             return None;
         }
-        let tri_ray = TriangleRay::new(ray.origin, ray.dir);
-        // The triangle test's axis permutation is fixed per ray: dispatch once, here.
-        let (slot, t, b) = match tri_ray.axis() {
-            0 => self.closest::<1, 2, 0>(ray, &tri_ray, t_max),
-            1 => self.closest::<2, 0, 1>(ray, &tri_ray, t_max),
-            _ => self.closest::<0, 1, 2>(ray, &tri_ray, t_max),
-        }?;
+        let (slot, t, b) = dispatch(self.simd, Closest { scene: self, ray, t_max })?;
         Some(self.hit_record(ray, slot, t, b))
     }
 
@@ -174,12 +172,22 @@ impl Scene {
         if !Self::valid(ray) {
             return false;
         }
-        let tri_ray = TriangleRay::new(ray.origin, ray.dir);
-        match tri_ray.axis() {
-            0 => self.any::<1, 2, 0>(ray, &tri_ray, t_max),
-            1 => self.any::<2, 0, 1>(ray, &tri_ray, t_max),
-            _ => self.any::<0, 1, 2>(ray, &tri_ray, t_max),
+        dispatch(self.simd, Any { scene: self, ray, t_max })
+    }
+
+    /// The instruction-set level this scene's queries run at.
+    pub fn simd_level(&self) -> SimdLevel {
+        self.simd
+    }
+
+    /// Run this scene's queries at `level` (for measurement and tests: every level gives the
+    /// same hits). Returns `false` and changes nothing if the CPU does not support it.
+    pub fn set_simd_level(&mut self, level: SimdLevel) -> bool {
+        let ok = level.is_supported();
+        if ok {
+            self.simd = level;
         }
+        ok
     }
 
     fn valid(ray: &Ray) -> bool {
@@ -188,58 +196,72 @@ impl Scene {
 
     /// Closest hit as (leaf-order slot, t, barycentrics).
     #[inline(always)]
-    fn closest<const KX: usize, const KY: usize, const KZ: usize>(
+    fn closest<const KX: usize, const KY: usize, const KZ: usize, N: NodeTest>(
         &self,
+        node_test: N,
         ray: &Ray,
         tri_ray: &TriangleRay,
         t_max: f32,
     ) -> Option<(usize, f32, [f32; 3])> {
         let n_spheres = self.spheres.len() as u32;
         let mut best = None;
-        self.bvh.traverse::<true>(ray.origin.to_array(), ray.dir.to_array(), t_max, |start, count, mut t_max| {
-            for (slot, ([p0, p1, p2], prim)) in self.ordered[start..start + count].iter().enumerate() {
-                // Strictly closer only: a ray through a shared edge hits both triangles at
-                // the same t, and the barycentrics must stay those of the triangle kept.
-                if *prim < n_spheres {
-                    if let Some(t) = intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max) {
-                        t_max = t;
-                        best = Some((start + slot, t, [0.0; 3]));
+        self.bvh.traverse::<true, N>(
+            node_test,
+            ray.origin.to_array(),
+            ray.dir.to_array(),
+            t_max,
+            |start, count, mut t_max| {
+                for (slot, ([p0, p1, p2], prim)) in self.ordered[start..start + count].iter().enumerate() {
+                    // Strictly closer only: a ray through a shared edge hits both triangles at
+                    // the same t, and the barycentrics must stay those of the triangle kept.
+                    if *prim < n_spheres {
+                        if let Some(t) = intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max) {
+                            t_max = t;
+                            best = Some((start + slot, t, [0.0; 3]));
+                        }
+                    } else if let Some(h) = intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2)
+                        && h.t < t_max
+                    {
+                        t_max = h.t;
+                        best = Some((start + slot, h.t, h.b));
                     }
-                } else if let Some(h) = intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2)
-                    && h.t < t_max
-                {
-                    t_max = h.t;
-                    best = Some((start + slot, h.t, h.b));
                 }
-            }
-            Some(t_max)
-        });
+                Some(t_max)
+            },
+        );
         best
     }
 
     #[inline(always)]
-    fn any<const KX: usize, const KY: usize, const KZ: usize>(
+    fn any<const KX: usize, const KY: usize, const KZ: usize, N: NodeTest>(
         &self,
+        node_test: N,
         ray: &Ray,
         tri_ray: &TriangleRay,
         t_max: f32,
     ) -> bool {
         let n_spheres = self.spheres.len() as u32;
         let mut found = false;
-        self.bvh.traverse::<false>(ray.origin.to_array(), ray.dir.to_array(), t_max, |start, count, t_max| {
-            for ([p0, p1, p2], prim) in &self.ordered[start..start + count] {
-                let hit = if *prim < n_spheres {
-                    intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max).is_some()
-                } else {
-                    intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2).is_some_and(|h| h.t < t_max)
-                };
-                if hit {
-                    found = true;
-                    return None;
+        self.bvh.traverse::<false, N>(
+            node_test,
+            ray.origin.to_array(),
+            ray.dir.to_array(),
+            t_max,
+            |start, count, t_max| {
+                for ([p0, p1, p2], prim) in &self.ordered[start..start + count] {
+                    let hit = if *prim < n_spheres {
+                        intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max).is_some()
+                    } else {
+                        intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2).is_some_and(|h| h.t < t_max)
+                    };
+                    if hit {
+                        found = true;
+                        return None;
+                    }
                 }
-            }
-            Some(t_max)
-        });
+                Some(t_max)
+            },
+        );
         found
     }
 
@@ -359,6 +381,49 @@ impl Scene {
             build_time: self.build_time,
             bytes,
             bytes_per_primitive: bytes as f64 / count as f64,
+        }
+    }
+}
+
+/// A closest-hit query as a [`Kernel`]: the triangle test's axis permutation is fixed per
+/// ray, so it is dispatched once here.
+struct Closest<'a> {
+    scene: &'a Scene,
+    ray: &'a Ray,
+    t_max: f32,
+}
+
+impl Kernel for Closest<'_> {
+    type Output = Option<(usize, f32, [f32; 3])>;
+    #[inline(always)]
+    fn run<N: NodeTest>(self, node_test: N) -> Self::Output {
+        let Self { scene, ray, t_max } = self;
+        let tri_ray = TriangleRay::new(ray.origin, ray.dir);
+        match tri_ray.axis() {
+            0 => scene.closest::<1, 2, 0, N>(node_test, ray, &tri_ray, t_max),
+            1 => scene.closest::<2, 0, 1, N>(node_test, ray, &tri_ray, t_max),
+            _ => scene.closest::<0, 1, 2, N>(node_test, ray, &tri_ray, t_max),
+        }
+    }
+}
+
+/// An any-hit query as a [`Kernel`].
+struct Any<'a> {
+    scene: &'a Scene,
+    ray: &'a Ray,
+    t_max: f32,
+}
+
+impl Kernel for Any<'_> {
+    type Output = bool;
+    #[inline(always)]
+    fn run<N: NodeTest>(self, node_test: N) -> bool {
+        let Self { scene, ray, t_max } = self;
+        let tri_ray = TriangleRay::new(ray.origin, ray.dir);
+        match tri_ray.axis() {
+            0 => scene.any::<1, 2, 0, N>(node_test, ray, &tri_ray, t_max),
+            1 => scene.any::<2, 0, 1, N>(node_test, ray, &tri_ray, t_max),
+            _ => scene.any::<0, 1, 2, N>(node_test, ray, &tri_ray, t_max),
         }
     }
 }

@@ -25,6 +25,7 @@ mod camera;
 mod error;
 mod ray;
 mod shapes;
+mod simd;
 mod sphere;
 mod triangle;
 mod wide;
@@ -34,6 +35,7 @@ pub use camera::Camera;
 pub use error::{Error, Result};
 pub use ray::{Hit, Ray, spawn_ray, spawn_ray_to};
 pub use shapes::{Mesh, Sphere};
+pub use simd::SimdLevel;
 
 // --- loaders ---
 mod gltf_loader;

@@ -34,10 +34,10 @@
 //! node test also clamps the entry distance to a scene-scale ε = 1e-4 (`cwbvh/node.rs`
 //! `EPSILON`), which culls every box closer than 1e-4 along the ray; here entry is clamped to 0.
 
-use glam::Vec4;
 use obvhs::cwbvh::CwBvh;
 
 use crate::ray::gamma;
+use crate::simd::{NodeRay, NodeTest};
 
 /// Marks an empty child slot (its bounds are inverted, so it is never hit either).
 const EMPTY: u32 = u32::MAX;
@@ -48,14 +48,15 @@ const LEAF_START_BITS: u32 = 29;
 /// Largest primitive slot a leaf reference can address.
 pub(crate) const MAX_PRIMITIVES: usize = 1 << LEAF_START_BITS;
 
-/// Eight children's boxes (min/max per axis, structure of arrays, as two groups of four for
-/// glam's SIMD `Vec4`) and references.
+/// Eight children's boxes (min/max per axis, structure of arrays: one row of eight lanes per
+/// plane) and references.
 /// 224 bytes. (Aligning it to 64-byte lines, 256 bytes, measured 14% slower on incoherent
 /// rays on the 1M-triangle benchmark: memory volume matters more than line splits.)
 #[derive(Debug, Clone, Copy)]
+#[repr(C, align(32))]
 pub(crate) struct WideNode {
-    /// `bounds[2·axis]` = minima, `bounds[2·axis + 1]` = maxima of children 0–3 and 4–7.
-    bounds: [[Vec4; 2]; 6],
+    /// `bounds[2·axis]` = minima, `bounds[2·axis + 1]` = maxima of the eight children.
+    pub(crate) bounds: [[f32; 8]; 6],
     children: [u32; 8],
 }
 
@@ -100,8 +101,7 @@ impl WideBvh {
                         node.child_node_index(child)
                     };
                 }
-                let v = |a: [f32; 8]| [Vec4::from_slice(&a[..4]), Vec4::from_slice(&a[4..])];
-                WideNode { bounds: bounds.map(v), children }
+                WideNode { bounds, children }
             })
             .collect();
         Self { nodes }
@@ -119,8 +119,9 @@ impl WideBvh {
     /// `leaf(start, count, t_max)` tests primitive slots `start..start + count` and returns
     /// the new `t_max` (smaller after a hit), or `None` to stop traversal (any-hit found).
     #[inline(always)]
-    pub(crate) fn traverse<const CLOSEST: bool>(
+    pub(crate) fn traverse<const CLOSEST: bool, N: NodeTest>(
         &self,
+        node_test: N,
         origin: [f32; 3],
         dir: [f32; 3],
         mut t_max: f32,
@@ -141,13 +142,14 @@ impl WideBvh {
         // Ize 2013, §3: scaling the far distance by 1 + 2γ(3) covers the rounding of the slab
         // distances (one subtraction, one product with a rounded reciprocal).
         let far_scale = 1.0 + 2.0 * gamma(3);
+        let ray = NodeRay { origin, inv, near, far_scale };
 
         let mut stack = Stack::new();
         let mut current = 0u32; // the root, an inner node
         loop {
             if current & LEAF == 0 {
                 let node = &self.nodes[current as usize];
-                let (tn, mask) = node_test(node, origin, inv, near, t_max, far_scale);
+                let (tn, mask) = node_test.test(node, &ray, t_max);
                 if mask == 0 {
                     match pop::<CLOSEST>(&mut stack, t_max) {
                         Some(next) => current = next,
@@ -200,40 +202,6 @@ impl WideBvh {
             }
         }
     }
-}
-
-/// Entry distances and hit mask of the eight children: two groups of four slab tests in
-/// glam `Vec4` lanes (SSE2 on x86-64), the mask from the comparison's sign bits.
-#[inline(always)]
-fn node_test(
-    node: &WideNode,
-    origin: [f32; 3],
-    inv: [f32; 3],
-    near: [usize; 3],
-    t_max: f32,
-    far_scale: f32,
-) -> ([f32; 8], u32) {
-    let b = &node.bounds;
-    let (ox, oy, oz) = (Vec4::splat(origin[0]), Vec4::splat(origin[1]), Vec4::splat(origin[2]));
-    let (ix, iy, iz) = (Vec4::splat(inv[0]), Vec4::splat(inv[1]), Vec4::splat(inv[2]));
-    let (t_max, far_scale) = (Vec4::splat(t_max), Vec4::splat(far_scale));
-    let mut tn = [0f32; 8];
-    let mut mask = 0u32;
-    for half in 0..2 {
-        // Vec4::max/min are single SSE max/min instructions; no NaN can occur (see
-        // `traverse`), so their NaN convention does not matter.
-        let x0 = (b[near[0]][half] - ox) * ix;
-        let y0 = (b[2 + near[1]][half] - oy) * iy;
-        let z0 = (b[4 + near[2]][half] - oz) * iz;
-        let x1 = (b[1 - near[0]][half] - ox) * ix;
-        let y1 = (b[3 - near[1]][half] - oy) * iy;
-        let z1 = (b[5 - near[2]][half] - oz) * iz;
-        let t0 = x0.max(y0).max(z0.max(Vec4::ZERO));
-        let t1 = x1.min(y1).min(z1.min(t_max)) * far_scale;
-        t0.write_to_slice(&mut tn[4 * half..4 * half + 4]);
-        mask |= t0.cmple(t1).bitmask() << (4 * half);
-    }
-    (tn, mask)
 }
 
 /// Next subtree to visit; closest-hit skips entries that start beyond the current hit.

@@ -1,7 +1,7 @@
 //! Hard cases for intersection and the BVH: watertightness, self-intersection, axis-parallel
 //! and degenerate inputs, scale invariance, and the BVH against brute force.
 
-use geometry::{Hit, Mesh, Primitive, Ray, Scene, Sphere, spawn_ray};
+use geometry::{Hit, Mesh, Primitive, Ray, Scene, SimdLevel, Sphere, spawn_ray};
 use glam::Vec3;
 use proptest::prelude::*;
 
@@ -88,7 +88,7 @@ fn rays_through_vertices_and_edges_of_a_closed_mesh_never_leak() {
     // Every vertex and every edge point of a closed icosphere, aimed at from many directions
     // outside it and from its centre: each ray must hit the mesh (a miss is a crack).
     let mesh = icosphere(4, Vec3::new(0.3, -0.2, 0.1), 1.0);
-    let scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
+    let mut scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
     let p = mesh.positions();
     let mut targets: Vec<Vec3> = p.to_vec();
     for tri in mesh.indices() {
@@ -114,13 +114,16 @@ fn rays_through_vertices_and_edges_of_a_closed_mesh_never_leak() {
         }
         for origin in origins {
             rays += 1;
-            if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
-                leaks += 1;
+            for level in supported_levels() {
+                scene.set_simd_level(level);
+                if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
+                    leaks += 1;
+                }
             }
         }
     }
     assert!(rays >= 1_000_000, "{rays} rays");
-    assert_eq!(leaks, 0, "{leaks} of {rays} rays leaked through the closed mesh");
+    assert_eq!(leaks, 0, "{leaks} of {rays} rays × {:?} leaked through the closed mesh", supported_levels());
 }
 
 #[test]
@@ -277,6 +280,65 @@ fn bad_geometry_is_an_error_and_empty_scenes_miss() {
     assert!(one.intersect(&Ray { origin: Vec3::NAN, dir: Vec3::X }, f32::INFINITY).is_none());
 }
 
+/// The SIMD levels this CPU runs (SSE2 always; AVX2 and AVX-512 where present).
+fn supported_levels() -> Vec<SimdLevel> {
+    SimdLevel::ALL.into_iter().filter(|l| l.is_supported()).collect()
+}
+
+/// A hit as the bits of every field, so that equal means bit-identical (±0 differ).
+fn hit_bits(h: &Hit) -> (Vec<u32>, u32, Option<u32>) {
+    let f = [h.t].into_iter().chain(h.p.to_array()).chain(h.p_error.to_array()).chain(h.n.to_array());
+    (f.chain(h.ns.to_array()).chain(h.uv.to_array()).map(f32::to_bits).collect(), h.primitive, h.material)
+}
+
+#[test]
+fn every_simd_level_gives_bit_identical_hits() {
+    // The same rays at every level the CPU supports: primary rays at a closed icosphere with
+    // spheres, then one diffuse bounce from each hit (spawned from the SSE2 hit), closest-hit
+    // and any-hit. Each level must agree with SSE2 (the scalar-equivalent reference) bit
+    // for bit, on hits and misses.
+    let levels = supported_levels();
+    eprintln!("levels on this CPU: {levels:?}");
+    let mesh = icosphere(5, Vec3::new(0.1, 0.0, -0.2), 1.0);
+    let spheres = vec![Sphere::new(Vec3::new(1.5, 0.5, 0.0), 0.4, None).unwrap()];
+    let mut scene = Scene::build(spheres, vec![mesh]).unwrap();
+    let mut rng = Rng(0x0123_4567_89AB_CDEF);
+    let mut rays: Vec<Ray> = (0..20_000)
+        .map(|_| {
+            let origin = rng.unit_vector() * 4.0;
+            let target = rng.unit_vector() * 1.3;
+            Ray { origin, dir: target - origin }
+        })
+        .collect();
+    scene.set_simd_level(SimdLevel::Sse2);
+    let bounces: Vec<Ray> = rays
+        .iter()
+        .filter_map(|r| scene.intersect(r, f32::INFINITY))
+        .map(|h| spawn_ray(&h, h.n + rng.unit_vector()))
+        .collect();
+    assert!(bounces.len() > 5_000, "{} hits", bounces.len());
+    rays.extend(bounces);
+    let trace = |scene: &Scene| -> Vec<_> {
+        rays.iter()
+            .map(|r| {
+                (
+                    scene.intersect(r, f32::INFINITY).map(|h| hit_bits(&h)),
+                    scene.occluded(r, f32::INFINITY),
+                    scene.occluded(r, 0.5),
+                )
+            })
+            .collect()
+    };
+    let reference = trace(&scene);
+    for &level in &levels[1..] {
+        assert!(scene.set_simd_level(level));
+        assert_eq!(scene.simd_level(), level);
+        let got = trace(&scene);
+        let differ = got.iter().zip(&reference).filter(|(a, b)| a != b).count();
+        assert_eq!(differ, 0, "{level:?}: {differ} of {} rays differ from SSE2", rays.len());
+    }
+}
+
 fn arb_vec3(range: f32) -> impl Strategy<Value = Vec3> {
     (-range..range, -range..range, -range..range).prop_map(|(x, y, z)| Vec3::new(x, y, z))
 }
@@ -293,7 +355,7 @@ proptest! {
         let indices: Vec<[u32; 3]> = (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
         let mesh = Mesh::new(positions, None, None, indices, None).unwrap();
         let spheres: Vec<Sphere> = spheres.iter().map(|(c, r)| Sphere::new(*c, *r, None).unwrap()).collect();
-        let scene = Scene::build(spheres.clone(), vec![mesh.clone()]).unwrap();
+        let mut scene = Scene::build(spheres.clone(), vec![mesh.clone()]).unwrap();
         // Brute force: one single-primitive scene per primitive (the BVH is trivial there).
         let mut singles: Vec<Scene> = spheres.iter().map(|s| Scene::build(vec![*s], Vec::new()).unwrap()).collect();
         for t in mesh.indices() {
@@ -304,11 +366,15 @@ proptest! {
             if dir.length() < 1e-3 { continue; }
             let ray = Ray { origin, dir };
             let brute = singles.iter().filter_map(|s| s.intersect(&ray, f32::INFINITY)).map(|h| h.t).fold(f32::INFINITY, f32::min);
-            match scene.intersect(&ray, f32::INFINITY) {
-                Some(h) => prop_assert!((h.t - brute).abs() <= 1e-5 * brute.max(1.0), "bvh {} vs brute {brute}", h.t),
-                None => prop_assert!(brute.is_infinite(), "bvh missed, brute force hit at {brute}"),
+            // Every SIMD level the CPU has goes through the same check.
+            for level in supported_levels() {
+                scene.set_simd_level(level);
+                match scene.intersect(&ray, f32::INFINITY) {
+                    Some(h) => prop_assert!((h.t - brute).abs() <= 1e-5 * brute.max(1.0), "{level:?}: bvh {} vs brute {brute}", h.t),
+                    None => prop_assert!(brute.is_infinite(), "{level:?}: bvh missed, brute force hit at {brute}"),
+                }
+                prop_assert_eq!(scene.occluded(&ray, f32::INFINITY), brute.is_finite(), "{:?}", level);
             }
-            prop_assert_eq!(scene.occluded(&ray, f32::INFINITY), brute.is_finite());
         }
     }
 }
@@ -321,7 +387,7 @@ fn rays_at_vertices_of_a_1_3m_triangle_sphere_never_leak() {
     let center = Vec3::new(-0.4, 0.25, 0.6);
     let mesh = icosphere(8, center, 2.0);
     assert_eq!(mesh.triangle_count(), 1_310_720);
-    let scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
+    let mut scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
     let mut rng = Rng(0xD1B5_4A32_D192_ED03);
     let (mut rays, mut leaks) = (0u64, 0u64);
     for &target in mesh.positions() {
@@ -335,13 +401,16 @@ fn rays_at_vertices_of_a_1_3m_triangle_sphere_never_leak() {
         };
         for origin in [center, outside] {
             rays += 1;
-            if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
-                leaks += 1;
+            for level in supported_levels() {
+                scene.set_simd_level(level);
+                if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
+                    leaks += 1;
+                }
             }
         }
     }
     assert_eq!(rays, 1_310_724);
-    assert_eq!(leaks, 0, "{leaks} of {rays} rays leaked through the closed mesh");
+    assert_eq!(leaks, 0, "{leaks} of {rays} rays × {:?} leaked through the closed mesh", supported_levels());
 }
 
 #[test]

@@ -1,0 +1,121 @@
+//! The issue-15 throughput table: closest-hit (primary and incoherent rays) and any-hit
+//! (incoherent rays) per scene at every SIMD level this CPU supports, one thread, in
+//! interleaved rounds (each round runs every level once on every ray set, so slow phases of a
+//! shared machine hit all levels alike); the median of the rounds' throughputs, in rays per
+//! second of this thread's CPU time. Also build time, bytes per triangle and hit counts (which
+//! must be identical at every level).
+//!
+//! `taskset -c 1 cargo bench -p geometry --bench traversal_table` (`TABLE_ROUNDS`, default 5)
+//!
+//! With `SPECTRACE_EXPORT_RAYS=DIR` the triangles (`SCENE.tris`: f32 x, y, z per vertex, three
+//! per triangle), the rays (`SCENE_primary.rays`, `SCENE_incoherent.rays`: f32 origin and
+//! direction) and our hit counts (`SCENE.hits.json`) are written to DIR for
+//! `xtask/compare/embree_bvh.py`, which traces the same rays with Embree.
+
+use std::hint::black_box;
+use std::time::Instant;
+
+use geometry::{Ray, Scene, SimdLevel};
+
+mod common;
+use common::{SCENES, export, rays, thread_cpu_seconds};
+
+fn seconds() -> f64 {
+    thread_cpu_seconds().unwrap_or_else(|| {
+        static START: std::sync::OnceLock<Instant> = std::sync::OnceLock::new();
+        START.get_or_init(Instant::now).elapsed().as_secs_f64()
+    })
+}
+
+/// (hits, CPU seconds) of one pass over `rays`.
+fn pass(scene: &Scene, rays: &[Ray], any: bool) -> (usize, f64) {
+    let t = seconds();
+    let hits = if any {
+        rays.iter().filter(|r| scene.occluded(black_box(r), f32::INFINITY)).count()
+    } else {
+        rays.iter().filter(|r| scene.intersect(black_box(r), f32::INFINITY).is_some()).count()
+    };
+    (hits, seconds() - t)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let rounds: usize = std::env::var("TABLE_ROUNDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
+    let filter = std::env::args().skip(1).find(|a| !a.starts_with('-'));
+    let levels: Vec<SimdLevel> = SimdLevel::ALL.into_iter().filter(|l| l.is_supported()).collect();
+    let time_kind = if thread_cpu_seconds().is_some() { "thread CPU time" } else { "wall time" };
+    println!("median of {rounds} interleaved rounds, M rays/s of {time_kind}, one thread");
+    println!();
+    print!("| scene | rays |");
+    for l in &levels {
+        print!(" {} |", l.name());
+    }
+    println!();
+    println!("|---|---|{}", "---|".repeat(levels.len()));
+    let mut notes = Vec::new();
+    for (name, make) in SCENES {
+        if filter.as_ref().is_some_and(|f| !name.contains(f.as_str())) {
+            continue;
+        }
+        let mesh = make();
+        let wall = Instant::now();
+        let mut scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
+        let stats = scene.stats();
+        notes.push(format!(
+            "{name}: {} triangles, build {:.0} ms wall, {} nodes, {:.1} bytes/triangle",
+            mesh.triangle_count(),
+            wall.elapsed().as_secs_f64() * 1e3,
+            stats.node_count,
+            stats.bytes_per_primitive
+        ));
+        let (primary, incoherent) = rays(&scene);
+        let kinds: [(&str, &[Ray], bool); 3] = [
+            ("primary closest", &primary, false),
+            ("incoherent closest", &incoherent, false),
+            ("incoherent any", &incoherent, true),
+        ];
+        let mut rates = vec![vec![Vec::new(); levels.len()]; kinds.len()];
+        let mut hits = vec![vec![0; levels.len()]; kinds.len()];
+        for _ in 0..rounds {
+            for (k, &(_, rays, any)) in kinds.iter().enumerate() {
+                for (l, &level) in levels.iter().enumerate() {
+                    scene.set_simd_level(level);
+                    let (h, t) = pass(&scene, rays, any);
+                    hits[k][l] = h;
+                    rates[k][l].push(rays.len() as f64 / t / 1e6);
+                }
+            }
+        }
+        for (k, &(kind, rays, _)) in kinds.iter().enumerate() {
+            assert!(
+                hits[k].iter().all(|&h| h == hits[k][0]),
+                "{name} {kind}: hit counts differ by level: {:?}",
+                hits[k]
+            );
+            print!("| {name} | {kind} |");
+            for r in &rates[k] {
+                print!(" {:.2} |", median(r.clone()));
+            }
+            println!();
+            notes.push(format!("{name} {kind}: {} hits of {} rays at every level", hits[k][0], rays.len()));
+        }
+        if let Ok(dir) = std::env::var("SPECTRACE_EXPORT_RAYS") {
+            let json = format!(
+                "{{\"triangles\": {}, \"primary\": {}, \"incoherent\": {}, \"incoherent_any\": {}}}\n",
+                mesh.triangle_count(),
+                hits[0][0],
+                hits[1][0],
+                hits[2][0]
+            );
+            export(&dir, name, &mesh, &primary, &incoherent, &json);
+        }
+    }
+    println!();
+    for n in notes {
+        println!("{n}");
+    }
+}

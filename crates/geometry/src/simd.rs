@@ -1,0 +1,243 @@
+//! Runtime CPU dispatch of the BVH traversal: the one module of the workspace with `unsafe`.
+//!
+//! The generic x86-64 baseline has only SSE2, where an eight-child node test runs as two
+//! four-lane halves (glam `Vec4`). On CPUs with AVX2 (and FMA, BMI1/2, LZCNT, POPCNT, which
+//! every AVX2 CPU has) the whole query — traversal, node tests, triangle tests — is compiled
+//! a second time with those features enabled and the node test becomes one eight-lane
+//! compare; with AVX-512 (F + VL) a third time, letting the compiler use EVEX encodings and
+//! mask registers for the same eight-lane kernel. The level is picked once per scene from
+//! `is_x86_feature_detected!` and can be forced (for measurement) with the environment
+//! variable `SPECTRACE_SIMD=sse2|avx2|avx512` or [`crate::Scene::set_simd_level`].
+//!
+//! Every level performs the same IEEE operations in the same order (Rust never contracts
+//! `a·b + c` into an FMA, and the eight-lane node test is the four-lane one, lane for lane),
+//! so all levels return bit-identical hits; `tests/it/intersection.rs` checks this on the
+//! same rays for every level the CPU supports.
+
+#![allow(unsafe_code)]
+
+use std::sync::OnceLock;
+
+use glam::Vec4;
+
+use crate::wide::WideNode;
+
+/// An instruction-set level of the traversal kernels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SimdLevel {
+    /// The x86-64 baseline (SSE2): node tests in two four-lane halves. Portable code on other
+    /// architectures.
+    Sse2,
+    /// AVX2 + FMA (with BMI1/2, LZCNT, POPCNT): eight-lane node tests.
+    Avx2,
+    /// AVX-512 F + VL on top of `Avx2`: the same eight-lane kernel compiled with EVEX
+    /// encodings and mask registers.
+    Avx512,
+}
+
+impl SimdLevel {
+    /// Every level, narrowest first.
+    pub const ALL: [SimdLevel; 3] = [SimdLevel::Sse2, SimdLevel::Avx2, SimdLevel::Avx512];
+
+    /// Whether this CPU can run the level.
+    pub fn is_supported(self) -> bool {
+        match self {
+            SimdLevel::Sse2 => true,
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx2 => {
+                is_x86_feature_detected!("avx2")
+                    && is_x86_feature_detected!("fma")
+                    && is_x86_feature_detected!("bmi1")
+                    && is_x86_feature_detected!("bmi2")
+                    && is_x86_feature_detected!("lzcnt")
+                    && is_x86_feature_detected!("popcnt")
+            }
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx512 => {
+                SimdLevel::Avx2.is_supported()
+                    && is_x86_feature_detected!("avx512f")
+                    && is_x86_feature_detected!("avx512vl")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The widest level this CPU supports.
+    pub fn detected() -> SimdLevel {
+        *SimdLevel::ALL.iter().rev().find(|l| l.is_supported()).unwrap_or(&SimdLevel::Sse2)
+    }
+
+    /// The level new scenes use: `SPECTRACE_SIMD` if set to a supported level (a one-line
+    /// warning otherwise), else [`SimdLevel::detected`]. Read once per process.
+    pub fn default_level() -> SimdLevel {
+        static LEVEL: OnceLock<SimdLevel> = OnceLock::new();
+        *LEVEL.get_or_init(|| {
+            let detected = SimdLevel::detected();
+            let Ok(asked) = std::env::var("SPECTRACE_SIMD") else { return detected };
+            match SimdLevel::ALL.iter().find(|l| l.name() == asked.trim().to_ascii_lowercase()) {
+                Some(&level) if level.is_supported() => level,
+                Some(level) => {
+                    eprintln!("warning: SPECTRACE_SIMD={asked}: this CPU lacks {level:?}; using {detected:?}");
+                    detected
+                }
+                None => {
+                    eprintln!("warning: SPECTRACE_SIMD={asked} is not one of sse2, avx2, avx512; using {detected:?}");
+                    detected
+                }
+            }
+        })
+    }
+
+    /// The level's name as `SPECTRACE_SIMD` spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            SimdLevel::Sse2 => "sse2",
+            SimdLevel::Avx2 => "avx2",
+            SimdLevel::Avx512 => "avx512",
+        }
+    }
+}
+
+/// The eight slab tests of a node: entry distances and the mask of children hit. Every
+/// implementation computes, lane for lane, `t0 = max(max(x0, y0), max(z0, 0))` and
+/// `t1 = min(min(x1, y1), min(z1, t_max)) · far_scale` with `x0 = (near_x − o_x) · inv_x`
+/// etc., and hits where `t0 ≤ t1` (see `wide.rs` for why this is conservative).
+pub(crate) trait NodeTest: Copy {
+    fn test(self, node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32);
+}
+
+/// Per-ray inputs of the node test.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct NodeRay {
+    pub(crate) origin: [f32; 3],
+    pub(crate) inv: [f32; 3],
+    /// Which of `bounds[2a]`, `bounds[2a + 1]` is the near plane on axis a.
+    pub(crate) near: [usize; 3],
+    pub(crate) far_scale: f32,
+}
+
+/// Two four-lane halves in glam `Vec4` (SSE2 on x86-64).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Sse2;
+
+impl NodeTest for Sse2 {
+    #[inline(always)]
+    fn test(self, node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
+        let b = &node.bounds;
+        let [ox, oy, oz] = ray.origin.map(Vec4::splat);
+        let [ix, iy, iz] = ray.inv.map(Vec4::splat);
+        let near = ray.near;
+        let (t_max, far_scale) = (Vec4::splat(t_max), Vec4::splat(ray.far_scale));
+        let mut tn = [0f32; 8];
+        let mut mask = 0u32;
+        for half in 0..2 {
+            let l = |plane: usize| Vec4::from_slice(&b[plane][4 * half..4 * half + 4]);
+            // Vec4::max/min are single SSE max/min instructions; no NaN can occur (see
+            // `WideBvh::traverse`), so their NaN convention does not matter.
+            let x0 = (l(near[0]) - ox) * ix;
+            let y0 = (l(2 + near[1]) - oy) * iy;
+            let z0 = (l(4 + near[2]) - oz) * iz;
+            let x1 = (l(1 - near[0]) - ox) * ix;
+            let y1 = (l(3 - near[1]) - oy) * iy;
+            let z1 = (l(5 - near[2]) - oz) * iz;
+            let t0 = x0.max(y0).max(z0.max(Vec4::ZERO));
+            let t1 = x1.min(y1).min(z1.min(t_max)) * far_scale;
+            t0.write_to_slice(&mut tn[4 * half..4 * half + 4]);
+            mask |= t0.cmple(t1).bitmask() << (4 * half);
+        }
+        (tn, mask)
+    }
+}
+
+/// One eight-lane AVX test. Only [`dispatch`] creates it, after checking the CPU, so holding
+/// one proves AVX2 is available.
+#[cfg(target_arch = "x86_64")]
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Avx2 {
+    _proof: (),
+}
+
+#[cfg(target_arch = "x86_64")]
+impl NodeTest for Avx2 {
+    #[inline(always)]
+    fn test(self, node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
+        // SAFETY: an `Avx2` exists only inside `dispatch`'s AVX2/AVX-512 arms, which run after
+        // `SimdLevel::is_supported` confirmed AVX2 and FMA on this CPU.
+        unsafe { node_test_avx2(node, ray, t_max) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+fn node_test_avx2(node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
+    use std::arch::x86_64::*;
+    let b = &node.bounds;
+    // SAFETY: each `bounds` row is 8 contiguous f32 (unaligned loads need no alignment).
+    let l = |plane: usize| unsafe { _mm256_loadu_ps(b[plane].as_ptr()) };
+    let [ox, oy, oz] = ray.origin.map(|v| _mm256_set1_ps(v));
+    let [ix, iy, iz] = ray.inv.map(|v| _mm256_set1_ps(v));
+    let near = ray.near;
+    // Same operand order as the SSE2 halves (max(a, b) returns b on ties), so equal lanes
+    // give equal bits.
+    let x0 = _mm256_mul_ps(_mm256_sub_ps(l(near[0]), ox), ix);
+    let y0 = _mm256_mul_ps(_mm256_sub_ps(l(2 + near[1]), oy), iy);
+    let z0 = _mm256_mul_ps(_mm256_sub_ps(l(4 + near[2]), oz), iz);
+    let x1 = _mm256_mul_ps(_mm256_sub_ps(l(1 - near[0]), ox), ix);
+    let y1 = _mm256_mul_ps(_mm256_sub_ps(l(3 - near[1]), oy), iy);
+    let z1 = _mm256_mul_ps(_mm256_sub_ps(l(5 - near[2]), oz), iz);
+    let t0 = _mm256_max_ps(_mm256_max_ps(x0, y0), _mm256_max_ps(z0, _mm256_setzero_ps()));
+    let t1 = _mm256_mul_ps(
+        _mm256_min_ps(_mm256_min_ps(x1, y1), _mm256_min_ps(z1, _mm256_set1_ps(t_max))),
+        _mm256_set1_ps(ray.far_scale),
+    );
+    let mut tn = [0f32; 8];
+    // SAFETY: `tn` holds 8 f32 (unaligned store).
+    unsafe { _mm256_storeu_ps(tn.as_mut_ptr(), t0) };
+    let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
+    (tn, mask)
+}
+
+/// A query generic over the node test, run at the scene's level by [`dispatch`].
+pub(crate) trait Kernel {
+    type Output;
+    /// Must be `#[inline(always)]`, so that the whole query is compiled for the level.
+    fn run<N: NodeTest>(self, node_test: N) -> Self::Output;
+}
+
+/// Run `kernel` with the node test and code generation of `level` (which the caller has
+/// checked with [`SimdLevel::is_supported`]; an unsupported level falls back to SSE2).
+#[inline(always)]
+pub(crate) fn dispatch<K: Kernel>(level: SimdLevel, kernel: K) -> K::Output {
+    #[cfg(target_arch = "x86_64")]
+    {
+        // Cheap after the first call (std caches the CPUID bits); re-checked here so that no
+        // caller can reach the AVX code paths on a CPU without them.
+        match level {
+            SimdLevel::Avx512 if SimdLevel::Avx512.is_supported() => {
+                // SAFETY: AVX-512 F/VL, AVX2, FMA, BMI1/2, LZCNT, POPCNT were detected above.
+                return unsafe { run_avx512(kernel) };
+            }
+            SimdLevel::Avx2 | SimdLevel::Avx512 if SimdLevel::Avx2.is_supported() => {
+                // SAFETY: AVX2, FMA, BMI1/2, LZCNT, POPCNT were detected above.
+                return unsafe { run_avx2(kernel) };
+            }
+            _ => {}
+        }
+    }
+    let _ = level;
+    kernel.run(Sse2)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn run_avx2<K: Kernel>(kernel: K) -> K::Output {
+    kernel.run(Avx2 { _proof: () })
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn run_avx512<K: Kernel>(kernel: K) -> K::Output {
+    kernel.run(Avx2 { _proof: () })
+}
