@@ -36,6 +36,7 @@ mod path;
 mod render;
 mod sampling;
 mod spectral;
+mod summary;
 mod whitted;
 
 pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
@@ -43,6 +44,7 @@ pub use error::{Error, Result};
 pub use film::{Display, Image};
 pub use render::{Ambient, DEFAULT_K_A, IntegratorKind, Progress, RenderOptions, RenderStats, WavelengthPdf, render};
 pub use spectral::{MAX_BINS, SpectralMode};
+pub use summary::summarize;
 pub use whitted::ObjectId;
 
 /// Spikiness (see `materials::spikiness`) above which a spectrum counts as a line spectrum
