@@ -37,7 +37,7 @@ pub fn run_file(path: &Path) {
 /// Assemble, summarise and render a loaded scene description.
 pub fn run_description(desc: geometry::SceneDescription) {
     let Ok(scene) = RenderScene::from_description(desc.clone()) else { return };
-    let summary = geometry::summarize(&desc, scene.geometry());
+    let summary = integrator::summarize(&desc, &scene);
     std::hint::black_box(serde_json::to_string(&summary).expect("summary serialises"));
     let _ = integrator::choose_auto(&scene, IntegratorKind::WhittedHall);
     for (integrator, spectral) in [

@@ -10,13 +10,15 @@ use integrator::{IntegratorKind, RenderScene};
 pub(crate) struct InfoArgs {
     /// Scene file (.json manifest, .gltf/.glb, .obj); the default scene when omitted.
     scene: Option<PathBuf>,
+    #[command(flatten)]
+    load: crate::render::LoadArgs,
 }
 
 pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let (desc, scene) = match &args.scene {
         Some(path) => {
             // Loader errors name the file (and line) themselves.
-            let desc = geometry::load_scene(path)?;
+            let desc = geometry::load_scene_with(path, &args.load.options())?;
             let scene = RenderScene::from_description(desc.clone())
                 .with_context(|| format!("assembling {}", path.display()))?;
             (desc, scene)
@@ -27,7 +29,7 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
             (desc, scene)
         }
     };
-    let mut summary = geometry::summarize(&desc, scene.geometry());
+    let mut summary = integrator::summarize(&desc, &scene);
     if let Some(object) = summary.as_object_mut() {
         object.insert(
             "spectral_auto".to_owned(),

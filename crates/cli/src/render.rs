@@ -75,6 +75,43 @@ pub(crate) struct RenderArgs {
     /// No progress bar or notes on stderr.
     #[arg(short, long)]
     quiet: bool,
+    #[command(flatten)]
+    load: LoadArgs,
+}
+
+/// What a scene may cost to load (shared by `render` and `info`).
+#[derive(Debug, clap::Args)]
+pub(crate) struct LoadArgs {
+    /// Memory budget for the scene's data, in bytes or with a K/M/G suffix (powers of 1024): files,
+    /// decoded geometry and the BVH; a scene that needs more is refused before allocating [default: 8G].
+    #[arg(long, value_parser = parse_bytes)]
+    max_memory: Option<u64>,
+    /// Let a scene refer to files by absolute path (refused by default: a scene is a movable folder).
+    #[arg(long)]
+    allow_absolute_paths: bool,
+}
+
+impl LoadArgs {
+    pub(crate) fn options(&self) -> geometry::LoadOptions {
+        geometry::LoadOptions {
+            max_memory: self.max_memory.unwrap_or(geometry::DEFAULT_MAX_MEMORY),
+            allow_absolute_paths: self.allow_absolute_paths,
+        }
+    }
+}
+
+fn parse_bytes(s: &str) -> Result<u64, String> {
+    let (digits, shift) =
+        match s.trim().to_ascii_uppercase().strip_suffix('B').unwrap_or(&s.trim().to_ascii_uppercase()) {
+            t if t.ends_with('K') => (t[..t.len() - 1].to_owned(), 10),
+            t if t.ends_with('M') => (t[..t.len() - 1].to_owned(), 20),
+            t if t.ends_with('G') => (t[..t.len() - 1].to_owned(), 30),
+            t => (t.to_owned(), 0),
+        };
+    match digits.trim().parse::<u64>() {
+        Ok(v) if v > 0 => v.checked_mul(1 << shift).ok_or_else(|| format!("`{s}` is too large")),
+        _ => Err(format!("expected a positive number of bytes (e.g. 512M, 8G), got `{s}`")),
+    }
 }
 
 fn parse_seconds(s: &str) -> Result<std::time::Duration, String> {
@@ -186,7 +223,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     let scene = match &args.scene {
         // Scene errors name the file (and line) themselves.
-        Some(path) => RenderScene::load(path)?,
+        Some(path) => RenderScene::load_with(path, &args.load.options())?,
         None => RenderScene::default_scene().context("building the default scene")?,
     };
     if !args.quiet {

@@ -19,6 +19,16 @@ pub enum Error {
         /// The I/O error.
         cause: std::io::Error,
     },
+    /// A file that a scene file refers to (a buffer, a spectrum CSV, a mesh) could not be read.
+    #[error("{}: cannot read {}: {cause}", path.display(), file.display())]
+    ReadReferenced {
+        /// The scene file that refers to it.
+        path: PathBuf,
+        /// The file referred to.
+        file: PathBuf,
+        /// The I/O error.
+        cause: std::io::Error,
+    },
     /// `load_scene` was given a file with an extension it does not know.
     #[error("{}: unsupported scene format `.{extension}` (expected .json, .gltf, .glb or .obj)", path.display())]
     UnsupportedFormat {
@@ -158,6 +168,90 @@ pub enum Error {
         context: String,
         /// The defined material names, comma-separated.
         available: String,
+    },
+    /// Loading the scene would pass its memory budget ([`crate::LoadOptions::max_memory`]); checked before
+    /// allocating.
+    #[error(
+        "{}: {what} needs {requested} bytes, over the scene's memory budget ({used} of {limit} bytes used; raise it with --max-memory)",
+        path.display()
+    )]
+    OverBudget {
+        /// The file being loaded.
+        path: PathBuf,
+        /// What would be allocated (e.g. `meshes[0] primitive 0 POSITION`).
+        what: String,
+        /// Bytes it would take.
+        requested: u64,
+        /// Bytes charged so far.
+        used: u64,
+        /// The budget.
+        limit: u64,
+    },
+    /// A referenced file is not a regular file (a device, FIFO or directory).
+    #[error("{}: `{}` is not a regular file", path.display(), file.display())]
+    NotRegularFile {
+        /// The file that refers to it.
+        path: PathBuf,
+        /// The referenced file.
+        file: PathBuf,
+    },
+    /// A referenced file is larger than allowed.
+    #[error("{}: `{}` has {size} bytes, more than the limit of {limit}", path.display(), file.display())]
+    FileTooLarge {
+        /// The file that refers to it.
+        path: PathBuf,
+        /// The referenced file.
+        file: PathBuf,
+        /// Its size.
+        size: u64,
+        /// The limit.
+        limit: u64,
+    },
+    /// A scene refers to a file by absolute path and [`crate::LoadOptions::allow_absolute_paths`] is off.
+    #[error(
+        "{}: refers to `{reference}` by absolute path; scene files must use paths relative to their folder (or allow absolute paths with --allow-absolute-paths)",
+        path.display()
+    )]
+    AbsolutePath {
+        /// The file that refers to it.
+        path: PathBuf,
+        /// The path as written.
+        reference: String,
+    },
+    /// A coordinate is too large for the BVH build and the renderer's f32 arithmetic.
+    #[error(
+        "{}: {context}: vertex {vertex} at {value:?} is beyond ±{limit:e} (the largest coordinate supported)",
+        path.display()
+    )]
+    CoordinateTooLarge {
+        /// The file.
+        path: PathBuf,
+        /// The object (mesh, primitive, manifest object).
+        context: String,
+        /// Index of the vertex (0 for a sphere).
+        vertex: usize,
+        /// Its coordinates.
+        value: [f32; 3],
+        /// [`crate::MAX_COORDINATE`].
+        limit: f32,
+    },
+    /// A file has no geometry to render.
+    #[error("{}: no geometry (no triangle or sphere could be read{detail})", path.display())]
+    NoGeometry {
+        /// The file.
+        path: PathBuf,
+        /// More about why (e.g. `; 3 lines were not OBJ statements`), or empty.
+        detail: String,
+    },
+    /// A mesh file a manifest object includes could not be loaded.
+    #[error("{origin}: {context}: {source}")]
+    IncludedFile {
+        /// The manifest's path or name.
+        origin: String,
+        /// The object, e.g. `objects[3]`.
+        context: String,
+        /// The included file's error (it names that file).
+        source: Box<Error>,
     },
     // LOADERS-END
 }

@@ -15,11 +15,12 @@ use glam::{Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
-use crate::error::{Error, Result};
-use crate::scene::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, SceneDescription, SpectrumDesc,
-    shininess_from_roughness,
+use crate::desc::{
+    AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat,
+    SpectrumDesc,
 };
+use crate::error::{Error, Result};
+use crate::limits::{BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
 use crate::shapes::Mesh;
 
 /// Extensions whose data we read; a file that *requires* anything else is refused.
@@ -33,24 +34,30 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_dispersion",
 ];
 
-/// Largest component count accepted for an accessor without a buffer view (all zeros plus sparse values):
-/// such an accessor costs memory without costing file size, so a hostile file could ask for terabytes.
-/// 2²⁴ components (≈ 5.6 M VEC3 vertices, 128 MiB as f64) is far above any hand-made scene.
-const MAX_VIEWLESS_COUNT: usize = 1 << 24;
+/// Bytes charged per accessor component read: the f64 staging value and the f32 it becomes.
+const BYTES_PER_COMPONENT: u64 = 12;
 
-/// Loads a `.gltf` or `.glb` file; external buffers resolve against its folder.
-pub(crate) fn load_gltf_file(path: &Path) -> Result<SceneDescription> {
-    let bytes = std::fs::read(path).map_err(|cause| Error::ReadFile { path: path.to_path_buf(), cause })?;
+/// Loads a `.gltf` or `.glb` file; external buffers resolve against its folder. Everything it allocates is
+/// charged to `budget` first.
+pub(crate) fn load_gltf_file(path: &Path, budget: &Budget) -> Result<SceneDescription> {
+    let bytes = budget.read(path, path, u64::MAX)?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
-    load_gltf_slice(&bytes, Some(base), path)
+    load_gltf_slice(&bytes, Some(base), path, budget)
 }
 
 /// Loads glTF from memory. `base`: folder for external buffers (`None`: only embedded data allowed);
 /// `path`: the name used in messages.
-pub(crate) fn load_gltf_slice(bytes: &[u8], base: Option<&Path>, path: &Path) -> Result<SceneDescription> {
+pub(crate) fn load_gltf_slice(
+    bytes: &[u8],
+    base: Option<&Path>,
+    path: &Path,
+    budget: &Budget,
+) -> Result<SceneDescription> {
     let gltf_err = |cause| Error::Gltf { path: path.to_path_buf(), cause };
+    // The JSON document (tree of values) costs a few times its text; charge twice the file.
+    budget.charge(path, || "the glTF JSON document".to_owned(), 2 * bytes.len() as u64)?;
     let gltf::Gltf { document, blob } =
-        crate::scene::guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err))?;
+        guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err))?;
 
     // Required extensions first, with our own list: `gltf`'s validation would reject
     // KHR_materials_volume and KHR_materials_dispersion, which we do read, with a vaguer message.
@@ -86,10 +93,16 @@ pub(crate) fn load_gltf_slice(bytes: &[u8], base: Option<&Path>, path: &Path) ->
             accessor.max.get_or_insert(zeros);
         }
     }
-    let document = crate::scene::guard_panic(path, "gltf", || gltf::Document::from_json(root).map_err(gltf_err))?;
+    let document = guard_panic(path, "gltf", || gltf::Document::from_json(root).map_err(gltf_err))?;
 
-    let buffers = load_buffers(&document, base, blob, path)?;
-    let mut loader = Loader { path, buffers: &buffers, desc: SceneDescription::empty(), default_material: None };
+    let buffers = load_buffers(&document, base, blob, path, budget)?;
+    let mut loader = Loader {
+        path,
+        buffers: &buffers,
+        budget,
+        desc: SceneDescription::empty(SceneFormat::Gltf),
+        default_material: None,
+    };
     for material in document.materials() {
         let m = loader.material(&material);
         loader.desc.materials.push(m);
@@ -103,6 +116,7 @@ fn load_buffers(
     base: Option<&Path>,
     mut blob: Option<Vec<u8>>,
     path: &Path,
+    budget: &Budget,
 ) -> Result<Vec<Vec<u8>>> {
     let mut out = Vec::new();
     for buffer in document.buffers() {
@@ -117,8 +131,10 @@ fn load_buffers(
                 blob.take().ok_or_else(|| data_err("refers to the GLB binary chunk, which is missing".into()))?
             }
             gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                // The decoded bytes (3/4 of the base64 text) and the decoder's copy.
+                budget.charge(path, || format!("buffers[{index}] data URI"), uri.len() as u64)?;
                 // Data URIs never reach `gltf`'s percent-decoder (the panicking part).
-                crate::scene::guard_panic(path, "gltf", || {
+                guard_panic(path, "gltf", || {
                     gltf::buffer::Data::from_source(buffer.source(), None)
                         .map_err(|cause| Error::Gltf { path: path.to_path_buf(), cause })
                 })?
@@ -134,12 +150,15 @@ fn load_buffers(
                 let Some(base) = base else {
                     return Err(data_err(format!("external buffer `{uri}` in a glTF loaded from memory")));
                 };
-                let file = base.join(decoded);
-                std::fs::read(&file).map_err(|cause| Error::GltfBuffer {
-                    path: path.to_path_buf(),
-                    buffer: index,
-                    uri: file.display().to_string(),
-                    cause,
+                let file = budget.resolve(path, base, &decoded)?;
+                budget.read(path, &file, u64::MAX).map_err(|e| match e {
+                    Error::ReadFile { cause, .. } | Error::ReadReferenced { cause, .. } => Error::GltfBuffer {
+                        path: path.to_path_buf(),
+                        buffer: index,
+                        uri: file.display().to_string(),
+                        cause,
+                    },
+                    other => other,
                 })?
             }
         };
@@ -172,6 +191,7 @@ fn percent_decode(s: &str) -> Option<String> {
 struct Loader<'a> {
     path: &'a Path,
     buffers: &'a [Vec<u8>],
+    budget: &'a Budget,
     desc: SceneDescription,
     /// Index of the glTF default material, added on first use by a primitive without a material.
     default_material: Option<u32>,
@@ -299,12 +319,9 @@ impl Loader<'_> {
         let value = extras_value(extras)?;
         let spectrum = value.get("spectrum")?;
         let base = self.path.parent().unwrap_or_else(|| Path::new("."));
-        match crate::manifest::spectrum_from_value(
-            spectrum,
-            base,
-            &self.path.display().to_string(),
-            &format!("{context}.extras.spectrum"),
-        ) {
+        let origin = self.path.display().to_string();
+        let ctx = crate::forms::Ctx { origin: &origin, base_dir: base, budget: self.budget };
+        match crate::forms::spectrum(&ctx, &format!("{context}.extras.spectrum"), spectrum) {
             Ok(s) => Some(s),
             Err(e) => {
                 self.warn(format!("{e}; the colour is used instead"));
@@ -317,30 +334,40 @@ impl Loader<'_> {
         let index = material.index().unwrap_or(0);
         let name = material.name().map(str::to_owned).unwrap_or_else(|| format!("material{index}"));
         let pbr = material.pbr_metallic_roughness();
-        let mut m = MaterialDesc::named(&name);
+        // What the file says, with glTF's own defaults where it is silent (the `gltf` crate fills them:
+        // base colour 1, metallic 1, roughness 1, IOR 1.5). What they mean for shading is the assembly's.
+        let mut m = MaterialDesc::new(&name, MaterialFormat::Gltf);
         let [r, g, b, _alpha] = pbr.base_color_factor();
-        m.base_color = SpectrumDesc::Rgb([r, g, b]);
-        m.metallic = pbr.metallic_factor().clamp(0.0, 1.0);
-        m.roughness = pbr.roughness_factor().clamp(0.0, 1.0);
-        m.shininess = shininess_from_roughness(m.roughness);
-        m.double_sided = material.double_sided();
+        m.base_color = Some(SpectrumDesc::Rgb([r, g, b]));
+        m.metallic = Some(pbr.metallic_factor());
+        m.roughness = Some(pbr.roughness_factor());
+        m.double_sided = Some(material.double_sided());
 
         let emissive = material.emissive_factor();
+        // Black (glTF's default) means not emissive.
         if emissive.iter().any(|c| *c > 0.0) {
             m.emission = Some(SpectrumDesc::Rgb(emissive));
-            m.emission_strength = material.emissive_strength().unwrap_or(1.0).max(0.0);
+            m.emission_strength = material.emissive_strength();
         }
         if let Some(t) = material.transmission() {
-            m.transmission = t.transmission_factor().clamp(0.0, 1.0);
+            m.transmission = Some(t.transmission_factor());
             if t.transmission_texture().is_some() {
                 self.warn(format!("material '{name}': transmission texture ignored"));
             }
         }
-        // glTF's default IOR is 1.5 (KHR_materials_ior); 0 is kept: it means Fresnel ≡ 1 (see IorDesc).
-        let ior = material.ior().unwrap_or(1.5);
-        m.ior = IorDesc::Constant(if ior.is_finite() && ior >= 0.0 { ior } else { 1.5 });
+        // 0 is kept: it means Fresnel ≡ 1 (see IorDesc). KHR_materials_ior allows 0 or ≥ 1; a negative or
+        // non-finite value is not an index of refraction at all.
+        if let Some(ior) = material.ior() {
+            if ior.is_finite() && ior >= 0.0 {
+                m.ior = Some(IorDesc::Constant(ior));
+            } else {
+                self.warn(format!(
+                    "material '{name}': KHR_materials_ior.ior {ior} is not 0 or a positive number; glTF's default 1.5 is used"
+                ));
+            }
+        }
         if let Some(v) = material.volume() {
-            m.thickness = v.thickness_factor().max(0.0);
+            m.thickness = Some(v.thickness_factor());
             let distance = v.attenuation_distance();
             // An infinite distance (the default) means no absorption at all.
             if distance.is_finite() && distance > 0.0 {
@@ -352,23 +379,11 @@ impl Loader<'_> {
         }
         if let Some(value) = material.extension_value("KHR_materials_dispersion") {
             match value.get("dispersion").and_then(serde_json::Value::as_f64) {
-                Some(d) if d.is_finite() && d >= 0.0 => m.dispersion = d as f32,
+                Some(d) if d.is_finite() && d >= 0.0 => m.dispersion = Some(d as f32),
                 None if value.get("dispersion").is_none() => {} // the extension's default, 0
                 _ => self.warn(format!(
                     "material '{name}': KHR_materials_dispersion.dispersion must be a number ≥ 0; ignored"
                 )),
-            }
-        }
-        // Model hints and Hall's k_s for the layers above (docs/scene-format.md, "glTF"): the specular
-        // reflection of a dielectric or metal is weighted by its Fresnel term, so k_s = 1 there.
-        if m.transmission > 0.0 {
-            m.model = Some("dielectric".into());
-            m.ks = 1.0;
-        } else if m.metallic > 0.0 {
-            m.ks = m.metallic;
-            m.specular = Some(m.base_color.clone());
-            if m.metallic >= 1.0 {
-                m.model = Some("conductor".into());
             }
         }
         m.extras = extras_value(material.extras());
@@ -391,14 +406,11 @@ impl Loader<'_> {
             return i;
         }
         // glTF 2.0 §3.9.6: the default material is base colour 1, metallic 1, roughness 1.
-        let mut m = MaterialDesc::named("gltf-default");
-        m.base_color = SpectrumDesc::Rgb([1.0; 3]);
-        m.metallic = 1.0;
-        m.roughness = 1.0;
-        m.shininess = shininess_from_roughness(1.0);
-        m.ks = 1.0;
-        m.model = Some("conductor".into());
-        m.specular = Some(SpectrumDesc::Rgb([1.0; 3]));
+        let mut m = MaterialDesc::new("gltf-default", MaterialFormat::Gltf);
+        m.base_color = Some(SpectrumDesc::Rgb([1.0; 3]));
+        m.metallic = Some(1.0);
+        m.roughness = Some(1.0);
+        m.double_sided = Some(false);
         // Material counts come from a JSON array; far below u32::MAX.
         let i = self.desc.materials.len() as u32;
         self.desc.materials.push(m);
@@ -423,6 +435,19 @@ impl Loader<'_> {
                 self.warn(format!("{context}: no POSITION attribute; skipped"));
                 continue;
             };
+            // The mesh this primitive becomes: its vertices (with normals, UVs and the world-space copy) and
+            // its triangles' share of the BVH, charged before anything is read.
+            let vertices = accessor.count() as u64;
+            let listed = primitive.indices().map_or(vertices, |a| a.count() as u64);
+            let triangles = match mode {
+                Mode::TriangleStrip | Mode::TriangleFan => listed.saturating_sub(2),
+                _ => listed / 3,
+            };
+            self.budget.charge(
+                self.path,
+                || format!("{context} ({vertices} vertices, {triangles} triangles)"),
+                vertices.saturating_mul(BYTES_PER_VERTEX).saturating_add(triangles.saturating_mul(BYTES_PER_TRIANGLE)),
+            )?;
             let positions = self.read_vec3(&accessor, &format!("{context} POSITION"))?;
             for (i, p) in positions.iter().enumerate() {
                 if !p.is_finite() {
@@ -496,7 +521,9 @@ impl Loader<'_> {
             let local = Mesh::new(positions, normals, uvs, triangles, Some(material)).map_err(|e| {
                 Error::InvalidGeometry { path: self.path.to_path_buf(), context: context.clone(), cause: Box::new(e) }
             })?;
-            self.desc.meshes.push(if world == Mat4::IDENTITY { local } else { local.transformed(world) });
+            let mesh = if world == Mat4::IDENTITY { local } else { local.transformed(world) };
+            check_coordinates(mesh.positions(), self.path, &context)?;
+            self.desc.meshes.push(mesh);
         }
         Ok(())
     }
@@ -569,6 +596,13 @@ impl Loader<'_> {
         let component_size = data_type.size();
         let element_size = components * component_size;
         let count = acc.count();
+        // Charged per read, not per accessor: 50 nodes sharing one accessor read it 50 times.
+        self.budget.charge_items(
+            self.path,
+            || format!("{context} ({count} × {components} components)"),
+            (count as u64).saturating_mul(components as u64),
+            BYTES_PER_COMPONENT,
+        )?;
         let mut out = match acc.view() {
             Some(view) => {
                 let stride = view.stride().unwrap_or(element_size);
@@ -591,15 +625,8 @@ impl Loader<'_> {
                     )
                 })?
             }
-            None => {
-                if count.saturating_mul(components) > MAX_VIEWLESS_COUNT {
-                    return Err(self.data_err(
-                        context,
-                        format!("{count} × {components} components without a buffer view (limit {MAX_VIEWLESS_COUNT})"),
-                    ));
-                }
-                vec![0.0; count * components]
-            }
+            // All zeros plus sparse values: costs memory without costing file size, hence the charge above.
+            None => vec![0.0; count * components],
         };
         if let Some(sparse) = acc.sparse() {
             let n = sparse.count();

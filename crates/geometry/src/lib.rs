@@ -37,14 +37,20 @@ pub use ray::{Hit, Ray, spawn_ray, spawn_ray_to};
 pub use shapes::{Mesh, Sphere};
 pub use simd::SimdLevel;
 
-// --- loaders ---
+// --- loaders (layered: desc ← limits, forms ← manifest, gltf_loader, obj_loader ← load) ---
+mod desc;
+mod forms;
 mod gltf_loader;
+mod limits;
+mod load;
 mod manifest;
 mod obj_loader;
-mod scene;
-mod summary;
-pub use manifest::parse_manifest;
-pub use scene::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, SceneDescription, SpectrumDesc, load_scene,
+mod prefilter;
+pub use desc::{
+    AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat,
+    SpectrumDesc,
 };
-pub use summary::summarize;
+pub use limits::{
+    BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE, MAX_SPECTRUM_FILE_BYTES,
+};
+pub use load::{load_scene, load_scene_with, parse_manifest, parse_manifest_with};

@@ -5,17 +5,16 @@
 //! (spectra, IORs, absorption) is converted by hand with a context path such as `materials.glass.ior`, so
 //! every error says where it is.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{Mat4, Quat, Vec3};
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
+use crate::desc::{CameraDesc, LightDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc};
 use crate::error::{Error, Result};
-use crate::scene::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, SceneDescription, SpectrumDesc,
-    shininess_from_roughness,
-};
+use crate::forms::{Ctx, absorption, ior, number, spectrum};
+use crate::limits::{Budget, MAX_COORDINATE};
 use crate::shapes::{Mesh, Sphere};
 
 #[derive(Deserialize)]
@@ -184,49 +183,39 @@ struct MaterialJson {
 /// Model hints the layers above understand (see [`MaterialDesc::model`]).
 const KNOWN_MODELS: &[&str] = &["hall", "diffuse", "dielectric", "conductor", "mirror"];
 
-/// Context for converting values: where the manifest came from, for error messages and relative paths.
-struct Ctx<'a> {
-    origin: &'a str,
-    base_dir: &'a Path,
+/// A mesh file an object of the manifest refers to, loaded by the `load` module (the manifest does not
+/// depend on the other loaders).
+#[derive(Debug)]
+pub(crate) struct Include {
+    /// Where in the manifest, e.g. `objects[3]`.
+    pub(crate) context: String,
+    /// The file, resolved against the manifest's folder.
+    pub(crate) path: PathBuf,
+    /// Object-to-world transform.
+    pub(crate) matrix: Mat4,
+    /// The manifest material replacing all the file's materials, if any.
+    pub(crate) material: Option<u32>,
+    /// Number of the manifest's own meshes before this object: the included meshes go there, so meshes
+    /// keep the objects' order (the BVH's primitive order, hence the renders, depend on it).
+    pub(crate) position: usize,
 }
 
-impl Ctx<'_> {
-    fn err(&self, context: impl Into<String>, message: impl Into<String>) -> Error {
-        Error::ManifestValue { origin: self.origin.to_owned(), context: context.into(), message: message.into() }
-    }
-
-    fn finite(&self, context: &str, v: f32) -> Result<f32> {
-        if v.is_finite() { Ok(v) } else { Err(self.err(context, format!("{v} is not finite"))) }
-    }
-
-    fn in_range(&self, context: &str, v: f32, lo: f32, hi: f32) -> Result<f32> {
-        if (lo..=hi).contains(&v) { Ok(v) } else { Err(self.err(context, format!("{v} is outside [{lo}, {hi}]"))) }
-    }
-
-    fn vec3(&self, context: &str, v: [f32; 3]) -> Result<Vec3> {
-        let v = Vec3::from_array(v);
-        if v.is_finite() { Ok(v) } else { Err(self.err(context, format!("{v} is not finite"))) }
-    }
-
-    fn unit(&self, context: &str, v: [f32; 3]) -> Result<Vec3> {
-        let v = self.vec3(context, v)?;
-        v.try_normalize().ok_or_else(|| self.err(context, "direction has zero length"))
-    }
-}
-
-/// Parses a manifest from text. `base_dir` resolves relative file paths (spectra CSVs, meshes); `origin`
-/// names the manifest in error messages (a path, or e.g. `"<embedded default scene>"`).
-///
-/// # Errors
-/// [`Error::ManifestSyntax`] for malformed JSON or an unknown key (the message names the key, line and
-/// column), [`Error::ManifestValue`] for a value out of range (with its path in the document),
-/// [`Error::MissingMaterial`] for an object naming a material that is not defined, and the loaders' errors
-/// for referenced files.
-pub fn parse_manifest(text: &str, base_dir: &Path, origin: &str) -> Result<SceneDescription> {
+/// Parses a manifest's text into a description (without the mesh files it includes, returned for the
+/// caller to load). `base_dir` resolves relative file paths (spectra CSVs, meshes); `origin` names the
+/// manifest in error messages (a path, or e.g. `"<embedded default scene>"`). A leading UTF-8 byte-order
+/// mark is skipped (Windows editors write one).
+pub(crate) fn parse(
+    text: &str,
+    base_dir: &Path,
+    origin: &str,
+    budget: &Budget,
+) -> Result<(SceneDescription, Vec<Include>)> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let json: ManifestJson =
         serde_json::from_str(text).map_err(|cause| Error::ManifestSyntax { origin: origin.to_owned(), cause })?;
-    let ctx = Ctx { origin, base_dir };
-    let mut desc = SceneDescription::empty();
+    let ctx = Ctx { origin, base_dir, budget };
+    let mut desc = SceneDescription::empty(SceneFormat::Manifest);
+    let mut includes = Vec::new();
 
     // Materials first: objects refer to them by name. serde_json's map is sorted by key, so indices are
     // deterministic.
@@ -252,9 +241,6 @@ pub fn parse_manifest(text: &str, base_dir: &Path, origin: &str) -> Result<Scene
     };
 
     desc.camera = json.camera.map(|c| camera(&ctx, c)).transpose()?;
-    if desc.camera.is_none() {
-        desc.warnings.push(format!("{origin}: no camera: the renderer chooses one"));
-    }
     for (i, light) in json.lights.into_iter().enumerate() {
         desc.lights.push(light_desc(&ctx, &format!("lights[{i}]"), light)?);
     }
@@ -271,6 +257,13 @@ pub fn parse_manifest(text: &str, base_dir: &Path, origin: &str) -> Result<Scene
                 let center = ctx.vec3(&format!("{context}.center"), center)?;
                 if !(radius.is_finite() && radius > 0.0) {
                     return Err(ctx.err(format!("{context}.radius"), format!("{radius} must be finite and > 0")));
+                }
+                let reach = center.abs().max_element() + radius;
+                if !(reach <= MAX_COORDINATE) {
+                    return Err(ctx.err(
+                        &context,
+                        format!("the sphere reaches {reach:e}, beyond ±{MAX_COORDINATE:e} (the largest coordinate supported)"),
+                    ));
                 }
                 let sphere = Sphere::new(center, radius, m).map_err(|e| ctx.err(&context, e.to_string()))?;
                 desc.spheres.push(sphere);
@@ -301,15 +294,19 @@ pub fn parse_manifest(text: &str, base_dir: &Path, origin: &str) -> Result<Scene
                     Some(t) => transform_matrix(&ctx, &format!("{context}.transform"), t)?,
                     None => Mat4::IDENTITY,
                 };
-                let path = base_dir.join(&file);
-                include_file(&ctx, &context, &path, matrix, m, &mut desc)?;
+                let extension = Path::new(&file).extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+                if !matches!(extension.as_deref(), Some("gltf" | "glb" | "obj")) {
+                    return Err(ctx.err(
+                        format!("{context}.file"),
+                        format!("`{file}`: meshes must be .gltf, .glb or .obj files"),
+                    ));
+                }
+                let path = budget.resolve(Path::new(origin), base_dir, &file)?;
+                includes.push(Include { context, path, matrix, material: m, position: desc.meshes.len() });
             }
         }
     }
-    if desc.lights.is_empty() && !desc.materials.iter().any(MaterialDesc::is_emissive) {
-        desc.warnings.push(format!("{origin}: no lights and no emissive materials"));
-    }
-    Ok(desc)
+    Ok((desc, includes))
 }
 
 fn camera(ctx: &Ctx<'_>, c: CameraJson) -> Result<CameraDesc> {
@@ -387,173 +384,20 @@ fn background(ctx: &Ctx<'_>, v: &Value) -> Result<(SpectrumDesc, f32)> {
     Ok((spectrum(ctx, "background", v)?, 1.0))
 }
 
-fn number(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<f32> {
-    let x = v.as_f64().ok_or_else(|| ctx.err(context, format!("expected a number, found {v}")))? as f32;
-    ctx.finite(context, x)
-}
-
-fn numbers<const N: usize>(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<[f32; N]> {
-    let arr = v
-        .as_array()
-        .filter(|a| a.len() == N)
-        .ok_or_else(|| ctx.err(context, format!("expected an array of {N} numbers, found {v}")))?;
-    let mut out = [0.0; N];
-    for (o, x) in out.iter_mut().zip(arr) {
-        *o = number(ctx, context, x)?;
-    }
-    Ok(out)
-}
-
-/// Checks that an object has exactly the keys in `allowed` (plus none other), for the tagged forms.
-fn only_keys(ctx: &Ctx<'_>, context: &str, obj: &Map<String, Value>, allowed: &[&str]) -> Result<()> {
-    match obj.keys().find(|k| !allowed.contains(&k.as_str())) {
-        Some(k) => Err(ctx.err(context, format!("unknown key `{k}` (expected {})", allowed.join(", ")))),
-        None => Ok(()),
-    }
-}
-
-/// `number | "name" | {"rgb":[r,g,b]} | {"csv":"file","column":"c"} | {"samples":[[λ,v],…]}`.
-pub(crate) fn spectrum_from_value(v: &Value, base_dir: &Path, origin: &str, context: &str) -> Result<SpectrumDesc> {
-    spectrum(&Ctx { origin, base_dir }, context, v)
-}
-
-fn spectrum(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<SpectrumDesc> {
-    const FORMS: &str = "a number, a name (\"D65\", \"colorchecker:13\"), {\"rgb\": [r, g, b]}, \
-                         {\"csv\": \"file\", \"column\": \"name\"} or {\"samples\": [[nm, value], …]}";
-    match v {
-        Value::Number(_) => Ok(SpectrumDesc::Constant(number(ctx, context, v)?)),
-        Value::String(s) if !s.trim().is_empty() => Ok(SpectrumDesc::Named(s.trim().to_owned())),
-        Value::Object(obj) if obj.contains_key("rgb") => {
-            only_keys(ctx, context, obj, &["rgb"])?;
-            Ok(SpectrumDesc::Rgb(numbers::<3>(ctx, &format!("{context}.rgb"), &obj["rgb"])?))
-        }
-        Value::Object(obj) if obj.contains_key("csv") => {
-            only_keys(ctx, context, obj, &["csv", "column"])?;
-            let file = obj["csv"]
-                .as_str()
-                .filter(|s| !s.is_empty())
-                .ok_or_else(|| ctx.err(format!("{context}.csv"), "expected a file name"))?;
-            let column = match obj.get("column") {
-                None => None,
-                Some(Value::String(c)) => Some(c.clone()),
-                Some(Value::Number(n)) => Some(n.to_string()),
-                Some(other) => {
-                    return Err(ctx.err(format!("{context}.column"), format!("expected a string, found {other}")));
-                }
-            };
-            Ok(SpectrumDesc::Csv { path: ctx.base_dir.join(file), column })
-        }
-        Value::Object(obj) if obj.contains_key("samples") => {
-            only_keys(ctx, context, obj, &["samples"])?;
-            let c = format!("{context}.samples");
-            let rows = obj["samples"].as_array().ok_or_else(|| ctx.err(&c, "expected [[nm, value], …]"))?;
-            let mut lambda = Vec::with_capacity(rows.len());
-            let mut values = Vec::with_capacity(rows.len());
-            for row in rows {
-                let [l, x] = numbers::<2>(ctx, &c, row)?;
-                if let Some(prev) = lambda.last()
-                    && l <= *prev
-                {
-                    return Err(ctx.err(&c, format!("wavelength {l} nm after {prev} nm (must increase)")));
-                }
-                lambda.push(l);
-                values.push(x);
-            }
-            if lambda.len() < 2 {
-                return Err(ctx.err(&c, "needs at least 2 samples"));
-            }
-            Ok(SpectrumDesc::Samples { lambda, values })
-        }
-        _ => Err(ctx.err(context, format!("expected {FORMS}, found {v}"))),
-    }
-}
-
-fn ior(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<IorDesc> {
-    let obj = match v {
-        Value::Number(_) => {
-            let n = number(ctx, context, v)?;
-            if n < 0.0 {
-                return Err(ctx.err(context, format!("{n} must be ≥ 0 (0 is glTF's Fresnel ≡ 1 mode)")));
-            }
-            return Ok(IorDesc::Constant(n));
-        }
-        Value::Object(obj) if obj.len() == 1 => obj,
-        _ => {
-            return Err(ctx.err(
-                context,
-                format!(
-                    "expected a number, {{\"cauchy\": {{\"a\", \"b\"}}}}, {{\"sellmeier\": {{\"b\": [3], \"c\": [3]}}}} or {{\"abbe\": {{\"nd\", \"vd\"}}}}, found {v}"
-                ),
-            ));
-        }
-    };
-    let (kind, body) = obj.iter().next().ok_or_else(|| ctx.err(context, "empty object"))?;
-    let c = format!("{context}.{kind}");
-    let body = body.as_object().ok_or_else(|| ctx.err(&c, "expected an object"))?;
-    let field = |key: &str| -> Result<&Value> { body.get(key).ok_or_else(|| ctx.err(&c, format!("missing `{key}`"))) };
-    match kind.as_str() {
-        "cauchy" => {
-            only_keys(ctx, &c, body, &["a", "b"])?;
-            Ok(IorDesc::Cauchy { a: number(ctx, &c, field("a")?)?, b: number(ctx, &c, field("b")?)? })
-        }
-        "sellmeier" => {
-            only_keys(ctx, &c, body, &["b", "c"])?;
-            Ok(IorDesc::Sellmeier { b: numbers::<3>(ctx, &c, field("b")?)?, c: numbers::<3>(ctx, &c, field("c")?)? })
-        }
-        "abbe" => {
-            only_keys(ctx, &c, body, &["nd", "vd"])?;
-            let nd = number(ctx, &c, field("nd")?)?;
-            let vd = number(ctx, &c, field("vd")?)?;
-            if vd <= 0.0 || nd < 1.0 {
-                return Err(ctx.err(&c, format!("nd = {nd} must be ≥ 1 and vd = {vd} > 0")));
-            }
-            Ok(IorDesc::Abbe { nd, vd })
-        }
-        other => Err(ctx.err(context, format!("unknown IOR form `{other}` (expected cauchy, sellmeier, abbe)"))),
-    }
-}
-
-fn absorption(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<AbsorptionDesc> {
-    let obj = v.as_object().ok_or_else(|| {
-        ctx.err(
-            context,
-            format!("expected {{\"per_unit\": spectrum}}, {{\"sigma_a\": spectrum}} or {{\"attenuation_color\": [r, g, b], \"attenuation_distance\": d}}, found {v}"),
-        )
-    })?;
-    if let Some(s) = obj.get("per_unit") {
-        only_keys(ctx, context, obj, &["per_unit"])?;
-        return Ok(AbsorptionDesc::PerUnit(spectrum(ctx, &format!("{context}.per_unit"), s)?));
-    }
-    if let Some(s) = obj.get("sigma_a") {
-        only_keys(ctx, context, obj, &["sigma_a"])?;
-        return Ok(AbsorptionDesc::SigmaA(spectrum(ctx, &format!("{context}.sigma_a"), s)?));
-    }
-    only_keys(ctx, context, obj, &["attenuation_color", "attenuation_distance"])?;
-    let color = obj.get("attenuation_color").ok_or_else(|| ctx.err(context, "missing `attenuation_color`"))?;
-    let color = numbers::<3>(ctx, &format!("{context}.attenuation_color"), color)?;
-    let distance = obj.get("attenuation_distance").ok_or_else(|| ctx.err(context, "missing `attenuation_distance`"))?;
-    let distance = number(ctx, &format!("{context}.attenuation_distance"), distance)?;
-    if distance <= 0.0 {
-        return Err(ctx.err(format!("{context}.attenuation_distance"), format!("{distance} must be > 0")));
-    }
-    Ok(AbsorptionDesc::Attenuation { color, distance })
-}
-
 fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>) -> Result<MaterialDesc> {
     let context = format!("materials.{name}");
     let m: MaterialJson = serde_json::from_value(value.clone()).map_err(|e| ctx.err(&context, e.to_string()))?;
-    let mut out = MaterialDesc::named(name);
-    let unit_interval = |key: &str, v: Option<f32>, default: f32| -> Result<f32> {
-        match v {
-            None => Ok(default),
-            Some(x) => ctx.in_range(&format!("{context}.{key}"), x, 0.0, 1.0),
-        }
+    let mut out = MaterialDesc::new(name, MaterialFormat::Manifest);
+    // Ranges are checked here (an out-of-range value is an error naming its key); defaults are not filled
+    // in: what the renderer assumes for an unwritten key is the assembly's decision.
+    let unit_interval = |key: &str, v: Option<f32>| -> Result<Option<f32>> {
+        v.map(|x| ctx.in_range(&format!("{context}.{key}"), x, 0.0, 1.0)).transpose()
     };
-    let non_negative = |key: &str, v: Option<f32>, default: f32| -> Result<f32> {
-        match v {
-            None => Ok(default),
-            Some(x) => ctx.in_range(&format!("{context}.{key}"), x, 0.0, f32::MAX),
-        }
+    let non_negative = |key: &str, v: Option<f32>| -> Result<Option<f32>> {
+        v.map(|x| ctx.in_range(&format!("{context}.{key}"), x, 0.0, f32::MAX)).transpose()
+    };
+    let spectrum_of = |key: &str, v: &Option<Value>| -> Result<Option<SpectrumDesc>> {
+        v.as_ref().map(|v| spectrum(ctx, &format!("{context}.{key}"), v)).transpose()
     };
     if let Some(model) = &m.model
         && !KNOWN_MODELS.contains(&model.as_str())
@@ -564,27 +408,22 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>
         ));
     }
     out.model = m.model;
-    if let Some(v) = &m.base_color {
-        out.base_color = spectrum(ctx, &format!("{context}.base_color"), v)?;
-    }
-    out.diffuse = non_negative("diffuse", m.diffuse, out.diffuse)?;
-    out.specular = m.specular.as_ref().map(|v| spectrum(ctx, &format!("{context}.specular"), v)).transpose()?;
-    out.ks = non_negative("ks", m.ks, 0.0)?;
-    out.metallic = unit_interval("metallic", m.metallic, 0.0)?;
-    out.roughness = unit_interval("roughness", m.roughness, out.roughness)?;
-    out.shininess = non_negative("shininess", m.shininess, shininess_from_roughness(out.roughness))?;
-    out.transmission = non_negative("transmission", m.transmission, 0.0)?;
-    out.transmittance =
-        m.transmittance.as_ref().map(|v| spectrum(ctx, &format!("{context}.transmittance"), v)).transpose()?;
-    if let Some(v) = &m.ior {
-        out.ior = ior(ctx, &format!("{context}.ior"), v)?;
-    }
-    out.dispersion = non_negative("dispersion", m.dispersion, 0.0)?;
+    out.base_color = spectrum_of("base_color", &m.base_color)?;
+    out.diffuse = non_negative("diffuse", m.diffuse)?;
+    out.specular = spectrum_of("specular", &m.specular)?;
+    out.ks = non_negative("ks", m.ks)?;
+    out.metallic = unit_interval("metallic", m.metallic)?;
+    out.roughness = unit_interval("roughness", m.roughness)?;
+    out.shininess = non_negative("shininess", m.shininess)?;
+    out.transmission = non_negative("transmission", m.transmission)?;
+    out.transmittance = spectrum_of("transmittance", &m.transmittance)?;
+    out.ior = m.ior.as_ref().map(|v| ior(ctx, &format!("{context}.ior"), v)).transpose()?;
+    out.dispersion = non_negative("dispersion", m.dispersion)?;
     out.absorption = m.absorption.as_ref().map(|v| absorption(ctx, &format!("{context}.absorption"), v)).transpose()?;
-    out.thickness = non_negative("thickness", m.thickness, 0.0)?;
-    out.emission = m.emission.as_ref().map(|v| spectrum(ctx, &format!("{context}.emission"), v)).transpose()?;
-    out.emission_strength = non_negative("emission_strength", m.emission_strength, 1.0)?;
-    out.double_sided = m.double_sided.unwrap_or(false);
+    out.thickness = non_negative("thickness", m.thickness)?;
+    out.emission = spectrum_of("emission", &m.emission)?;
+    out.emission_strength = non_negative("emission_strength", m.emission_strength)?;
+    out.double_sided = m.double_sided;
     if !m.extras.is_empty() {
         let keys: Vec<&str> = m.extras.keys().map(String::as_str).collect();
         warnings.push(format!(
@@ -602,6 +441,12 @@ fn quad(ctx: &Ctx<'_>, context: &str, corner: Vec3, u: Vec3, v: Vec3, material: 
         return Err(ctx.err(context, "the quad's edges are parallel or zero (zero area)"));
     }
     let positions = vec![corner, corner + u, corner + u + v, corner + v];
+    if let Some((i, p)) = crate::limits::first_far_point(&positions) {
+        return Err(ctx.err(
+            context,
+            format!("corner {i} at {p} is beyond ±{MAX_COORDINATE:e} (the largest coordinate supported)"),
+        ));
+    }
     let uvs = vec![glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE, glam::Vec2::Y];
     Mesh::new(positions, None, Some(uvs), vec![[0, 1, 2], [0, 2, 3]], material)
         .map_err(|e| ctx.err(context, e.to_string()))
@@ -647,106 +492,37 @@ fn transform_matrix(ctx: &Ctx<'_>, context: &str, t: TransformJson) -> Result<Ma
     Ok(m)
 }
 
-/// Loads a glTF/OBJ file referenced from a manifest into `desc`, transformed by `matrix`.
-fn include_file(
-    ctx: &Ctx<'_>,
-    context: &str,
-    path: &Path,
-    matrix: Mat4,
-    material_override: Option<u32>,
-    desc: &mut SceneDescription,
-) -> Result<()> {
-    let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
-    let sub = match extension.as_str() {
-        "gltf" | "glb" => crate::gltf_loader::load_gltf_file(path)?,
-        "obj" => crate::obj_loader::load_obj_file(path)?,
-        _ => {
-            return Err(ctx.err(
-                format!("{context}.file"),
-                format!("{}: meshes must be .gltf, .glb or .obj files", path.display()),
-            ));
-        }
-    };
-    // Material counts are tiny compared with u32::MAX.
-    let offset = desc.materials.len() as u32;
-    // A mirroring transform turns outward faces inward; reversing the winding keeps geometric normals
-    // outward (as glTF 2.0 §3.7.4 requires for node transforms), which refraction relies on.
-    // `Mesh::transformed` keeps the winding as it is.
-    let mirrored = matrix.determinant() < 0.0;
-    let use_file_materials = material_override.is_none();
-    for mut mesh in sub.meshes {
-        let m = if use_file_materials { mesh.material().map(|i| i + offset) } else { material_override };
-        mesh.set_material(m);
-        let mesh = if matrix == Mat4::IDENTITY { mesh } else { mesh.transformed(matrix) };
-        desc.meshes.push(if mirrored { reverse_winding(ctx, context, &mesh)? } else { mesh });
-    }
-    if use_file_materials {
-        desc.materials.extend(sub.materials);
-    }
-    for light in sub.lights {
-        desc.lights.push(transform_light(light, matrix));
-    }
-    if sub.camera.is_some() {
-        desc.warnings.push(format!("{}: the file's camera is ignored (the manifest's is used)", path.display()));
-    }
-    desc.warnings.extend(sub.warnings);
-    Ok(())
-}
-
-fn reverse_winding(ctx: &Ctx<'_>, context: &str, mesh: &Mesh) -> Result<Mesh> {
-    let indices = mesh.indices().iter().map(|[a, b, c]| [*a, *c, *b]).collect();
-    Mesh::new(
-        mesh.positions().to_vec(),
-        mesh.normals().map(<[Vec3]>::to_vec),
-        mesh.uvs().map(<[glam::Vec2]>::to_vec),
-        indices,
-        mesh.material(),
-    )
-    .map_err(|e| ctx.err(context, e.to_string()))
-}
-
-fn transform_light(light: LightDesc, m: Mat4) -> LightDesc {
-    let dir = |d: Vec3| m.transform_vector3(d).try_normalize().unwrap_or(d);
-    match light {
-        LightDesc::Point { position, spectrum, intensity } => {
-            LightDesc::Point { position: m.transform_point3(position), spectrum, intensity }
-        }
-        LightDesc::Spot { position, direction, inner_cone_deg, outer_cone_deg, spectrum, intensity } => {
-            LightDesc::Spot {
-                position: m.transform_point3(position),
-                direction: dir(direction),
-                inner_cone_deg,
-                outer_cone_deg,
-                spectrum,
-                intensity,
-            }
-        }
-        LightDesc::Directional { direction, spectrum, intensity } => {
-            LightDesc::Directional { direction: dir(direction), spectrum, intensity }
-        }
-        env @ LightDesc::Environment { .. } => env,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::desc::{AbsorptionDesc, IorDesc};
 
-    fn parse(text: &str) -> Result<SceneDescription> {
-        parse_manifest(text, Path::new("/scenes"), "test.json")
+    fn parse_text(text: &str) -> Result<SceneDescription> {
+        parse(text, Path::new("/scenes"), "test.json", &Budget::unlimited_paths()).map(|(d, _)| d)
+    }
+
+    fn ctx<'a>(base_dir: &'a Path, budget: &'a Budget) -> Ctx<'a> {
+        Ctx { origin: "t", base_dir, budget }
     }
 
     #[test]
     fn spectrum_forms_parse() {
-        let ctx = Ctx { origin: "t", base_dir: Path::new("/base") };
+        let dir = std::env::temp_dir().join("spectrace-geometry-manifest-forms");
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(dir.join("a.csv"), "nm,r\n400,0.1\n700,0.2\n").unwrap_or_else(|e| panic!("{e}"));
+        let budget = Budget::new(crate::LoadOptions::default());
+        let ctx = ctx(&dir, &budget);
         let s = |t: &str| spectrum(&ctx, "x", &serde_json::from_str(t).unwrap_or(Value::Null));
         assert_eq!(s("0.9").ok(), Some(SpectrumDesc::Constant(0.9)));
         assert_eq!(s("\"colorchecker:13\"").ok(), Some(SpectrumDesc::Named("colorchecker:13".into())));
         assert_eq!(s("{\"rgb\":[1,0.5,0]}").ok(), Some(SpectrumDesc::Rgb([1.0, 0.5, 0.0])));
         assert_eq!(
             s("{\"csv\":\"a.csv\",\"column\":\"r\"}").ok(),
-            Some(SpectrumDesc::Csv { path: "/base/a.csv".into(), column: Some("r".into()) })
+            Some(SpectrumDesc::Csv { path: dir.join("a.csv"), column: Some("r".into()) })
         );
+        // A CSV must be a regular file under a relative path.
+        assert!(s("{\"csv\":\"missing.csv\"}").is_err());
+        assert!(s("{\"csv\":\"/dev/zero\"}").is_err());
         assert_eq!(
             s("{\"samples\":[[400,0.1],[700,0.9]]}").ok(),
             Some(SpectrumDesc::Samples { lambda: vec![400.0, 700.0], values: vec![0.1, 0.9] })
@@ -758,7 +534,8 @@ mod tests {
 
     #[test]
     fn ior_and_absorption_forms_parse() {
-        let ctx = Ctx { origin: "t", base_dir: Path::new("/") };
+        let budget = Budget::unlimited_paths();
+        let ctx = ctx(Path::new("/"), &budget);
         let v = |t: &str| serde_json::from_str::<Value>(t).unwrap_or(Value::Null);
         assert_eq!(ior(&ctx, "i", &v("0")).ok(), Some(IorDesc::Constant(0.0)));
         assert_eq!(
@@ -782,7 +559,8 @@ mod tests {
 
     #[test]
     fn transform_applies_scale_then_rotation_then_translation() {
-        let ctx = Ctx { origin: "t", base_dir: Path::new("/") };
+        let budget = Budget::unlimited_paths();
+        let ctx = ctx(Path::new("/"), &budget);
         let t: TransformJson =
             serde_json::from_str(r#"{"translate":[1,0,0],"rotate":{"axis":[0,0,1],"deg":90},"scale":2}"#)
                 .unwrap_or_else(|e| panic!("{e}"));
@@ -794,7 +572,8 @@ mod tests {
 
     #[test]
     fn row_major_matrix_translation_is_last_column() {
-        let ctx = Ctx { origin: "t", base_dir: Path::new("/") };
+        let budget = Budget::unlimited_paths();
+        let ctx = ctx(Path::new("/"), &budget);
         let t: TransformJson = serde_json::from_str(r#"{"matrix":[[1,0,0,5],[0,1,0,6],[0,0,1,7],[0,0,0,1]]}"#)
             .unwrap_or_else(|e| panic!("{e}"));
         let m = transform_matrix(&ctx, "t", t).unwrap_or_else(|e| panic!("{e}"));
@@ -803,7 +582,7 @@ mod tests {
 
     #[test]
     fn plane_faces_its_normal() {
-        let d = parse(r#"{"objects":[{"type":"plane","point":[0,0,0],"normal":[0,1,0],"size":2}]}"#)
+        let d = parse_text(r#"{"objects":[{"type":"plane","point":[0,0,0],"normal":[0,1,0],"size":2}]}"#)
             .unwrap_or_else(|e| panic!("{e}"));
         let m = &d.meshes[0];
         let [a, b, c] = m.indices()[0];
@@ -814,21 +593,9 @@ mod tests {
     }
 
     #[test]
-    fn mirrored_mesh_keeps_outward_winding() {
-        let dir = std::env::temp_dir().join("spectrace-geometry-manifest-mirror");
-        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-        std::fs::write(dir.join("t.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap_or_else(|e| panic!("{e}"));
-        let text = r#"{"objects":[{"type":"mesh","file":"t.obj","transform":{"scale":[1,1,-1]}}]}"#;
-        let d = parse_manifest(text, &dir, "m.json").unwrap_or_else(|e| panic!("{e}"));
-        let p = d.meshes[0].positions();
-        let [a, b, c] = d.meshes[0].indices()[0];
-        // The +z-facing triangle, mirrored in z, faces −z.
-        assert!((p[b as usize] - p[a as usize]).cross(p[c as usize] - p[a as usize]).z < 0.0);
-    }
-
-    #[test]
     fn unknown_material_key_goes_to_extras_with_a_warning() {
-        let d = parse(r#"{"materials":{"m":{"ks":0.1,"spectral_override":"x"}}}"#).unwrap_or_else(|e| panic!("{e}"));
+        let d =
+            parse_text(r#"{"materials":{"m":{"ks":0.1,"spectral_override":"x"}}}"#).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(d.materials[0].extras, Some(serde_json::json!({"spectral_override":"x"})));
         assert!(d.warnings.iter().any(|w| w.contains("spectral_override")));
     }

@@ -14,22 +14,36 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 use serde_json::{Map, Value};
 
+use crate::desc::{IorDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc};
 use crate::error::{Error, Result};
-use crate::scene::{IorDesc, MaterialDesc, SceneDescription, SpectrumDesc, guard_panic};
+use crate::limits::{
+    BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, MAX_SPECTRUM_FILE_BYTES, check_coordinates, guard_panic,
+};
 use crate::shapes::Mesh;
 
-/// Loads an `.obj` file; `mtllib` files resolve against its folder.
-pub(crate) fn load_obj_file(path: &Path) -> Result<SceneDescription> {
-    let bytes = std::fs::read(path).map_err(|cause| Error::ReadFile { path: path.to_path_buf(), cause })?;
+/// Loads an `.obj` file; `mtllib` files resolve against its folder. Everything it allocates is charged to
+/// `budget` first.
+pub(crate) fn load_obj_file(path: &Path, budget: &Budget) -> Result<SceneDescription> {
+    let bytes = budget.read(path, path, u64::MAX)?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
-    load_obj_text(&String::from_utf8_lossy(&bytes), Some(base), path)
+    load_obj_text(&String::from_utf8_lossy(&bytes), Some(base), path, budget)
 }
 
 /// Loads OBJ from memory. `base`: folder for `mtllib` (`None`: materials are not loaded, with a warning);
 /// `path`: the name used in messages.
-pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path) -> Result<SceneDescription> {
-    let mut desc = SceneDescription::empty();
-    prescan_obj(text, path, &mut desc.warnings)?;
+pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget: &Budget) -> Result<SceneDescription> {
+    let mut desc = SceneDescription::empty(SceneFormat::Obj);
+    let counts = prescan_obj(text, path, &mut desc.warnings)?;
+    // tobj's output before it is read: with `single_index` up to one vertex per face corner, and the
+    // triangles of the fan triangulation; charged before tobj allocates them.
+    budget.charge(
+        path,
+        || format!("{} face corners and {} triangles", counts.corners, counts.triangles),
+        counts
+            .corners
+            .saturating_mul(BYTES_PER_VERTEX)
+            .saturating_add(counts.triangles.saturating_mul(BYTES_PER_TRIANGLE)),
+    )?;
 
     // Per-material data tobj does not keep (Tf, spectral colours), and the first MTL error, captured by the
     // material loader closure (which can only return tobj's error type).
@@ -46,19 +60,33 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path) -> Res
             ));
             return Err(tobj::LoadError::OpenFileFailed);
         };
-        let mtl_path = base.join(mtl);
-        let text = match std::fs::read(&mtl_path) {
-            Ok(bytes) => String::from_utf8_lossy(&bytes).into_owned(),
+        let read = mtl
+            .to_str()
+            .ok_or_else(|| Error::ReadFile {
+                path: mtl.to_path_buf(),
+                cause: std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8"),
+            })
+            .and_then(|m| budget.resolve(path, base, m))
+            .and_then(|mtl_path| budget.read(path, &mtl_path, u64::MAX).map(|b| (mtl_path, b)));
+        let (mtl_path, text) = match read {
+            Ok((mtl_path, bytes)) => (mtl_path, String::from_utf8_lossy(&bytes).into_owned()),
+            // A missing MTL is a warning (the geometry still renders); a refused one (device, absolute
+            // path, over budget) is an error.
+            Err(
+                e @ (Error::NotRegularFile { .. }
+                | Error::AbsolutePath { .. }
+                | Error::OverBudget { .. }
+                | Error::FileTooLarge { .. }),
+            ) => {
+                mtl_error.borrow_mut().get_or_insert(e);
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
             Err(e) => {
-                mtl_warnings.borrow_mut().push(format!(
-                    "{}: cannot read {}: {e}; default materials used",
-                    path.display(),
-                    mtl_path.display()
-                ));
+                mtl_warnings.borrow_mut().push(format!("{}: {e}; default materials used", path.display()));
                 return Err(tobj::LoadError::OpenFileFailed);
             }
         };
-        match sanitize_mtl(&text, &mtl_path) {
+        match sanitize_mtl(&text, &mtl_path, budget) {
             Ok((clean, info, warnings)) => {
                 side.borrow_mut().extend(info);
                 mtl_warnings.borrow_mut().extend(warnings);
@@ -82,7 +110,7 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path) -> Res
     // A missing MTL file was reported as a warning above.
     let materials: Vec<tobj::Material> = materials.unwrap_or_default();
     for m in &materials {
-        desc.materials.push(material(m, side.get(&m.name)));
+        desc.materials.push(material(m, side.get(&m.name), path, &mut desc.warnings));
     }
 
     for model in models {
@@ -113,6 +141,7 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path) -> Res
         let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
         // Material ids index tobj's list, which we copied in order; ids past its end (missing MTL) mean none.
         let material = mesh.material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
+        check_coordinates(&positions, path, &context)?;
         let m = Mesh::new(positions, normals, uvs, indices, material).map_err(|e| Error::InvalidGeometry {
             path: path.to_path_buf(),
             context: context.clone(),
@@ -127,11 +156,58 @@ fn syntax(path: &Path, line: usize, message: impl Into<String>) -> Error {
     Error::ObjSyntax { path: path.to_path_buf(), line, message: message.into() }
 }
 
+/// What the pre-scan counted, for the budget.
+#[derive(Debug, Default)]
+struct Counts {
+    /// Face corners (vertex references on `f` lines).
+    corners: u64,
+    /// Triangles after fan triangulation.
+    triangles: u64,
+}
+
+/// OBJ statements the pre-scan knows are harmless for tobj (grouping, smoothing, materials, free-form
+/// surfaces tobj ignores); any other first word is reported as not an OBJ statement.
+const OTHER_STATEMENTS: &[&str] = &[
+    "o",
+    "g",
+    "s",
+    "mtllib",
+    "usemtl",
+    "vp",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "mg",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "lod",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+    "maplib",
+    "usemap",
+];
+
 /// Checks the OBJ lines tobj would mis-handle: vertex data (count and finiteness) and face indices (in range,
 /// non-zero, relative ones resolved), so every error has a line number and tobj never sees an overflow.
-fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<()> {
+fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<Counts> {
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
     let mut lines_and_points = 0usize;
+    let mut counts = Counts::default();
+    let mut unknown: Option<(usize, usize)> = None;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let mut words = raw.split_whitespace();
@@ -184,6 +260,10 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<()
                 if key == "p" {
                     continue; // tobj ignores `p` lines.
                 }
+                if key == "f" {
+                    counts.corners += rest.len() as u64;
+                    counts.triangles += rest.len().saturating_sub(2) as u64;
+                }
                 for token in &rest {
                     let parts: Vec<&str> = token.split('/').collect();
                     if parts.len() > 3 || parts[0].is_empty() {
@@ -218,7 +298,11 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<()
                     }
                 }
             }
-            _ => {}
+            k if k.starts_with('#') || OTHER_STATEMENTS.contains(&k) => {}
+            _ => {
+                let (count, _) = unknown.get_or_insert((0, line_no));
+                *count += 1;
+            }
         }
     }
     if lines_and_points > 0 {
@@ -227,7 +311,13 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<()
             path.display()
         ));
     }
-    Ok(())
+    if let Some((count, first)) = unknown {
+        warnings.push(format!(
+            "{}: {count} line(s) are not OBJ statements (the first is line {first}); ignored",
+            path.display()
+        ));
+    }
+    Ok(counts)
 }
 
 /// What the MTL pre-scan keeps aside for one material.
@@ -243,7 +333,7 @@ struct SideInfo {
 
 /// Rewrites MTL text into lines tobj parses without panicking; returns the text, per-material side info and
 /// warnings. Errors name the MTL file and line.
-fn sanitize_mtl(text: &str, path: &Path) -> Result<(String, HashMap<String, SideInfo>, Vec<String>)> {
+fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, HashMap<String, SideInfo>, Vec<String>)> {
     let mut out = String::with_capacity(text.len());
     let mut side: HashMap<String, SideInfo> = HashMap::new();
     let mut warnings = Vec::new();
@@ -280,9 +370,10 @@ fn sanitize_mtl(text: &str, path: &Path) -> Result<(String, HashMap<String, Side
                     let Some(file) = rest.get(1) else {
                         return Err(err(line_no, format!("`{key} spectral` without a file name")));
                     };
-                    let file_path = folder.join(file);
+                    let file_path = budget.resolve(path, &folder, file)?;
                     let is_csv = Path::new(file).extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
                     if is_csv {
+                        budget.check_file(path, &file_path, MAX_SPECTRUM_FILE_BYTES)?;
                         info.spectral.insert(key.to_owned(), SpectrumDesc::Csv { path: file_path, column: None });
                     } else {
                         warnings.push(format!(
@@ -365,70 +456,42 @@ fn expand(values: &[f32]) -> Option<[f32; 3]> {
     }
 }
 
-/// Phong exponent → roughness, inverting [`crate::scene::shininess_from_roughness`]: α = √(2/(n+2)), r = √α.
-fn roughness_from_shininess(n: f32) -> f32 {
-    (2.0 / (n.max(0.0) + 2.0)).sqrt().sqrt()
-}
-
-fn material(m: &tobj::Material, side: Option<&SideInfo>) -> MaterialDesc {
-    let mut d = MaterialDesc::named(m.name.clone());
+fn material(m: &tobj::Material, side: Option<&SideInfo>, path: &Path, warnings: &mut Vec<String>) -> MaterialDesc {
+    // Each statement as written; what `illum`, `d` and `Ks` mean for shading is the assembly's decision.
+    let mut d = MaterialDesc::new(m.name.clone(), MaterialFormat::Mtl);
     let spectral = |key: &str| side.and_then(|s| s.spectral.get(key).cloned());
-    if let Some(kd) = m.diffuse {
-        d.base_color = SpectrumDesc::Rgb(kd);
-    }
-    if let Some(s) = spectral("Kd") {
-        d.base_color = s;
-    }
-    let ks = spectral("Ks").or(m.specular.map(SpectrumDesc::Rgb));
-    if let Some(ks) = ks {
-        // The colour carries the magnitude; k_s = 1 unless Ks is black.
-        d.ks = if matches!(ks, SpectrumDesc::Rgb(c) if c.iter().all(|v| *v == 0.0)) { 0.0 } else { 1.0 };
-        d.specular = Some(ks);
-    }
-    if let Some(ns) = m.shininess.filter(|n| n.is_finite()) {
-        d.shininess = ns.max(0.0);
-        d.roughness = roughness_from_shininess(ns);
-    }
-    if let Some(ni) = m.optical_density.filter(|n| n.is_finite() && *n >= 0.0) {
-        d.ior = IorDesc::Constant(ni);
+    d.base_color = spectral("Kd").or(m.diffuse.map(SpectrumDesc::Rgb));
+    d.specular = spectral("Ks").or(m.specular.map(SpectrumDesc::Rgb));
+    d.shininess = m.shininess.filter(|n| n.is_finite());
+    match m.optical_density {
+        Some(ni) if ni.is_finite() && ni >= 0.0 => d.ior = Some(IorDesc::Constant(ni)),
+        Some(ni) => warnings.push(format!(
+            "{}: material '{}': Ni {ni} is not an index of refraction; the default is used",
+            path.display(),
+            m.name
+        )),
+        None => {}
     }
     let tf = side.and_then(|s| s.tf);
     d.transmittance = spectral("Tf").or(tf.map(SpectrumDesc::Rgb));
-    let dissolve = m.dissolve.unwrap_or(1.0).clamp(0.0, 1.0);
-    let illum = m.illumination_model.unwrap_or(2);
-    // illum 4, 6, 7: glass / refraction on (MTL specification's illumination models).
-    let refractive = matches!(illum, 4 | 6 | 7);
-    if dissolve < 1.0 {
-        d.transmission = 1.0 - dissolve;
-    } else if refractive {
-        d.transmission = tf.map_or(1.0, |t| t.iter().copied().fold(0.0, f32::max).min(1.0));
-    }
-    if d.transmission > 0.0 {
-        d.model = Some("dielectric".into());
-    } else if illum == 5 || illum == 3 {
-        // Reflection on; with illum 5 also Fresnel. The Hall model covers both.
-        d.model = Some("hall".into());
-    }
-    let ke = spectral("Ke").or(m.emissive.map(SpectrumDesc::Rgb));
-    if let Some(ke) = ke {
-        d.emission = Some(ke);
-    }
+    d.dissolve = m.dissolve;
+    d.illum = m.illumination_model;
+    d.emission = spectral("Ke").or(m.emissive.map(SpectrumDesc::Rgb));
     let mut extras = side.map(|s| s.extras.clone()).unwrap_or_default();
     for (k, v) in &m.unknown_param {
         extras.entry(k.clone()).or_insert_with(|| Value::String(v.clone()));
     }
-    extras.insert("illum".into(), serde_json::json!(illum));
     if let Some(ka) = m.ambient {
         extras.insert("Ka".into(), serde_json::json!(ka));
     }
-    d.extras = Some(Value::Object(extras));
+    d.extras = (!extras.is_empty()).then_some(Value::Object(extras));
     d
 }
 
 /// For tests: the sanitised MTL text, without the side info.
 #[cfg(test)]
 pub(crate) fn sanitize_mtl_text(text: &str, path: &Path) -> Result<String> {
-    sanitize_mtl(text, path).map(|(t, _, _)| t)
+    sanitize_mtl(text, path, &Budget::unlimited_paths()).map(|(t, _, _)| t)
 }
 
 #[cfg(test)]
@@ -452,16 +515,15 @@ mod tests {
 
     #[test]
     fn spectral_csv_reference_becomes_csv_spectrum() {
-        let (_, side, _) =
-            sanitize_mtl("newmtl a\nKd spectral refl.csv\n", Path::new("/x/t.mtl")).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(side["a"].spectral["Kd"], SpectrumDesc::Csv { path: "/x/refl.csv".into(), column: None });
-    }
-
-    #[test]
-    fn shininess_roughness_round_trip() {
-        for r in [0.2f32, 0.5, 0.9] {
-            let n = crate::scene::shininess_from_roughness(r);
-            assert!((roughness_from_shininess(n) - r).abs() < 1e-4, "{r}");
-        }
+        let dir = std::env::temp_dir().join("spectrace-geometry-obj-spectral");
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(dir.join("refl.csv"), "nm,r\n400,0.1\n700,0.2\n").unwrap_or_else(|e| panic!("{e}"));
+        let budget = Budget::new(crate::LoadOptions::default());
+        let (_, side, _) = sanitize_mtl("newmtl a\nKd spectral refl.csv\n", &dir.join("t.mtl"), &budget)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(side["a"].spectral["Kd"], SpectrumDesc::Csv { path: dir.join("refl.csv"), column: None });
+        // A CSV that does not exist is refused when the MTL is read, not later.
+        let e = sanitize_mtl("newmtl a\nKd spectral ../../../../dev/zero.csv\n", &dir.join("t.mtl"), &budget);
+        assert!(e.is_err());
     }
 }

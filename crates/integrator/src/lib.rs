@@ -35,6 +35,7 @@ mod path;
 mod render;
 mod sampling;
 mod spectral;
+mod summary;
 mod whitted;
 
 pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
@@ -46,6 +47,7 @@ pub use render::{
     WhittedOptions, render, render_film,
 };
 pub use spectral::{MAX_BINS, SpectralMode};
+pub use summary::summarize;
 
 /// Spikiness (see `materials::spikiness`) above which a spectrum counts as a line spectrum
 /// that coarse wavelength sampling would miss. Measured: F2 1.52, F11 1.01; D50 0.22,

@@ -32,9 +32,11 @@ fn xy(v: &Value) -> DVec2 {
 fn monochromatic_scene(lambda: f64) -> RenderScene {
     let mut m = manifest();
     m["materials"]["slit"]["emission"] = json!({"samples": [[lambda - 5.0, 0.0], [lambda, 1.0], [lambda + 5.0, 0.0]]});
-    let mesh = reference_dir().join("prism.obj");
-    m["objects"][0]["file"] = json!(mesh.to_str().unwrap());
-    let file = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("prism_{lambda}.json"));
+    // Scene files may refer only to files beside or below them: copy the mesh next to it.
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    std::fs::copy(reference_dir().join("prism.obj"), dir.join("prism.obj")).unwrap();
+    m["objects"][0]["file"] = json!("prism.obj");
+    let file = dir.join(format!("prism_{lambda}.json"));
     std::fs::write(&file, m.to_string()).unwrap();
     RenderScene::load(&file).expect("monochromatic prism loads")
 }

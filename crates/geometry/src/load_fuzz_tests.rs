@@ -9,7 +9,9 @@ use std::path::Path;
 
 use proptest::prelude::*;
 
+use crate::desc::SceneDescription;
 use crate::error::Error;
+use crate::limits::Budget;
 
 fn scenes_dir() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")
@@ -33,13 +35,24 @@ fn check<T: std::fmt::Debug>(
     }
 }
 
+/// A budget small enough that a fuzzed claim of a huge accessor is refused quickly (256 MiB).
+fn budget() -> Budget {
+    Budget::new(crate::LoadOptions { max_memory: 256 << 20, allow_absolute_paths: false })
+}
+
+/// What the loaders produced, through the pre-filter and the BVH build (obvhs must not panic either).
+fn build(desc: SceneDescription) -> crate::error::Result<crate::Scene> {
+    let (meshes, _) = crate::prefilter::remove_unhittable(desc.meshes);
+    crate::Scene::build(desc.spheres, meshes)
+}
+
 fn gltf(bytes: &[u8]) -> std::result::Result<(), TestCaseError> {
-    check(bytes, || crate::gltf_loader::load_gltf_slice(bytes, None, Path::new("fuzz.gltf")))
+    check(bytes, || build(crate::gltf_loader::load_gltf_slice(bytes, None, Path::new("fuzz.gltf"), &budget())?))
 }
 
 fn obj(bytes: &[u8]) -> std::result::Result<(), TestCaseError> {
     let text = String::from_utf8_lossy(bytes);
-    check(bytes, || crate::obj_loader::load_obj_text(&text, None, Path::new("fuzz.obj")))
+    check(bytes, || build(crate::obj_loader::load_obj_text(&text, None, Path::new("fuzz.obj"), &budget())?))
 }
 
 fn mtl(bytes: &[u8]) -> std::result::Result<(), TestCaseError> {
@@ -47,8 +60,9 @@ fn mtl(bytes: &[u8]) -> std::result::Result<(), TestCaseError> {
     check(bytes, || {
         let clean = crate::obj_loader::sanitize_mtl_text(&text, Path::new("fuzz.mtl"))?;
         // tobj's own errors are fine; only a panic is a failure.
-        let _ =
-            crate::scene::guard_panic(Path::new("fuzz.mtl"), "tobj", || Ok(tobj::load_mtl_buf(&mut clean.as_bytes())))?;
+        let _ = crate::limits::guard_panic(Path::new("fuzz.mtl"), "tobj", || {
+            Ok(tobj::load_mtl_buf(&mut clean.as_bytes()))
+        })?;
         Ok(())
     })
 }
@@ -57,7 +71,7 @@ fn manifest(bytes: &[u8]) -> std::result::Result<(), TestCaseError> {
     let text = String::from_utf8_lossy(bytes);
     // Mesh references resolve under the scenes folder, so mutated manifests also load real files.
     let base = scenes_dir().join("paper");
-    check(bytes, || crate::manifest::parse_manifest(&text, &base, "fuzz.json"))
+    check(bytes, || build(crate::load::parse_manifest(&text, &base, "fuzz.json")?))
 }
 
 /// Applies random edits (byte overwrite, insert, delete, truncate) to a valid file.

@@ -1,19 +1,23 @@
 //! The JSON summary printed by `spectrace info SCENE`: what the scene contains and what it needs, so the
-//! layers above can "model only what a scene needs" (dispersion, absorbing media, spiky spectra).
+//! renderer can "model only what a scene needs" (dispersion, absorbing media, spiky spectra). The facts
+//! that need interpretation (does a material transmit, disperse, absorb, emit; which camera and lights)
+//! are the assembled scene's, so `info` reports what a render does, not what the file hints.
 
+use geometry::{CameraDesc, IorDesc, LightDesc, MaterialDesc, SceneDescription, SpectrumDesc};
+use materials::Material;
 use serde_json::{Value, json};
 
-use crate::bvh::Scene;
-use crate::scene::{AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, SceneDescription, SpectrumDesc};
+use crate::assembly::RenderScene;
 
-/// Summarises a loaded scene and its built BVH as JSON.
+/// Summarises a loaded description and the scene assembled from it as JSON.
 ///
 /// Keys: `triangles`, `spheres`, `meshes`, `materials` (each with `name`, `model`, `uses`: `transmission`,
 /// `absorption`, `dispersion`, `emission`, and its spectra), `lights`, `camera`, `bounds` (`min`, `max`),
 /// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `settings`, `warnings`, and `needs`:
 /// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
 /// the names or files of the non-RGB spectra used (for the layers above to check for spikes).
-pub fn summarize(desc: &SceneDescription, scene: &Scene) -> Value {
+pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
+    let scene = render_scene.geometry();
     let stats = scene.stats();
     let (lo, hi) = scene.bounds();
     // Only materials some primitive uses count towards `needs` (a file may define unused ones).
@@ -24,7 +28,9 @@ pub fn summarize(desc: &SceneDescription, scene: &Scene) -> Value {
             *u = true;
         }
     }
-    let used_materials = || desc.materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
+    let used_materials_desc = || desc.materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
+    let assembled = render_scene.materials();
+    let used_assembled = || assembled.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
 
     let mut spectral_inputs: Vec<String> = Vec::new();
     let mut note = |s: &SpectrumDesc| {
@@ -35,26 +41,27 @@ pub fn summarize(desc: &SceneDescription, scene: &Scene) -> Value {
             }
         }
     };
-    for m in used_materials() {
+    for m in used_materials_desc() {
         for (_, s) in m.spectra() {
             note(s);
         }
     }
-    for l in &desc.lights {
+    for l in &render_scene.light_descs {
         note(l.spectrum());
     }
     if let Some((s, _)) = &desc.background {
         note(s);
     }
 
-    let materials: Vec<Value> = desc.materials.iter().zip(&used).map(|(m, u)| material_json(m, *u)).collect();
+    let materials: Vec<Value> =
+        desc.materials.iter().zip(assembled).zip(&used).map(|((d, m), u)| material_json(d, m, *u)).collect();
     json!({
         "triangles": scene.triangle_count(),
         "spheres": scene.sphere_count(),
         "meshes": desc.meshes.len(),
         "materials": materials,
-        "lights": desc.lights.iter().map(light_json).collect::<Vec<_>>(),
-        "camera": desc.camera.as_ref().map(camera_json),
+        "lights": render_scene.light_descs.iter().map(light_json).collect::<Vec<_>>(),
+        "camera": camera_json(&render_scene.camera),
         "background": desc.background.as_ref().map(|(s, i)| json!({"spectrum": s.label(), "intensity": i})),
         "bounds": {"min": lo.to_array(), "max": hi.to_array()},
         "bvh": {
@@ -64,27 +71,15 @@ pub fn summarize(desc: &SceneDescription, scene: &Scene) -> Value {
             "bytes_per_primitive": stats.bytes_per_primitive,
         },
         "settings": desc.settings,
-        "warnings": desc.warnings,
+        "warnings": render_scene.warnings,
         "needs": {
-            "dispersion": used_materials().any(MaterialDesc::is_dispersive),
-            "absorbing_media": used_materials().any(|m| m.is_transmissive() && absorbs(m)),
-            "emission": used_materials().any(MaterialDesc::is_emissive),
-            "transmission": used_materials().any(MaterialDesc::is_transmissive),
+            "dispersion": used_assembled().any(Material::is_dispersive),
+            "absorbing_media": used_assembled().any(Material::absorbs),
+            "emission": used_assembled().any(Material::emits),
+            "transmission": used_assembled().any(Material::is_transmissive),
             "spectral_inputs": spectral_inputs,
         },
     })
-}
-
-/// Whether the material's absorption attenuates at all (a per-unit transmittance of exactly 1, σ_a = 0 or an
-/// infinite attenuation distance does not).
-fn absorbs(m: &MaterialDesc) -> bool {
-    match &m.absorption {
-        None => false,
-        Some(AbsorptionDesc::PerUnit(SpectrumDesc::Constant(t))) => *t < 1.0,
-        Some(AbsorptionDesc::SigmaA(SpectrumDesc::Constant(s))) => *s > 0.0,
-        Some(AbsorptionDesc::Attenuation { distance, .. }) => distance.is_finite(),
-        Some(_) => true,
-    }
 }
 
 fn ior_json(ior: &IorDesc) -> Value {
@@ -96,19 +91,19 @@ fn ior_json(ior: &IorDesc) -> Value {
     }
 }
 
-fn material_json(m: &MaterialDesc, used: bool) -> Value {
+fn material_json(d: &MaterialDesc, m: &Material, used: bool) -> Value {
     json!({
-        "name": m.name,
-        "model": m.model,
+        "name": d.name,
+        "model": d.model,
         "used": used,
         "uses": {
             "transmission": m.is_transmissive(),
-            "absorption": m.is_transmissive() && absorbs(m),
+            "absorption": m.absorbs(),
             "dispersion": m.is_dispersive(),
-            "emission": m.is_emissive(),
+            "emission": m.emits(),
         },
-        "ior": ior_json(&m.ior),
-        "spectra": m.spectra().into_iter().map(|(k, s)| json!({"field": k, "spectrum": s.label()})).collect::<Vec<_>>(),
+        "ior": d.ior.as_ref().map(ior_json),
+        "spectra": d.spectra().into_iter().map(|(k, s)| json!({"field": k, "spectrum": s.label()})).collect::<Vec<_>>(),
     })
 }
 
@@ -149,4 +144,46 @@ fn camera_json(c: &CameraDesc) -> Value {
         "width": c.width,
         "height": c.height,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+
+    fn summary(json: &str) -> Value {
+        let desc = geometry::parse_manifest(json, Path::new("."), "t.json").unwrap_or_else(|e| panic!("{e}"));
+        let scene = RenderScene::from_description(desc.clone()).unwrap_or_else(|e| panic!("{e}"));
+        summarize(&desc, &scene)
+    }
+
+    /// Issue 10: `"model": "dielectric"` with transmission 0 renders diffuse, so `info` must not call it
+    /// transmissive (the description's hint said it was).
+    #[test]
+    fn dielectric_model_without_transmission_is_reported_as_rendered() {
+        let s = summary(
+            r#"{"materials": {"g": {"model": "dielectric", "ior": {"abbe": {"nd": 1.5, "vd": 30}}}},
+                "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "g"}]}"#,
+        );
+        assert_eq!(s["materials"][0]["model"], json!("dielectric"));
+        assert_eq!(s["materials"][0]["uses"]["transmission"], json!(false));
+        assert_eq!(s["materials"][0]["uses"]["dispersion"], json!(false));
+        assert_eq!(s["needs"]["transmission"], json!(false));
+        let t = summary(
+            r#"{"materials": {"g": {"transmission": 1, "ior": {"abbe": {"nd": 1.5, "vd": 30}}}},
+                "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "g"}]}"#,
+        );
+        assert_eq!(t["needs"]["transmission"], json!(true));
+        assert_eq!(t["needs"]["dispersion"], json!(true));
+    }
+
+    /// The default light is reported (it is part of the assembled scene), once.
+    #[test]
+    fn default_light_and_camera_are_reported() {
+        let s = summary(r#"{"objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}]}"#);
+        assert_eq!(s["lights"].as_array().map(Vec::len), Some(1));
+        assert_eq!(s["lights"][0]["spectrum"], json!("D65"));
+        assert_eq!(s["camera"]["vfov_deg"], json!(40.0));
+    }
 }

@@ -1,0 +1,384 @@
+//! The plain scene descriptions every loader produces and the layers above consume: numbers, names and file
+//! references exactly as the file wrote them.
+//!
+//! This module is the bottom of the loader stack: it depends on no loader, and the loaders (`manifest`,
+//! `gltf_loader`, `obj_loader`) depend only on it and on `limits`; `load` dispatches on top. Geometry knows
+//! nothing of colour (see the crate docs) and decides nothing about shading: defaults that depend on the
+//! file format, Hall coefficients derived from glTF or MTL parameters, the default camera and light, and
+//! whether a material transmits or disperses are decided once, by the integrator's scene assembly.
+//! The file formats are documented in `docs/scene-format.md`.
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+
+use crate::shapes::{Mesh, Sphere};
+
+/// A spectrum as written in a scene file, not yet interpreted.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SpectrumDesc {
+    /// A flat spectrum, e.g. `0.9`.
+    Constant(f32),
+    /// A built-in spectrum by name: `"D65"`, `"A"`, `"F11"`, `"E"`, `"bb6500"` (blackbody at 6500 K),
+    /// `"colorchecker:13"`, `"tcs:09"`, … The `materials`/`colorimetry` crates decide which names exist.
+    Named(String),
+    /// A linear sRGB colour (glTF `baseColorFactor`, OBJ `Kd`), to be upsampled to a spectrum.
+    Rgb([f32; 3]),
+    /// A column of a CSV file (wavelength in nm first); the path is already resolved against the scene file's
+    /// folder. `column: None` means the first value column.
+    Csv {
+        /// Resolved path of the CSV file.
+        path: PathBuf,
+        /// Header name of the value column.
+        column: Option<String>,
+    },
+    /// Piecewise-linear samples; `lambda` (nm) strictly increasing, both finite, equal lengths ≥ 2.
+    Samples {
+        /// Wavelengths in nanometres.
+        lambda: Vec<f32>,
+        /// Values at those wavelengths.
+        values: Vec<f32>,
+    },
+}
+
+impl SpectrumDesc {
+    /// Whether this spectrum is given as RGB or a constant (`false`) rather than spectral data that the
+    /// layers above must inspect for spikes (named, CSV or sampled: `true`).
+    pub fn is_spectral(&self) -> bool {
+        matches!(self, Self::Named(_) | Self::Csv { .. } | Self::Samples { .. })
+    }
+
+    /// A short human-readable label: the name, the CSV file (and column), or `samples[N]`.
+    pub fn label(&self) -> String {
+        match self {
+            Self::Constant(v) => format!("{v}"),
+            Self::Named(name) => name.clone(),
+            Self::Rgb([r, g, b]) => format!("rgb({r}, {g}, {b})"),
+            Self::Csv { path, column: Some(c) } => format!("{}#{c}", path.display()),
+            Self::Csv { path, column: None } => path.display().to_string(),
+            Self::Samples { lambda, .. } => format!("samples[{}]", lambda.len()),
+        }
+    }
+}
+
+/// An index of refraction, constant or varying with wavelength.
+#[derive(Clone, Debug, PartialEq)]
+pub enum IorDesc {
+    /// A constant IOR. `0.0` is glTF's special mode of `KHR_materials_ior` (Fresnel ≡ 1: all light is
+    /// reflected or transmitted according to the transmission factor, no refraction) and is kept as is.
+    Constant(f32),
+    /// Cauchy: n(λ) = a + b / λ², λ in µm, `b` in µm².
+    Cauchy {
+        /// Constant term.
+        a: f32,
+        /// Coefficient of 1/λ² (µm²).
+        b: f32,
+    },
+    /// Sellmeier: n²(λ) = 1 + Σ bᵢ λ² / (λ² − cᵢ), λ in µm, `c` in µm².
+    Sellmeier {
+        /// Numerator coefficients.
+        b: [f32; 3],
+        /// Resonance terms (µm²).
+        c: [f32; 3],
+    },
+    /// From the refractive index at the d line (587.6 nm) and the Abbe number.
+    Abbe {
+        /// n_d, refractive index at 587.56 nm.
+        nd: f32,
+        /// V_d, Abbe number (> 0).
+        vd: f32,
+    },
+}
+
+/// Absorption inside a transparent object (Bouguer–Beer).
+#[derive(Clone, Debug, PartialEq)]
+pub enum AbsorptionDesc {
+    /// The paper's t_λ: transmittance per unit length, T = t_λ^b for a path of length b (scene units).
+    PerUnit(SpectrumDesc),
+    /// Absorption coefficient σ_a per scene unit, T = exp(−σ_a b).
+    SigmaA(SpectrumDesc),
+    /// glTF `KHR_materials_volume`: T = color^(b / distance) (linear RGB colour, distance in scene units).
+    Attenuation {
+        /// `attenuationColor`, the transmittance after travelling `distance`.
+        color: [f32; 3],
+        /// `attenuationDistance` (> 0, may be `f32::INFINITY` meaning no absorption).
+        distance: f32,
+    },
+}
+
+/// The file format a material was read from. Its fields mean what that format says (a glTF roughness, an MTL
+/// `Ns`, a manifest `ks`), and the defaults for unwritten fields depend on it, so the layers above need it
+/// to interpret the material.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MaterialFormat {
+    /// A manifest `materials` entry (`docs/scene-format.md`).
+    Manifest,
+    /// A glTF 2.0 material (metallic-roughness PBR with the `KHR_materials_*` extensions read).
+    Gltf,
+    /// A Wavefront MTL `newmtl` block.
+    Mtl,
+}
+
+/// A material as read from a scene file: every parameter as the file wrote it, `None` where the file does
+/// not say. Nothing is derived here (no shininess from roughness, no model from `illum`); the integrator's
+/// assembly interprets the record according to [`MaterialDesc::format`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialDesc {
+    /// Name (from the manifest key, glTF material name or `newmtl`); unique names are not enforced for files.
+    pub name: String,
+    /// The format whose meaning the fields carry.
+    pub format: MaterialFormat,
+    /// The manifest's explicit `model` key: `"hall"`, `"diffuse"`, `"dielectric"`, `"conductor"`, `"mirror"`.
+    /// Only a manifest writes it; nothing is guessed.
+    pub model: Option<String>,
+    /// Diffuse colour: manifest `base_color`, glTF `baseColorFactor` (RGB part), MTL `Kd`.
+    pub base_color: Option<SpectrumDesc>,
+    /// Manifest `diffuse` (k_d of Hall's model).
+    pub diffuse: Option<f32>,
+    /// Specular colour: manifest `specular`, MTL `Ks`.
+    pub specular: Option<SpectrumDesc>,
+    /// Manifest `ks` (k_s of Hall's model).
+    pub ks: Option<f32>,
+    /// Phong/Hall exponent: manifest `shininess`, MTL `Ns`.
+    pub shininess: Option<f32>,
+    /// Manifest `metallic`, glTF `metallicFactor` (as written, not clamped).
+    pub metallic: Option<f32>,
+    /// Manifest `roughness`, glTF `roughnessFactor` (as written, not clamped).
+    pub roughness: Option<f32>,
+    /// Manifest `transmission`, glTF `KHR_materials_transmission.transmissionFactor`.
+    pub transmission: Option<f32>,
+    /// Spectral transmittance: manifest `transmittance`, MTL `Tf`.
+    pub transmittance: Option<SpectrumDesc>,
+    /// Index of refraction: manifest `ior`, glTF `KHR_materials_ior.ior`, MTL `Ni`.
+    pub ior: Option<IorDesc>,
+    /// Manifest `dispersion`, glTF `KHR_materials_dispersion.dispersion` (20 / Abbe number).
+    pub dispersion: Option<f32>,
+    /// Absorption inside the object: manifest `absorption`, glTF `KHR_materials_volume` attenuation.
+    pub absorption: Option<AbsorptionDesc>,
+    /// Manifest `thickness`, glTF `KHR_materials_volume.thicknessFactor` (scene units). Not rendered yet.
+    pub thickness: Option<f32>,
+    /// Emitted radiance spectrum: manifest `emission`, glTF `emissiveFactor` (when not black), MTL `Ke`.
+    pub emission: Option<SpectrumDesc>,
+    /// Manifest `emission_strength`, glTF `KHR_materials_emissive_strength.emissiveStrength`.
+    pub emission_strength: Option<f32>,
+    /// Manifest `double_sided`, glTF `doubleSided`. Not rendered yet.
+    pub double_sided: Option<bool>,
+    /// MTL `d` (dissolve; `Tr` is read as `d = 1 − Tr`).
+    pub dissolve: Option<f32>,
+    /// MTL `illum` (illumination model number, 0–10).
+    pub illum: Option<u8>,
+    /// Raw glTF material `extras`, unknown manifest keys, or MTL statements this loader does not read, passed
+    /// up untouched (spectral overrides go here).
+    pub extras: Option<serde_json::Value>,
+}
+
+impl MaterialDesc {
+    /// A material of the given format in which the file says nothing (every parameter `None`).
+    pub fn new(name: impl Into<String>, format: MaterialFormat) -> Self {
+        Self {
+            name: name.into(),
+            format,
+            model: None,
+            base_color: None,
+            diffuse: None,
+            specular: None,
+            ks: None,
+            shininess: None,
+            metallic: None,
+            roughness: None,
+            transmission: None,
+            transmittance: None,
+            ior: None,
+            dispersion: None,
+            absorption: None,
+            thickness: None,
+            emission: None,
+            emission_strength: None,
+            double_sided: None,
+            dissolve: None,
+            illum: None,
+            extras: None,
+        }
+    }
+
+    /// A manifest material in which nothing is written (the renderer's defaults apply to every field).
+    pub fn named(name: impl Into<String>) -> Self {
+        Self::new(name, MaterialFormat::Manifest)
+    }
+
+    /// Every spectrum this material refers to, with the field it comes from.
+    pub fn spectra(&self) -> Vec<(&'static str, &SpectrumDesc)> {
+        let mut out = Vec::new();
+        if let Some(s) = &self.base_color {
+            out.push(("base_color", s));
+        }
+        if let Some(s) = &self.specular {
+            out.push(("specular", s));
+        }
+        if let Some(s) = &self.transmittance {
+            out.push(("transmittance", s));
+        }
+        if let Some(s) = &self.emission {
+            out.push(("emission", s));
+        }
+        match &self.absorption {
+            Some(AbsorptionDesc::PerUnit(s)) => out.push(("absorption", s)),
+            Some(AbsorptionDesc::SigmaA(s)) => out.push(("absorption", s)),
+            _ => {}
+        }
+        out
+    }
+}
+
+/// A light source as written in a scene file. Intensities are numbers scaling the spectrum; the integrator
+/// defines the units (`docs/scene-format.md` gives the conventions).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LightDesc {
+    /// Isotropic point light; irradiance at distance d is `intensity · spectrum / d²`.
+    Point {
+        /// World position.
+        position: Vec3,
+        /// Emission spectrum.
+        spectrum: SpectrumDesc,
+        /// Scale (glTF: candela).
+        intensity: f32,
+    },
+    /// Spot light, full intensity inside `inner_cone_deg`, smooth falloff to zero at `outer_cone_deg`.
+    Spot {
+        /// World position.
+        position: Vec3,
+        /// Unit direction the spot points to.
+        direction: Vec3,
+        /// Half-angle of the full-intensity cone, degrees.
+        inner_cone_deg: f32,
+        /// Half-angle where the intensity reaches zero, degrees.
+        outer_cone_deg: f32,
+        /// Emission spectrum.
+        spectrum: SpectrumDesc,
+        /// Scale (glTF: candela).
+        intensity: f32,
+    },
+    /// Distant light; `direction` is the unit direction the light travels.
+    Directional {
+        /// Unit direction of travel.
+        direction: Vec3,
+        /// Emission spectrum.
+        spectrum: SpectrumDesc,
+        /// Scale (glTF: lux, irradiance on a surface facing the light).
+        intensity: f32,
+    },
+    /// Uniform environment illuminating the scene from all directions.
+    Environment {
+        /// Emission spectrum.
+        spectrum: SpectrumDesc,
+        /// Scale (radiance).
+        intensity: f32,
+    },
+}
+
+impl LightDesc {
+    /// The light's kind as a lowercase word (`"point"`, `"spot"`, `"directional"`, `"environment"`).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Self::Point { .. } => "point",
+            Self::Spot { .. } => "spot",
+            Self::Directional { .. } => "directional",
+            Self::Environment { .. } => "environment",
+        }
+    }
+
+    /// The light's spectrum.
+    pub fn spectrum(&self) -> &SpectrumDesc {
+        match self {
+            Self::Point { spectrum, .. }
+            | Self::Spot { spectrum, .. }
+            | Self::Directional { spectrum, .. }
+            | Self::Environment { spectrum, .. } => spectrum,
+        }
+    }
+}
+
+/// A pinhole camera as written in a scene file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraDesc {
+    /// Eye position.
+    pub position: Vec3,
+    /// Point looked at.
+    pub look_at: Vec3,
+    /// Up vector (need not be unit or orthogonal to the view direction, must not be parallel to it).
+    pub up: Vec3,
+    /// Vertical field of view in degrees, in (0, 180).
+    pub vfov_deg: f32,
+    /// Image width in pixels, if the file fixes it.
+    pub width: Option<u32>,
+    /// Image height in pixels, if the file fixes it.
+    pub height: Option<u32>,
+}
+
+/// The kind of file a scene was loaded from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneFormat {
+    /// A scene manifest (`.json`).
+    Manifest,
+    /// A glTF 2.0 file (`.gltf`, `.glb`) loaded directly.
+    Gltf,
+    /// A Wavefront OBJ file (`.obj`) loaded directly.
+    Obj,
+}
+
+/// Everything read from a scene file: world-space geometry, materials, lights, camera and settings.
+#[derive(Clone, Debug)]
+pub struct SceneDescription {
+    /// The file's format.
+    pub format: SceneFormat,
+    /// Analytic spheres; material indices point into `materials`.
+    pub spheres: Vec<Sphere>,
+    /// World-space triangle meshes; material indices point into `materials`.
+    pub meshes: Vec<Mesh>,
+    /// Materials, indexed by the shapes' material indices.
+    pub materials: Vec<MaterialDesc>,
+    /// Light sources.
+    pub lights: Vec<LightDesc>,
+    /// The camera, if the file has one.
+    pub camera: Option<CameraDesc>,
+    /// Radiance seen by rays that escape the scene (spectrum, scale); not a light.
+    pub background: Option<(SpectrumDesc, f32)>,
+    /// Free-form render settings from the manifest (`"max_depth"`, …), interpreted by the layers above.
+    pub settings: serde_json::Map<String, serde_json::Value>,
+    /// Things the user should know: skipped primitives, ignored textures, defaults added.
+    pub warnings: Vec<String>,
+}
+
+impl SceneDescription {
+    /// An empty description of a file of the given format.
+    pub fn empty(format: SceneFormat) -> Self {
+        Self {
+            format,
+            spheres: Vec::new(),
+            meshes: Vec::new(),
+            materials: Vec::new(),
+            lights: Vec::new(),
+            camera: None,
+            background: None,
+            settings: serde_json::Map::new(),
+            warnings: Vec::new(),
+        }
+    }
+
+    /// Axis-aligned bounds of all spheres and mesh vertices, `None` when the scene has no geometry.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for s in &self.spheres {
+            lo = lo.min(s.center() - Vec3::splat(s.radius()));
+            hi = hi.max(s.center() + Vec3::splat(s.radius()));
+        }
+        for m in &self.meshes {
+            for p in m.positions() {
+                lo = lo.min(*p);
+                hi = hi.max(*p);
+            }
+        }
+        (lo.x <= hi.x).then_some((lo, hi))
+    }
+}

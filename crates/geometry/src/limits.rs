@@ -1,0 +1,223 @@
+//! What a scene file may cost: the per-scene memory budget, the rules for files a scene refers to, the
+//! coordinate range the BVH build accepts, and the panic guard around third-party parsers.
+//!
+//! Every loader charges the budget **before** it allocates, so a small file that claims a large amount of
+//! data (a 1 KB glTF whose 50 nodes share one huge accessor, a view-less accessor of 10⁹ zeros) is refused
+//! with an error naming the file and the budget, never by the allocator aborting the process. The budget
+//! is per scene: a manifest and every file it includes share one.
+
+use std::cell::Cell;
+use std::path::{Component, Path, PathBuf};
+
+use glam::Vec3;
+
+use crate::error::{Error, Result};
+
+/// Default [`LoadOptions::max_memory`]: 8 GiB. Far above any committed or hand-made scene (the largest,
+/// a 2 M-triangle mesh, is charged ≈ 0.6 GB), below the memory of the machines the project targets, so a
+/// hostile file is refused before the operating system has to kill the process.
+pub const DEFAULT_MAX_MEMORY: u64 = 8 << 30;
+
+/// Largest magnitude of a coordinate the loaders accept (scene units). obvhs's build panics once spans
+/// reach ≈ 1e25 (issue 16), and the watertight test's products and the default light's intensity (the
+/// square of ten bounding radii) must stay finite in f32 (max ≈ 3.4e38): 1e18 leaves a margin for both.
+pub const MAX_COORDINATE: f32 = 1e18;
+
+/// Largest spectrum CSV a scene may refer to. A 1 nm table from 300 to 830 nm with a dozen columns is
+/// ≈ 50 KB; 16 MiB leaves room for any measured data while keeping the CSV parser's working set small.
+pub const MAX_SPECTRUM_FILE_BYTES: u64 = 16 << 20;
+
+/// Memory charged per triangle that reaches the renderer: its indices in the mesh (12 B), its vertices in
+/// the BVH's leaf order (36 B + 4 B index), its padded bounds (32 B), and obvhs's build (Morton codes,
+/// PLOC's binary nodes and the compressed wide nodes: ≈ 120 B measured on a 2 M-triangle mesh), rounded up.
+pub const BYTES_PER_TRIANGLE: u64 = 256;
+
+/// Memory charged per vertex: position, normal and UV (32 B), twice (the file's copy and the world-space
+/// copy a node or manifest transform makes).
+pub const BYTES_PER_VERTEX: u64 = 64;
+
+/// How much a scene may cost to load, and which files it may refer to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Upper bound on the memory a scene's data may take (bytes): files read, decoded accessors, vertices and
+    /// triangles (with their share of the BVH). Default [`DEFAULT_MAX_MEMORY`].
+    pub max_memory: u64,
+    /// Whether a scene may refer to files by absolute path (`"file": "/data/mesh.obj"`, a buffer URI
+    /// `file:///…`, `mtllib /…`). Off by default: a scene is a folder that can be moved or shared, and a
+    /// file it did not come with is more likely a mistake (or a probe) than intended.
+    pub allow_absolute_paths: bool,
+}
+
+impl Default for LoadOptions {
+    fn default() -> Self {
+        Self { max_memory: DEFAULT_MAX_MEMORY, allow_absolute_paths: false }
+    }
+}
+
+/// The running cost of one scene load, checked against [`LoadOptions`].
+#[derive(Debug)]
+pub(crate) struct Budget {
+    pub(crate) options: LoadOptions,
+    used: Cell<u64>,
+}
+
+impl Budget {
+    pub(crate) fn new(options: LoadOptions) -> Self {
+        Self { options, used: Cell::new(0) }
+    }
+
+    /// A budget with the default options, for in-memory loads (tests, fuzzing).
+    #[cfg(test)]
+    pub(crate) fn unlimited_paths() -> Self {
+        Self::new(LoadOptions { allow_absolute_paths: true, ..LoadOptions::default() })
+    }
+
+    /// Bytes charged so far.
+    #[cfg(test)]
+    pub(crate) fn used(&self) -> u64 {
+        self.used.get()
+    }
+
+    /// Charges `bytes` for `what` in `path`, or refuses when that would pass the budget.
+    pub(crate) fn charge(&self, path: &Path, what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
+        let total = self.used.get().saturating_add(bytes);
+        if total > self.options.max_memory {
+            return Err(Error::OverBudget {
+                path: path.to_path_buf(),
+                what: what(),
+                requested: bytes,
+                used: self.used.get(),
+                limit: self.options.max_memory,
+            });
+        }
+        self.used.set(total);
+        Ok(())
+    }
+
+    /// Charges `count` items of `each` bytes (saturating, so a claimed count near `usize::MAX` is refused).
+    pub(crate) fn charge_items(&self, path: &Path, what: impl FnOnce() -> String, count: u64, each: u64) -> Result<()> {
+        self.charge(path, what, count.saturating_mul(each))
+    }
+
+    /// Resolves a file a scene refers to, as written (`reference`), against `base`: refuses absolute paths
+    /// unless allowed. `referrer` is the file that names it.
+    pub(crate) fn resolve(&self, referrer: &Path, base: &Path, reference: &str) -> Result<PathBuf> {
+        let written = Path::new(reference);
+        let absolute = written.is_absolute() || written.components().any(|c| matches!(c, Component::Prefix(_)));
+        if absolute && !self.options.allow_absolute_paths {
+            return Err(Error::AbsolutePath { path: referrer.to_path_buf(), reference: reference.to_owned() });
+        }
+        Ok(base.join(written))
+    }
+
+    /// Reads a file a scene refers to (or the scene file itself): it must be a regular file (no device, FIFO
+    /// or directory: `/dev/zero` would never end) no larger than `max_bytes` and than what is left of the
+    /// budget, which is charged its size before reading.
+    pub(crate) fn read(&self, referrer: &Path, file: &Path, max_bytes: u64) -> Result<Vec<u8>> {
+        let size = self.check_file(referrer, file, max_bytes)?;
+        self.charge(referrer, || format!("reading {}", file.display()), size)?;
+        let bytes = std::fs::read(file).map_err(|cause| Error::ReadFile { path: file.to_path_buf(), cause })?;
+        // The file may have grown between the check and the read; charge the difference.
+        let extra = (bytes.len() as u64).saturating_sub(size);
+        self.charge(referrer, || format!("reading {}", file.display()), extra)?;
+        Ok(bytes)
+    }
+
+    /// Checks that `file` is a regular file of at most `max_bytes` (without reading it); returns its size.
+    pub(crate) fn check_file(&self, referrer: &Path, file: &Path, max_bytes: u64) -> Result<u64> {
+        // A file the scene refers to names the scene file too: which file asked for it.
+        let meta = std::fs::metadata(file).map_err(|cause| {
+            if referrer == file {
+                Error::ReadFile { path: file.to_path_buf(), cause }
+            } else {
+                Error::ReadReferenced { path: referrer.to_path_buf(), file: file.to_path_buf(), cause }
+            }
+        })?;
+        if !meta.is_file() {
+            return Err(Error::NotRegularFile { path: referrer.to_path_buf(), file: file.to_path_buf() });
+        }
+        let limit = max_bytes.min(self.options.max_memory);
+        if meta.len() > limit {
+            return Err(Error::FileTooLarge {
+                path: referrer.to_path_buf(),
+                file: file.to_path_buf(),
+                size: meta.len(),
+                limit,
+            });
+        }
+        Ok(meta.len())
+    }
+}
+
+/// The first point with a coordinate beyond [`MAX_COORDINATE`] (index and value), if any.
+pub(crate) fn first_far_point(points: &[Vec3]) -> Option<(usize, Vec3)> {
+    points.iter().position(|p| p.abs().max_element() > MAX_COORDINATE).map(|i| (i, points[i]))
+}
+
+/// Refuses a mesh of `path`/`context` with a coordinate beyond [`MAX_COORDINATE`].
+pub(crate) fn check_coordinates(points: &[Vec3], path: &Path, context: &str) -> Result<()> {
+    match first_far_point(points) {
+        None => Ok(()),
+        Some((vertex, value)) => Err(Error::CoordinateTooLarge {
+            path: path.to_path_buf(),
+            context: context.to_owned(),
+            vertex,
+            value: value.to_array(),
+            limit: MAX_COORDINATE,
+        }),
+    }
+}
+
+/// Runs a third-party parser, turning a panic inside it into [`Error::ParserPanic`] so no input can crash
+/// the program. Our own code must not rely on this: the loaders validate before calling (see the fuzz tests,
+/// which fail on this variant).
+pub(crate) fn guard_panic<T>(path: &Path, library: &'static str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)) {
+        Ok(result) => result,
+        Err(payload) => {
+            let message = payload
+                .downcast_ref::<&str>()
+                .map(|s| (*s).to_owned())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".to_owned());
+            Err(Error::ParserPanic { path: path.to_path_buf(), library, message })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn budget_refuses_before_passing_the_limit_and_names_the_file() {
+        let b = Budget::new(LoadOptions { max_memory: 100, allow_absolute_paths: false });
+        assert!(b.charge(Path::new("a.gltf"), || "x".into(), 60).is_ok());
+        let e = b.charge(Path::new("a.gltf"), || "accessor 3".into(), 41).err().map(|e| e.to_string());
+        let e = e.unwrap_or_default();
+        assert!(e.contains("a.gltf") && e.contains("accessor 3") && e.contains("100"), "{e}");
+        // The refused charge is not counted.
+        assert_eq!(b.used(), 60);
+        assert!(b.charge_items(Path::new("a"), || "n".into(), u64::MAX, 12).is_err());
+    }
+
+    #[test]
+    fn devices_directories_and_absolute_paths_are_refused() {
+        let b = Budget::new(LoadOptions::default());
+        let referrer = Path::new("scene.json");
+        let dev = b.read(referrer, Path::new("/dev/zero"), u64::MAX).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(dev.contains("/dev/zero") && dev.contains("regular file"), "{dev}");
+        assert!(b.read(referrer, Path::new("/"), u64::MAX).is_err());
+        let abs = b.resolve(referrer, Path::new("."), "/etc/hostname").err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(abs.contains("scene.json") && abs.contains("/etc/hostname"), "{abs}");
+        let allowed = Budget::new(LoadOptions { allow_absolute_paths: true, ..LoadOptions::default() });
+        assert_eq!(allowed.resolve(referrer, Path::new("."), "/etc/hostname").ok(), Some("/etc/hostname".into()));
+        assert_eq!(b.resolve(referrer, Path::new("dir"), "a/b.bin").ok(), Some("dir/a/b.bin".into()));
+    }
+
+    #[test]
+    fn far_points_are_found() {
+        assert_eq!(first_far_point(&[Vec3::ZERO, Vec3::splat(1e17)]), None);
+        assert_eq!(first_far_point(&[Vec3::ZERO, Vec3::new(0.0, -2e18, 0.0)]), Some((1, Vec3::new(0.0, -2e18, 0.0))));
+    }
+}
