@@ -36,7 +36,6 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
             serde_json::Value::String(integrator::choose_auto(&scene, IntegratorKind::WhittedHall).to_string()),
         );
         object.insert("spiky_spectra".to_owned(), serde_json::Value::Bool(integrator::scene_is_spiky(&scene)));
-        object.insert("warnings".to_owned(), serde_json::json!(scene.warnings));
     }
     println!("{}", serde_json::to_string_pretty(&summary)?);
     Ok(())

@@ -35,13 +35,14 @@ pub(crate) struct RenderArgs {
     /// the scene's spectra).
     #[arg(long, default_value = "auto")]
     spectral: SpectralMode,
-    /// Samples per pixel (deterministic sub-pixel positions).
+    /// Samples per pixel (whitted-hall: deterministic sub-pixel positions; path: jittered).
     #[arg(long, default_value_t = 1)]
     spp: u32,
     /// Seed of the path tracer's random numbers (same seed: same image, any thread count).
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Path tracer: stop after the pass in which this many seconds have passed.
+    /// Stop after this many seconds: samples are then taken one per pixel per pass, and rows not
+    /// started when time is up are skipped (every pixel gets at least one sample).
     #[arg(long, value_parser = parse_seconds)]
     time_limit: Option<std::time::Duration>,
     /// Path tracer with `hero:K`: wavelength density, `illuminant` (follows the lights'
@@ -131,63 +132,22 @@ fn parse_on_off(s: &str) -> Result<bool, String> {
 /// Exit status for a render stopped by Ctrl-C (128 + SIGINT, the shell convention).
 pub(crate) const EXIT_CANCELLED: u8 = 130;
 
-/// Longest image side (pixels): the integrator's own per-side limit.
-pub(crate) const MAX_SIDE: u32 = 65_536;
-
-/// Most pixels in one image: 2²⁷ (e.g. 16384 × 8192). Measured peak memory of an RGB render
-/// is 34 bytes per pixel (43.7 MB at 1000², 17.9 MB at 500², `/usr/bin/time -v`), so this
-/// is about 4.6 GB; `--width 65536 --height 65536` (2³² pixels) passed the per-side check and
-/// aborted allocating 51 GB.
-pub(crate) const MAX_PIXELS: u64 = 1 << 27;
-
-/// Most pixel × wavelength samples of a spectral EXR: 2²⁸. Measured 12 bytes per sample at
-/// peak (1.14 GB for 1000² × 95 wavelengths: the film, the per-channel copies and the
-/// encoder), so about 3.2 GB; e.g. 1680² pixels at 95 wavelengths.
-pub(crate) const MAX_SPECTRAL_SAMPLES: u64 = 1 << 28;
-
-/// Most worker threads: 1024. Each thread reserves a stack and a share of the film's rows;
-/// `--threads 100000` hung creating the pool.
-pub(crate) const MAX_THREADS: usize = 1024;
-
-/// The CLI's limits on the image and the pool, checked before the scene is rendered (the
-/// library checks only the per-side size today). Errors say which limit.
+/// The library's limits on the image and the pool ([`RenderOptions::check_limits`]),
+/// checked before the scene is rendered, in the words of the command line.
 fn check_limits(options: &RenderOptions, args: &RenderArgs) -> anyhow::Result<()> {
-    for (name, value, given) in
-        [("--width", options.width, args.width.is_some()), ("--height", options.height, args.height.is_some())]
-    {
-        if value == 0 || value > MAX_SIDE {
+    match options.check_limits() {
+        Ok(()) => Ok(()),
+        Err(integrator::Error::SideOutOfRange { side, value }) => {
+            let given = if side == "width" { args.width.is_some() } else { args.height.is_some() };
             let from = if given { "" } else { " (the scene's)" };
-            anyhow::bail!("{name} {value}{from} is out of range: 1..={MAX_SIDE} pixels per side");
+            anyhow::bail!("--{side} {value}{from} is out of range: 1..={} pixels per side", integrator::MAX_SIDE)
         }
-    }
-    let pixels = u64::from(options.width) * u64::from(options.height);
-    if pixels > MAX_PIXELS {
-        anyhow::bail!(
-            "{}x{} = {pixels} pixels is more than the limit of {MAX_PIXELS} pixels per image (2^27, about 4.6 GB)",
-            options.width,
-            options.height
-        );
-    }
-    if options.spectral_film {
-        // `auto` resolves during the render: count the most wavelengths it may choose.
-        let wavelengths = match options.spectral {
-            SpectralMode::Bins(n) => n as u64,
-            _ => integrator::MAX_BINS as u64,
-        };
-        let samples = pixels * wavelengths;
-        if samples > MAX_SPECTRAL_SAMPLES {
-            anyhow::bail!(
-                "--spectral-exr: {pixels} pixels x {wavelengths} wavelengths = {samples} samples is more than the \
-                 limit of {MAX_SPECTRAL_SAMPLES} (2^28, about 3.2 GB); use fewer pixels or bins:N with a smaller N"
-            );
+        Err(integrator::Error::ThreadsOutOfRange(threads)) => {
+            anyhow::bail!("--threads {threads} is out of range: 1..={}", integrator::MAX_THREADS)
         }
+        Err(e @ integrator::Error::TooManySpectralSamples { .. }) => anyhow::bail!("--spectral-exr: {e}"),
+        Err(e) => Err(e.into()),
     }
-    if let Some(threads) = options.threads
-        && !(1..=MAX_THREADS).contains(&threads)
-    {
-        anyhow::bail!("--threads {threads} is out of range: 1..={MAX_THREADS}");
-    }
-    Ok(())
 }
 
 /// Whether the outputs are being written: a signal then removes their temporaries and exits.
@@ -277,9 +237,9 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let report = |p: integrator::Progress| {
-        // The path tracer's passes (with --time-limit) make more rows than the image has.
-        bar.set_length(u64::from(p.rows_total));
-        bar.set_position(u64::from(p.rows_done));
+        // With --time-limit, passes of one sample make more rows than the image has.
+        bar.set_length(p.rows_total);
+        bar.set_position(p.rows_done);
         let secs = p.elapsed.as_secs_f64().max(1e-9);
         bar.set_message(format!("{:.2} Mrays/s", p.rays as f64 / secs / 1e6));
     };
@@ -316,6 +276,12 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             stats.rays as f64 / secs.max(1e-9) / 1e6,
             stats.nonfinite_samples,
         );
+        if stats.clamped_samples > 0 {
+            eprintln!(
+                "spectrace: warning: {} samples were brighter than the film holds (2^42 in film units) and were clamped",
+                stats.clamped_samples
+            );
+        }
     }
     Ok(())
 }

@@ -66,7 +66,13 @@ pub enum ObjectId {
 /// Fractional bits of the first-moment sums (XYZ, spectral lanes).
 const FRACTION_BITS: i32 = 64;
 /// Fractional bits of the second-moment sum (Y²): squares need range more than resolution.
+/// Y² is kept for Y ≥ 2⁻¹⁶ (1.5·10⁻⁵, in units where white is 1); darker samples add 0 to it,
+/// so the variance of pixels that dark reads low.
 const SQUARE_FRACTION_BITS: i32 = 32;
+/// Largest |Y| whose square the second moment takes as it is: 2³⁷ (1.4·10¹¹, 85× a directly
+/// seen sun), so that 2²⁰ samples stay below 2¹²⁷: (2³⁷)²·2³²·2²⁰ = 2¹²⁶. The variance of a
+/// pixel brighter than that reads low; its mean is unaffected.
+const MAX_SQUARED_LUMINANCE: f64 = 137_438_953_472.0;
 /// Largest |sample value| added as it is: 2⁴² (4.4·10¹² — a directly seen sun is ~1.6·10⁹
 /// cd/m²). With at most 2²⁰ samples per pixel the sums stay below 2¹²⁷: 2⁴²·2⁶⁴·2²⁰ = 2¹²⁶.
 /// Larger values are clamped to it and counted.
@@ -96,10 +102,46 @@ fn to_fixed(v: f64, bits: i32) -> i128 {
     if raw >> 63 == 1 { -magnitude } else { magnitude }
 }
 
+/// An f32 sample value as a first-moment term (64 fractional bits): the same integer as
+/// `to_fixed(f64::from(v), FRACTION_BITS)`, from the f32's own 24-bit mantissa (the hot path:
+/// three or more per sample). `v` finite, |v| ≤ [`MAX_SAMPLE_VALUE`].
+#[inline]
+fn to_fixed_f32(v: f32) -> i128 {
+    let raw = v.to_bits();
+    let exponent = ((raw >> 23) & 0xff) as i32;
+    if exponent == 0 {
+        return 0; // zero or subnormal (< 2⁻¹²⁶): below the last bit, 2⁻⁶⁴
+    }
+    let mantissa = i128::from((raw & 0x7f_ffff) | 0x80_0000);
+    // v = mantissa · 2^(exponent − 150); fixed = mantissa · 2^(exponent − 150 + 64).
+    let shift = exponent - 86;
+    let magnitude = if shift >= 0 {
+        mantissa << shift.min(83)
+    } else if shift > -24 {
+        mantissa >> -shift
+    } else {
+        0
+    };
+    if raw >> 31 == 1 { -magnitude } else { magnitude }
+}
+
+/// `2^-bits` for 0 ≤ bits < 1023, exactly (built from the exponent field, no `exp2` call).
+#[inline]
+fn inverse_power_of_two(bits: i32) -> f64 {
+    f64::from_bits(((1023 - bits) as u64) << 52)
+}
+
+/// `sum · 2^-bits` rounded to the nearest f64, as `sum as f64` would round it. Sums below
+/// 2¹⁰⁶ in magnitude (every sum of values ≤ 2⁴²) split into two parts that f64 holds exactly,
+/// so their one addition is the only rounding; larger ones take the general conversion.
 #[inline]
 fn from_fixed(sum: i128, bits: i32) -> f64 {
-    // i128 → f64 rounds to nearest; the power of two scales exactly.
-    sum as f64 * (-f64::from(bits)).exp2()
+    const TWO_53: f64 = 9_007_199_254_740_992.0;
+    let high = sum >> 53;
+    let low = sum - (high << 53); // in [0, 2^53)
+    let value =
+        if high.unsigned_abs() < 1 << 53 { (high as i64 as f64) * TWO_53 + low as i64 as f64 } else { sum as f64 };
+    value * inverse_power_of_two(bits)
 }
 
 /// One pixel's sums: Σ X, Σ Y, Σ Z, Σ Y² (fixed point) and the number of samples.
@@ -180,6 +222,11 @@ impl Film {
     /// Samples that were NaN or infinite (added as black).
     pub fn nonfinite_samples(&self) -> u64 {
         self.nonfinite
+    }
+
+    /// Samples beyond the film's range (2⁴²), clamped to it.
+    pub fn clamped_samples(&self) -> u64 {
+        self.clamped
     }
 
     /// The rows, in parallel, for one pass of the pixel loop.
@@ -265,7 +312,9 @@ impl Film {
                 .collect();
             image.spectral = Some(SpectralFilm { wavelengths: self.wavelengths.clone(), values });
         }
-        image.sanitize();
+        // Means of finite fixed-point sums (|sum| < 2¹²⁷ · 2⁻⁶⁴) are finite: non-finite samples
+        // were counted and added as black by `add_sample`.
+        debug_assert!(image.xyz.iter().flatten().all(|v| v.is_finite()));
         image
     }
 
@@ -299,24 +348,27 @@ impl FilmRow<'_> {
             self.nonfinite += 1;
             return;
         }
+        // 2⁴² is exact in f32, so the clamp compares and clamps without widening.
+        const MAX: f32 = MAX_SAMPLE_VALUE as f32;
         let mut clamp = |v: f32| {
-            let v = f64::from(v);
-            if v.abs() > MAX_SAMPLE_VALUE {
+            if v.abs() > MAX {
                 self.clamped += 1;
-                MAX_SAMPLE_VALUE.copysign(v)
+                MAX.copysign(v)
             } else {
                 v
             }
         };
         let [x_, y, z] = xyz.map(&mut clamp);
-        pixel.xyz[0] += to_fixed(x_, FRACTION_BITS);
-        pixel.xyz[1] += to_fixed(y, FRACTION_BITS);
-        pixel.xyz[2] += to_fixed(z, FRACTION_BITS);
-        pixel.y2 += to_fixed(y * y, SQUARE_FRACTION_BITS);
+        pixel.xyz[0] += to_fixed_f32(x_);
+        pixel.xyz[1] += to_fixed_f32(y);
+        pixel.xyz[2] += to_fixed_f32(z);
+        // Y² of an f32 is exact in f64 (48 significant bits).
+        let y_for_square = f64::from(y).clamp(-MAX_SQUARED_LUMINANCE, MAX_SQUARED_LUMINANCE);
+        pixel.y2 += to_fixed(y_for_square * y_for_square, SQUARE_FRACTION_BITS);
         if self.lanes > 0 {
             let sums = &mut self.spectral[x * self.lanes..(x + 1) * self.lanes];
             for (sum, &v) in sums.iter_mut().zip(values) {
-                *sum += to_fixed(clamp(v), FRACTION_BITS);
+                *sum += to_fixed_f32(clamp(v));
             }
         }
     }
@@ -530,25 +582,9 @@ impl Image {
         self.xyz[y as usize * self.width as usize + x as usize]
     }
 
-    /// Number of pixel values that were NaN or infinite and were replaced by 0 (must be 0).
+    /// Samples that were NaN or infinite and were added to the film as black (must be 0).
     pub fn nonfinite_samples(&self) -> u64 {
         self.nonfinite
-    }
-
-    /// Replace non-finite values by 0 and count them, so no NaN or Inf reaches a file.
-    pub(crate) fn sanitize(&mut self) {
-        for p in &mut self.xyz {
-            for c in p.iter_mut() {
-                if !c.is_finite() {
-                    *c = 0.0;
-                    self.nonfinite += 1;
-                }
-            }
-        }
-        // A non-finite lane makes its pixel's XYZ non-finite too, so it is counted above.
-        if let Some(film) = &mut self.spectral {
-            film.values.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
-        }
     }
 
     /// Linear RGB of the display for every pixel.
@@ -596,6 +632,32 @@ mod tests {
     }
 
     #[test]
+    fn fast_conversions_equal_the_general_ones() {
+        // The hot-path conversions must give the same integers and the same f64 as the
+        // general ones: f32 values over the whole accepted exponent range, both signs, and
+        // sums up to 2^126 (beyond the fast path's 2^106 too).
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..200_000 {
+            let r = next();
+            let exponent = (r % 170) as u32; // up to 2^42
+            let v = f32::from_bits((exponent << 23) | ((r >> 8) as u32 & 0x7f_ffff) | (((r >> 40) as u32 & 1) << 31));
+            assert_eq!(to_fixed_f32(v), to_fixed(f64::from(v), FRACTION_BITS), "{v:e}");
+            let sum = (i128::from(next() as i64) << (next() % 63)) ^ i128::from(next() as i64);
+            assert_eq!(from_fixed(sum, FRACTION_BITS).to_bits(), (sum as f64 * 2f64.powi(-64)).to_bits(), "{sum}");
+        }
+        assert_eq!(to_fixed_f32(MAX_SAMPLE_VALUE as f32), to_fixed(MAX_SAMPLE_VALUE, FRACTION_BITS));
+        assert_eq!(to_fixed_f32(f32::from_bits(1)), 0, "subnormals are below the last bit");
+        assert_eq!(inverse_power_of_two(64), 2f64.powi(-64));
+        assert_eq!(inverse_power_of_two(32), 2f64.powi(-32));
+    }
+
+    #[test]
     fn non_finite_and_huge_samples_are_counted_not_summed() {
         let mut film = Film::new(2, 1, Vec::new());
         let (nonfinite, clamped) = {
@@ -615,11 +677,18 @@ mod tests {
     }
 
     #[test]
-    fn sanitize_counts_and_zeroes_nonfinite_values() {
-        let mut image = Image::new(2, 1);
-        image.xyz[0] = [f32::NAN, 1.0, f32::INFINITY];
-        image.sanitize();
-        assert_eq!(image.nonfinite_samples(), 2);
-        assert_eq!(image.xyz(0, 0), [0.0, 1.0, 0.0]);
+    fn the_second_moment_does_not_overflow_at_the_brightest_samples() {
+        // Before the clamp, Y² of a 2⁴² sample at 32 fractional bits was 2¹¹⁶: 2¹¹ of them
+        // overflowed i128 (a panic in debug builds, wrapped sums in release).
+        let mut film = Film::new(1, 1, Vec::new());
+        {
+            let mut row = film.rows_mut().collect::<Vec<_>>().pop().unwrap();
+            for _ in 0..4096 {
+                row.add_sample::<4>(0, [1e20, 1e20, 1e20], &[0.0; 4]);
+            }
+        }
+        let variance = film.luminance_variance()[0];
+        assert!(variance.is_finite() && variance >= 0.0, "{variance}");
+        assert_eq!(film.to_image().xyz(0, 0)[1], MAX_SAMPLE_VALUE as f32);
     }
 }

@@ -43,8 +43,8 @@ pub use error::{Error, Result};
 pub use film::{Display, Film, Image, ObjectId};
 pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};
 pub use render::{
-    Ambient, DEFAULT_K_A, Integrator, IntegratorKind, PathOptions, Progress, RenderOptions, RenderStats, WavelengthPdf,
-    WhittedOptions, render, render_film,
+    Ambient, DEFAULT_K_A, Integrator, IntegratorKind, MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES, MAX_THREADS,
+    PathOptions, Progress, RenderOptions, RenderStats, WavelengthPdf, WhittedOptions, render, render_film,
 };
 pub use spectral::{MAX_BINS, SpectralMode};
 pub use summary::summarize;
@@ -130,10 +130,7 @@ fn auto_bins(scene: &RenderScene) -> usize {
             }
         }
     }
-    let xyz = |s: &DenselySampledSpectrum| {
-        let [x, y, z] = spectral::unit_xyz(s);
-        Xyz { x, y, z }
-    };
+    let xyz = colorimetry::relative_xyz;
     // (lit surface spectrum, its light's 1 nm XYZ, its own 1 nm XYZ).
     let cases: Vec<_> = lights
         .iter()

@@ -11,7 +11,7 @@
 //! film accumulates the Monte Carlo estimate `SampledSpectrum::to_xyz`.
 //! `docs/path-tracer.md` documents the model and its choices.
 
-use colorimetry::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, SampledSpectrum, SampledWavelengths};
+use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{Bsdf, Frame};
@@ -112,19 +112,6 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     max_depth: u32,
 }
 
-/// Luminance of a spectrum relative to an equal-energy one of value 1 (1 nm sums).
-fn relative_luminance(s: &DenselySampledSpectrum) -> f64 {
-    let y = &Observer::Cie1931.cmf().y;
-    let (mut sy, mut yy) = (0.0, 0.0);
-    let mut l = f64::from(LAMBDA_MIN);
-    while l <= f64::from(LAMBDA_MAX) {
-        sy += s.eval(l) * y.eval(l);
-        yy += y.eval(l);
-        l += 1.0;
-    }
-    sy / yy
-}
-
 impl<'a, const N: usize> PathTracer<'a, N> {
     /// The tracer for `scene` and the film's sensor: `fixed` lanes (`rgb`, `bins:N`), or hero
     /// wavelengths (`None`) drawn from `options.wavelength_pdf`.
@@ -163,7 +150,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let mut environment_spectra = Vec::new();
         let mut environment_luminance = 0.0f64;
         for l in &scene.lights {
-            let y = relative_luminance(&l.spectrum);
+            let y = colorimetry::relative_luminance(&l.spectrum);
             if let LightKind::Environment = l.kind {
                 environment_spectra.push(add(l.spectrum.clone(), Kind::Emission));
                 environment_luminance += y;
@@ -188,7 +175,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         // of the environment and lights the scene like it.
         if let Some(b) = &scene.background {
             environment_spectra.push(add(b.clone(), Kind::Emission));
-            environment_luminance += relative_luminance(b);
+            environment_luminance += colorimetry::relative_luminance(b);
         }
         let environment = (!environment_spectra.is_empty() && environment_luminance > 0.0).then(|| {
             lights.push(PathLight { kind: PathLightKind::Environment, spectrum: environment_spectra[0] });
@@ -213,7 +200,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 continue;
             }
             // Two-sided emitter: Φ = 2 π A L.
-            let y = relative_luminance(&table[e as usize].0);
+            let y = colorimetry::relative_luminance(&table[e as usize].0);
             area_light_of[id as usize] = lights.len() as u32;
             lights.push(PathLight { kind: PathLightKind::Area { primitive: id, area }, spectrum: e });
             power.push(2.0 * std::f64::consts::PI * f64::from(area) * y);

@@ -232,7 +232,39 @@ impl Default for RenderOptions {
 }
 
 impl RenderOptions {
-    /// These options with the paper's model, changed by `f` from its defaults.
+    /// Check the image size, the spectral film's size and the thread count against
+    /// [`MAX_SIDE`], [`MAX_PIXELS`], [`MAX_SPECTRAL_SAMPLES`] and [`MAX_THREADS`] (before
+    /// anything is allocated; [`render_film`] calls it too).
+    pub fn check_limits(&self) -> Result<()> {
+        for (side, value) in [("width", self.width), ("height", self.height)] {
+            if value == 0 || value > MAX_SIDE {
+                return Err(Error::SideOutOfRange { side, value });
+            }
+        }
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        if pixels > MAX_PIXELS {
+            return Err(Error::TooManyPixels { width: self.width, height: self.height });
+        }
+        if self.spectral_film {
+            // `auto` resolves during the render: count the most wavelengths it may choose.
+            let wavelengths = match self.spectral {
+                SpectralMode::Bins(n) => n as u64,
+                _ => MAX_BINS as u64,
+            };
+            if pixels * wavelengths > MAX_SPECTRAL_SAMPLES {
+                return Err(Error::TooManySpectralSamples { pixels, wavelengths });
+            }
+        }
+        if let Some(threads) = self.threads
+            && !(1..=MAX_THREADS).contains(&threads)
+        {
+            return Err(Error::ThreadsOutOfRange(threads));
+        }
+        Ok(())
+    }
+
+    /// These options with the paper's model and its options changed by `f` (the defaults if
+    /// they held the path tracer's).
     pub fn whitted(self, f: impl FnOnce(&mut WhittedOptions)) -> Self {
         let mut o = match self.integrator {
             Integrator::WhittedHall(o) => o,
@@ -242,7 +274,8 @@ impl RenderOptions {
         Self { integrator: Integrator::WhittedHall(o), ..self }
     }
 
-    /// These options with the path tracer, changed by `f` from its defaults.
+    /// These options with the path tracer and its options changed by `f` (the defaults if they
+    /// held the paper's model's).
     pub fn path(self, f: impl FnOnce(&mut PathOptions)) -> Self {
         let mut o = match self.integrator {
             Integrator::Path(o) => o,
@@ -253,13 +286,30 @@ impl RenderOptions {
     }
 }
 
+/// Longest image side in pixels.
+pub const MAX_SIDE: u32 = 65_536;
+
+/// Most pixels in one image: 2²⁷ (e.g. 16384 × 8192). Measured peak memory of an RGB render
+/// is 106 bytes per pixel (112 MB at 1000², 33 MB at 500²; `/usr/bin/time -v spectrace render
+/// --width 1000 --height 1000 --spectral rgb`), 80 of them the film's fixed-point sums, so
+/// about 14 GB at the limit; `--width 65536 --height 65536` (2³² pixels) aborted allocating.
+pub const MAX_PIXELS: u64 = 1 << 27;
+
+/// Most pixel × wavelength samples of a spectral film: 2²⁸. Measured 20.6 bytes per sample at
+/// peak (1.97 GB for 1000² × 95 wavelengths, 0.50 GB for 500² × 95: a 16-byte sum and the f32
+/// image value), so about 5.5 GB at the limit; e.g. 1680² pixels at 95 wavelengths.
+pub const MAX_SPECTRAL_SAMPLES: u64 = 1 << 28;
+
+/// Most worker threads: each reserves a stack; `--threads 100000` hung creating the pool.
+pub const MAX_THREADS: usize = 1024;
+
 /// Progress of a running render, reported after each finished row.
 #[derive(Debug, Clone, Copy)]
 pub struct Progress {
     /// Rows finished (over all passes).
-    pub rows_done: u32,
-    /// Rows to render (image rows × passes).
-    pub rows_total: u32,
+    pub rows_done: u64,
+    /// Rows to render (image rows × passes: up to 2¹⁶ × 2²⁰ with a time limit).
+    pub rows_total: u64,
     /// Rays traced so far (camera, secondary and shadow rays).
     pub rays: u64,
     /// Time since the render started.
@@ -279,6 +329,8 @@ pub struct RenderStats {
     pub nonfinite_samples: u64,
     /// Fewest samples any pixel got (fewer than asked if a time limit stopped the render).
     pub spp: u32,
+    /// Samples whose value was beyond the film's range (2⁴²) and was clamped (should be 0).
+    pub clamped_samples: u64,
 }
 
 /// Per-thread counters.
@@ -335,13 +387,7 @@ pub fn render_film(
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Film, RenderStats)> {
-    if options.width == 0 || options.height == 0 || options.width > 65_536 || options.height > 65_536 {
-        return Err(Error::OutOfRange {
-            what: "image size",
-            value: f64::from(if options.width == 0 || options.width > 65_536 { options.width } else { options.height }),
-            range: "1..=65536 pixels per side",
-        });
-    }
+    options.check_limits()?;
     if options.spp == 0 || options.spp > MAX_SPP {
         return Err(Error::OutOfRange { what: "spp", value: f64::from(options.spp), range: "1..=1048576" });
     }
@@ -382,7 +428,7 @@ pub fn render_film(
     pool.install(|| with_lanes(lanes, job))
 }
 
-/// Lane counts the renderer is compiled for, smallest first.
+/// Lane counts the renderer is compiled for, smallest first ([`with_lanes`] has one arm each).
 const LANE_COUNTS: [usize; 7] = [4, 8, 16, 32, 48, 64, MAX_BINS];
 
 /// The lanes a spectral strategy needs.
@@ -394,9 +440,9 @@ fn lane_count(spectral: SpectralMode) -> Result<usize> {
     };
     match spectral {
         SpectralMode::Rgb => Ok(4),
-        SpectralMode::Bins(n) => LANE_COUNTS.iter().copied().find(|&lanes| n <= lanes).ok_or_else(bad),
+        SpectralMode::Bins(n @ 2..=MAX_BINS) => LANE_COUNTS.iter().copied().find(|&lanes| n <= lanes).ok_or_else(bad),
         SpectralMode::Hero { count: count @ (4 | 8) } => Ok(count),
-        SpectralMode::Hero { .. } | SpectralMode::Auto => Err(bad()),
+        SpectralMode::Bins(_) | SpectralMode::Hero { .. } | SpectralMode::Auto => Err(bad()),
     }
 }
 
@@ -406,15 +452,17 @@ trait LaneJob {
     fn run<const N: usize>(self) -> Self::Output;
 }
 
-/// The one place that turns a run-time lane count into a compile-time one.
+/// The one place that turns a run-time lane count (one of [`LANE_COUNTS`], from
+/// [`lane_count`]) into a compile-time one.
 fn with_lanes<J: LaneJob>(lanes: usize, job: J) -> J::Output {
+    debug_assert!(LANE_COUNTS.contains(&lanes), "{lanes} lanes");
     match lanes {
-        0..=4 => job.run::<4>(),
-        5..=8 => job.run::<8>(),
-        9..=16 => job.run::<16>(),
-        17..=32 => job.run::<32>(),
-        33..=48 => job.run::<48>(),
-        49..=64 => job.run::<64>(),
+        4 => job.run::<4>(),
+        8 => job.run::<8>(),
+        16 => job.run::<16>(),
+        32 => job.run::<32>(),
+        48 => job.run::<48>(),
+        64 => job.run::<64>(),
         _ => job.run::<MAX_BINS>(),
     }
 }
@@ -476,6 +524,10 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     // ignores the limit, so every pixel gets at least one sample.
     let pass_size = if options.time_limit.is_some() { 1 } else { samples.len() as u32 };
     let passes = (samples.len() as u32).div_ceil(pass_size);
+    let rows_total = u64::from(height) * u64::from(passes);
+    // Only hero sensors place wavelengths per sample; fixed lanes are the same for all.
+    let hero = !matches!(sensor, Sensor::Fixed(_));
+    let fixed_lambda = sensor.sample_wavelengths(0.0);
     let start = Instant::now();
     let out_of_time = || options.time_limit.is_some_and(|limit| start.elapsed() >= limit);
     let rays = AtomicU64::new(0);
@@ -497,9 +549,11 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                 let mut fixed_rng = Rng::new(0, 0, 0);
                 for x in 0..width as usize {
                     let pixel = y as u64 * u64::from(width) + x as u64;
-                    // A random rotation per pixel of the stratified wavelength offsets, so a
-                    // partial set of strata (time limit, sample range) is still unbiased.
-                    let rotation = if K::RANDOM { Rng::new(options.seed, pixel, u64::MAX).uniform() } else { 0.0 };
+                    // A random rotation per pixel of the stratified hero wavelengths, so a
+                    // partial set of strata (time limit, sample range) is still unbiased. It has
+                    // its own stream, so skipping it for fixed lanes changes no other number.
+                    let rotation =
+                        if K::RANDOM && hero { Rng::new(options.seed, pixel, u64::MAX).uniform() } else { 0.0 };
                     for i in first_sample..last_sample {
                         let mut sample_rng;
                         let (rng, mut lambda, ray) = if K::RANDOM {
@@ -508,17 +562,14 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                             if u >= 1.0 {
                                 u -= 1.0;
                             }
-                            let lambda = sensor.sample_wavelengths(u.min(0.999_999_9));
+                            let lambda =
+                                if hero { sensor.sample_wavelengths(u.min(0.999_999_9)) } else { fixed_lambda };
                             let jitter = sample_rng.uniform2();
                             let ray = camera_ray(&camera, x, y, jitter.x, jitter.y, width, height);
                             (&mut sample_rng, lambda, ray)
                         } else {
                             let (dx, dy) = offsets[i as usize];
-                            (
-                                &mut fixed_rng,
-                                sensor.sample_wavelengths(0.0),
-                                camera_ray(&camera, x, y, dx, dy, width, height),
-                            )
+                            (&mut fixed_rng, fixed_lambda, camera_ray(&camera, x, y, dx, dy, width, height))
                         };
                         let r = kernel.li(&ray, &mut lambda, sensor, rng, &mut count);
                         if i == 0 {
@@ -530,12 +581,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                 }
                 let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
                 let rows = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(Progress {
-                    rows_done: rows as u32,
-                    rows_total: height * passes,
-                    rays: rays_now,
-                    elapsed: start.elapsed(),
-                });
+                progress(Progress { rows_done: rows, rows_total, rays: rays_now, elapsed: start.elapsed() });
                 Ok((row.nonfinite, row.clamped))
             })
             .collect::<Result<_>>()?;
@@ -555,6 +601,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
         elapsed: start.elapsed(),
         nonfinite_samples: film.nonfinite_samples(),
         spp: film.min_sample_count(),
+        clamped_samples: film.clamped_samples(),
     };
     Ok((film, stats))
 }
@@ -567,7 +614,7 @@ fn camera_ray(camera: &Camera, x: usize, y: usize, dx: f32, dy: f32, width: u32,
 fn thread_pool(options: &RenderOptions) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
-        builder = builder.num_threads(n.max(1));
+        builder = builder.num_threads(n);
     }
     builder.build().map_err(|e| Error::ThreadPool(e.to_string()))
 }
@@ -620,5 +667,7 @@ mod tests {
         assert_eq!(lane_count(SpectralMode::Hero { count: 8 }).unwrap(), 8);
         assert!(lane_count(SpectralMode::Hero { count: 5 }).is_err());
         assert!(lane_count(SpectralMode::Bins(97)).is_err());
+        // bins:1 and bins:0 reached an assert in the lane constructor: an error now.
+        assert!(lane_count(SpectralMode::Bins(1)).is_err() && lane_count(SpectralMode::Bins(0)).is_err());
     }
 }

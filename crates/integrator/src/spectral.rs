@@ -96,6 +96,9 @@ pub(crate) struct Lanes<const N: usize> {
     pub(crate) to_xyz: [[f32; N]; 3],
     /// Whether lanes are RGB channels rather than wavelengths.
     pub(crate) rgb: bool,
+    /// Lanes in use (the rest repeat the last wavelength with zero weight); read per
+    /// dispersive hit and sample, so kept rather than recounted.
+    active: usize,
 }
 
 impl<const N: usize> Lanes<N> {
@@ -107,7 +110,8 @@ impl<const N: usize> Lanes<N> {
     /// surfaces, which `choose_auto` bounds.
     pub(crate) fn bins(count: usize, white: &DenselySampledSpectrum) -> Self {
         let mut lanes = Self::point_sampled(count);
-        let exact = unit_xyz(white);
+        let exact = colorimetry::relative_xyz(white);
+        let exact = [exact.x, exact.y, exact.z];
         let got = lanes.xyz(&lanes.project(white, SpectrumKind::Emission));
         for (c, row) in lanes.to_xyz.iter_mut().enumerate() {
             // A black channel of the light (or a black light) keeps the plain weights.
@@ -138,7 +142,7 @@ impl<const N: usize> Lanes<N> {
         // Δλ cancels between the sum and its normalisation; only Σ ȳ remains.
         let norm: f64 = w[1].iter().sum();
         let to_xyz = w.map(|row| row.map(|v| (v / norm) as f32));
-        Self { wavelengths: SampledWavelengths::from_parts(lambda, [1.0; N]), to_xyz, rgb: false }
+        Self { wavelengths: SampledWavelengths::from_parts(lambda, [1.0; N]), to_xyz, rgb: false, active: count }
     }
 
     /// Three linear sRGB channels (N must be ≥ 3; lanes beyond 3 are unused).
@@ -151,16 +155,13 @@ impl<const N: usize> Lanes<N> {
                 row[i] = m[c][i] as f32;
             }
         }
-        Self { wavelengths: SampledWavelengths::from_parts([550.0; N], [1.0; N]), to_xyz, rgb: true }
+        Self { wavelengths: SampledWavelengths::from_parts([550.0; N], [1.0; N]), to_xyz, rgb: true, active: 3 }
     }
 
     /// Number of lanes actually in use.
+    #[inline]
     pub(crate) fn active(&self) -> usize {
-        if self.rgb {
-            3
-        } else {
-            (0..N).rposition(|i| self.to_xyz.iter().any(|row| row[i] != 0.0)).map_or(N, |i| i + 1)
-        }
+        self.active
     }
 
     /// XYZ (white Y = 1) of lane values.
@@ -207,15 +208,6 @@ impl<const N: usize> Lanes<N> {
     }
 }
 
-/// The 1 nm XYZ of an emission spectrum in the film's units: an equal-energy spectrum of
-/// value 1 has Y = 1.
-pub(crate) fn unit_xyz(s: &DenselySampledSpectrum) -> [f64; 3] {
-    let integration = colorimetry::Integration::Step(1.0);
-    let xyz = colorimetry::emission_to_xyz(s, Observer::Cie1931, &integration);
-    let ybar = colorimetry::emission_to_xyz(&DenselySampledSpectrum::constant(1.0), Observer::Cie1931, &integration).y;
-    [xyz.x / ybar, xyz.y / ybar, xyz.z / ybar]
-}
-
 /// The linear sRGB triple the paper's RGB baseline would use for a spectrum.
 pub(crate) fn spectrum_to_rgb(s: &DenselySampledSpectrum, kind: SpectrumKind) -> [f32; 3] {
     let observer = Observer::Cie1931;
@@ -226,10 +218,7 @@ pub(crate) fn spectrum_to_rgb(s: &DenselySampledSpectrum, kind: SpectrumKind) ->
             let xyz = colorimetry::reflectance_to_xyz(s, &d65, observer, &integration);
             Xyz { x: xyz.x / 100.0, y: xyz.y / 100.0, z: xyz.z / 100.0 }
         }
-        SpectrumKind::Emission => {
-            let [x, y, z] = unit_xyz(s);
-            Xyz { x, y, z }
-        }
+        SpectrumKind::Emission => colorimetry::relative_xyz(s),
     };
     let rgb = RgbColorSpace::srgb().xyz_to_rgb(xyz);
     [rgb.r as f32, rgb.g as f32, rgb.b as f32]
