@@ -7,18 +7,23 @@
 //! replay every input in `fuzz/regressions/<target>/` on the stable toolchain.
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 use std::sync::atomic::AtomicBool;
 
 use integrator::{Integrator, IntegratorKind, PathOptions, RenderOptions, RenderScene, SpectralMode, WhittedOptions};
 
 /// A folder of this process's own for the files a target writes (in RAM when /dev/shm
-/// exists, so the disk is not worn by millions of executions).
-pub fn scratch() -> PathBuf {
-    let shm = Path::new("/dev/shm");
-    let base = if shm.is_dir() { shm.to_path_buf() } else { std::env::temp_dir() };
-    let dir = base.join(format!("spectrace-fuzz-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("scratch folder");
-    dir
+/// exists, so the disk is not worn by millions of executions). Named and created once per
+/// process, not on every write.
+pub fn scratch() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let shm = Path::new("/dev/shm");
+        let base = if shm.is_dir() { shm.to_path_buf() } else { std::env::temp_dir() };
+        let dir = base.join(format!("spectrace-fuzz-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("scratch folder");
+        dir
+    })
 }
 
 /// Write `bytes` to `name` in the scratch folder and return its path.
@@ -132,7 +137,7 @@ pub fn csv(data: &[u8]) {
         "materials": {"m": {"model": "diffuse", "base_color": {"csv": "fuzz.csv"}}},
         "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}]
     }"#;
-    if let Ok(desc) = geometry::parse_manifest(manifest, &scratch(), "fuzz.json") {
+    if let Ok(desc) = geometry::parse_manifest(manifest, scratch(), "fuzz.json") {
         run_description(desc);
     }
 }

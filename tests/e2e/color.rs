@@ -2,6 +2,8 @@
 
 use std::process::Command;
 
+use crate::render::scratch;
+
 fn color(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_spectrace")).arg("color").args(args).output().unwrap()
 }
@@ -168,25 +170,19 @@ fn bad_arguments_and_cells_are_errors() {
 #[test]
 fn hostile_spectra_and_steps_are_errors_not_crashes_or_nulls() {
     // Issue 16 items 4 and 9, each once a panic, a terabyte allocation or a `null` in the JSON.
-    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("e2e-color-hostile");
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = |name: &str, text: &str| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).unwrap();
-        path.display().to_string()
-    };
-    let tiny = file("tiny.csv", "wavelength_nm,a\n1e-300,0.5\n2e-300,0.5\n");
-    let close = file("close.csv", "wavelength_nm,a\n500,0.5\n500.0000000001,0.5\n");
-    let uv = file("uv.csv", "wavelength_nm,a\n100,0.5\n200,0.5\n300,0.5\n");
-    let huge = file("huge.csv", "wavelength_nm,a\n400,1e308\n500,1e308\n");
-    let black = file("black.csv", "wavelength_nm,e\n400,0\n800,0\n");
+    // The hostile CSV inputs are the fuzz regressions; the library's test `every_csv_fuzz_
+    // regression_is_the_error_it_should_be` checks each, so one of each kind of argument here.
+    let regression = |name: &str| format!("{}/../../fuzz/regressions/csv/{name}", env!("CARGO_MANIFEST_DIR"));
+    let (huge, uv) = (regression("value_1e308.csv"), regression("ultraviolet_only.csv"));
+    let black = scratch("e2e_color_hostile").join("black.csv");
+    std::fs::write(&black, "wavelength_nm,e\n400,0\n800,0\n").unwrap();
+    let black = black.display().to_string();
     let good = fixture("three_patches.csv");
     for (args, needle) in [
-        (vec![tiny.as_str()], format!("{tiny}:3: wavelength 2e-300 nm is only 1e-300 nm after")),
-        (vec![close.as_str()], format!("{close}:3: wavelength 500.0000000001 nm")),
-        (vec![uv.as_str()], format!("{uv}: column `a`: spectrum defined only at 100–300 nm, outside the visible")),
         (vec![huge.as_str()], format!("{huge}:2: column `a`: 1e308 is too large")),
         (vec![good.as_str(), "--step", "1e-9"], "--step 1e-9 is out of range [0.001, 100] nm".to_owned()),
+        (vec![good.as_str(), "--step", "0"], "--step 0 is out of range [0.001, 100] nm".to_owned()),
+        (vec![good.as_str(), "--step", "101"], "--step 101 is out of range [0.001, 100] nm".to_owned()),
         (vec![good.as_str(), "--illuminant", uv.as_str()], format!("{uv}: column `a`: spectrum defined only")),
         (vec![good.as_str(), "--illuminant", black.as_str()], "no light in 360–830 nm".to_owned()),
         (vec!["/dev/zero"], "/dev/zero: not a regular file".to_owned()),
@@ -201,8 +197,7 @@ fn hostile_spectra_and_steps_are_errors_not_crashes_or_nulls() {
 
 #[test]
 fn a_commented_file_gives_the_same_colour_as_the_bare_one() {
-    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("e2e-color-comments");
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("e2e_color_comments");
     let bare = std::fs::read_to_string(fixture("three_patches.csv")).unwrap();
     let path = dir.join("commented.csv");
     std::fs::write(&path, format!("# measured by hand\n#\n\n{}", bare.replace('\n', "\n# row\n"))).unwrap();

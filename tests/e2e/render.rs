@@ -1,18 +1,41 @@
 //! `spectrace render` and `spectrace info` end to end.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn spectrace() -> Command {
     Command::new(env!("CARGO_BIN_EXE_spectrace"))
 }
 
-/// A fresh, empty folder under the target directory for one test's outputs.
-fn scratch(name: &str) -> PathBuf {
+/// A fresh, empty folder under the target directory for one test's files (the e2e tests
+/// of every command share it).
+pub(crate) fn scratch(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
+}
+
+/// The names in `dir`, sorted.
+fn listing(dir: &Path) -> Vec<std::ffi::OsString> {
+    let mut names: Vec<_> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    names.sort();
+    names
+}
+
+/// Runs `spectrace <args>` in `dir`, which must refuse it: exit code `code` (1 for a refused
+/// run, 2 for an argument clap rejects), each of `needles` in stderr, and nothing in `dir`
+/// that was not there before. Returns stderr.
+fn refused(dir: &Path, args: &[&str], code: i32, needles: &[&str]) -> String {
+    let before = listing(dir);
+    let output = spectrace().current_dir(dir).args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(code), "{args:?}: {stderr}");
+    for needle in needles {
+        assert!(stderr.contains(needle), "{args:?}: no `{needle}` in: {stderr}");
+    }
+    assert_eq!(listing(dir), before, "{args:?} left files behind");
+    stderr
 }
 
 fn repo(path: &str) -> PathBuf {
@@ -58,17 +81,15 @@ fn render_of_a_scene_file_with_options() {
 fn bad_input_is_a_clear_error_and_writes_nothing() {
     let dir = scratch("render_errors");
     let out = dir.join("x.exr");
-    let missing = dir.join("no_such_scene.json");
-    for (args, needle) in [
-        (vec!["render".into(), missing.display().to_string()], "no_such_scene.json"),
-        (vec!["render".into(), "--spectral".into(), "bins:1".into()], "bins:N"),
-        (vec!["render".into(), "--ambient".into(), "sky".into()], "ambient"),
-        (vec!["render".into(), "-o".into(), dir.join("x.png").display().to_string()], ".exr"),
+    let missing = dir.join("no_such_scene.json").display().to_string();
+    let png = dir.join("x.png").display().to_string();
+    for (args, code, needle) in [
+        (vec!["render", missing.as_str()], 1, "no_such_scene.json"),
+        (vec!["render", "--spectral", "bins:1"], 2, "bins:N"),
+        (vec!["render", "--ambient", "sky"], 2, "ambient"),
+        (vec!["render", "-o", png.as_str()], 1, ".exr"),
     ] {
-        let output = spectrace().current_dir(&dir).args(&args).arg("--quiet").output().unwrap();
-        assert!(!output.status.success(), "{args:?} should fail");
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+        refused(&dir, &[&args[..], &["--quiet"]].concat(), code, &[needle]);
     }
     assert!(!out.exists());
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "no partial output");
@@ -152,10 +173,7 @@ fn image_and_pool_limits_are_checked_before_rendering() {
             "4000000 pixels x 95 wavelengths = 380000000 samples is more than the limit of 268435456",
         ),
     ] {
-        let output = spectrace().current_dir(&dir).arg("render").args(&args).arg("--quiet").output().unwrap();
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
-        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+        refused(&dir, &[&["render"], &args[..], &["--quiet"]].concat(), 1, &[needle]);
     }
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
 }
@@ -166,14 +184,8 @@ fn one_path_for_two_outputs_is_refused_before_rendering() {
     let dir = scratch("render_same_path");
     std::fs::create_dir_all(dir.join("sub")).unwrap();
     for film in ["X.exr", "./X.exr", "sub/../X.exr"] {
-        let output = spectrace()
-            .current_dir(&dir)
-            .args(["render", "-o", "X.exr", "--spectral", "bins:8", "--spectral-exr", film, "--quiet"])
-            .output()
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert_eq!(output.status.code(), Some(1), "{film}: {stderr}");
-        assert!(stderr.contains("given for two outputs") && stderr.contains("-o X.exr also writes X.png"), "{stderr}");
+        let args = ["render", "-o", "X.exr", "--spectral", "bins:8", "--spectral-exr", film, "--quiet"];
+        refused(&dir, &args, 1, &["given for two outputs", "-o X.exr also writes X.png"]);
     }
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "only sub/");
 }
@@ -182,15 +194,9 @@ fn one_path_for_two_outputs_is_refused_before_rendering() {
 fn a_failed_spectral_exr_leaves_neither_exr_nor_png() {
     // It left out.exr and out.png with exit 1.
     let dir = scratch("render_failed_spectral");
-    let output = spectrace()
-        .current_dir(&dir)
-        .args(["render", "-o", "out.exr", "--spectral", "bins:8", "--spectral-exr", "missing/s.exr"])
-        .args(["--width", "16", "--height", "12", "--quiet"])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("missing/s.exr") && stderr.contains("none was written"), "{stderr}");
+    let args = ["render", "-o", "out.exr", "--spectral", "bins:8", "--spectral-exr", "missing/s.exr"];
+    let size = ["--width", "16", "--height", "12", "--quiet"];
+    refused(&dir, &[&args[..], &size].concat(), 1, &["missing/s.exr", "none was written"]);
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "no out.exr, out.png or temporary");
 }
 

@@ -62,11 +62,11 @@ fn held(column: NamedSpectrum, path: &Path) -> anyhow::Result<DenselySampledSpec
 const MAX_STEP_NM: f64 = 100.0;
 
 pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
-    // The finest step is the spectrum grids' own bound (`--step 1e-9` once asked for 7.5 TB
-    // of integration nodes).
-    if !(args.step >= MIN_STEP_NM && args.step <= MAX_STEP_NM) {
+    // The finest step is the library's own bound (`--step 1e-9` once asked for 7.5 TB of
+    // integration nodes); the coarsest is this command's.
+    let Some(integration) = Integration::step(args.step).ok().filter(|_| args.step <= MAX_STEP_NM) else {
         anyhow::bail!("--step {} is out of range [{MIN_STEP_NM}, {MAX_STEP_NM}] nm", colorimetry::Num(args.step));
-    }
+    };
     let illuminant = illuminant(&args.illuminant).with_context(|| format!("illuminant `{}`", args.illuminant))?;
     let spectra = read_spectra_csv(&args.reflectance)?
         .into_iter()
@@ -83,7 +83,6 @@ pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
         }
         None => spectra.iter().collect(),
     };
-    let integration = Integration::Step(args.step);
     let white = reflectance_to_xyz(&DenselySampledSpectrum::constant(1.0), &illuminant, args.observer, &integration);
     if !(white.y > 0.0 && white.y.is_finite()) {
         // An illuminant that is black over 360–830 nm has no white to normalise or adapt to
@@ -102,7 +101,7 @@ pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
         let xyz = reflectance_to_xyz(&s.spectrum, &illuminant, args.observer, &integration);
         let linear = srgb.xyz_to_rgb(xyz.transformed(adapt).scaled(0.01));
         let rgb = [linear.r, linear.g, linear.b];
-        // Inputs are bounded (colorimetry::MAX_SPECTRUM_VALUE), so this holds; a JSON `null`
+        // Spectra read from files are bounded (values at most 1e30), so this holds; a JSON `null`
         // must never be printed as if it were a colour.
         if ![xyz.x, xyz.y, xyz.z, rgb[0], rgb[1], rgb[2]].iter().all(|v| v.is_finite()) {
             anyhow::bail!("{}: column `{}`: the colour is not finite", args.reflectance.display(), s.name);

@@ -1,7 +1,8 @@
 //! Cost of turning an RGB colour into spectral values at a hit: the fit-free table lookup
 //! (`RgbSigmoid::from_rgb`) plus the sigmoid at 4 and 8 wavelengths, the evaluation alone
-//! (coefficients precomputed per texel), and, for comparison, the path the renderer used
-//! before (`upsample_reflectance`: lookup + Gauss–Newton fit, then the 471-value 1 nm table).
+//! (coefficients precomputed per texel), and, for comparison, the path the renderer takes for
+//! RGB colours today (`upsample_reflectance`: lookup + Gauss–Newton fit, then the 471-value
+//! 1 nm table).
 //! Inputs: 1024 pseudo-random linear sRGB colours and wavelength sets, generated in code;
 //! each iteration takes the next one. Throughput: one colour (lookup + evaluation) per element.
 //!

@@ -7,14 +7,17 @@ use std::sync::LazyLock;
 use crate::data::{Illuminant, blackbody};
 use crate::error::{Error, Result};
 use crate::luminance::{luminance_normalized, y_sum, y_weighted_sum};
-use crate::spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, SampledSpectrum, SampledWavelengths};
-use crate::upsample::{RgbSigmoid, RgbToSpectrumTable, upsample_illuminant};
+use crate::spectrum::{
+    DenselySampledSpectrum, SampleSource, SampledSpectrum, SampledWavelengths, check_samples, visible_nm,
+};
+use crate::upsample::{RgbSigmoid, RgbToSpectrumTable, split_brightness, upsample_illuminant};
 
 /// A spectrum defined at every wavelength (nm).
 ///
-/// Flatness, the maximum and luminance come from the variant where it can tell
-/// (`Constant`, `Blackbody`, the RGB forms); only `DenselySampled` and `PiecewiseLinear`
-/// scan their values.
+/// The maximum comes from the variant without a scan except for `DenselySampled` and
+/// `PiecewiseLinear` (their values) and `RgbIlluminant` (the D65 table's maximum); flatness
+/// without a scan for `Constant`, `Blackbody` and RGB albedo or unbounded colours with a
+/// constant polynomial. Luminance is the 1 nm sum for every variant but `Constant`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Spectrum {
     /// The same value at every wavelength (pbrt-v4 `ConstantSpectrum`).
@@ -63,9 +66,8 @@ impl Spectrum {
             Self::RgbAlbedo(s) => s.sample(lambda),
             Self::RgbUnbounded(s) => s.sample(lambda),
             Self::RgbIlluminant(s) => s.sample(lambda),
-            Self::PiecewiseLinear(_) | Self::Blackbody(_) => {
-                SampledSpectrum(lambda.lambdas().map(|l| self.eval(f64::from(l)) as f32))
-            }
+            Self::PiecewiseLinear(s) => SampledSpectrum(lambda.lambdas().map(|l| s.eval(f64::from(l)) as f32)),
+            Self::Blackbody(s) => SampledSpectrum(lambda.lambdas().map(|l| s.eval(f64::from(l)) as f32)),
         }
     }
 
@@ -79,7 +81,7 @@ impl Spectrum {
             Self::Blackbody(_) => 1.0,
             Self::RgbAlbedo(s) => s.max_value(),
             Self::RgbUnbounded(s) => f64::from(s.scale) * s.sigmoid.max_value(),
-            Self::RgbIlluminant(s) => f64::from(s.scale) * s.sigmoid.max_value() * s.illuminant.max_value(),
+            Self::RgbIlluminant(s) => f64::from(s.scale) * s.sigmoid.max_value() * srgb_illuminant().max_value(),
         }
     }
 
@@ -101,11 +103,11 @@ impl Spectrum {
     }
 
     /// Luminance relative to an equal-energy spectrum of value 1 (`Σ S ȳ / Σ ȳ`, CIE 1931,
-    /// 1 nm over 360–830 nm; [`crate::relative_luminance`] for the dense form, bit for bit).
+    /// 1 nm over 360–830 nm; for the dense form the same sum as [`crate::relative_luminance`],
+    /// bit for bit).
     pub fn luminance(&self) -> f64 {
         match self {
             Self::Constant(c) => *c,
-            Self::DenselySampled(s) => crate::relative_luminance(s),
             _ => y_weighted_sum(|l| self.eval(l)) / y_sum(),
         }
     }
@@ -116,13 +118,11 @@ impl Spectrum {
         match self {
             Self::DenselySampled(s) => s.clone(),
             Self::Constant(c) => DenselySampledSpectrum::constant(*c),
-            _ => {
-                let count = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
-                let values =
-                    (0..count).map(|i| sanitise(self.eval(f64::from(LAMBDA_MIN) + i as f64))).collect::<Vec<_>>();
-                DenselySampledSpectrum::new(f64::from(LAMBDA_MIN), 1.0, values)
-                    .expect("finite values on the fixed 1 nm grid")
-            }
+            // Every variant is finite on 360–830 nm: knots and values are bounded, RGB scales
+            // are at most 2e30 and sigmoid coefficients bounded, and a black body's peak is a
+            // finite, positive number (`BlackbodySpectrum::new`).
+            _ => DenselySampledSpectrum::from_fn_visible(|l| self.eval(l))
+                .expect("every variant is finite over 360–830 nm"),
         }
     }
 
@@ -133,26 +133,15 @@ impl Spectrum {
     }
 }
 
-/// Non-finite values (an extreme blackbody, a NaN wavelength) become 0 in a dense table.
-fn sanitise(v: f64) -> f64 {
-    if v.is_finite() { v } else { 0.0 }
-}
-
 /// Whether `f` is the same at every whole nanometre of 360–830 nm.
 fn scan_is_constant(f: impl Fn(f64) -> f64) -> bool {
-    let first = f(f64::from(LAMBDA_MIN));
-    let mut lambda = f64::from(LAMBDA_MIN);
-    while lambda <= f64::from(LAMBDA_MAX) {
-        if f(lambda) != first {
-            return false;
-        }
-        lambda += 1.0;
-    }
-    true
+    let mut lambdas = visible_nm();
+    let first = lambdas.next().map(&f);
+    lambdas.all(|l| Some(f(l)) == first)
 }
 
 /// Linear interpolation between knots `(lambda[i], value[i])`, 0 outside the knots.
-/// Knots strictly increasing, values finite (checked by [`PiecewiseLinearSpectrum::new`]).
+/// Knots and values checked as [`DenselySampledSpectrum::from_samples`] checks its samples.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PiecewiseLinearSpectrum {
     lambdas: Vec<f64>,
@@ -160,48 +149,30 @@ pub struct PiecewiseLinearSpectrum {
 }
 
 impl PiecewiseLinearSpectrum {
-    /// The spectrum through `(lambdas[i], values[i])`.
+    /// The spectrum through `(lambdas[i], values[i])`: at least one knot; wavelengths finite,
+    /// positive, at most 100 000 nm and increasing by at least [`crate::MIN_STEP_NM`]; values
+    /// finite and at most 1e30 in magnitude. The error names the first offending knot by its
+    /// 1-based index.
     pub fn new(lambdas: Vec<f64>, values: Vec<f64>) -> Result<Self> {
-        if lambdas.is_empty() || lambdas.len() != values.len() {
-            return Err(Error::Empty { origin: "piecewise-linear spectrum knots".to_owned() });
-        }
-        if let Some(&v) = lambdas.iter().chain(&values).find(|v| !v.is_finite()) {
-            return Err(Error::OutOfRange { what: "piecewise-linear spectrum knot", value: v, range: "finite" });
-        }
-        for (i, w) in lambdas.windows(2).enumerate() {
-            if !(w[1] > w[0]) {
-                // No file here: `line` is the 1-based index of the offending knot.
-                return Err(Error::Unsorted {
-                    origin: "piecewise-linear spectrum knots".to_owned(),
-                    line: i + 2,
-                    lambda: w[1],
-                    previous: w[0],
-                });
-            }
-        }
+        check_samples(&SampleSource::unfiled("piecewise-linear spectrum knots"), &lambdas, &values)?;
         Ok(Self { lambdas, values })
     }
 
-    /// The value at `lambda` nm: the knot's value at a knot, linear between, 0 outside.
+    /// The value at `lambda` nm: the knot's value at a knot (the blend below is exact there:
+    /// `f` is 0, or 1 at the last knot), linear between, 0 outside.
     pub fn eval(&self, lambda: f64) -> f64 {
         let n = self.lambdas.len();
         if !(lambda >= self.lambdas[0] && lambda <= self.lambdas[n - 1]) {
             return 0.0;
         }
-        // First knot above λ; at the last knot step back so that [i, i + 1] exists.
-        let upper = self.lambdas.partition_point(|&l| l <= lambda);
-        if upper == 0 || n == 1 {
+        if n == 1 {
             return self.values[0];
         }
-        let i = (upper - 1).min(n - 2);
+        // The last knot ≤ λ (there is one: λ ≥ the first), stepped back at the last knot so
+        // that [i, i + 1] exists.
+        let i = (self.lambdas.partition_point(|&l| l <= lambda) - 1).min(n - 2);
         let (l0, l1) = (self.lambdas[i], self.lambdas[i + 1]);
         let f = (lambda - l0) / (l1 - l0);
-        if f == 0.0 {
-            return self.values[i];
-        }
-        if f == 1.0 {
-            return self.values[i + 1];
-        }
         self.values[i] * (1.0 - f) + self.values[i + 1] * f
     }
 
@@ -236,17 +207,22 @@ pub struct BlackbodySpectrum {
 }
 
 impl BlackbodySpectrum {
-    /// A black body at `kelvin` (> 0, finite).
+    /// A black body at `kelvin`: finite, > 0 and with a Planck peak whose reciprocal is
+    /// finite (about 1e-59 to 1e64 K). The crate's one check of a temperature
+    /// ([`crate::Illuminant::Blackbody`] and its name `bb<K>` use it too).
     pub fn new(kelvin: f64) -> Result<Self> {
-        if !(kelvin > 0.0 && kelvin.is_finite()) {
-            return Err(Error::OutOfRange { what: "temperature (K)", value: kelvin, range: "> 0, finite" });
+        // `blackbody` is 0 for a temperature ≤ 0 or NaN (and at the 0 nm peak of +∞ K), so
+        // one test of the normalisation rejects those along with peaks that under- or
+        // overflow.
+        let normalization = 1.0 / blackbody(WIEN_DISPLACEMENT_M_K / kelvin * 1e9, kelvin);
+        if !(normalization > 0.0 && normalization.is_finite()) {
+            return Err(Error::OutOfRange {
+                what: "temperature (K)",
+                value: kelvin,
+                range: "> 0, finite, with a finite Planck peak",
+            });
         }
-        let peak_nm = WIEN_DISPLACEMENT_M_K / kelvin * 1e9;
-        let peak = blackbody(peak_nm, kelvin);
-        if !(peak > 0.0 && peak.is_finite()) {
-            return Err(Error::OutOfRange { what: "temperature (K)", value: kelvin, range: "a finite Planck peak" });
-        }
-        Ok(Self { kelvin, normalization: 1.0 / peak })
+        Ok(Self { kelvin, normalization })
     }
 
     /// The temperature (K).
@@ -269,18 +245,18 @@ pub struct RgbUnboundedSpectrum {
     scale: f32,
 }
 
-/// `2 · max(r, g, b)` and `rgb / scale` (negative and non-finite channels as 0), pbrt-v4's
-/// split of an unbounded RGB into a brightness and a colour of largest channel ½.
-fn split_brightness(rgb: [f32; 3]) -> ([f32; 3], f32) {
-    let rgb = rgb.map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 });
-    let scale = 2.0 * rgb[0].max(rgb[1]).max(rgb[2]);
-    if scale == 0.0 { ([0.0; 3], 0.0) } else { (rgb.map(|c| c / scale), scale) }
+/// [`split_brightness`] of f32 channels, in f64 (so `2 · max` cannot overflow) and rounded
+/// once to f32: the same bits as the split in f32 wherever that does not overflow (f64
+/// carries more than twice f32's digits, so the rounding through f64 is exact).
+fn split_brightness_f32(rgb: [f32; 3]) -> ([f32; 3], f32) {
+    let (color, scale) = split_brightness(rgb.map(f64::from));
+    (color.map(|c| c as f32), scale as f32)
 }
 
 impl RgbUnboundedSpectrum {
     /// Linear sRGB `rgb` (≥ 0) by table lookup.
     pub fn from_rgb(table: &RgbToSpectrumTable, rgb: [f32; 3]) -> Self {
-        let (color, scale) = split_brightness(rgb);
+        let (color, scale) = split_brightness_f32(rgb);
         Self { sigmoid: RgbSigmoid::from_rgb(table, color), scale }
     }
 
@@ -301,10 +277,7 @@ impl RgbUnboundedSpectrum {
 /// illuminants to luminance 1 too).
 static D65_UNIT: LazyLock<DenselySampledSpectrum> = LazyLock::new(|| {
     let d65 = Illuminant::D65.spectrum().expect("D65 is an embedded, tested table");
-    let count = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
-    let values = (0..count).map(|i| d65.eval(f64::from(LAMBDA_MIN) + i as f64)).collect();
-    let grid = DenselySampledSpectrum::new(f64::from(LAMBDA_MIN), 1.0, values).expect("D65 values are finite");
-    luminance_normalized(&grid)
+    luminance_normalized(&DenselySampledSpectrum::from_fn_visible(|l| d65.eval(l)).expect("D65 values are finite"))
 });
 
 /// The illuminant of linear sRGB lights: D65 at relative luminance 1 on the 1 nm grid.
@@ -320,32 +293,31 @@ pub fn srgb_illuminant() -> &'static DenselySampledSpectrum {
 pub struct RgbIlluminantSpectrum {
     sigmoid: RgbSigmoid,
     scale: f32,
-    illuminant: &'static DenselySampledSpectrum,
 }
 
 impl RgbIlluminantSpectrum {
     /// Linear sRGB `rgb` (≥ 0) by table lookup (a few ns; see [`RgbSigmoid::from_rgb`]).
     pub fn from_rgb(table: &RgbToSpectrumTable, rgb: [f32; 3]) -> Self {
-        let (color, scale) = split_brightness(rgb);
-        Self { sigmoid: RgbSigmoid::from_rgb(table, color), scale, illuminant: srgb_illuminant() }
+        let (color, scale) = split_brightness_f32(rgb);
+        Self { sigmoid: RgbSigmoid::from_rgb(table, color), scale }
     }
 
     /// Linear sRGB `rgb` by the exact fit of [`crate::upsample_illuminant`] (about 20 µs):
     /// the same spectrum as [`crate::upsample_illuminant_spectrum`], up to f32 rounding.
     pub fn fit(rgb: [f64; 3]) -> Self {
         let (polynomial, scale) = upsample_illuminant(rgb);
-        Self { sigmoid: polynomial.into(), scale: scale as f32, illuminant: srgb_illuminant() }
+        Self { sigmoid: polynomial.into(), scale: scale as f32 }
     }
 
     /// The value at `lambda` nm.
     pub fn eval(&self, lambda: f64) -> f64 {
-        f64::from(self.scale) * self.sigmoid.eval(lambda) * self.illuminant.eval(lambda)
+        f64::from(self.scale) * self.sigmoid.eval(lambda) * srgb_illuminant().eval(lambda)
     }
 
     /// Values at the sampled wavelengths (f32).
     #[inline]
     pub fn sample<const N: usize>(&self, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
-        self.sigmoid.sample(lambda) * self.illuminant.sample(lambda) * self.scale
+        self.sigmoid.sample(lambda) * srgb_illuminant().sample(lambda) * self.scale
     }
 }
 

@@ -3,16 +3,16 @@
 //! counted, so errors name the file's own line). Every error names the file and the line.
 //!
 //! Hostile files are bounded before anything large is allocated: the file size
-//! ([`MAX_CSV_BYTES`], regular files only), the column count ([`MAX_CSV_COLUMNS`]), the
-//! values held ([`MAX_TABLE_SAMPLES`]), the values themselves ([`MAX_SPECTRUM_VALUE`]) and the
-//! wavelength grid ([`crate::MIN_STEP_NM`], [`crate::MAX_WAVELENGTH_NM`],
-//! [`crate::MAX_SPECTRUM_SAMPLES`]).
+//! ([`MAX_CSV_BYTES`], regular files only), the column count ([`MAX_CSV_COLUMNS`]) and the
+//! values held ([`MAX_TABLE_SAMPLES`]). Every sample is checked by the spectrum constructor's
+//! own checks (wavelengths at least [`crate::MIN_STEP_NM`] apart, at most 100 000 nm, values
+//! at most 1e30), which name the row's line here.
 
 use std::io::Read as _;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::spectrum::{DenselySampledSpectrum, MAX_SPECTRUM_SAMPLES, MAX_WAVELENGTH_NM, MIN_STEP_NM};
+use crate::spectrum::{DenselySampledSpectrum, SampleGrid, SampleSource};
 
 /// Largest spectra file read (bytes): 64 MiB. A 1 nm table of the whole Munsell book (1 269
 /// columns × 471 rows × ~8 characters) is under 5 MiB; a 100 MB header once peaked at 4.1 GB.
@@ -20,16 +20,10 @@ pub const MAX_CSV_BYTES: u64 = 64 << 20;
 
 /// Most columns a spectra table may have (the wavelength column included): 4096, three times
 /// the Munsell book's 1 269 chips.
-pub const MAX_CSV_COLUMNS: usize = 4096;
+pub(crate) const MAX_CSV_COLUMNS: usize = 4096;
 
 /// Most values one table may hold, after resampling uneven rows to 1 nm: 2²⁴ f64 = 128 MiB.
-pub const MAX_TABLE_SAMPLES: usize = 1 << 24;
-
-/// Largest magnitude of a spectral value: 1e30. Radiance in photons s⁻¹ m⁻² sr⁻¹ nm⁻¹ of the
-/// Sun is ~1e22, so real data fits with margin, while a product of two such values summed
-/// over [`MAX_SPECTRUM_SAMPLES`] stays far inside f64 (values of 1e308 made XYZ infinite and
-/// printed `null`), and one value stays inside f32 (3.4e38, the renderer's lanes).
-pub const MAX_SPECTRUM_VALUE: f64 = 1e30;
+pub(crate) const MAX_TABLE_SAMPLES: usize = 1 << 24;
 
 /// One named column of a spectra table.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,8 +35,9 @@ pub struct NamedSpectrum {
 }
 
 /// Parse spectra from CSV text; `origin` names the source in errors. Values must be finite,
-/// non-negative and at most [`MAX_SPECTRUM_VALUE`]; wavelengths strictly increasing, at least
-/// [`MIN_STEP_NM`] apart and in (0, [`MAX_WAVELENGTH_NM`]] nm.
+/// non-negative and at most 1e30; wavelengths strictly increasing, at least
+/// [`crate::MIN_STEP_NM`] apart and in (0, 100 000] nm (the checks of
+/// [`DenselySampledSpectrum::from_samples`]).
 pub fn parse_spectra_csv(text: &str, origin: &str) -> Result<Vec<NamedSpectrum>> {
     parse(text, origin, false)
 }
@@ -105,14 +100,16 @@ pub(crate) fn parse(text: &str, origin: &str, allow_negative: bool) -> Result<Ve
         return Err(Error::NoColumns { origin: origin.to_owned() });
     }
     let mut lambdas: Vec<f64> = Vec::new();
+    // The file line of each row, for the errors of the samples' checks.
+    let mut rows: Vec<usize> = Vec::new();
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len() - 1];
-    let mut last_line = 0;
     for (index, line) in lines {
         let line_no = index + 1;
-        last_line = line_no;
         if (lambdas.len() + 1) * (names.len() - 1) > MAX_TABLE_SAMPLES {
             return Err(Error::TooManySamples {
-                origin: format!("{origin}:{line_no}"),
+                origin: origin.to_owned(),
+                line: Some(line_no),
+                what: "values in the table",
                 samples: ((lambdas.len() + 1) * (names.len() - 1)) as f64,
                 limit: MAX_TABLE_SAMPLES,
             });
@@ -130,19 +127,12 @@ pub(crate) fn parse(text: &str, origin: &str, allow_negative: bool) -> Result<Ve
                 column: quoted(name),
                 cell: quoted(cell),
             })?;
-            if !v.is_finite() {
-                return Err(Error::NotFinite {
-                    origin: origin.to_owned(),
-                    line: line_no,
-                    column: quoted(name),
-                    value: v,
-                });
-            }
             if c == 0 {
-                lambda = check_wavelength(v, lambdas.last().copied(), origin, line_no)?;
+                lambda = v;
                 continue;
             }
-            if v < 0.0 && !allow_negative {
+            // −∞ is left to the samples' check, which calls it not finite.
+            if v < 0.0 && v.is_finite() && !allow_negative {
                 return Err(Error::Negative {
                     origin: origin.to_owned(),
                     line: line_no,
@@ -150,65 +140,41 @@ pub(crate) fn parse(text: &str, origin: &str, allow_negative: bool) -> Result<Ve
                     value: v,
                 });
             }
-            if v.abs() > MAX_SPECTRUM_VALUE {
-                return Err(Error::ValueTooLarge {
-                    origin: origin.to_owned(),
-                    line: line_no,
-                    column: quoted(name),
-                    value: v,
-                    max: MAX_SPECTRUM_VALUE,
-                });
-            }
             columns[c - 1].push(v);
         }
         lambdas.push(lambda);
+        rows.push(line_no);
     }
-    if lambdas.is_empty() {
+    let Some(&last_line) = rows.last() else {
         return Err(Error::Empty { origin: origin.to_owned() });
-    }
-    // Uneven rows are resampled at every whole nanometre: bound the whole table before the
-    // columns are built (each column is checked again on its own).
-    let resampled = (lambdas[lambdas.len() - 1].floor() - lambdas[0].ceil() + 1.0).max(lambdas.len() as f64);
-    let total = resampled.min(MAX_SPECTRUM_SAMPLES as f64) * columns.len() as f64;
+    };
+    let quoted_names: Vec<String> = names.iter().map(|n| quoted(n)).collect();
+    let source = SampleSource { origin, columns: [&quoted_names[0], ""], lines: Some(&rows) };
+    // The wavelengths are checked once, and the grid every column gets is the constructor's
+    // own: the whole table is bounded from it before any column is built.
+    let grid = SampleGrid::new(&source, &lambdas)?;
+    let total = grid.len() as f64 * columns.len() as f64;
     if total > MAX_TABLE_SAMPLES as f64 {
         return Err(Error::TooManySamples {
-            origin: format!("{origin}:{last_line}: table resampled at 1 nm"),
+            origin: origin.to_owned(),
+            line: Some(last_line),
+            what: match grid {
+                SampleGrid::Even { .. } => "values in the table",
+                SampleGrid::WholeNanometres { .. } => "values in the table (its uneven rows resampled at 1 nm)",
+            },
             samples: total,
             limit: MAX_TABLE_SAMPLES,
         });
     }
     names[1..]
         .iter()
+        .zip(&quoted_names[1..])
         .zip(columns)
-        .map(|(name, values)| {
-            let spectrum = DenselySampledSpectrum::from_samples_in(
-                &format!("{origin}: column `{}`", quoted(name)),
-                &lambdas,
-                &values,
-            )?;
+        .map(|((name, quoted_name), values)| {
+            let spectrum = grid.spectrum(&source.with_value_column(quoted_name), &lambdas, &values)?;
             Ok(NamedSpectrum { name: name.clone(), spectrum })
         })
         .collect()
-}
-
-/// A row's wavelength: > 0, at most [`MAX_WAVELENGTH_NM`], after the previous one by at least
-/// [`MIN_STEP_NM`].
-fn check_wavelength(lambda: f64, previous: Option<f64>, origin: &str, line: usize) -> Result<f64> {
-    if lambda <= 0.0 {
-        return Err(Error::BadWavelength { origin: origin.to_owned(), line, lambda });
-    }
-    if lambda > MAX_WAVELENGTH_NM {
-        return Err(Error::WavelengthTooLong { origin: origin.to_owned(), line, lambda, max: MAX_WAVELENGTH_NM });
-    }
-    if let Some(previous) = previous {
-        if !(lambda > previous) {
-            return Err(Error::Unsorted { origin: origin.to_owned(), line, lambda, previous });
-        }
-        if lambda - previous < MIN_STEP_NM {
-            return Err(Error::RowsTooClose { origin: origin.to_owned(), line, lambda, previous, min: MIN_STEP_NM });
-        }
-    }
-    Ok(lambda)
 }
 
 #[cfg(test)]
@@ -222,6 +188,35 @@ mod tests {
         assert_eq!(t[1].name, "b");
         assert_eq!(t[0].spectrum.step(), 10.0);
         assert!((t[0].spectrum.eval(415.0) - 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn an_even_table_is_bounded_by_its_own_grid() {
+        // 200 columns every 5 nm from 1 to 99 996 nm: 20 000 rows, 4e6 values, kept on their
+        // own grid. The table bound assumed every table was resampled at 1 nm (2e7 values)
+        // and refused it.
+        let header: String = (0..200).map(|i| format!(",c{i}")).collect();
+        let mut text = format!("wavelength_nm{header}\n");
+        for row in 0..20_000 {
+            text.push_str(&format!("{}{}\n", 1 + 5 * row, ",0.5".repeat(200)));
+        }
+        let table = parse_spectra_csv(&text, "even.csv").unwrap();
+        assert_eq!(table.len(), 200);
+        let s = &table[199].spectrum;
+        assert_eq!((s.lambda_min(), s.step(), s.values().len(), s.lambda_max()), (1.0, 5.0, 20_000, 99_996.0));
+        // The same rows made uneven are resampled at 1 nm, 99 996 values a column: refused
+        // before any column is built, naming the file's last line.
+        let uneven = text.replacen("\n6,", "\n7,", 1);
+        let err = parse_spectra_csv(&uneven, "uneven.csv").unwrap_err();
+        assert!(
+            matches!(err, Error::TooManySamples { line: Some(20_001), samples, .. } if samples == 200.0 * 99_996.0),
+            "{err}"
+        );
+        assert_eq!(
+            err.to_string(),
+            "uneven.csv:20001: 1.99992e7 values in the table (its uneven rows resampled at 1 nm), more than the \
+             limit of 16777216"
+        );
     }
 
     #[test]

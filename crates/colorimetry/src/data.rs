@@ -5,6 +5,7 @@
 
 use std::sync::LazyLock;
 
+use crate::continuous::BlackbodySpectrum;
 use crate::csv::{NamedSpectrum, parse};
 use crate::error::{Error, Result};
 use crate::spectrum::DenselySampledSpectrum;
@@ -169,9 +170,7 @@ impl Illuminant {
             _ => {
                 if let Some(k) = upper.strip_prefix("BB") {
                     let kelvin: f64 = k.parse().map_err(|_| unknown())?;
-                    if !(kelvin > 0.0 && kelvin.is_finite()) {
-                        return Err(unknown());
-                    }
+                    BlackbodySpectrum::new(kelvin).map_err(|_| unknown())?;
                     Self::Blackbody { kelvin }
                 } else if let Some(n) = upper.strip_prefix('D') {
                     let n: f64 = n.parse().map_err(|_| unknown())?;
@@ -212,12 +211,11 @@ impl Illuminant {
             Self::E => DenselySampledSpectrum::constant(100.0),
             Self::Daylight { cct } => daylight_spectrum(*cct)?,
             Self::Blackbody { kelvin } => {
-                if !(*kelvin > 0.0 && kelvin.is_finite()) {
-                    return Err(Error::OutOfRange { what: "temperature (K)", value: *kelvin, range: "> 0" });
-                }
-                let at560 = blackbody(560.0, *kelvin);
-                let values = (360..=830).map(|l| 100.0 * blackbody(f64::from(l), *kelvin) / at560).collect();
-                DenselySampledSpectrum::new(360.0, 1.0, values)?
+                // The temperature's one check; the values are Planck's law over its value at
+                // 560 nm (rescaling the peak-normalised `BlackbodySpectrum` would round twice).
+                let kelvin = BlackbodySpectrum::new(*kelvin)?.kelvin();
+                let at560 = blackbody(560.0, kelvin);
+                DenselySampledSpectrum::from_fn_visible(|l| 100.0 * blackbody(l, kelvin) / at560)?
             }
         })
     }
@@ -374,6 +372,30 @@ mod tests {
         assert!(matches!(daylight_chromaticity(3999.0), Err(Error::OutOfRange { .. })));
         assert!(matches!(daylight_chromaticity(25_001.0), Err(Error::OutOfRange { .. })));
         assert!(matches!(Illuminant::Daylight { cct: f64::NAN }.spectrum(), Err(Error::OutOfRange { .. })));
+    }
+
+    #[test]
+    fn blackbody_illuminant_is_planck_over_its_560_nm_value_bit_for_bit() {
+        // The values the illuminant had before its temperature check moved into
+        // `BlackbodySpectrum::new`: 100 · B(λ) / B(560 nm) at λ = 360, 361, …, 830 nm.
+        for kelvin in [40.0, 1000.0, 2856.0, 6504.0, 1e5, 1e30] {
+            let got = Illuminant::Blackbody { kelvin }.spectrum().unwrap();
+            let at560 = blackbody(560.0, kelvin);
+            let before: Vec<u64> =
+                (360..=830).map(|l| (100.0 * blackbody(f64::from(l), kelvin) / at560).to_bits()).collect();
+            assert_eq!(got.values().iter().map(|v| v.to_bits()).collect::<Vec<_>>(), before, "{kelvin} K");
+            assert_eq!((got.lambda_min(), got.step()), (360.0, 1.0));
+        }
+        // One check, one message, for the spectrum and for `BlackbodySpectrum`; names refuse
+        // the same temperatures.
+        for kelvin in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e65] {
+            let err = Illuminant::Blackbody { kelvin }.spectrum().unwrap_err().to_string();
+            assert_eq!(err, BlackbodySpectrum::new(kelvin).unwrap_err().to_string());
+            assert!(err.contains("(> 0, finite, with a finite Planck peak)"), "{err}");
+        }
+        for name in ["bb0", "bb-5", "bbinf", "bb1e65", "bbNaN"] {
+            assert!(matches!(Illuminant::parse(name), Err(Error::UnknownIlluminant { .. })), "{name}");
+        }
     }
 
     #[test]

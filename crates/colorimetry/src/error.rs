@@ -1,6 +1,9 @@
 //! Errors of the colorimetry crate.
 
 /// What can go wrong building spectra, reading spectral tables or naming illuminants.
+///
+/// `line` is the 1-based line of a file; for samples not read from one (a manifest's
+/// `samples`, piecewise-linear knots) it is the sample's 1-based index.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A spectrum or table with no values.
@@ -22,7 +25,7 @@ pub enum Error {
         cell: String,
     },
     /// A NaN or infinite value.
-    #[error("{origin}:{line}: column `{column}`: {} is not finite", num(*value))]
+    #[error("{origin}:{line}: column `{column}`: {} is not finite", Num(*value))]
     NotFinite {
         /// File name.
         origin: String,
@@ -34,7 +37,7 @@ pub enum Error {
         value: f64,
     },
     /// A negative spectral value where only non-negative ones make sense.
-    #[error("{origin}:{line}: column `{column}`: {} is negative (spectra must be >= 0)", num(*value))]
+    #[error("{origin}:{line}: column `{column}`: {} is negative (spectra must be >= 0)", Num(*value))]
     Negative {
         /// File name.
         origin: String,
@@ -46,7 +49,7 @@ pub enum Error {
         value: f64,
     },
     /// Wavelengths out of order or repeated.
-    #[error("{origin}:{line}: wavelength {} nm after {} nm (must increase)", num(*lambda), num(*previous))]
+    #[error("{origin}:{line}: wavelength {} nm after {} nm (must increase)", Num(*lambda), Num(*previous))]
     Unsorted {
         /// File name.
         origin: String,
@@ -58,7 +61,7 @@ pub enum Error {
         previous: f64,
     },
     /// A wavelength that is zero or negative.
-    #[error("{origin}:{line}: wavelength {} nm must be > 0", num(*lambda))]
+    #[error("{origin}:{line}: wavelength {} nm must be > 0", Num(*lambda))]
     BadWavelength {
         /// File name.
         origin: String,
@@ -67,12 +70,12 @@ pub enum Error {
         /// The wavelength.
         lambda: f64,
     },
-    /// A wavelength beyond the longest a spectrum may name ([`crate::MAX_WAVELENGTH_NM`]).
-    #[error("{origin}:{line}: wavelength {} nm is beyond the longest supported, {} nm", num(*lambda), num(*max))]
+    /// A wavelength beyond the longest a spectrum may name (100 000 nm, the far infrared).
+    #[error("{origin}:{line}: wavelength {} nm is beyond the longest supported, {} nm", Num(*lambda), Num(*max))]
     WavelengthTooLong {
         /// File name.
         origin: String,
-        /// 1-based line number (the sample's index where there is no file).
+        /// 1-based line number.
         line: usize,
         /// The wavelength.
         lambda: f64,
@@ -82,7 +85,7 @@ pub enum Error {
     /// Two rows closer in wavelength than a grid may be ([`crate::MIN_STEP_NM`]).
     #[error(
         "{origin}:{line}: wavelength {} nm is only {} nm after {} nm (rows must be at least {} nm apart)",
-        num(*lambda), num(lambda - previous), num(*previous), num(*min)
+        Num(*lambda), Num(lambda - previous), Num(*previous), Num(*min)
     )]
     RowsTooClose {
         /// File name.
@@ -97,7 +100,7 @@ pub enum Error {
         min: f64,
     },
     /// A grid step finer than [`crate::MIN_STEP_NM`].
-    #[error("{origin}: wavelength step {} nm is finer than the minimum, {} nm", num(*step), num(*min))]
+    #[error("{origin}: wavelength step {} nm is finer than the minimum, {} nm", Num(*step), Num(*min))]
     StepTooSmall {
         /// What the grid belongs to.
         origin: String,
@@ -107,10 +110,14 @@ pub enum Error {
         min: f64,
     },
     /// A grid (or table) with more samples than allowed; checked before allocating.
-    #[error("{origin}: {} samples, more than the limit of {limit}", num(*samples))]
+    #[error("{origin}{}: {} {what}, more than the limit of {limit}", AtLine(*line), Num(*samples))]
     TooManySamples {
-        /// What the grid belongs to.
+        /// What the grid belongs to (a file name, for a table).
         origin: String,
+        /// 1-based line number, for a table read from a file.
+        line: Option<usize>,
+        /// What is counted, in words (`samples`, or a table's values).
+        what: &'static str,
         /// Samples it would need (f64: the count may not fit an integer).
         samples: f64,
         /// The limit.
@@ -118,15 +125,15 @@ pub enum Error {
     },
     /// A spectrum with no wavelength in the visible range, which holding its end values would
     /// turn into a flat spectrum made up across 360–830 nm.
-    #[error("spectrum defined only at {}–{} nm, outside the visible range 360–830 nm", num(*lambda_min), num(*lambda_max))]
+    #[error("spectrum defined only at {}–{} nm, outside the visible range 360–830 nm", Num(*lambda_min), Num(*lambda_max))]
     OutsideVisible {
         /// First wavelength (nm).
         lambda_min: f64,
         /// Last wavelength (nm).
         lambda_max: f64,
     },
-    /// A value so large that the colour sums would overflow ([`crate::MAX_SPECTRUM_VALUE`]).
-    #[error("{origin}:{line}: column `{column}`: {} is too large (spectra must be <= {})", num(*value), num(*max))]
+    /// A value so large that the colour sums would overflow (more than 1e30 in magnitude).
+    #[error("{origin}:{line}: column `{column}`: {} is too large (spectra must be <= {})", Num(*value), Num(*max))]
     ValueTooLarge {
         /// File name.
         origin: String,
@@ -195,7 +202,7 @@ pub enum Error {
         known: &'static str,
     },
     /// A parameter outside its valid range.
-    #[error("{what} = {} is out of range ({range})", num(*value))]
+    #[error("{what} = {} is out of range ({range})", Num(*value))]
     OutOfRange {
         /// Which parameter.
         what: &'static str,
@@ -226,8 +233,16 @@ impl std::fmt::Display for Num {
     }
 }
 
-fn num(v: f64) -> Num {
-    Num(v)
+/// `:line` after a file name when there is a line, nothing otherwise.
+struct AtLine(Option<usize>);
+
+impl std::fmt::Display for AtLine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(line) => write!(f, ":{line}"),
+            None => Ok(()),
+        }
+    }
 }
 
 /// Result with this crate's [`Error`].

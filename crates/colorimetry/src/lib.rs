@@ -33,24 +33,20 @@ mod lab;
 mod luminance;
 mod rgb;
 mod spectrum;
+#[cfg(test)]
+mod test_support;
 mod xyz;
 
 pub use continuous::{
     BlackbodySpectrum, PiecewiseLinearSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum, Spectrum, srgb_illuminant,
 };
-pub use csv::{
-    MAX_CSV_BYTES, MAX_CSV_COLUMNS, MAX_SPECTRUM_VALUE, MAX_TABLE_SAMPLES, NamedSpectrum, parse_spectra_csv,
-    read_spectra_csv,
-};
+pub use csv::{MAX_CSV_BYTES, NamedSpectrum, parse_spectra_csv, read_spectra_csv};
 pub use data::{Cmf, Illuminant, KNOWN_ILLUMINANTS, Observer, blackbody, colorchecker, daylight_chromaticity, tcs};
 pub use error::{Error, Num, Result};
 pub use lab::{Lab, delta_e_2000};
 pub use luminance::{luminance_normalized, relative_luminance, relative_xyz, y_sum};
 pub use rgb::{Rgb, RgbColorSpace, bradford, quantize_u8, srgb_decode, srgb_encode};
-pub use spectrum::{
-    DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, MAX_SPECTRUM_SAMPLES, MAX_WAVELENGTH_NM, MIN_STEP_NM,
-    SampledSpectrum, SampledWavelengths,
-};
+pub use spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, MIN_STEP_NM, SampledSpectrum, SampledWavelengths};
 pub use xyz::{Integration, Xyz, emission_to_xyz, reflectance_to_xyz};
 
 // --- upsampling ---

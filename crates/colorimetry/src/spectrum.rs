@@ -15,18 +15,34 @@ pub const LAMBDA_MAX: f32 = 830.0;
 /// Finest wavelength step a spectrum grid may have (nm). Laboratory spectrometers resolve
 /// about 0.01–0.1 nm and the CIE tables are at 1 or 5 nm, so 0.001 nm leaves a factor of ten
 /// below the finest real data, while keeping the visible range (470 nm) within
-/// [`MAX_SPECTRUM_SAMPLES`] at that step. A finer step (`500, 500.0000000001` in a file, or
+/// 2²⁰ samples at that step. A finer step (`500, 500.0000000001` in a file, or
 /// `--step 1e-9`) asked for terabytes before this bound.
 pub const MIN_STEP_NM: f64 = 1e-3;
 
 /// Most samples one spectrum grid may hold: 2²⁰ f64 = 8 MiB. It fits 360–830 nm at
 /// [`MIN_STEP_NM`] (470 001 samples) and a table resampled at 1 nm up to
 /// [`MAX_WAVELENGTH_NM`] (100 001 samples).
-pub const MAX_SPECTRUM_SAMPLES: usize = 1 << 20;
+pub(crate) const MAX_SPECTRUM_SAMPLES: usize = 1 << 20;
 
 /// Longest wavelength a spectrum may name (nm): 100 µm, the far infrared, 120 × the visible
 /// range's end. Solar and lamp tables stop at 2500–4000 nm; nothing here is used above 830 nm.
-pub const MAX_WAVELENGTH_NM: f64 = 1e5;
+pub(crate) const MAX_WAVELENGTH_NM: f64 = 1e5;
+
+/// Largest magnitude of a spectral value given as samples (a CSV table, a manifest's
+/// `samples`, piecewise-linear knots): 1e30. Radiance in photons s⁻¹ m⁻² sr⁻¹ nm⁻¹ of the Sun
+/// is ~1e22, so real data fits with margin, while a product of two such values summed over
+/// [`MAX_SPECTRUM_SAMPLES`] stays far inside f64 (values of 1e308 made XYZ infinite and printed
+/// `null`), and one value stays inside f32 (3.4e38, the renderer's lanes).
+pub(crate) const MAX_SPECTRUM_VALUE: f64 = 1e30;
+
+/// Whole nanometres in [`LAMBDA_MIN`, `LAMBDA_MAX`]: 471, the rows of the CIE 1 nm tables.
+pub(crate) const VISIBLE_SAMPLES: usize = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
+
+/// 360, 361, …, 830 nm in order: the 1 nm grid of the CIE tables, on which the colorimetric
+/// sums and every 1 nm spectrum of this crate are taken (whole numbers, exact in f64).
+pub(crate) fn visible_nm() -> impl Iterator<Item = f64> {
+    (0..VISIBLE_SAMPLES).map(|i| f64::from(LAMBDA_MIN) + i as f64)
+}
 
 /// ∫ ȳ(λ) dλ of each observer, summed at 1 nm over 360–830 nm (the tables' own sums,
 /// quoted in `data/PROVENANCE.md`: Σȳ = 106.856917, Σȳ₁₀ = 116.661877; the unit test
@@ -36,6 +52,199 @@ fn y_integral(observer: Observer) -> f64 {
     match observer {
         Observer::Cie1931 => 106.856_917,
         Observer::Cie1964 => 116.661_877,
+    }
+}
+
+/// The one check of a wavelength step (a spectrum's grid, an [`crate::Integration`]): finite
+/// and at least [`MIN_STEP_NM`]; `origin` names the grid in the error.
+pub(crate) fn check_step(origin: &str, step: f64) -> Result<()> {
+    if step >= MIN_STEP_NM && step.is_finite() {
+        return Ok(());
+    }
+    Err(if step > 0.0 && step < MIN_STEP_NM {
+        Error::StepTooSmall { origin: origin.to_owned(), step, min: MIN_STEP_NM }
+    } else {
+        Error::OutOfRange { what: "wavelength step", value: step, range: "> 0, finite" }
+    })
+}
+
+/// Where samples come from, for the errors of their checks.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct SampleSource<'a> {
+    /// The file (or other source) name.
+    pub(crate) origin: &'a str,
+    /// What the wavelength and the value are called in messages (a file's column headers).
+    pub(crate) columns: [&'a str; 2],
+    /// The file line of each sample; without a file, sample `i` is reported as `i + 1`.
+    pub(crate) lines: Option<&'a [usize]>,
+}
+
+impl<'a> SampleSource<'a> {
+    /// Samples that are not from a file: `[nm, value]` pairs, sample `i` reported as `i + 1`.
+    pub(crate) fn unfiled(origin: &'a str) -> Self {
+        Self { origin, columns: ["nm", "value"], lines: None }
+    }
+
+    /// The same source with its value column called `column`.
+    pub(crate) fn with_value_column(self, column: &'a str) -> Self {
+        Self { columns: [self.columns[0], column], ..self }
+    }
+
+    fn line(&self, i: usize) -> usize {
+        self.lines.map_or(i + 1, |lines| lines[i])
+    }
+}
+
+/// Every wavelength finite, > 0, at most [`MAX_WAVELENGTH_NM`] and after the previous one by
+/// at least [`MIN_STEP_NM`]; the error names the first offending sample.
+pub(crate) fn check_wavelengths(source: &SampleSource<'_>, lambdas: &[f64]) -> Result<()> {
+    let origin = || source.origin.to_owned();
+    for (i, &lambda) in lambdas.iter().enumerate() {
+        let line = source.line(i);
+        if !lambda.is_finite() {
+            let column = source.columns[0].to_owned();
+            return Err(Error::NotFinite { origin: origin(), line, column, value: lambda });
+        }
+        if lambda <= 0.0 {
+            return Err(Error::BadWavelength { origin: origin(), line, lambda });
+        }
+        if lambda > MAX_WAVELENGTH_NM {
+            return Err(Error::WavelengthTooLong { origin: origin(), line, lambda, max: MAX_WAVELENGTH_NM });
+        }
+        if i > 0 {
+            let previous = lambdas[i - 1];
+            if !(lambda > previous) {
+                return Err(Error::Unsorted { origin: origin(), line, lambda, previous });
+            }
+            if lambda - previous < MIN_STEP_NM {
+                return Err(Error::RowsTooClose { origin: origin(), line, lambda, previous, min: MIN_STEP_NM });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every value finite and at most [`MAX_SPECTRUM_VALUE`] in magnitude; the error names the
+/// first offending sample.
+pub(crate) fn check_values(source: &SampleSource<'_>, values: &[f64]) -> Result<()> {
+    let Some(i) = values.iter().position(|v| !(v.abs() <= MAX_SPECTRUM_VALUE)) else {
+        return Ok(());
+    };
+    let (origin, line, column, value) =
+        (source.origin.to_owned(), source.line(i), source.columns[1].to_owned(), values[i]);
+    Err(if value.is_finite() {
+        Error::ValueTooLarge { origin, line, column, value, max: MAX_SPECTRUM_VALUE }
+    } else {
+        Error::NotFinite { origin, line, column, value }
+    })
+}
+
+/// [`check_wavelengths`] and [`check_values`] of `(lambdas[i], values[i])`, which must be as
+/// many and at least one.
+pub(crate) fn check_samples(source: &SampleSource<'_>, lambdas: &[f64], values: &[f64]) -> Result<()> {
+    if lambdas.is_empty() || lambdas.len() != values.len() {
+        return Err(Error::Empty { origin: source.origin.to_owned() });
+    }
+    check_wavelengths(source, lambdas)?;
+    check_values(source, values)
+}
+
+/// The grid [`DenselySampledSpectrum::from_samples`] puts samples on, laid out from their
+/// wavelengths alone, so that a table of many columns is checked and sized once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum SampleGrid {
+    /// Evenly spaced wavelengths: the samples' own grid (exact).
+    Even {
+        /// First wavelength (nm).
+        first: f64,
+        /// Spacing (nm).
+        step: f64,
+        /// Samples.
+        count: usize,
+    },
+    /// Uneven wavelengths: every whole nanometre of their range, from `first`.
+    WholeNanometres {
+        /// First whole nanometre.
+        first: f64,
+        /// Whole nanometres in the range.
+        count: usize,
+    },
+}
+
+impl SampleGrid {
+    /// Checks the wavelengths ([`check_wavelengths`]) and lays out their grid, bounded by
+    /// [`MAX_SPECTRUM_SAMPLES`] before anything is allocated.
+    pub(crate) fn new(source: &SampleSource<'_>, lambdas: &[f64]) -> Result<Self> {
+        if lambdas.is_empty() {
+            return Err(Error::Empty { origin: source.origin.to_owned() });
+        }
+        check_wavelengths(source, lambdas)?;
+        if lambdas.len() == 1 {
+            return Ok(Self::Even { first: lambdas[0], step: 1.0, count: 1 });
+        }
+        let step = lambdas[1] - lambdas[0];
+        let even = lambdas.windows(2).all(|w| ((w[1] - w[0]) - step).abs() <= 1e-9 * step.max(1.0));
+        if even {
+            let count = lambdas.len();
+            if count > MAX_SPECTRUM_SAMPLES {
+                return Err(Error::TooManySamples {
+                    origin: source.origin.to_owned(),
+                    line: None,
+                    what: "samples",
+                    samples: count as f64,
+                    limit: MAX_SPECTRUM_SAMPLES,
+                });
+            }
+            return Ok(Self::Even { first: lambdas[0], step, count });
+        }
+        let (first, last) = (lambdas[0].ceil(), lambdas[lambdas.len() - 1].floor());
+        if last < first {
+            return Err(Error::Empty { origin: format!("{} (no whole nanometre in their range)", source.origin) });
+        }
+        // Wavelengths are in (0, MAX_WAVELENGTH_NM]: at most 100 000 whole nanometres, within
+        // MAX_SPECTRUM_SAMPLES (a 1e300 nm row used to overflow the count here).
+        Ok(Self::WholeNanometres { first, count: (last - first) as usize + 1 })
+    }
+
+    /// Values of one spectrum on this grid.
+    pub(crate) fn len(&self) -> usize {
+        match *self {
+            Self::Even { count, .. } | Self::WholeNanometres { count, .. } => count,
+        }
+    }
+
+    /// The piecewise-linear spectrum through `(lambdas[i], values[i])` on this grid (made by
+    /// [`SampleGrid::new`] from the same `lambdas`); the values are checked
+    /// ([`check_values`]).
+    pub(crate) fn spectrum(
+        &self,
+        source: &SampleSource<'_>,
+        lambdas: &[f64],
+        values: &[f64],
+    ) -> Result<DenselySampledSpectrum> {
+        if values.len() != lambdas.len() {
+            return Err(Error::Empty { origin: source.origin.to_owned() });
+        }
+        check_values(source, values)?;
+        match *self {
+            Self::Even { first, step, .. } => {
+                DenselySampledSpectrum::new_in(source.origin, first, step, values.to_vec())
+            }
+            Self::WholeNanometres { first, count } => {
+                let mut out = Vec::with_capacity(count);
+                let mut segment = 0;
+                for i in 0..count {
+                    let l = first + i as f64;
+                    while segment + 2 < lambdas.len() && lambdas[segment + 1] < l {
+                        segment += 1;
+                    }
+                    let (l0, l1) = (lambdas[segment], lambdas[segment + 1]);
+                    let f = ((l - l0) / (l1 - l0)).clamp(0.0, 1.0);
+                    out.push(values[segment] * (1.0 - f) + values[segment + 1] * f);
+                }
+                DenselySampledSpectrum::new_in(source.origin, first, 1.0, out)
+            }
+        }
     }
 }
 
@@ -50,19 +259,14 @@ pub struct DenselySampledSpectrum {
 
 impl DenselySampledSpectrum {
     /// Samples `values` at `lambda_min + i·step` nm. The grid is bounded: step ≥
-    /// [`MIN_STEP_NM`], at most [`MAX_SPECTRUM_SAMPLES`] values.
+    /// [`MIN_STEP_NM`], at most 2²⁰ values.
     pub fn new(lambda_min: f64, step: f64, values: Vec<f64>) -> Result<Self> {
         Self::new_in("spectrum", lambda_min, step, values)
     }
 
     /// [`Self::new`] with `origin` naming the source in errors.
     pub(crate) fn new_in(origin: &str, lambda_min: f64, step: f64, values: Vec<f64>) -> Result<Self> {
-        if !(step > 0.0 && step.is_finite()) {
-            return Err(Error::OutOfRange { what: "wavelength step", value: step, range: "> 0, finite" });
-        }
-        if step < MIN_STEP_NM {
-            return Err(Error::StepTooSmall { origin: origin.to_owned(), step, min: MIN_STEP_NM });
-        }
+        check_step(origin, step)?;
         if !lambda_min.is_finite() {
             return Err(Error::OutOfRange { what: "first wavelength", value: lambda_min, range: "finite" });
         }
@@ -72,6 +276,8 @@ impl DenselySampledSpectrum {
         if values.len() > MAX_SPECTRUM_SAMPLES {
             return Err(Error::TooManySamples {
                 origin: origin.to_owned(),
+                line: None,
+                what: "samples",
                 samples: values.len() as f64,
                 limit: MAX_SPECTRUM_SAMPLES,
             });
@@ -82,70 +288,31 @@ impl DenselySampledSpectrum {
         Ok(Self { lambda_min, step, values })
     }
 
-    /// A piecewise-linear spectrum through `(lambdas[i], values[i])`: kept on its own grid
-    /// when evenly spaced (exact), otherwise resampled at every whole nanometre of its range
-    /// (exact at those wavelengths). Zero outside the given range. The grid bounds of
-    /// [`Self::new`] apply; the resampled grid is checked before it is allocated.
-    pub fn from_samples(lambdas: &[f64], values: &[f64]) -> Result<Self> {
-        Self::from_samples_in("spectrum samples", lambdas, values)
+    /// `f` at every whole nanometre of 360–830 nm ([`visible_nm`]): the 1 nm grid of the CIE
+    /// tables. Errors where `f` is not finite.
+    pub(crate) fn from_fn_visible(f: impl Fn(f64) -> f64) -> Result<Self> {
+        Self::new(f64::from(LAMBDA_MIN), 1.0, visible_nm().map(f).collect())
     }
 
-    /// [`Self::from_samples`] with `origin` naming the source in errors.
-    pub(crate) fn from_samples_in(origin: &str, lambdas: &[f64], values: &[f64]) -> Result<Self> {
-        if lambdas.is_empty() || lambdas.len() != values.len() {
-            return Err(Error::Empty { origin: origin.to_owned() });
+    /// A piecewise-linear spectrum through `(lambdas[i], values[i])`: kept on its own grid
+    /// when evenly spaced (exact), otherwise resampled at every whole nanometre of its range
+    /// (exact at those wavelengths). Zero outside the given range.
+    ///
+    /// Every sample is checked, the error naming the first offending one by its 1-based
+    /// index: wavelengths finite, > 0, at most 100 000 nm, increasing by at least
+    /// [`MIN_STEP_NM`]; values finite and at most 1e30 in magnitude (so that colour sums stay
+    /// finite). The grid bounds of [`Self::new`] apply, checked before it is allocated.
+    pub fn from_samples(lambdas: &[f64], values: &[f64]) -> Result<Self> {
+        let source = SampleSource::unfiled("spectrum samples");
+        if lambdas.len() != values.len() {
+            return Err(Error::Empty { origin: source.origin.to_owned() });
         }
-        for (i, w) in lambdas.windows(2).enumerate() {
-            if !(w[1] > w[0]) {
-                // No file here: `line` is the 1-based index of the offending sample.
-                return Err(Error::Unsorted { origin: origin.to_owned(), line: i + 2, lambda: w[1], previous: w[0] });
-            }
-        }
-        if let Some(i) = lambdas.iter().position(|l| !(*l <= MAX_WAVELENGTH_NM)) {
-            return Err(Error::WavelengthTooLong {
-                origin: origin.to_owned(),
-                line: i + 1,
-                lambda: lambdas[i],
-                max: MAX_WAVELENGTH_NM,
-            });
-        }
-        if lambdas.len() == 1 {
-            return Self::new_in(origin, lambdas[0], 1.0, values.to_vec());
-        }
-        let step = lambdas[1] - lambdas[0];
-        let even = lambdas.windows(2).all(|w| ((w[1] - w[0]) - step).abs() <= 1e-9 * step.max(1.0));
-        if even {
-            return Self::new_in(origin, lambdas[0], step, values.to_vec());
-        }
-        let (first, last) = (lambdas[0].ceil(), lambdas[lambdas.len() - 1].floor());
-        if last < first {
-            return Err(Error::Empty { origin: format!("{origin} (no whole nanometre in their range)") });
-        }
-        // Counted in f64 and checked before the cast and the allocation (a 1e300 nm row used
-        // to overflow here).
-        let samples = last - first + 1.0;
-        if samples > MAX_SPECTRUM_SAMPLES as f64 {
-            return Err(Error::TooManySamples { origin: origin.to_owned(), samples, limit: MAX_SPECTRUM_SAMPLES });
-        }
-        let count = samples as usize;
-        let mut out = Vec::with_capacity(count);
-        let mut segment = 0;
-        for i in 0..count {
-            let l = first + i as f64;
-            while segment + 2 < lambdas.len() && lambdas[segment + 1] < l {
-                segment += 1;
-            }
-            let (l0, l1) = (lambdas[segment], lambdas[segment + 1]);
-            let f = ((l - l0) / (l1 - l0)).clamp(0.0, 1.0);
-            out.push(values[segment] * (1.0 - f) + values[segment + 1] * f);
-        }
-        Self::new_in(origin, first, 1.0, out)
+        SampleGrid::new(&source, lambdas)?.spectrum(&source, lambdas, values)
     }
 
     /// The same value at every nanometre of 360–830 nm.
     pub fn constant(value: f64) -> Self {
-        let n = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
-        Self { lambda_min: f64::from(LAMBDA_MIN), step: 1.0, values: vec![value; n] }
+        Self { lambda_min: f64::from(LAMBDA_MIN), step: 1.0, values: vec![value; VISIBLE_SAMPLES] }
     }
 
     /// The value at `lambda` nm: linear interpolation, 0 outside the grid.
@@ -239,6 +406,8 @@ impl DenselySampledSpectrum {
         if count > MAX_SPECTRUM_SAMPLES {
             return Err(Error::TooManySamples {
                 origin: "resampled spectrum".to_owned(),
+                line: None,
+                what: "samples",
                 samples: count as f64,
                 limit: MAX_SPECTRUM_SAMPLES,
             });
@@ -254,7 +423,7 @@ impl DenselySampledSpectrum {
     ///
     /// Errors: a spectrum that does not reach into 360–830 nm at all (holding one end value
     /// across the whole visible range would silently make up a flat spectrum), and an
-    /// extended grid of more than [`MAX_SPECTRUM_SAMPLES`] (checked before allocating).
+    /// extended grid of more than 2²⁰ samples (checked before allocating).
     pub fn held_to_visible(&self) -> Result<Self> {
         let (visible_min, visible_max) = (f64::from(LAMBDA_MIN), f64::from(LAMBDA_MAX));
         if self.lambda_max() < visible_min || self.lambda_min > visible_max {
@@ -268,6 +437,8 @@ impl DenselySampledSpectrum {
         if !(samples <= MAX_SPECTRUM_SAMPLES as f64) {
             return Err(Error::TooManySamples {
                 origin: format!("spectrum extended to {visible_min}–{visible_max} nm at its {} nm step", self.step),
+                line: None,
+                what: "samples",
                 samples,
                 limit: MAX_SPECTRUM_SAMPLES,
             });
@@ -578,6 +749,46 @@ mod tests {
             Err(Error::Empty { .. })
         ));
         assert!(DenselySampledSpectrum::from_samples(&[400.0, 410.0], &[1.0]).is_err());
+    }
+
+    #[test]
+    fn every_sample_is_checked_by_the_constructor() {
+        // A manifest's `{"samples": …}` took [-5, 400] nm and a value of 3e38 (only the CSV
+        // parser checked them); the constructor now does, naming the sample by its index.
+        let e = |l: &[f64], v: &[f64]| DenselySampledSpectrum::from_samples(l, v).unwrap_err().to_string();
+        assert_eq!(e(&[-5.0, 400.0], &[1.0, 1.0]), "spectrum samples:1: wavelength -5 nm must be > 0");
+        assert_eq!(
+            e(&[400.0, 500.0], &[1.0, 3e38]),
+            "spectrum samples:2: column `value`: 3e38 is too large (spectra must be <= 1e30)"
+        );
+        assert_eq!(e(&[400.0, 500.0], &[-2e30, 1.0]).split(':').nth(1), Some("1"));
+        assert_eq!(e(&[400.0, 500.0], &[1.0, f64::NAN]), "spectrum samples:2: column `value`: NaN is not finite");
+        assert_eq!(e(&[400.0, f64::INFINITY], &[1.0, 1.0]), "spectrum samples:2: column `nm`: inf is not finite");
+        // Rows closer than the finest step, even where the rest is uneven (it used to be
+        // resampled quietly).
+        assert!(
+            e(&[400.0, 500.0, 500.0000001], &[1.0; 3])
+                .starts_with("spectrum samples:3: wavelength 500.0000001 nm is only")
+        );
+        // The bound itself and negative values (a CSV policy, not the constructor's) pass.
+        let ok = DenselySampledSpectrum::from_samples(&[400.0, 500.0], &[-1e30, 1e30]).unwrap();
+        assert_eq!((ok.eval(400.0), ok.eval(500.0)), (-1e30, 1e30));
+    }
+
+    #[test]
+    fn the_visible_grid_is_the_whole_nanometres() {
+        let grid: Vec<f64> = visible_nm().collect();
+        assert_eq!(grid.len(), 471);
+        // The grids it replaced: `360 + i`, `T_ORIGIN_NM + i · 1.0` and `f64::from(360..=830)`.
+        for (i, &l) in grid.iter().enumerate() {
+            assert_eq!(l.to_bits(), (360.0 + i as f64).to_bits());
+            assert_eq!(l.to_bits(), f64::from(360 + i as u32).to_bits());
+        }
+        let s = DenselySampledSpectrum::from_fn_visible(|l| l * 0.5).unwrap();
+        assert_eq!((s.lambda_min(), s.step(), s.values().len()), (360.0, 1.0, 471));
+        assert_eq!(s.eval(830.0), 415.0);
+        assert_eq!(DenselySampledSpectrum::constant(2.0).values().len(), VISIBLE_SAMPLES);
+        assert!(DenselySampledSpectrum::from_fn_visible(|l| if l > 800.0 { f64::NAN } else { 1.0 }).is_err());
     }
 
     #[test]

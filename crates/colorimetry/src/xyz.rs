@@ -1,7 +1,8 @@
 //! Spectrum → CIE XYZ, exactly as the paper writes it: X = k Σ S R x̄ Δλ, k = 100 / Σ S ȳ Δλ.
 
 use crate::data::Observer;
-use crate::spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN};
+use crate::error::Result;
+use crate::spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, check_step};
 
 /// CIE 1931/1964 tristimulus values.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,38 +46,56 @@ impl Xyz {
 /// How a spectral integral is discretised: the paper's Σ … Δλ.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Integration {
-    /// λ = 360, 360 + s, …, up to 830 nm; each term weighted by s.
+    /// λ = 360, 360 + s, …, up to 830 nm; each term weighted by s. The step must be finite
+    /// and at least [`crate::MIN_STEP_NM`] ([`Integration::step`] checks it): with any other
+    /// step the sums are NaN, not another sum (0 and negative steps used to become 1 nm
+    /// silently) nor a huge one (1e-9 nm asked for 4.7e11 nodes).
     Step(f64),
     /// Arbitrary bins: (centre λ, width Δλ).
     Bins(Vec<(f64, f64)>),
 }
 
 impl Integration {
-    /// The (λ, Δλ) nodes of the sum.
-    fn nodes(&self) -> Vec<(f64, f64)> {
+    /// `Integration::Step(step)` once the step is checked: finite and at least
+    /// [`crate::MIN_STEP_NM`] (the bound of spectrum grids, which keeps 360–830 nm within
+    /// 470 001 nodes).
+    pub fn step(step: f64) -> Result<Self> {
+        check_step("integration", step)?;
+        Ok(Self::Step(step))
+    }
+
+    /// The (λ, Δλ) nodes of the sum; `None` for a step [`Integration::step`] refuses.
+    fn nodes(&self) -> Option<Vec<(f64, f64)>> {
         match self {
             Self::Step(step) => {
-                let step = if *step > 0.0 { *step } else { 1.0 };
+                let step = *step;
+                check_step("integration", step).ok()?;
                 let (lo, hi) = (f64::from(LAMBDA_MIN), f64::from(LAMBDA_MAX));
                 let count = ((hi - lo) / step + 1e-9).floor() as usize + 1;
-                (0..count).map(|i| (lo + step * i as f64, step)).collect()
+                Some((0..count).map(|i| (lo + step * i as f64, step)).collect())
             }
-            Self::Bins(bins) => bins.clone(),
+            Self::Bins(bins) => Some(bins.clone()),
         }
     }
 }
 
+/// The XYZ of a sum over no valid nodes (see [`Integration::Step`]).
+const NAN_XYZ: Xyz = Xyz { x: f64::NAN, y: f64::NAN, z: f64::NAN };
+
 /// Tristimulus values of a reflectance under an illuminant (the paper's eq.), so that a
-/// perfect reflector has Y = 100.
+/// perfect reflector has Y = 100. NaN for a step [`Integration::step`] refuses.
 pub fn reflectance_to_xyz(
     reflectance: &DenselySampledSpectrum,
     illuminant: &DenselySampledSpectrum,
     observer: Observer,
     integration: &Integration,
 ) -> Xyz {
+    let Some(nodes) = integration.nodes() else {
+        return NAN_XYZ;
+    };
     let cmf = observer.cmf();
     let (mut x, mut y, mut z, mut norm) = (0.0, 0.0, 0.0, 0.0);
-    for (l, dl) in integration.nodes() {
+    for (l, dl) in nodes {
         let s = illuminant.eval(l) * dl;
         let sr = s * reflectance.eval(l);
         let ybar = cmf.y.eval(l);
@@ -89,11 +108,15 @@ pub fn reflectance_to_xyz(
     Xyz { x: k * x, y: k * y, z: k * z }
 }
 
-/// Unnormalised tristimulus values of an emission spectrum: X = Σ S x̄ Δλ.
+/// Unnormalised tristimulus values of an emission spectrum: X = Σ S x̄ Δλ. NaN for a step
+/// [`Integration::step`] refuses.
 pub fn emission_to_xyz(spd: &DenselySampledSpectrum, observer: Observer, integration: &Integration) -> Xyz {
+    let Some(nodes) = integration.nodes() else {
+        return NAN_XYZ;
+    };
     let cmf = observer.cmf();
     let (mut x, mut y, mut z) = (0.0, 0.0, 0.0);
-    for (l, dl) in integration.nodes() {
+    for (l, dl) in nodes {
         let s = spd.eval(l) * dl;
         x += s * cmf.x.eval(l);
         y += s * cmf.y.eval(l);
@@ -150,6 +173,30 @@ mod tests {
             let got = white_point(ill, Observer::Cie1931).chromaticity();
             assert!((got[0] - xy[0]).abs() < 5e-5 && (got[1] - xy[1]).abs() < 5e-5, "{ill:?}: {got:?}");
         }
+    }
+
+    #[test]
+    fn steps_are_checked_in_the_library() {
+        let d65 = Illuminant::D65.spectrum().unwrap();
+        let white = DenselySampledSpectrum::constant(1.0);
+        let xyz = |step| reflectance_to_xyz(&white, &d65, Observer::Cie1931, &Integration::Step(step));
+        // A step of 0 or less was the 1 nm sum in disguise; now no sum at all.
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let got = xyz(bad);
+            assert!(got.x.is_nan() && got.y.is_nan() && got.z.is_nan(), "step {bad}: {got:?}");
+            let e = emission_to_xyz(&d65, Observer::Cie1931, &Integration::Step(bad));
+            assert!(e.y.is_nan(), "step {bad}: {e:?}");
+            let err = Integration::step(bad).unwrap_err();
+            assert!(matches!(err, crate::Error::OutOfRange { .. }), "{err}");
+        }
+        // 1e-9 nm asked for 4.7e11 nodes (7.5 TB) before it was checked.
+        assert!(xyz(1e-9).y.is_nan());
+        let fine = Integration::step(1e-9).unwrap_err();
+        assert_eq!(fine.to_string(), "integration: wavelength step 1e-9 nm is finer than the minimum, 0.001 nm");
+        // Valid steps are the same variant, summing as before.
+        assert_eq!(Integration::step(5.0).unwrap(), Integration::Step(5.0));
+        assert_eq!(Integration::step(crate::MIN_STEP_NM).unwrap(), Integration::Step(crate::MIN_STEP_NM));
+        assert!((xyz(1.0).y - 100.0).abs() < 1e-9);
     }
 
     #[test]

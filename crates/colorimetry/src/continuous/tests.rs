@@ -1,27 +1,15 @@
+use proptest::prelude::*;
+
 use super::*;
+use crate::test_support::{grid_17, round_trip_delta_e00};
 use crate::{
-    Integration, Lab, Observer, Rgb, RgbColorSpace, Xyz, delta_e_2000, reflectance_to_xyz, relative_xyz,
+    Integration, Observer, RgbColorSpace, Xyz, emission_to_xyz, relative_xyz, upsample_illuminant,
     upsample_illuminant_spectrum, upsample_reflectance,
 };
 
-/// ΔE00 between linear sRGB `rgb` and the colour of `reflectance` under D65 (CIE 1931 2°,
-/// 1 nm, the paper's k, sRGB white as CIELAB white): the round trip of the crate's
-/// upsampling tests (`upsample.rs`, `round_trip_delta_e00`).
-fn round_trip_delta_e00(rgb: [f64; 3], reflectance: &Spectrum) -> f64 {
-    let srgb = RgbColorSpace::srgb();
-    let white = srgb.rgb_to_xyz(Rgb { r: 1.0, g: 1.0, b: 1.0 });
-    let d65 = Illuminant::D65.spectrum().expect("D65 is tabulated");
-    let xyz = reflectance_to_xyz(&reflectance.to_densely_sampled(), &d65, Observer::Cie1931, &Integration::Step(1.0));
-    let xyz = Xyz { x: xyz.x / 100.0, y: xyz.y / 100.0, z: xyz.z / 100.0 };
-    let target = srgb.rgb_to_xyz(Rgb { r: rgb[0], g: rgb[1], b: rgb[2] });
-    delta_e_2000(Lab::from_xyz(target, white), Lab::from_xyz(xyz, white))
-}
-
-/// The 17³ grid of the upsampling tests (`round_trip_is_exact_on_a_17_cubed_grid`).
-fn grid_17() -> impl Iterator<Item = [f64; 3]> {
-    let steps = 17;
-    let level = move |i: usize| i as f64 / (steps - 1) as f64;
-    (0..steps * steps * steps).map(move |n| [level(n / (steps * steps)), level(n / steps % steps), level(n % steps)])
+/// ΔE00 of the round trip of an RGB albedo `Spectrum` (see `test_support`).
+fn albedo_delta_e00(rgb: [f64; 3], reflectance: &Spectrum) -> f64 {
+    round_trip_delta_e00(rgb, &reflectance.to_densely_sampled())
 }
 
 /// Wavelengths off the 1 nm grid, across the visible range.
@@ -37,7 +25,7 @@ fn rgb_albedo_fit_round_trips_within_target() {
     let mut worst: f64 = 0.0;
     for rgb in grid_17() {
         let spectrum = Spectrum::RgbAlbedo(RgbSigmoid::fit(rgb));
-        worst = worst.max(round_trip_delta_e00(rgb, &spectrum));
+        worst = worst.max(albedo_delta_e00(rgb, &spectrum));
     }
     assert!(worst < 0.01, "worst ΔE00 {worst}");
 }
@@ -47,7 +35,7 @@ fn rgb_albedo_refined_round_trips_within_target() {
     let mut worst: f64 = 0.0;
     for rgb in grid_17() {
         let spectrum = Spectrum::RgbAlbedo(RgbSigmoid::refined(rgb.map(|c| c as f32)));
-        worst = worst.max(round_trip_delta_e00(rgb, &spectrum));
+        worst = worst.max(albedo_delta_e00(rgb, &spectrum));
     }
     eprintln!("refined on 17³: max ΔE00 {worst:e}");
     assert!(worst < 0.01, "worst ΔE00 {worst}");
@@ -65,7 +53,7 @@ fn rgb_albedo_table_round_trip_error_is_as_measured() {
     let (mut sum, mut count, mut worst, mut worst_near_white) = (0.0, 0usize, 0.0f64, 0.0f64);
     for rgb in grid_17() {
         let albedo = Spectrum::RgbAlbedo(RgbSigmoid::from_rgb(table, rgb.map(|c| c as f32)));
-        let delta_e = round_trip_delta_e00(rgb, &albedo);
+        let delta_e = albedo_delta_e00(rgb, &albedo);
         sum += delta_e;
         count += 1;
         if rgb.iter().all(|&c| c >= 0.9) {
@@ -145,6 +133,23 @@ fn f32_sigmoid_agrees_with_the_f64_one() {
 }
 
 #[test]
+fn coefficients_that_would_give_nan_are_black() {
+    let lambda = SampledWavelengths::from_parts([360.0, 361.3, 600.0, 830.0], [1.0; 4]);
+    for c in [[f32::INFINITY, 0.0, 0.0], [0.0, f32::NEG_INFINITY, 1.0], [2e30, 0.0, 0.0], [1.0, f32::NAN, 0.0]] {
+        assert_eq!(RgbSigmoid::from_coefficients(c), RgbSigmoid::BLACK, "{c:?}");
+    }
+    // At the bound, with an infinite constant term, every value is 0 or 1 (no ∞ − ∞).
+    for c in [[1e30, -1e30, f32::NEG_INFINITY], [-1e30, 1e30, f32::INFINITY], [1e30, 1e30, 3e38]] {
+        let sigmoid = RgbSigmoid::from_coefficients(c);
+        assert_eq!(sigmoid.coefficients(), c);
+        let spectrum = Spectrum::RgbAlbedo(sigmoid);
+        assert!(spectrum.sample(&lambda).0.iter().all(|v| (0.0..=1.0).contains(v)), "{c:?}");
+        let dense = spectrum.to_densely_sampled();
+        assert!(dense.min_value() >= 0.0 && dense.max_value() <= 1.0, "{c:?}");
+    }
+}
+
+#[test]
 fn rgb_albedo_max_value_and_flatness_come_from_the_polynomial() {
     let grey = RgbSigmoid::from_coefficients([0.0, 0.0, 0.25]);
     assert_eq!(grey.constant_value(), Some(crate::upsample::fit_sigmoid(0.25)));
@@ -183,6 +188,29 @@ fn blackbody_is_planck_normalised_to_its_peak() {
 }
 
 #[test]
+fn every_accepted_temperature_is_finite_on_the_visible_grid() {
+    // The dense form no longer turns non-finite values into 0: each temperature
+    // `BlackbodySpectrum::new` accepts must be finite (its normalisation finite and > 0).
+    for kelvin in [-1.0, 0.0, 1e-300, 1e-70, 1e-60, 1e-3, 1.0, 40.0, 1e6, 1e60, 1e70, 1e300, f64::INFINITY] {
+        let Ok(bb) = BlackbodySpectrum::new(kelvin) else { continue };
+        let dense = Spectrum::Blackbody(bb).to_densely_sampled();
+        assert!(dense.max_value() <= 1.0 && dense.min_value() >= 0.0, "{kelvin} K");
+    }
+    // 1e-60 K: a subnormal peak, whose reciprocal is ∞, made every value 0 · ∞ = NaN.
+    for kelvin in [1e-60, 1e65, f64::INFINITY, -1.0] {
+        let err = BlackbodySpectrum::new(kelvin).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            format!(
+                "temperature (K) = {} is out of range (> 0, finite, with a finite Planck peak)",
+                crate::Num(kelvin)
+            )
+        );
+    }
+    assert!(BlackbodySpectrum::new(1e-50).is_ok() && BlackbodySpectrum::new(1e60).is_ok());
+}
+
+#[test]
 fn piecewise_linear_is_exact_at_knots_linear_between_and_zero_outside() {
     let knots = vec![400.0, 410.5, 500.0, 700.0];
     let values = vec![0.25, 1.0, 0.1, 3.0];
@@ -211,6 +239,22 @@ fn piecewise_linear_is_exact_at_knots_linear_between_and_zero_outside() {
 }
 
 #[test]
+fn piecewise_linear_knots_are_checked_as_samples_are() {
+    // `new` had its own check, without the bounds: these were accepted.
+    let e = |l: Vec<f64>, v: Vec<f64>| PiecewiseLinearSpectrum::new(l, v).unwrap_err().to_string();
+    assert_eq!(e(vec![-5.0, 400.0], vec![1.0, 1.0]), "piecewise-linear spectrum knots:1: wavelength -5 nm must be > 0");
+    assert_eq!(
+        e(vec![400.0, 500.0], vec![1.0, 3e38]),
+        "piecewise-linear spectrum knots:2: column `value`: 3e38 is too large (spectra must be <= 1e30)"
+    );
+    assert!(e(vec![400.0, 2e5], vec![1.0, 1.0]).contains("beyond the longest supported, 100000 nm"));
+    assert!(e(vec![400.0, 400.0000001], vec![1.0, 1.0]).contains("rows must be at least 0.001 nm apart"));
+    // Between knots 1e-3 nm apart the blend stays exact at both ends.
+    let tight = PiecewiseLinearSpectrum::new(vec![400.0, 400.002], vec![0.3, 0.7]).unwrap();
+    assert_eq!((tight.eval(400.0), tight.eval(400.002)), (0.3, 0.7));
+}
+
+#[test]
 fn luminance_of_normalised_d65_is_one_in_every_form() {
     let d65 = luminance_normalized(&Illuminant::D65.spectrum().unwrap());
     assert!((Spectrum::DenselySampled(d65.clone()).luminance() - 1.0).abs() < 1e-15);
@@ -227,11 +271,24 @@ fn luminance_of_normalised_d65_is_one_in_every_form() {
 fn rgb_illuminant_gives_back_its_rgb() {
     let srgb = RgbColorSpace::srgb();
     let table = RgbToSpectrumTable::srgb();
+    let y_integral: f64 = Observer::Cie1931.cmf().y.values().iter().sum();
     for rgb in [[1.0f64, 1.0, 1.0], [10.0, 5.0, 1.0], [0.02, 0.09, 0.3], [0.0, 0.0, 7.5]] {
         let scale = 2.0 * rgb[0].max(rgb[1]).max(rgb[2]);
-        // Exact fit: the dense form of the existing upsampler, to f32 rounding.
-        let fitted = Spectrum::RgbIlluminant(RgbIlluminantSpectrum::fit(rgb));
+        // The exact fit: `emission_to_xyz / Σȳ` of its dense form is the XYZ of its RGB (sRGB
+        // white at Y = 1).
+        let (polynomial, fitted_scale) = upsample_illuminant(rgb);
+        assert_eq!(fitted_scale, scale);
+        let spectrum = polynomial.to_spectrum();
+        assert!(spectrum.min_value() >= 0.0 && spectrum.max_value() <= 1.0, "{polynomial:?}");
         let dense = upsample_illuminant_spectrum(rgb);
+        let xyz = emission_to_xyz(&dense, Observer::Cie1931, &Integration::Step(1.0));
+        let back = srgb.xyz_to_rgb(Xyz { x: xyz.x / y_integral, y: xyz.y / y_integral, z: xyz.z / y_integral });
+        for (got, want) in [back.r, back.g, back.b].into_iter().zip(rgb) {
+            // Relative 1e-9: the reflectance fit is exact to 1e-10 ΔE*ab at rgb/scale ≤ ½.
+            assert!((got - want).abs() <= 1e-9 * scale, "rgb {rgb:?}: got {back:?}");
+        }
+        // The exact fit as a `Spectrum`: the dense form, to f32 rounding.
+        let fitted = Spectrum::RgbIlluminant(RgbIlluminantSpectrum::fit(rgb));
         for nm in (360..=830).step_by(7) {
             let l = f64::from(nm);
             assert!((fitted.eval(l) - dense.eval(l)).abs() <= 1e-6 * scale, "{rgb:?} at {nm}");
@@ -252,12 +309,55 @@ fn rgb_illuminant_gives_back_its_rgb() {
             assert!((f64::from(sampled[i]) - exact).abs() <= 1e-5 * exact.max(1.0), "{rgb:?}");
         }
     }
+    assert_eq!(upsample_illuminant([0.0, -1.0, f64::NAN]), (crate::SigmoidPolynomial::BLACK, 0.0));
     // White has relative luminance 1 (the sRGB white's Y), within the lookup's accuracy.
     let white = Spectrum::RgbIlluminant(RgbIlluminantSpectrum::from_rgb(table, [1.0; 3]));
     assert!((white.luminance() - 1.0).abs() < 3e-3, "{}", white.luminance());
     let black = Spectrum::RgbIlluminant(RgbIlluminantSpectrum::from_rgb(table, [0.0, -2.0, f32::NAN]));
     assert_eq!(black.max_value(), 0.0);
     assert_eq!(black.sample(&lambdas_8()), SampledSpectrum::splat(0.0));
+}
+
+#[test]
+fn huge_rgb_channels_give_finite_spectra() {
+    // 2 · 3e38 overflowed f32 to ∞: the colour became black and every sample 0 · ∞ = NaN
+    // (hidden as 0 in the dense form). Channels are held at 1e30, the bound of spectral values.
+    let table = RgbToSpectrumTable::srgb();
+    let lambda = lambdas_8();
+    for rgb in [[3e38f32, 1.0, 0.0], [f32::MAX, f32::MAX, 2e38], [1e31, 0.0, 5e29]] {
+        let held = rgb.map(|c| c.min(1e30));
+        let unbounded = RgbUnboundedSpectrum::from_rgb(table, rgb);
+        let illuminant = RgbIlluminantSpectrum::from_rgb(table, rgb);
+        assert_eq!(unbounded, RgbUnboundedSpectrum::from_rgb(table, held), "{rgb:?}");
+        assert_eq!(illuminant, RgbIlluminantSpectrum::from_rgb(table, held), "{rgb:?}");
+        for spectrum in [Spectrum::RgbUnbounded(unbounded), Spectrum::RgbIlluminant(illuminant)] {
+            let sampled = spectrum.sample(&lambda);
+            assert!(sampled.is_finite() && !sampled.is_black(), "{rgb:?}: {sampled:?}");
+            let dense = spectrum.to_densely_sampled();
+            assert!(dense.max_value() > 1e29 && dense.max_value() <= spectrum.max_value(), "{rgb:?}");
+            assert!(spectrum.luminance().is_finite());
+        }
+    }
+    let (color, scale) = split_brightness([1e300, 1.0, f64::MAX]);
+    assert_eq!((color[0], color[2], scale), (0.5, 0.5, 2e30));
+    assert!((color[1] / 0.5e-30 - 1.0).abs() < 1e-15, "{color:?}");
+}
+
+proptest! {
+    /// The split in f64 rounds to the same f32 bits as the split in f32 did (where that did not
+    /// overflow): every light colour keeps its spectrum.
+    #[test]
+    fn brightness_split_in_f64_is_the_f32_split(r in 0.0f32..1e6, g in 0.0f32..1e6, b in -1.0f32..1e6, tiny in 0u32..4) {
+        let rgb = [r, g * 10f32.powi(-(tiny as i32) * 12), b];
+        let old = {
+            let rgb = rgb.map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 });
+            let scale = 2.0 * rgb[0].max(rgb[1]).max(rgb[2]);
+            if scale == 0.0 { ([0.0; 3], 0.0) } else { (rgb.map(|c| c / scale), scale) }
+        };
+        let new = split_brightness_f32(rgb);
+        prop_assert_eq!(new.1.to_bits(), old.1.to_bits());
+        prop_assert_eq!(new.0.map(f32::to_bits), old.0.map(f32::to_bits));
+    }
 }
 
 #[test]

@@ -1,6 +1,8 @@
 //! The precomputed coefficient table (Jakob & Hanika 2019, §4; pbrt-v4
 //! `RGBToSpectrumTable`): fits on a grid over the RGB cube, looked up with
-//! trilinear interpolation in coefficient space to start the per-colour refinement.
+//! trilinear interpolation in coefficient space, in f64 to start the per-colour
+//! refinement ([`Table::lookup`]) and in f32 as the texel path's answer without a
+//! fit ([`Table::lookup_f32`]).
 //!
 //! # Layout
 //! The cube is split by which channel is largest (`l` = 0, 1, 2 for r, g, b).
