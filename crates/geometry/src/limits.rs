@@ -149,12 +149,17 @@ impl Budget {
     }
 }
 
-/// The first point with a coordinate beyond [`MAX_COORDINATE`] (index and value), if any.
-pub(crate) fn first_far_point(points: &[Vec3]) -> Option<(usize, Vec3)> {
-    points.iter().position(|p| p.abs().max_element() > MAX_COORDINATE).map(|i| (i, points[i]))
+/// The first point with a coordinate that is not finite or beyond [`MAX_COORDINATE`] (index and value), if
+/// any. Written as "not all within" rather than "any beyond": NaN compares false with everything, and a
+/// transform can make one from finite inputs (∞ − ∞).
+fn first_far_point(points: &[Vec3]) -> Option<(usize, Vec3)> {
+    let limit = Vec3::splat(MAX_COORDINATE);
+    points.iter().position(|p| !p.abs().cmple(limit).all()).map(|i| (i, points[i]))
 }
 
-/// Refuses a mesh of `path`/`context` with a coordinate beyond [`MAX_COORDINATE`].
+/// The coordinate rule of every object: refuses the points of an object of `path` (a mesh's vertices, a
+/// quad's corners, a sphere's bounding-box corners; `context` names it) when one is not finite or beyond
+/// [`MAX_COORDINATE`], with [`Error::CoordinateTooLarge`].
 pub(crate) fn check_coordinates(points: &[Vec3], path: &Path, context: &str) -> Result<()> {
     match first_far_point(points) {
         None => Ok(()),
@@ -219,5 +224,16 @@ mod tests {
     fn far_points_are_found() {
         assert_eq!(first_far_point(&[Vec3::ZERO, Vec3::splat(1e17)]), None);
         assert_eq!(first_far_point(&[Vec3::ZERO, Vec3::new(0.0, -2e18, 0.0)]), Some((1, Vec3::new(0.0, -2e18, 0.0))));
+    }
+
+    #[test]
+    fn non_finite_points_count_as_far() {
+        // NaN compares false with everything, so a `> limit` test would let it through.
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let found = first_far_point(&[Vec3::ZERO, Vec3::new(1.0, bad, 0.0)]).map(|(i, _)| i);
+            assert_eq!(found, Some(1), "{bad}");
+        }
+        // The limit itself is allowed.
+        assert_eq!(first_far_point(&[Vec3::splat(MAX_COORDINATE), Vec3::splat(-MAX_COORDINATE)]), None);
     }
 }

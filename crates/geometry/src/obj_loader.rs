@@ -117,10 +117,9 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
         let mesh = &model.mesh;
         let context = format!("object '{}'", model.name);
         let positions: Vec<Vec3> = mesh.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
-        // The pre-scan rejected non-finite `v` lines; a `w` component can still overflow the division.
-        if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
-            return Err(Error::NonFiniteVertex { path: path.to_path_buf(), context, vertex: i, value: p.to_array() });
-        }
+        // The pre-scan rejected non-finite `v` lines; a `w` component can still overflow the division, which
+        // the coordinate rule (non-finite or beyond the limit) catches with the vertex and its value.
+        check_coordinates(&positions, path, &context)?;
         let indices: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         if indices.is_empty() {
             continue;
@@ -141,7 +140,6 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
         let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
         // Material ids index tobj's list, which we copied in order; ids past its end (missing MTL) mean none.
         let material = mesh.material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
-        check_coordinates(&positions, path, &context)?;
         let m = Mesh::new(positions, normals, uvs, indices, material).map_err(|e| Error::InvalidGeometry {
             path: path.to_path_buf(),
             context: context.clone(),

@@ -512,3 +512,20 @@ fn unknown_extension_is_refused() {
     let (e, _) = error_message(&write(&dir, "scene.ply", b"ply"));
     assert!(matches!(e, Error::UnsupportedFormat { .. }), "{e:?}");
 }
+
+#[test]
+fn manifest_transform_that_makes_a_vertex_nan_is_refused() {
+    // A finite, invertible matrix (determinant 2) whose first row sends (1e18, −1e18, 0) to
+    // 1e48 − 1e48 = ∞ − ∞ = NaN in f32. The file itself is valid (|coordinates| ≤ 1e18), so only
+    // the check after the manifest's transform can refuse it, and it must: a NaN vertex would
+    // reach the BVH build.
+    let dir = temp_dir("nan-transform");
+    write(&dir, "far.obj", b"v 1e18 -1e18 0\nv 0 0 0\nv 0 0 1\nf 1 2 3\n");
+    let text = r#"{"objects": [{"type": "mesh", "file": "far.obj",
+        "transform": {"matrix": [[1e30, 1e30, 0, 0], [-1e-30, 1e-30, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}}]}"#;
+    let (e, msg) = error_message(&write(&dir, "m.json", text.as_bytes()));
+    let Error::IncludedFile { context, source, .. } = &e else { panic!("{e:?}") };
+    assert_eq!(context, "objects[0]");
+    assert!(matches!(**source, Error::CoordinateTooLarge { vertex: 0, .. }), "{source:?}");
+    assert!(msg.contains("objects[0]") && msg.contains("far.obj"), "{msg}");
+}
