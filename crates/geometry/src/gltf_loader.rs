@@ -40,7 +40,7 @@ const BYTES_PER_COMPONENT: u64 = 12;
 /// Loads a `.gltf` or `.glb` file; external buffers resolve against its folder. Everything it allocates is
 /// charged to `budget` first.
 pub(crate) fn load_gltf_file(path: &Path, budget: &Budget) -> Result<SceneDescription> {
-    let bytes = budget.read(path, path, u64::MAX)?;
+    let bytes = budget.read(path, path)?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
     load_gltf_slice(&bytes, Some(base), path, budget)
 }
@@ -151,7 +151,7 @@ fn load_buffers(
                     return Err(data_err(format!("external buffer `{uri}` in a glTF loaded from memory")));
                 };
                 let file = budget.resolve(path, base, &decoded)?;
-                budget.read(path, &file, u64::MAX).map_err(|e| match e {
+                budget.read(path, &file).map_err(|e| match e {
                     Error::ReadFile { cause, .. } | Error::ReadReferenced { cause, .. } => Error::GltfBuffer {
                         path: path.to_path_buf(),
                         buffer: index,

@@ -40,7 +40,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<SceneDescri
     let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     let desc = match extension.as_str() {
         "json" => {
-            let bytes = budget.read(path, path, u64::MAX)?;
+            let bytes = budget.read(path, path)?;
             let text = String::from_utf8(bytes).map_err(|e| Error::ReadFile {
                 path: path.to_path_buf(),
                 cause: std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()),

@@ -489,7 +489,7 @@ mod tests {
     use crate::desc::{AbsorptionDesc, IorDesc};
 
     fn parse_text(text: &str) -> Result<SceneDescription> {
-        parse(text, Path::new("/scenes"), "test.json", &Budget::unlimited_paths()).map(|(d, _)| d)
+        parse(text, Path::new("/scenes"), "test.json", &Budget::allowing_absolute_paths()).map(|(d, _)| d)
     }
 
     fn ctx<'a>(base_dir: &'a Path, budget: &'a Budget) -> Ctx<'a> {
@@ -525,7 +525,7 @@ mod tests {
 
     #[test]
     fn ior_and_absorption_forms_parse() {
-        let budget = Budget::unlimited_paths();
+        let budget = Budget::allowing_absolute_paths();
         let ctx = ctx(Path::new("/"), &budget);
         let v = |t: &str| serde_json::from_str::<Value>(t).unwrap_or(Value::Null);
         assert_eq!(ior(&ctx, "i", &v("0")).ok(), Some(IorDesc::Constant(0.0)));
@@ -550,7 +550,7 @@ mod tests {
 
     #[test]
     fn transform_applies_scale_then_rotation_then_translation() {
-        let budget = Budget::unlimited_paths();
+        let budget = Budget::allowing_absolute_paths();
         let ctx = ctx(Path::new("/"), &budget);
         let t: TransformJson =
             serde_json::from_str(r#"{"translate":[1,0,0],"rotate":{"axis":[0,0,1],"deg":90},"scale":2}"#)
@@ -563,7 +563,7 @@ mod tests {
 
     #[test]
     fn row_major_matrix_translation_is_last_column() {
-        let budget = Budget::unlimited_paths();
+        let budget = Budget::allowing_absolute_paths();
         let ctx = ctx(Path::new("/"), &budget);
         let t: TransformJson = serde_json::from_str(r#"{"matrix":[[1,0,0,5],[0,1,0,6],[0,0,1,7],[0,0,0,1]]}"#)
             .unwrap_or_else(|e| panic!("{e}"));

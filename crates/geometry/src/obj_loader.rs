@@ -24,7 +24,7 @@ use crate::shapes::Mesh;
 /// Loads an `.obj` file; `mtllib` files resolve against its folder. Everything it allocates is charged to
 /// `budget` first.
 pub(crate) fn load_obj_file(path: &Path, budget: &Budget) -> Result<SceneDescription> {
-    let bytes = budget.read(path, path, u64::MAX)?;
+    let bytes = budget.read(path, path)?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
     load_obj_text(&String::from_utf8_lossy(&bytes), Some(base), path, budget)
 }
@@ -67,7 +67,7 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
                 cause: std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8"),
             })
             .and_then(|m| budget.resolve(path, base, m))
-            .and_then(|mtl_path| budget.read(path, &mtl_path, u64::MAX).map(|b| (mtl_path, b)));
+            .and_then(|mtl_path| budget.read(path, &mtl_path).map(|b| (mtl_path, b)));
         let (mtl_path, text) = match read {
             Ok((mtl_path, bytes)) => (mtl_path, String::from_utf8_lossy(&bytes).into_owned()),
             // A missing MTL is a warning (the geometry still renders); a refused one (device, absolute
@@ -489,7 +489,7 @@ fn material(m: &tobj::Material, side: Option<&SideInfo>, path: &Path, warnings: 
 /// For tests: the sanitised MTL text, without the side info.
 #[cfg(test)]
 pub(crate) fn sanitize_mtl_text(text: &str, path: &Path) -> Result<String> {
-    sanitize_mtl(text, path, &Budget::unlimited_paths()).map(|(t, _, _)| t)
+    sanitize_mtl(text, path, &Budget::allowing_absolute_paths()).map(|(t, _, _)| t)
 }
 
 #[cfg(test)]
