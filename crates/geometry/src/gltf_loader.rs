@@ -405,12 +405,10 @@ impl Loader<'_> {
         if let Some(i) = self.default_material {
             return i;
         }
-        // glTF 2.0 §3.9.6: the default material is base colour 1, metallic 1, roughness 1.
-        let mut m = MaterialDesc::new("gltf-default", MaterialFormat::Gltf);
-        m.base_color = Some(SpectrumDesc::Rgb([1.0; 3]));
-        m.metallic = Some(1.0);
-        m.roughness = Some(1.0);
-        m.double_sided = Some(false);
+        // The file writes no material here, so the description says nothing: glTF 2.0 §3.9.6's default
+        // material (base colour 1, metallic 1, roughness 1, single-sided) is what the assembly makes of an
+        // empty `MaterialFormat::Gltf` record, decided there once.
+        let m = MaterialDesc::new("gltf-default", MaterialFormat::Gltf);
         // Material counts come from a JSON array; far below u32::MAX.
         let i = self.desc.materials.len() as u32;
         self.desc.materials.push(m);

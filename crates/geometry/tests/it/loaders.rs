@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use geometry::{
-    AbsorptionDesc, Error, IorDesc, LightDesc, Scene, SceneDescription, SpectrumDesc, load_scene, parse_manifest,
+    AbsorptionDesc, Error, IorDesc, LightDesc, MaterialDesc, MaterialFormat, Scene, SceneDescription, SpectrumDesc,
+    load_scene, parse_manifest,
 };
 use glam::Vec3;
 use serde_json::json;
@@ -528,4 +529,18 @@ fn manifest_transform_that_makes_a_vertex_nan_is_refused() {
     assert_eq!(context, "objects[0]");
     assert!(matches!(**source, Error::CoordinateTooLarge { vertex: 0, .. }), "{source:?}");
     assert!(msg.contains("objects[0]") && msg.contains("far.obj"), "{msg}");
+}
+
+#[test]
+fn gltf_primitive_without_material_gets_an_empty_gltf_material() {
+    // The loader transcribes: the file writes no material, so the description says nothing, and glTF's
+    // default material (§3.9.6: base colour 1, metallic 1, roughness 1, single-sided) is the assembly's
+    // `MaterialFormat::Gltf` defaults, decided there once.
+    let dir = temp_dir("default-material");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let d = load_scene(&write_gltf(&dir, "t.gltf", &triangle_gltf(Some(&uri), 36, json!({}))))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let m = d.meshes[0].material().unwrap_or_else(|| panic!("no material index")) as usize;
+    assert_eq!(d.materials.len(), 1);
+    assert_eq!(d.materials[m], MaterialDesc::new("gltf-default", MaterialFormat::Gltf));
 }
