@@ -12,7 +12,7 @@ use obvhs::{Boundable, BvhBuildParams};
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
 use crate::shapes::{Mesh, Sphere};
-use crate::simd::{Kernel, NodeTest, SimdLevel, dispatch};
+use crate::simd::{Kernel, NodeTest, SimdLevel, Supported, dispatch};
 use crate::sphere::{intersect_sphere, sphere_hit_point};
 use crate::triangle::{TriangleRay, intersect_permuted, triangle_point_error};
 use crate::wide::{MAX_PRIMITIVES, WideBvh};
@@ -86,8 +86,9 @@ pub struct Scene {
     ordered: Vec<([Vec3; 3], u32)>,
     bounds: (Vec3, Vec3),
     build_time: Duration,
-    /// Instruction-set level of the queries ([`SimdLevel::default_level`] at build).
-    simd: SimdLevel,
+    /// Instruction-set level of the queries ([`SimdLevel::default_level`] at build), checked
+    /// against the CPU once, here, rather than per ray.
+    simd: Supported,
 }
 
 impl Scene {
@@ -154,7 +155,7 @@ impl Scene {
             ordered,
             bounds,
             build_time: start.elapsed(),
-            simd: SimdLevel::default_level(),
+            simd: Supported::default_level(),
         })
     }
 
@@ -177,17 +178,19 @@ impl Scene {
 
     /// The instruction-set level this scene's queries run at.
     pub fn simd_level(&self) -> SimdLevel {
-        self.simd
+        self.simd.level()
     }
 
     /// Run this scene's queries at `level` (for measurement and tests: every level gives the
     /// same hits). Returns `false` and changes nothing if the CPU does not support it.
     pub fn set_simd_level(&mut self, level: SimdLevel) -> bool {
-        let ok = level.is_supported();
-        if ok {
-            self.simd = level;
+        match Supported::new(level) {
+            Some(supported) => {
+                self.simd = supported;
+                true
+            }
+            None => false,
         }
-        ok
     }
 
     fn valid(ray: &Ray) -> bool {
