@@ -25,16 +25,16 @@ pub const MAX_COORDINATE: f32 = 1e18;
 
 /// Largest spectrum CSV a scene may refer to. A 1 nm table from 300 to 830 nm with a dozen columns is
 /// ≈ 50 KB; 16 MiB leaves room for any measured data while keeping the CSV parser's working set small.
-pub const MAX_SPECTRUM_FILE_BYTES: u64 = 16 << 20;
+pub(crate) const MAX_SPECTRUM_FILE_BYTES: u64 = 16 << 20;
 
 /// Memory charged per triangle that reaches the renderer: its indices in the mesh (12 B), its vertices in
 /// the BVH's leaf order (36 B + 4 B index), its padded bounds (32 B), and obvhs's build (Morton codes,
 /// PLOC's binary nodes and the compressed wide nodes: ≈ 120 B measured on a 2 M-triangle mesh), rounded up.
-pub const BYTES_PER_TRIANGLE: u64 = 256;
+pub(crate) const BYTES_PER_TRIANGLE: u64 = 256;
 
 /// Memory charged per vertex: position, normal and UV (32 B), twice (the file's copy and the world-space
 /// copy a node or manifest transform makes).
-pub const BYTES_PER_VERTEX: u64 = 64;
+pub(crate) const BYTES_PER_VERTEX: u64 = 64;
 
 /// How much a scene may cost to load, and which files it may refer to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

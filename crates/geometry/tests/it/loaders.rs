@@ -98,7 +98,7 @@ fn all_scene_files(dir: &Path, out: &mut Vec<PathBuf>) {
 }
 
 #[test]
-fn every_committed_scene_loads_builds_and_summarizes() {
+fn every_committed_scene_loads_and_builds() {
     let mut files = Vec::new();
     all_scene_files(&repo().join("scenes"), &mut files);
     files.sort();
