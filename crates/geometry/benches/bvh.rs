@@ -19,7 +19,7 @@ mod common;
 use common::{SCENES, rays};
 
 fn bench(c: &mut Criterion) {
-    let levels: Vec<SimdLevel> = SimdLevel::ALL.into_iter().filter(|l| l.is_supported()).collect();
+    let levels: Vec<SimdLevel> = SimdLevel::supported().collect();
     for (name, make) in SCENES {
         let mesh = make();
         let triangles = mesh.triangle_count();

@@ -46,7 +46,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() {
     let rounds: usize = std::env::var("TABLE_ROUNDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
     let filter = std::env::args().skip(1).find(|a| !a.starts_with('-'));
-    let levels: Vec<SimdLevel> = SimdLevel::ALL.into_iter().filter(|l| l.is_supported()).collect();
+    let levels: Vec<SimdLevel> = SimdLevel::supported().collect();
     let time_kind = if thread_cpu_seconds().is_some() { "thread CPU time" } else { "wall time" };
     println!("median of {rounds} interleaved rounds, M rays/s of {time_kind}, one thread");
     println!();

@@ -12,7 +12,7 @@ use obvhs::{Boundable, BvhBuildParams};
 use crate::error::{Error, Result};
 use crate::ray::{Hit, Ray};
 use crate::shapes::{Mesh, Sphere};
-use crate::simd::{Kernel, NodeTest, SimdLevel, dispatch};
+use crate::simd::{Kernel, NodeTest, SimdLevel, Supported, dispatch};
 use crate::sphere::{intersect_sphere, sphere_hit_point};
 use crate::triangle::{TriangleRay, intersect_permuted, triangle_point_error};
 use crate::wide::{MAX_PRIMITIVES, WideBvh};
@@ -86,8 +86,9 @@ pub struct Scene {
     ordered: Vec<([Vec3; 3], u32)>,
     bounds: (Vec3, Vec3),
     build_time: Duration,
-    /// Instruction-set level of the queries ([`SimdLevel::default_level`] at build).
-    simd: SimdLevel,
+    /// Instruction-set level of the queries ([`SimdLevel::default_level`] at build), checked
+    /// against the CPU once, here, rather than per ray.
+    simd: Supported,
 }
 
 impl Scene {
@@ -154,7 +155,7 @@ impl Scene {
             ordered,
             bounds,
             build_time: start.elapsed(),
-            simd: SimdLevel::default_level(),
+            simd: Supported::default_level(),
         })
     }
 
@@ -163,7 +164,7 @@ impl Scene {
         if !Self::valid(ray) {
             return None;
         }
-        let (slot, t, b) = dispatch(self.simd, Closest { scene: self, ray, t_max })?;
+        let (slot, t, b) = dispatch(self.simd, Query::<true> { scene: self, ray, t_max })?;
         Some(self.hit_record(ray, slot, t, b))
     }
 
@@ -172,31 +173,34 @@ impl Scene {
         if !Self::valid(ray) {
             return false;
         }
-        dispatch(self.simd, Any { scene: self, ray, t_max })
+        dispatch(self.simd, Query::<false> { scene: self, ray, t_max }).is_some()
     }
 
     /// The instruction-set level this scene's queries run at.
     pub fn simd_level(&self) -> SimdLevel {
-        self.simd
+        self.simd.level()
     }
 
     /// Run this scene's queries at `level` (for measurement and tests: every level gives the
     /// same hits). Returns `false` and changes nothing if the CPU does not support it.
     pub fn set_simd_level(&mut self, level: SimdLevel) -> bool {
-        let ok = level.is_supported();
-        if ok {
-            self.simd = level;
+        match Supported::new(level) {
+            Some(supported) => {
+                self.simd = supported;
+                true
+            }
+            None => false,
         }
-        ok
     }
 
     fn valid(ray: &Ray) -> bool {
         ray.origin.is_finite() && ray.dir.is_finite() && ray.dir != Vec3::ZERO
     }
 
-    /// Closest hit as (leaf-order slot, t, barycentrics).
+    /// The closest hit (`CLOSEST`) or the first hit found (any-hit, for shadow rays: stops
+    /// there), as (leaf-order slot, t, barycentrics).
     #[inline(always)]
-    fn closest<const KX: usize, const KY: usize, const KZ: usize, N: NodeTest>(
+    fn query<const CLOSEST: bool, const KX: usize, const KY: usize, const KZ: usize, N: NodeTest>(
         &self,
         node_test: N,
         ray: &Ray,
@@ -205,7 +209,7 @@ impl Scene {
     ) -> Option<(usize, f32, [f32; 3])> {
         let n_spheres = self.spheres.len() as u32;
         let mut best = None;
-        self.bvh.traverse::<true, N>(
+        self.bvh.traverse::<CLOSEST, N>(
             node_test,
             ray.origin.to_array(),
             ray.dir.to_array(),
@@ -214,55 +218,26 @@ impl Scene {
                 for (slot, ([p0, p1, p2], prim)) in self.ordered[start..start + count].iter().enumerate() {
                     // Strictly closer only: a ray through a shared edge hits both triangles at
                     // the same t, and the barycentrics must stay those of the triangle kept.
-                    if *prim < n_spheres {
-                        if let Some(t) = intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max) {
-                            t_max = t;
-                            best = Some((start + slot, t, [0.0; 3]));
+                    let hit = if *prim < n_spheres {
+                        intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max)
+                            .map(|t| (t, [0.0; 3]))
+                    } else {
+                        intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2)
+                            .filter(|h| h.t < t_max)
+                            .map(|h| (h.t, h.b))
+                    };
+                    if let Some((t, b)) = hit {
+                        best = Some((start + slot, t, b));
+                        if !CLOSEST {
+                            return None;
                         }
-                    } else if let Some(h) = intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2)
-                        && h.t < t_max
-                    {
-                        t_max = h.t;
-                        best = Some((start + slot, h.t, h.b));
+                        t_max = t;
                     }
                 }
                 Some(t_max)
             },
         );
         best
-    }
-
-    #[inline(always)]
-    fn any<const KX: usize, const KY: usize, const KZ: usize, N: NodeTest>(
-        &self,
-        node_test: N,
-        ray: &Ray,
-        tri_ray: &TriangleRay,
-        t_max: f32,
-    ) -> bool {
-        let n_spheres = self.spheres.len() as u32;
-        let mut found = false;
-        self.bvh.traverse::<false, N>(
-            node_test,
-            ray.origin.to_array(),
-            ray.dir.to_array(),
-            t_max,
-            |start, count, t_max| {
-                for ([p0, p1, p2], prim) in &self.ordered[start..start + count] {
-                    let hit = if *prim < n_spheres {
-                        intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max).is_some()
-                    } else {
-                        intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2).is_some_and(|h| h.t < t_max)
-                    };
-                    if hit {
-                        found = true;
-                        return None;
-                    }
-                }
-                Some(t_max)
-            },
-        );
-        found
     }
 
     /// (mesh, triangle within it) of the triangle with index `index` among all triangles.
@@ -385,45 +360,24 @@ impl Scene {
     }
 }
 
-/// A closest-hit query as a [`Kernel`]: the triangle test's axis permutation is fixed per
-/// ray, so it is dispatched once here.
-struct Closest<'a> {
+/// A closest-hit (`CLOSEST`) or any-hit query as a [`Kernel`]: the triangle test's axis
+/// permutation is fixed per ray, so it is dispatched once here.
+struct Query<'a, const CLOSEST: bool> {
     scene: &'a Scene,
     ray: &'a Ray,
     t_max: f32,
 }
 
-impl Kernel for Closest<'_> {
+impl<const CLOSEST: bool> Kernel for Query<'_, CLOSEST> {
     type Output = Option<(usize, f32, [f32; 3])>;
     #[inline(always)]
     fn run<N: NodeTest>(self, node_test: N) -> Self::Output {
         let Self { scene, ray, t_max } = self;
         let tri_ray = TriangleRay::new(ray.origin, ray.dir);
         match tri_ray.axis() {
-            0 => scene.closest::<1, 2, 0, N>(node_test, ray, &tri_ray, t_max),
-            1 => scene.closest::<2, 0, 1, N>(node_test, ray, &tri_ray, t_max),
-            _ => scene.closest::<0, 1, 2, N>(node_test, ray, &tri_ray, t_max),
-        }
-    }
-}
-
-/// An any-hit query as a [`Kernel`].
-struct Any<'a> {
-    scene: &'a Scene,
-    ray: &'a Ray,
-    t_max: f32,
-}
-
-impl Kernel for Any<'_> {
-    type Output = bool;
-    #[inline(always)]
-    fn run<N: NodeTest>(self, node_test: N) -> bool {
-        let Self { scene, ray, t_max } = self;
-        let tri_ray = TriangleRay::new(ray.origin, ray.dir);
-        match tri_ray.axis() {
-            0 => scene.any::<1, 2, 0, N>(node_test, ray, &tri_ray, t_max),
-            1 => scene.any::<2, 0, 1, N>(node_test, ray, &tri_ray, t_max),
-            _ => scene.any::<0, 1, 2, N>(node_test, ray, &tri_ray, t_max),
+            0 => scene.query::<CLOSEST, 1, 2, 0, N>(node_test, ray, &tri_ray, t_max),
+            1 => scene.query::<CLOSEST, 2, 0, 1, N>(node_test, ray, &tri_ray, t_max),
+            _ => scene.query::<CLOSEST, 0, 1, 2, N>(node_test, ray, &tri_ray, t_max),
         }
     }
 }

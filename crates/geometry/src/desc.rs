@@ -1,12 +1,15 @@
 //! The plain scene descriptions every loader produces and the layers above consume: numbers, names and file
 //! references exactly as the file wrote them.
 //!
-//! This module is the bottom of the loader stack: it depends on no loader, and the loaders (`manifest`,
-//! `gltf_loader`, `obj_loader`) depend only on it and on `limits`; `load` dispatches on top. Geometry knows
-//! nothing of colour (see the crate docs) and decides nothing about shading: defaults that depend on the
-//! file format, Hall coefficients derived from glTF or MTL parameters, the default camera and light, and
-//! whether a material transmits or disperses are decided once, by the integrator's scene assembly.
-//! The file formats are documented in `docs/scene-format.md`.
+//! This module is at the bottom of the loader stack, beside `limits`: it depends on no loader. `forms` (the
+//! value forms the manifest and glTF extras share) builds on both; the loaders (`manifest`, `gltf_loader`,
+//! `obj_loader`) build on those and never on each other; `load` dispatches on top and runs `prefilter`
+//! (removal of triangles that cannot be hit) on the result.
+//!
+//! Geometry knows nothing of colour (see the crate docs) and decides nothing about shading: defaults that
+//! depend on the file format (glTF's default material included), Hall coefficients derived from glTF or MTL
+//! parameters, the default camera and light, and whether a material transmits or disperses are decided
+//! once, by the integrator's scene assembly. The file formats are documented in `docs/scene-format.md`.
 
 use std::path::PathBuf;
 

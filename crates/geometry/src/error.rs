@@ -218,9 +218,10 @@ pub enum Error {
         /// The path as written.
         reference: String,
     },
-    /// A coordinate is too large for the BVH build and the renderer's f32 arithmetic.
+    /// A coordinate is not finite or too large for the BVH build and the renderer's f32 arithmetic (one rule
+    /// for meshes, quads and spheres).
     #[error(
-        "{}: {context}: vertex {vertex} at {value:?} is beyond ±{limit:e} (the largest coordinate supported)",
+        "{}: {context}: vertex {vertex} at {value:?} is not finite or beyond ±{limit:e} (the largest coordinate supported)",
         path.display()
     )]
     CoordinateTooLarge {
@@ -228,7 +229,9 @@ pub enum Error {
         path: PathBuf,
         /// The object (mesh, primitive, manifest object).
         context: String,
-        /// Index of the vertex (0 for a sphere).
+        /// Index of the offending point: a mesh's vertex, a quad's corner (0–3 as `corner`, `+ edge_u`,
+        /// `+ edge_u + edge_v`, `+ edge_v`), or a corner of a sphere's bounding box (0: centre − radius,
+        /// 1: centre + radius).
         vertex: usize,
         /// Its coordinates.
         value: [f32; 3],

@@ -40,7 +40,7 @@ const BYTES_PER_COMPONENT: u64 = 12;
 /// Loads a `.gltf` or `.glb` file; external buffers resolve against its folder. Everything it allocates is
 /// charged to `budget` first.
 pub(crate) fn load_gltf_file(path: &Path, budget: &Budget) -> Result<SceneDescription> {
-    let bytes = budget.read(path, path, u64::MAX)?;
+    let bytes = budget.read(path, path)?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
     load_gltf_slice(&bytes, Some(base), path, budget)
 }
@@ -151,7 +151,7 @@ fn load_buffers(
                     return Err(data_err(format!("external buffer `{uri}` in a glTF loaded from memory")));
                 };
                 let file = budget.resolve(path, base, &decoded)?;
-                budget.read(path, &file, u64::MAX).map_err(|e| match e {
+                budget.read(path, &file).map_err(|e| match e {
                     Error::ReadFile { cause, .. } | Error::ReadReferenced { cause, .. } => Error::GltfBuffer {
                         path: path.to_path_buf(),
                         buffer: index,
@@ -405,12 +405,10 @@ impl Loader<'_> {
         if let Some(i) = self.default_material {
             return i;
         }
-        // glTF 2.0 §3.9.6: the default material is base colour 1, metallic 1, roughness 1.
-        let mut m = MaterialDesc::new("gltf-default", MaterialFormat::Gltf);
-        m.base_color = Some(SpectrumDesc::Rgb([1.0; 3]));
-        m.metallic = Some(1.0);
-        m.roughness = Some(1.0);
-        m.double_sided = Some(false);
+        // The file writes no material here, so the description says nothing: glTF 2.0 §3.9.6's default
+        // material (base colour 1, metallic 1, roughness 1, single-sided) is what the assembly makes of an
+        // empty `MaterialFormat::Gltf` record, decided there once.
+        let m = MaterialDesc::new("gltf-default", MaterialFormat::Gltf);
         // Material counts come from a JSON array; far below u32::MAX.
         let i = self.desc.materials.len() as u32;
         self.desc.materials.push(m);

@@ -37,7 +37,9 @@ pub use ray::{Hit, Ray, spawn_ray, spawn_ray_to};
 pub use shapes::{Mesh, Sphere};
 pub use simd::SimdLevel;
 
-// --- loaders (layered: desc ← limits, forms ← manifest, gltf_loader, obj_loader ← load) ---
+// --- loaders, layered without cycles: `desc` (plain types) and `limits` (budget, file and coordinate
+// rules) at the bottom ← `forms` (value forms shared by the manifest and glTF extras) ← `manifest`,
+// `gltf_loader`, `obj_loader` (none uses another) ← `load` (dispatch, includes, then `prefilter`) ---
 mod desc;
 mod forms;
 mod gltf_loader;
@@ -50,7 +52,5 @@ pub use desc::{
     AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat,
     SpectrumDesc,
 };
-pub use limits::{
-    BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE, MAX_SPECTRUM_FILE_BYTES,
-};
+pub use limits::{DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};
 pub use load::{load_scene, load_scene_with, parse_manifest, parse_manifest_with};

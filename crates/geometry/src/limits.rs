@@ -25,16 +25,16 @@ pub const MAX_COORDINATE: f32 = 1e18;
 
 /// Largest spectrum CSV a scene may refer to. A 1 nm table from 300 to 830 nm with a dozen columns is
 /// ≈ 50 KB; 16 MiB leaves room for any measured data while keeping the CSV parser's working set small.
-pub const MAX_SPECTRUM_FILE_BYTES: u64 = 16 << 20;
+pub(crate) const MAX_SPECTRUM_FILE_BYTES: u64 = 16 << 20;
 
 /// Memory charged per triangle that reaches the renderer: its indices in the mesh (12 B), its vertices in
 /// the BVH's leaf order (36 B + 4 B index), its padded bounds (32 B), and obvhs's build (Morton codes,
 /// PLOC's binary nodes and the compressed wide nodes: ≈ 120 B measured on a 2 M-triangle mesh), rounded up.
-pub const BYTES_PER_TRIANGLE: u64 = 256;
+pub(crate) const BYTES_PER_TRIANGLE: u64 = 256;
 
 /// Memory charged per vertex: position, normal and UV (32 B), twice (the file's copy and the world-space
 /// copy a node or manifest transform makes).
-pub const BYTES_PER_VERTEX: u64 = 64;
+pub(crate) const BYTES_PER_VERTEX: u64 = 64;
 
 /// How much a scene may cost to load, and which files it may refer to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,9 +66,10 @@ impl Budget {
         Self { options, used: Cell::new(0) }
     }
 
-    /// A budget with the default options, for in-memory loads (tests, fuzzing).
+    /// A budget with the default memory limit that also allows absolute paths (for unit tests, whose inputs
+    /// may name files by absolute path).
     #[cfg(test)]
-    pub(crate) fn unlimited_paths() -> Self {
+    pub(crate) fn allowing_absolute_paths() -> Self {
         Self::new(LoadOptions { allow_absolute_paths: true, ..LoadOptions::default() })
     }
 
@@ -111,10 +112,10 @@ impl Budget {
     }
 
     /// Reads a file a scene refers to (or the scene file itself): it must be a regular file (no device, FIFO
-    /// or directory: `/dev/zero` would never end) no larger than `max_bytes` and than what is left of the
-    /// budget, which is charged its size before reading.
-    pub(crate) fn read(&self, referrer: &Path, file: &Path, max_bytes: u64) -> Result<Vec<u8>> {
-        let size = self.check_file(referrer, file, max_bytes)?;
+    /// or directory: `/dev/zero` would never end) that fits in what is left of the budget, which is charged
+    /// its size before reading.
+    pub(crate) fn read(&self, referrer: &Path, file: &Path) -> Result<Vec<u8>> {
+        let size = self.check_file(referrer, file, u64::MAX)?;
         self.charge(referrer, || format!("reading {}", file.display()), size)?;
         let bytes = std::fs::read(file).map_err(|cause| Error::ReadFile { path: file.to_path_buf(), cause })?;
         // The file may have grown between the check and the read; charge the difference.
@@ -149,12 +150,17 @@ impl Budget {
     }
 }
 
-/// The first point with a coordinate beyond [`MAX_COORDINATE`] (index and value), if any.
-pub(crate) fn first_far_point(points: &[Vec3]) -> Option<(usize, Vec3)> {
-    points.iter().position(|p| p.abs().max_element() > MAX_COORDINATE).map(|i| (i, points[i]))
+/// The first point with a coordinate that is not finite or beyond [`MAX_COORDINATE`] (index and value), if
+/// any. Written as "not all within" rather than "any beyond": NaN compares false with everything, and a
+/// transform can make one from finite inputs (∞ − ∞).
+fn first_far_point(points: &[Vec3]) -> Option<(usize, Vec3)> {
+    let limit = Vec3::splat(MAX_COORDINATE);
+    points.iter().position(|p| !p.abs().cmple(limit).all()).map(|i| (i, points[i]))
 }
 
-/// Refuses a mesh of `path`/`context` with a coordinate beyond [`MAX_COORDINATE`].
+/// The coordinate rule of every object: refuses the points of an object of `path` (a mesh's vertices, a
+/// quad's corners, a sphere's bounding-box corners; `context` names it) when one is not finite or beyond
+/// [`MAX_COORDINATE`], with [`Error::CoordinateTooLarge`].
 pub(crate) fn check_coordinates(points: &[Vec3], path: &Path, context: &str) -> Result<()> {
     match first_far_point(points) {
         None => Ok(()),
@@ -205,9 +211,9 @@ mod tests {
     fn devices_directories_and_absolute_paths_are_refused() {
         let b = Budget::new(LoadOptions::default());
         let referrer = Path::new("scene.json");
-        let dev = b.read(referrer, Path::new("/dev/zero"), u64::MAX).err().map(|e| e.to_string()).unwrap_or_default();
+        let dev = b.read(referrer, Path::new("/dev/zero")).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(dev.contains("/dev/zero") && dev.contains("regular file"), "{dev}");
-        assert!(b.read(referrer, Path::new("/"), u64::MAX).is_err());
+        assert!(b.read(referrer, Path::new("/")).is_err());
         let abs = b.resolve(referrer, Path::new("."), "/etc/hostname").err().map(|e| e.to_string()).unwrap_or_default();
         assert!(abs.contains("scene.json") && abs.contains("/etc/hostname"), "{abs}");
         let allowed = Budget::new(LoadOptions { allow_absolute_paths: true, ..LoadOptions::default() });
@@ -219,5 +225,16 @@ mod tests {
     fn far_points_are_found() {
         assert_eq!(first_far_point(&[Vec3::ZERO, Vec3::splat(1e17)]), None);
         assert_eq!(first_far_point(&[Vec3::ZERO, Vec3::new(0.0, -2e18, 0.0)]), Some((1, Vec3::new(0.0, -2e18, 0.0))));
+    }
+
+    #[test]
+    fn non_finite_points_count_as_far() {
+        // NaN compares false with everything, so a `> limit` test would let it through.
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let found = first_far_point(&[Vec3::ZERO, Vec3::new(1.0, bad, 0.0)]).map(|(i, _)| i);
+            assert_eq!(found, Some(1), "{bad}");
+        }
+        // The limit itself is allowed.
+        assert_eq!(first_far_point(&[Vec3::splat(MAX_COORDINATE), Vec3::splat(-MAX_COORDINATE)]), None);
     }
 }

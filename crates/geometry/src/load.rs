@@ -2,8 +2,8 @@
 //! manifest includes, and removes what cannot be hit. Nothing is interpreted here either (no default
 //! camera or light: those are the integrator's assembly's); the description says what the files say.
 //!
-//! Module layering (no cycles): `desc` (plain types) ← `limits`, `forms` ← `manifest`, `gltf_loader`,
-//! `obj_loader` ← `load`.
+//! Module layering (no cycles): `desc` (plain types) and `limits` ← `forms` ← `manifest`, `gltf_loader`,
+//! `obj_loader` ← `load`, which also runs `prefilter`.
 
 use std::path::Path;
 
@@ -27,8 +27,10 @@ pub fn load_scene(path: &Path) -> Result<SceneDescription> {
 /// Loads a scene by its extension within the budget and file rules of `options`.
 ///
 /// A glTF or OBJ file must contain geometry ([`Error::NoGeometry`] otherwise); a manifest gets exactly what
-/// it says. Zero-area and exactly duplicated triangles are removed (see [`crate::prefilter`] for why they
-/// cannot change an image), with a warning.
+/// it says. Zero-area and exactly duplicated triangles are removed, with a warning: the watertight test
+/// never hits a zero-area triangle, and of exact copies (same positions, winding and material) the
+/// closest hit keeps the first found, so neither can change an image, while left in they make the BVH
+/// build quadratic.
 ///
 /// # Errors
 /// [`Error::UnsupportedFormat`] for another extension, [`Error::OverBudget`] when the scene's data would pass
@@ -40,7 +42,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<SceneDescri
     let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     let desc = match extension.as_str() {
         "json" => {
-            let bytes = budget.read(path, path, u64::MAX)?;
+            let bytes = budget.read(path, path)?;
             let text = String::from_utf8(bytes).map_err(|e| Error::ReadFile {
                 path: path.to_path_buf(),
                 cause: std::io::Error::new(std::io::ErrorKind::InvalidData, e.utf8_error()),

@@ -14,7 +14,7 @@ use serde_json::{Map, Value};
 use crate::desc::{CameraDesc, LightDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc};
 use crate::error::{Error, Result};
 use crate::forms::{Ctx, absorption, ior, number, spectrum};
-use crate::limits::{Budget, MAX_COORDINATE};
+use crate::limits::{Budget, check_coordinates};
 use crate::shapes::{Mesh, Sphere};
 
 #[derive(Deserialize)]
@@ -258,13 +258,9 @@ pub(crate) fn parse(
                 if !(radius.is_finite() && radius > 0.0) {
                     return Err(ctx.err(format!("{context}.radius"), format!("{radius} must be finite and > 0")));
                 }
-                let reach = center.abs().max_element() + radius;
-                if !(reach <= MAX_COORDINATE) {
-                    return Err(ctx.err(
-                        &context,
-                        format!("the sphere reaches {reach:e}, beyond ±{MAX_COORDINATE:e} (the largest coordinate supported)"),
-                    ));
-                }
+                // The rule of every object, applied to the sphere's bounding box.
+                let r = Vec3::splat(radius);
+                check_coordinates(&[center - r, center + r], Path::new(origin), &context)?;
                 let sphere = Sphere::new(center, radius, m).map_err(|e| ctx.err(&context, e.to_string()))?;
                 desc.spheres.push(sphere);
             }
@@ -441,12 +437,7 @@ fn quad(ctx: &Ctx<'_>, context: &str, corner: Vec3, u: Vec3, v: Vec3, material: 
         return Err(ctx.err(context, "the quad's edges are parallel or zero (zero area)"));
     }
     let positions = vec![corner, corner + u, corner + u + v, corner + v];
-    if let Some((i, p)) = crate::limits::first_far_point(&positions) {
-        return Err(ctx.err(
-            context,
-            format!("corner {i} at {p} is beyond ±{MAX_COORDINATE:e} (the largest coordinate supported)"),
-        ));
-    }
+    check_coordinates(&positions, Path::new(ctx.origin), context)?;
     let uvs = vec![glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::ONE, glam::Vec2::Y];
     Mesh::new(positions, None, Some(uvs), vec![[0, 1, 2], [0, 2, 3]], material)
         .map_err(|e| ctx.err(context, e.to_string()))
@@ -498,7 +489,7 @@ mod tests {
     use crate::desc::{AbsorptionDesc, IorDesc};
 
     fn parse_text(text: &str) -> Result<SceneDescription> {
-        parse(text, Path::new("/scenes"), "test.json", &Budget::unlimited_paths()).map(|(d, _)| d)
+        parse(text, Path::new("/scenes"), "test.json", &Budget::allowing_absolute_paths()).map(|(d, _)| d)
     }
 
     fn ctx<'a>(base_dir: &'a Path, budget: &'a Budget) -> Ctx<'a> {
@@ -534,7 +525,7 @@ mod tests {
 
     #[test]
     fn ior_and_absorption_forms_parse() {
-        let budget = Budget::unlimited_paths();
+        let budget = Budget::allowing_absolute_paths();
         let ctx = ctx(Path::new("/"), &budget);
         let v = |t: &str| serde_json::from_str::<Value>(t).unwrap_or(Value::Null);
         assert_eq!(ior(&ctx, "i", &v("0")).ok(), Some(IorDesc::Constant(0.0)));
@@ -559,7 +550,7 @@ mod tests {
 
     #[test]
     fn transform_applies_scale_then_rotation_then_translation() {
-        let budget = Budget::unlimited_paths();
+        let budget = Budget::allowing_absolute_paths();
         let ctx = ctx(Path::new("/"), &budget);
         let t: TransformJson =
             serde_json::from_str(r#"{"translate":[1,0,0],"rotate":{"axis":[0,0,1],"deg":90},"scale":2}"#)
@@ -572,7 +563,7 @@ mod tests {
 
     #[test]
     fn row_major_matrix_translation_is_last_column() {
-        let budget = Budget::unlimited_paths();
+        let budget = Budget::allowing_absolute_paths();
         let ctx = ctx(Path::new("/"), &budget);
         let t: TransformJson = serde_json::from_str(r#"{"matrix":[[1,0,0,5],[0,1,0,6],[0,0,1,7],[0,0,0,1]]}"#)
             .unwrap_or_else(|e| panic!("{e}"));
@@ -590,6 +581,29 @@ mod tests {
         let n = (p[b as usize] - p[a as usize]).cross(p[c as usize] - p[a as usize]).normalize();
         assert!((n - Vec3::Y).length() < 1e-6, "{n}");
         assert!((p[2] - p[0]).length() - 2.0 * 2f32.sqrt() < 1e-5);
+    }
+
+    #[test]
+    fn far_spheres_and_quads_are_refused_like_far_meshes() {
+        // One rule and one error for every kind of object: a point of it beyond ±MAX_COORDINATE (for a
+        // sphere, a corner of its bounding box), naming the manifest and the object.
+        for (object, point) in [
+            (r#"{"type":"sphere","center":[0,0,1e18],"radius":1e17}"#, 1),
+            (r#"{"type":"sphere","center":[0,-1e18,0],"radius":1e17}"#, 0),
+            (r#"{"type":"quad","corner":[0,0,0],"edge_u":[6e17,0,0],"edge_v":[6e17,0,1]}"#, 2),
+            (r#"{"type":"plane","point":[0,0,0],"normal":[0,1,0],"size":3e18}"#, 0),
+        ] {
+            let text = format!(r#"{{"objects":[{{"type":"sphere","center":[0,0,0],"radius":1}},{object}]}}"#);
+            let e = parse_text(&text).err().unwrap_or_else(|| panic!("{object} loaded"));
+            assert!(
+                matches!(&e, Error::CoordinateTooLarge { context, vertex, .. } if context == "objects[1]" && *vertex == point),
+                "{object}: {e:?}"
+            );
+            let msg = e.to_string();
+            assert!(msg.contains("test.json") && msg.contains("objects[1]"), "{msg}");
+        }
+        // At the limit exactly: accepted.
+        assert!(parse_text(r#"{"objects":[{"type":"sphere","center":[0,0,0],"radius":1e18}]}"#).is_ok());
     }
 
     #[test]

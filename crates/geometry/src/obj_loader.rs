@@ -24,7 +24,7 @@ use crate::shapes::Mesh;
 /// Loads an `.obj` file; `mtllib` files resolve against its folder. Everything it allocates is charged to
 /// `budget` first.
 pub(crate) fn load_obj_file(path: &Path, budget: &Budget) -> Result<SceneDescription> {
-    let bytes = budget.read(path, path, u64::MAX)?;
+    let bytes = budget.read(path, path)?;
     let base = path.parent().unwrap_or_else(|| Path::new("."));
     load_obj_text(&String::from_utf8_lossy(&bytes), Some(base), path, budget)
 }
@@ -67,7 +67,7 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
                 cause: std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8"),
             })
             .and_then(|m| budget.resolve(path, base, m))
-            .and_then(|mtl_path| budget.read(path, &mtl_path, u64::MAX).map(|b| (mtl_path, b)));
+            .and_then(|mtl_path| budget.read(path, &mtl_path).map(|b| (mtl_path, b)));
         let (mtl_path, text) = match read {
             Ok((mtl_path, bytes)) => (mtl_path, String::from_utf8_lossy(&bytes).into_owned()),
             // A missing MTL is a warning (the geometry still renders); a refused one (device, absolute
@@ -117,10 +117,9 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
         let mesh = &model.mesh;
         let context = format!("object '{}'", model.name);
         let positions: Vec<Vec3> = mesh.positions.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
-        // The pre-scan rejected non-finite `v` lines; a `w` component can still overflow the division.
-        if let Some((i, p)) = positions.iter().enumerate().find(|(_, p)| !p.is_finite()) {
-            return Err(Error::NonFiniteVertex { path: path.to_path_buf(), context, vertex: i, value: p.to_array() });
-        }
+        // The pre-scan rejected non-finite `v` lines; a `w` component can still overflow the division, which
+        // the coordinate rule (non-finite or beyond the limit) catches with the vertex and its value.
+        check_coordinates(&positions, path, &context)?;
         let indices: Vec<[u32; 3]> = mesh.indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         if indices.is_empty() {
             continue;
@@ -141,7 +140,6 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
         let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
         // Material ids index tobj's list, which we copied in order; ids past its end (missing MTL) mean none.
         let material = mesh.material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
-        check_coordinates(&positions, path, &context)?;
         let m = Mesh::new(positions, normals, uvs, indices, material).map_err(|e| Error::InvalidGeometry {
             path: path.to_path_buf(),
             context: context.clone(),
@@ -491,7 +489,7 @@ fn material(m: &tobj::Material, side: Option<&SideInfo>, path: &Path, warnings: 
 /// For tests: the sanitised MTL text, without the side info.
 #[cfg(test)]
 pub(crate) fn sanitize_mtl_text(text: &str, path: &Path) -> Result<String> {
-    sanitize_mtl(text, path, &Budget::unlimited_paths()).map(|(t, _, _)| t)
+    sanitize_mtl(text, path, &Budget::allowing_absolute_paths()).map(|(t, _, _)| t)
 }
 
 #[cfg(test)]

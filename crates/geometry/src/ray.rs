@@ -36,7 +36,7 @@ pub struct Hit {
 /// γ(n) = n·ε / (1 − n·ε), ε = half an f32 ulp at 1: the bound on the relative error of n
 /// rounded operations (pbrt-v4 `gamma`, Higham 2002).
 #[inline]
-pub(crate) fn gamma(n: i32) -> f32 {
+pub(crate) const fn gamma(n: i32) -> f32 {
     let e = f32::EPSILON * 0.5;
     (n as f32 * e) / (1.0 - n as f32 * e)
 }

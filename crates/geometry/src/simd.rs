@@ -7,7 +7,9 @@
 //! compare; with AVX-512 (F + VL) a third time, letting the compiler use EVEX encodings and
 //! mask registers for the same eight-lane kernel. The level is picked once per scene from
 //! `is_x86_feature_detected!` and can be forced (for measurement) with the environment
-//! variable `SPECTRACE_SIMD=sse2|avx2|avx512` or [`crate::Scene::set_simd_level`].
+//! variable `SPECTRACE_SIMD=sse2|avx2|avx512` or [`crate::Scene::set_simd_level`]; the scene
+//! holds it as a [`Supported`] level, which only a successful CPU check can build, so the
+//! per-ray [`dispatch`] trusts it without checking again.
 //!
 //! Every level performs the same IEEE operations in the same order (Rust never contracts
 //! `a·b + c` into an FMA, and the eight-lane node test is the four-lane one, lane for lane),
@@ -63,30 +65,20 @@ impl SimdLevel {
         }
     }
 
+    /// The levels this CPU supports, narrowest first (SSE2 always; AVX2 and AVX-512 where present).
+    pub fn supported() -> impl Iterator<Item = SimdLevel> {
+        SimdLevel::ALL.into_iter().filter(|l| l.is_supported())
+    }
+
     /// The widest level this CPU supports.
-    pub fn detected() -> SimdLevel {
-        *SimdLevel::ALL.iter().rev().find(|l| l.is_supported()).unwrap_or(&SimdLevel::Sse2)
+    pub(crate) fn detected() -> SimdLevel {
+        SimdLevel::supported().last().unwrap_or(SimdLevel::Sse2)
     }
 
     /// The level new scenes use: `SPECTRACE_SIMD` if set to a supported level (a one-line
-    /// warning otherwise), else [`SimdLevel::detected`]. Read once per process.
+    /// warning otherwise), else the widest level this CPU supports. Read once per process.
     pub fn default_level() -> SimdLevel {
-        static LEVEL: OnceLock<SimdLevel> = OnceLock::new();
-        *LEVEL.get_or_init(|| {
-            let detected = SimdLevel::detected();
-            let Ok(asked) = std::env::var("SPECTRACE_SIMD") else { return detected };
-            match SimdLevel::ALL.iter().find(|l| l.name() == asked.trim().to_ascii_lowercase()) {
-                Some(&level) if level.is_supported() => level,
-                Some(level) => {
-                    eprintln!("warning: SPECTRACE_SIMD={asked}: this CPU lacks {level:?}; using {detected:?}");
-                    detected
-                }
-                None => {
-                    eprintln!("warning: SPECTRACE_SIMD={asked} is not one of sse2, avx2, avx512; using {detected:?}");
-                    detected
-                }
-            }
-        })
+        Supported::default_level().level()
     }
 
     /// The level's name as `SPECTRACE_SIMD` spells it.
@@ -96,6 +88,45 @@ impl SimdLevel {
             SimdLevel::Avx2 => "avx2",
             SimdLevel::Avx512 => "avx512",
         }
+    }
+}
+
+/// A [`SimdLevel`] this CPU supports: built only by [`Supported::new`] after
+/// [`SimdLevel::is_supported`] (the field is private to this module), so holding one is the
+/// proof [`dispatch`] relies on and the CPU is checked once per scene, not once per ray.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Supported(SimdLevel);
+
+impl Supported {
+    /// `level`, if this CPU can run it.
+    pub(crate) fn new(level: SimdLevel) -> Option<Self> {
+        level.is_supported().then_some(Self(level))
+    }
+
+    /// The level.
+    pub(crate) fn level(self) -> SimdLevel {
+        self.0
+    }
+
+    /// See [`SimdLevel::default_level`].
+    pub(crate) fn default_level() -> Self {
+        static LEVEL: OnceLock<Supported> = OnceLock::new();
+        *LEVEL.get_or_init(|| {
+            // SSE2 is the x86-64 baseline (and the portable path elsewhere): always supported.
+            let detected = Supported::new(SimdLevel::detected()).unwrap_or(Supported(SimdLevel::Sse2));
+            let Ok(asked) = std::env::var("SPECTRACE_SIMD") else { return detected };
+            let d = detected.level();
+            match SimdLevel::ALL.iter().find(|l| l.name() == asked.trim().to_ascii_lowercase()) {
+                Some(&level) => Supported::new(level).unwrap_or_else(|| {
+                    eprintln!("warning: SPECTRACE_SIMD={asked}: this CPU lacks {level:?}; using {d:?}");
+                    detected
+                }),
+                None => {
+                    eprintln!("warning: SPECTRACE_SIMD={asked} is not one of sse2, avx2, avx512; using {d:?}");
+                    detected
+                }
+            }
+        })
     }
 }
 
@@ -150,8 +181,8 @@ impl NodeTest for Sse2 {
     }
 }
 
-/// One eight-lane AVX test. Only [`dispatch`] creates it, after checking the CPU, so holding
-/// one proves AVX2 is available.
+/// One eight-lane AVX test. Only `run_avx2`/`run_avx512` create it, and only [`dispatch`] calls
+/// them, for a [`Supported`] level of AVX2 or above, so holding one proves AVX2 is available.
 #[cfg(target_arch = "x86_64")]
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Avx2 {
@@ -162,8 +193,9 @@ pub(crate) struct Avx2 {
 impl NodeTest for Avx2 {
     #[inline(always)]
     fn test(self, node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
-        // SAFETY: an `Avx2` exists only inside `dispatch`'s AVX2/AVX-512 arms, which run after
-        // `SimdLevel::is_supported` confirmed AVX2 and FMA on this CPU.
+        // SAFETY: an `Avx2` exists only inside `run_avx2`/`run_avx512`, which `dispatch` calls
+        // only for a `Supported` AVX2 or AVX-512 level; `Supported::new` built that level after
+        // `SimdLevel::is_supported` confirmed AVX2 and FMA (and AVX-512 needs AVX2) on this CPU.
         unsafe { node_test_avx2(node, ray, t_max) }
     }
 }
@@ -206,26 +238,27 @@ pub(crate) trait Kernel {
     fn run<N: NodeTest>(self, node_test: N) -> Self::Output;
 }
 
-/// Run `kernel` with the node test and code generation of `level` (which the caller has
-/// checked with [`SimdLevel::is_supported`]; an unsupported level falls back to SSE2).
+/// Run `kernel` with the node test and code generation of `level`. No CPU check here: a
+/// [`Supported`] level was checked when it was built.
 #[inline(always)]
-pub(crate) fn dispatch<K: Kernel>(level: SimdLevel, kernel: K) -> K::Output {
+pub(crate) fn dispatch<K: Kernel>(level: Supported, kernel: K) -> K::Output {
     #[cfg(target_arch = "x86_64")]
-    {
-        // Cheap after the first call (std caches the CPUID bits); re-checked here so that no
-        // caller can reach the AVX code paths on a CPU without them.
-        match level {
-            SimdLevel::Avx512 if SimdLevel::Avx512.is_supported() => {
-                // SAFETY: AVX-512 F/VL, AVX2, FMA, BMI1/2, LZCNT, POPCNT were detected above.
-                return unsafe { run_avx512(kernel) };
-            }
-            SimdLevel::Avx2 | SimdLevel::Avx512 if SimdLevel::Avx2.is_supported() => {
-                // SAFETY: AVX2, FMA, BMI1/2, LZCNT, POPCNT were detected above.
-                return unsafe { run_avx2(kernel) };
-            }
-            _ => {}
+    match level.0 {
+        SimdLevel::Avx512 => {
+            // SAFETY: `Supported(Avx512)` is built only by `Supported::new` after
+            // `SimdLevel::Avx512.is_supported()`, which checks AVX-512 F/VL and everything
+            // `Avx2.is_supported()` checks (AVX2, FMA, BMI1/2, LZCNT, POPCNT): all `run_avx512` enables.
+            return unsafe { run_avx512(kernel) };
         }
+        SimdLevel::Avx2 => {
+            // SAFETY: `Supported(Avx2)` is built only by `Supported::new` after
+            // `SimdLevel::Avx2.is_supported()` detected AVX2, FMA, BMI1/2, LZCNT, POPCNT: all
+            // `run_avx2` enables.
+            return unsafe { run_avx2(kernel) };
+        }
+        SimdLevel::Sse2 => {}
     }
+    // Elsewhere only SSE2 (the portable path) is ever supported.
     let _ = level;
     kernel.run(Sse2)
 }

@@ -1,7 +1,9 @@
 //! Our traversal of obvhs's eight-wide BVH: obvhs builds the compressed wide BVH (CWBVH,
 //! Ylitie et al. 2017) and we decode each node once into full-precision child boxes in
-//! structure-of-arrays form, so a node test is eight slab tests in straight-line code that the
-//! compiler vectorises (no per-node dequantisation of 48 bytes, as obvhs's own traversal does).
+//! structure-of-arrays form, so a node test is eight slab tests on rows of eight lanes (no
+//! per-node dequantisation of 48 bytes, as obvhs's own traversal does). The node test itself
+//! lives in `simd.rs` (SSE2 halves, or one AVX2 eight-lane test, picked per scene); this module
+//! is the layout and the traversal loop, generic over it.
 //! Children are visited nearest first and stack entries carry their entry distance, so
 //! subtrees behind the closest hit so far are skipped when popped.
 //!
@@ -24,9 +26,11 @@
 //! ray, and a deeper stack spills to the heap) saved 1 %: kept. obvhs's
 //! `reinsertion_batch_ratio` 0.5 instead of medium_build's 0.05 cut traversal instructions by a further 5 % but tripled
 //! the build time (0.77 s → 2.7 s single-core on 1M triangles): rejected; PLOC search
-//! distance 24/32 and max_prims_per_leaf 1/2 were equal or worse. The node test itself
-//! compiles to ~50 SSE2 instructions for eight children; without FMA (not in the x86-64
-//! baseline) the `b·inv − o·inv` form saves nothing and would need a looser error bound.
+//! distance 24/32 and max_prims_per_leaf 1/2 were equal or worse. The SSE2 node test
+//! compiles to ~50 instructions for eight children. The `b·inv − o·inv` form is not used
+//! even at the AVX2 level, where FMA is available: every level must return bit-identical hits
+//! (`simd.rs`), and SSE2 has no FMA; without FMA that form saves nothing and would need a
+//! looser error bound.
 //!
 //! The slab test is made conservative as in Ize, "Robust BVH Ray Traversal" (JCGT 2(2), 2013):
 //! the far distance is scaled by 1 + 2γ(3), which covers the rounding of `(b − o) · (1/d)`,
@@ -39,6 +43,11 @@ use obvhs::cwbvh::CwBvh;
 use crate::ray::gamma;
 use crate::simd::{NodeRay, NodeTest};
 
+/// Ize 2013, §3: scaling the far distance by 1 + 2γ(3) covers the rounding of the slab
+/// distances (one subtraction, one product with a rounded reciprocal). Evaluated at compile
+/// time with the same IEEE operations as at run time, so the bits are those of the expression.
+const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
 /// Marks an empty child slot (its bounds are inverted, so it is never hit either).
 const EMPTY: u32 = u32::MAX;
 /// Set in a child reference that is a leaf: bits 29–30 hold count − 1, bits 0–28 the first
@@ -50,8 +59,10 @@ pub(crate) const MAX_PRIMITIVES: usize = 1 << LEAF_START_BITS;
 
 /// Eight children's boxes (min/max per axis, structure of arrays: one row of eight lanes per
 /// plane) and references.
-/// 224 bytes. (Aligning it to 64-byte lines, 256 bytes, measured 14% slower on incoherent
-/// rays on the 1M-triangle benchmark: memory volume matters more than line splits.)
+/// 224 bytes = 7·32, so `align(32)` adds no padding and keeps every 32-byte row (one AVX
+/// register) inside one 64-byte line. (Aligning it to 64-byte lines, 256 bytes, measured 14%
+/// slower on incoherent rays on the 1M-triangle benchmark: memory volume matters more than
+/// line splits.)
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(32))]
 pub(crate) struct WideNode {
@@ -59,6 +70,8 @@ pub(crate) struct WideNode {
     pub(crate) bounds: [[f32; 8]; 6],
     children: [u32; 8],
 }
+
+const _: () = assert!(std::mem::size_of::<WideNode>() == 224 && std::mem::align_of::<WideNode>() == 32);
 
 /// The decoded wide BVH; node 0 is the root.
 #[derive(Debug, Clone, Default)]
@@ -139,10 +152,7 @@ impl WideBvh {
         });
         // Which of bounds[2a], bounds[2a+1] is the near plane on each axis.
         let near = inv.map(|r| usize::from(r < 0.0));
-        // Ize 2013, §3: scaling the far distance by 1 + 2γ(3) covers the rounding of the slab
-        // distances (one subtraction, one product with a rounded reciprocal).
-        let far_scale = 1.0 + 2.0 * gamma(3);
-        let ray = NodeRay { origin, inv, near, far_scale };
+        let ray = NodeRay { origin, inv, near, far_scale: FAR_SCALE };
 
         let mut stack = Stack::new();
         let mut current = 0u32; // the root, an inner node
@@ -210,7 +220,7 @@ fn pop<const CLOSEST: bool>(stack: &mut Stack, t_max: f32) -> Option<u32> {
     while let Some((node, t)) = stack.pop() {
         // t_max may have shrunk since the push. Entry distances are rounded, so compare with
         // the same conservative scale as the node test rather than exactly.
-        if !CLOSEST || t <= t_max * (1.0 + 2.0 * gamma(3)) {
+        if !CLOSEST || t <= t_max * FAR_SCALE {
             return Some(node);
         }
     }
@@ -274,6 +284,13 @@ mod tests {
             assert_eq!(stack.pop(), Some((i, i as f32)));
         }
         assert_eq!(stack.pop(), None);
+    }
+
+    #[test]
+    fn far_scale_constant_has_the_bits_of_the_run_time_expression() {
+        let n = std::hint::black_box(3);
+        assert_eq!(FAR_SCALE.to_bits(), (1.0 + 2.0 * gamma(n)).to_bits());
+        const { assert!(FAR_SCALE > 1.0 && FAR_SCALE < 1.0 + 1e-6) };
     }
 
     #[test]

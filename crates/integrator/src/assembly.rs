@@ -283,7 +283,8 @@ fn hall_params(d: &MaterialDesc) -> HallParams {
             }
         }
         MaterialFormat::Gltf => {
-            // glTF defaults (§3.9.2): base colour 1, metallic 1, roughness 1.
+            // glTF defaults (§3.9.2), decided here only: base colour 1, metallic 1, roughness 1. The loader
+            // transcribes, so glTF's default material (§3.9.6) arrives with every field `None`.
             let base_color = d.base_color.clone().unwrap_or(SpectrumDesc::Rgb([1.0; 3]));
             let metallic = d.metallic.unwrap_or(1.0).clamp(0.0, 1.0);
             let roughness = d.roughness.unwrap_or(1.0).clamp(0.0, 1.0);

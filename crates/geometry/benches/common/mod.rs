@@ -1,5 +1,6 @@
-//! Scenes and ray sets shared by the geometry benchmarks.
-#![allow(dead_code)] // each benchmark uses a part of it
+//! Scenes and ray sets shared by the geometry benchmarks and the integration tests
+//! (`tests/it/main.rs` includes this file), so both trace the same generated geometry.
+#![allow(dead_code)] // each benchmark (and the tests) uses a part of it
 
 use std::io::Write;
 
@@ -89,9 +90,11 @@ pub(crate) fn icosphere(subdivisions: u32, c: Vec3, r: f32) -> Mesh {
     Mesh::new(positions, None, None, f, None).unwrap()
 }
 
-struct Xorshift(u64);
+/// A deterministic stream of numbers in [0, 1) (xorshift; benchmarks and tests must not depend
+/// on a crate's RNG).
+pub(crate) struct Xorshift(pub(crate) u64);
 impl Xorshift {
-    fn next(&mut self) -> f32 {
+    pub(crate) fn next(&mut self) -> f32 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
@@ -146,11 +149,11 @@ pub(crate) fn export(dir: &str, name: &str, mesh: &Mesh, primary: &[Ray], incohe
     std::fs::write(dir.join(format!("{name}.hits.json")), hits).unwrap();
 }
 
-/// The issue-15 scenes: 2·224² ≈ 100k and 2·708² ≈ 1.0M terrain triangles, a closed
-/// 20·4⁸ = 1,310,720-triangle icosphere.
 /// A named scene generator.
 pub(crate) type SceneMaker = (&'static str, fn() -> Mesh);
 
+/// The issue-15 scenes: 2·224² ≈ 100k and 2·708² ≈ 1.0M terrain triangles, a closed
+/// 20·4⁸ = 1,310,720-triangle icosphere.
 pub(crate) const SCENES: [SceneMaker; 3] = [
     ("terrain_100k", || terrain(224)),
     ("terrain_1m", || terrain(708)),

@@ -5,76 +5,14 @@ use geometry::{Hit, Mesh, Primitive, Ray, Scene, SimdLevel, Sphere, spawn_ray};
 use glam::Vec3;
 use proptest::prelude::*;
 
-/// A closed icosphere of radius `r` centred at `c`: 20·4ⁿ triangles sharing edges and vertices.
-fn icosphere(subdivisions: u32, c: Vec3, r: f32) -> Mesh {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|p| Vec3::from_array(*p).normalize())
-    .collect();
-    let mut f: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..subdivisions {
-        let mut cache = std::collections::HashMap::new();
-        let mut mid = |a: u32, b: u32, v: &mut Vec<Vec3>| {
-            *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                v.push(((v[a as usize] + v[b as usize]) * 0.5).normalize());
-                v.len() as u32 - 1
-            })
-        };
-        let mut next = Vec::with_capacity(f.len() * 4);
-        for [a, b, c] in f {
-            let (ab, bc, ca) = (mid(a, b, &mut v), mid(b, c, &mut v), mid(c, a, &mut v));
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        f = next;
-    }
-    let positions = v.iter().map(|p| c + *p * r).collect();
-    Mesh::new(positions, None, None, f, None).unwrap()
+use crate::common::{Xorshift, icosphere};
+
+/// Uniform unit vectors from the shared xorshift stream (a test-only extra).
+trait UnitVector {
+    fn unit_vector(&mut self) -> Vec3;
 }
 
-/// A deterministic stream of numbers in [0, 1) (xorshift; the tests must not depend on a crate's RNG).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
+impl UnitVector for Xorshift {
     fn unit_vector(&mut self) -> Vec3 {
         let z = 2.0 * self.next() - 1.0;
         let phi = std::f32::consts::TAU * self.next();
@@ -87,8 +25,10 @@ impl Rng {
 fn rays_through_vertices_and_edges_of_a_closed_mesh_never_leak() {
     // Every vertex and every edge point of a closed icosphere, aimed at from many directions
     // outside it and from its centre: each ray must hit the mesh (a miss is a crack).
+    // At the scene's default level only: `every_simd_level_gives_bit_identical_hits` shows
+    // that every level returns the same hits bit for bit.
     let mesh = icosphere(4, Vec3::new(0.3, -0.2, 0.1), 1.0);
-    let mut scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
+    let scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
     let p = mesh.positions();
     let mut targets: Vec<Vec3> = p.to_vec();
     for tri in mesh.indices() {
@@ -97,7 +37,7 @@ fn rays_through_vertices_and_edges_of_a_closed_mesh_never_leak() {
             targets.extend([0.5, 0.25, 1.0 / 3.0].map(|s| a + (b - a) * s));
         }
     }
-    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    let mut rng = Xorshift(0x9E37_79B9_7F4A_7C15);
     let (mut rays, mut leaks) = (0u64, 0u64);
     let center = Vec3::new(0.3, -0.2, 0.1);
     for &target in &targets {
@@ -114,16 +54,13 @@ fn rays_through_vertices_and_edges_of_a_closed_mesh_never_leak() {
         }
         for origin in origins {
             rays += 1;
-            for level in supported_levels() {
-                scene.set_simd_level(level);
-                if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
-                    leaks += 1;
-                }
+            if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
+                leaks += 1;
             }
         }
     }
     assert!(rays >= 1_000_000, "{rays} rays");
-    assert_eq!(leaks, 0, "{leaks} of {rays} rays × {:?} leaked through the closed mesh", supported_levels());
+    assert_eq!(leaks, 0, "{leaks} of {rays} rays at {:?} leaked through the closed mesh", scene.simd_level());
 }
 
 #[test]
@@ -132,7 +69,7 @@ fn grazing_spawned_rays_never_rehit_their_surface() {
     // nothing to hit, so any hit is a self-intersection.
     let sphere = Scene::build(vec![Sphere::new(Vec3::new(1e3, 0.0, 0.0), 2.5, None).unwrap()], Vec::new()).unwrap();
     let mesh = Scene::build(Vec::new(), vec![icosphere(3, Vec3::ZERO, 1.0)]).unwrap();
-    let mut rng = Rng(12345);
+    let mut rng = Xorshift(12345);
     for (scene, center, r) in [(&sphere, Vec3::new(1e3, 0.0, 0.0), 2.5f32), (&mesh, Vec3::ZERO, 1.0)] {
         for _ in 0..20_000 {
             let dir_in = rng.unit_vector();
@@ -280,11 +217,6 @@ fn bad_geometry_is_an_error_and_empty_scenes_miss() {
     assert!(one.intersect(&Ray { origin: Vec3::NAN, dir: Vec3::X }, f32::INFINITY).is_none());
 }
 
-/// The SIMD levels this CPU runs (SSE2 always; AVX2 and AVX-512 where present).
-fn supported_levels() -> Vec<SimdLevel> {
-    SimdLevel::ALL.into_iter().filter(|l| l.is_supported()).collect()
-}
-
 /// A hit as the bits of every field, so that equal means bit-identical (±0 differ).
 fn hit_bits(h: &Hit) -> (Vec<u32>, u32, Option<u32>) {
     let f = [h.t].into_iter().chain(h.p.to_array()).chain(h.p_error.to_array()).chain(h.n.to_array());
@@ -297,12 +229,12 @@ fn every_simd_level_gives_bit_identical_hits() {
     // spheres, then one diffuse bounce from each hit (spawned from the SSE2 hit), closest-hit
     // and any-hit. Each level must agree with SSE2 (the scalar-equivalent reference) bit
     // for bit, on hits and misses.
-    let levels = supported_levels();
+    let levels: Vec<SimdLevel> = SimdLevel::supported().collect();
     eprintln!("levels on this CPU: {levels:?}");
     let mesh = icosphere(5, Vec3::new(0.1, 0.0, -0.2), 1.0);
     let spheres = vec![Sphere::new(Vec3::new(1.5, 0.5, 0.0), 0.4, None).unwrap()];
     let mut scene = Scene::build(spheres, vec![mesh]).unwrap();
-    let mut rng = Rng(0x0123_4567_89AB_CDEF);
+    let mut rng = Xorshift(0x0123_4567_89AB_CDEF);
     let mut rays: Vec<Ray> = (0..20_000)
         .map(|_| {
             let origin = rng.unit_vector() * 4.0;
@@ -362,12 +294,13 @@ proptest! {
             let p: Vec<Vec3> = t.iter().map(|&i| mesh.positions()[i as usize]).collect();
             singles.push(Scene::build(Vec::new(), vec![Mesh::new(p, None, None, vec![[0, 1, 2]], None).unwrap()]).unwrap());
         }
+        // Every SIMD level the CPU has goes through the same check.
+        let levels: Vec<SimdLevel> = SimdLevel::supported().collect();
         for (origin, dir) in rays {
             if dir.length() < 1e-3 { continue; }
             let ray = Ray { origin, dir };
             let brute = singles.iter().filter_map(|s| s.intersect(&ray, f32::INFINITY)).map(|h| h.t).fold(f32::INFINITY, f32::min);
-            // Every SIMD level the CPU has goes through the same check.
-            for level in supported_levels() {
+            for &level in &levels {
                 scene.set_simd_level(level);
                 match scene.intersect(&ray, f32::INFINITY) {
                     Some(h) => prop_assert!((h.t - brute).abs() <= 1e-5 * brute.max(1.0), "{level:?}: bvh {} vs brute {brute}", h.t),
@@ -387,8 +320,9 @@ fn rays_at_vertices_of_a_1_3m_triangle_sphere_never_leak() {
     let center = Vec3::new(-0.4, 0.25, 0.6);
     let mesh = icosphere(8, center, 2.0);
     assert_eq!(mesh.triangle_count(), 1_310_720);
-    let mut scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
-    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    // At the scene's default level only (see `every_simd_level_gives_bit_identical_hits`).
+    let scene = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
+    let mut rng = Xorshift(0xD1B5_4A32_D192_ED03);
     let (mut rays, mut leaks) = (0u64, 0u64);
     for &target in mesh.positions() {
         let normal = (target - center).normalize();
@@ -401,16 +335,13 @@ fn rays_at_vertices_of_a_1_3m_triangle_sphere_never_leak() {
         };
         for origin in [center, outside] {
             rays += 1;
-            for level in supported_levels() {
-                scene.set_simd_level(level);
-                if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
-                    leaks += 1;
-                }
+            if scene.intersect(&Ray { origin, dir: target - origin }, f32::INFINITY).is_none() {
+                leaks += 1;
             }
         }
     }
     assert_eq!(rays, 1_310_724);
-    assert_eq!(leaks, 0, "{leaks} of {rays} rays × {:?} leaked through the closed mesh", supported_levels());
+    assert_eq!(leaks, 0, "{leaks} of {rays} rays at {:?} leaked through the closed mesh", scene.simd_level());
 }
 
 #[test]

@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use geometry::{
-    AbsorptionDesc, Error, IorDesc, LightDesc, Scene, SceneDescription, SpectrumDesc, load_scene, parse_manifest,
+    AbsorptionDesc, Error, IorDesc, LightDesc, MaterialDesc, MaterialFormat, Scene, SceneDescription, SpectrumDesc,
+    load_scene, parse_manifest,
 };
 use glam::Vec3;
 use serde_json::json;
@@ -97,7 +98,7 @@ fn all_scene_files(dir: &Path, out: &mut Vec<PathBuf>) {
 }
 
 #[test]
-fn every_committed_scene_loads_builds_and_summarizes() {
+fn every_committed_scene_loads_and_builds() {
     let mut files = Vec::new();
     all_scene_files(&repo().join("scenes"), &mut files);
     files.sort();
@@ -511,4 +512,35 @@ fn unknown_extension_is_refused() {
     let dir = temp_dir("ext");
     let (e, _) = error_message(&write(&dir, "scene.ply", b"ply"));
     assert!(matches!(e, Error::UnsupportedFormat { .. }), "{e:?}");
+}
+
+#[test]
+fn manifest_transform_that_makes_a_vertex_nan_is_refused() {
+    // A finite, invertible matrix (determinant 2) whose first row sends (1e18, −1e18, 0) to
+    // 1e48 − 1e48 = ∞ − ∞ = NaN in f32. The file itself is valid (|coordinates| ≤ 1e18), so only
+    // the check after the manifest's transform can refuse it, and it must: a NaN vertex would
+    // reach the BVH build.
+    let dir = temp_dir("nan-transform");
+    write(&dir, "far.obj", b"v 1e18 -1e18 0\nv 0 0 0\nv 0 0 1\nf 1 2 3\n");
+    let text = r#"{"objects": [{"type": "mesh", "file": "far.obj",
+        "transform": {"matrix": [[1e30, 1e30, 0, 0], [-1e-30, 1e-30, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}}]}"#;
+    let (e, msg) = error_message(&write(&dir, "m.json", text.as_bytes()));
+    let Error::IncludedFile { context, source, .. } = &e else { panic!("{e:?}") };
+    assert_eq!(context, "objects[0]");
+    assert!(matches!(**source, Error::CoordinateTooLarge { vertex: 0, .. }), "{source:?}");
+    assert!(msg.contains("objects[0]") && msg.contains("far.obj"), "{msg}");
+}
+
+#[test]
+fn gltf_primitive_without_material_gets_an_empty_gltf_material() {
+    // The loader transcribes: the file writes no material, so the description says nothing, and glTF's
+    // default material (§3.9.6: base colour 1, metallic 1, roughness 1, single-sided) is the assembly's
+    // `MaterialFormat::Gltf` defaults, decided there once.
+    let dir = temp_dir("default-material");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let d = load_scene(&write_gltf(&dir, "t.gltf", &triangle_gltf(Some(&uri), 36, json!({}))))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let m = d.meshes[0].material().unwrap_or_else(|| panic!("no material index")) as usize;
+    assert_eq!(d.materials.len(), 1);
+    assert_eq!(d.materials[m], MaterialDesc::new("gltf-default", MaterialFormat::Gltf));
 }
