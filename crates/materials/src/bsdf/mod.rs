@@ -439,12 +439,7 @@ impl<const N: usize> Bsdf<N> {
             }
             Self::Conductor(c) => {
                 let l = Local::new(ns);
-                let s = c.sample_f(l.local(wo), uc, u)?;
-                let wi = l.world(s.wi);
-                if ng.dot(wi) <= 0.0 {
-                    return None;
-                }
-                Some(world_sample(s, wi))
+                reflection_sample(c.sample_f(l.local(wo), uc, u)?, &l, wo, ns, ng)
             }
             Self::RoughDielectric(d) => {
                 if d.is_smooth() {
@@ -461,14 +456,7 @@ impl<const N: usize> Bsdf<N> {
             }
             Self::GltfMetalRough(g) => {
                 let l = Local::new(ns);
-                let s = g.sample_f(l.local(wo), uc, u)?;
-                // The delta layer mirrors like `Mirror` (geometric fallback); the rest must stay
-                // above the geometric surface.
-                let wi = if s.flags.is_specular() { mirror(wo, ns, ng) } else { l.world(s.wi) };
-                if ng.dot(wi) <= 0.0 {
-                    return None;
-                }
-                Some(world_sample(s, wi))
+                reflection_sample(g.sample_f(l.local(wo), uc, u)?, &l, wo, ns, ng)
             }
             Self::ThinDielectric(d) => {
                 let (reflected, s) = d.sample(frame.interface_normal(wo).dot(wo), uc)?;
@@ -501,6 +489,24 @@ fn world_sample<const N: usize>(s: LocalSample<N>, wi: Vec3) -> BsdfSample<N> {
         eta_scale: if transmitted { s.etap * s.etap } else { 1.0 },
         flags: s.flags,
     }
+}
+
+/// A reflection lobe's local sample in world space. A delta lobe mirrors like
+/// [`Bsdf::Mirror`] (about the shading normal, else the geometric one); any other direction
+/// must stay above the geometric surface.
+#[inline]
+fn reflection_sample<const N: usize>(
+    s: LocalSample<N>,
+    l: &Local,
+    wo: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+) -> Option<BsdfSample<N>> {
+    let wi = if s.flags.is_specular() { mirror(wo, ns, ng) } else { l.world(s.wi) };
+    if ng.dot(wi) <= 0.0 {
+        return None;
+    }
+    Some(world_sample(s, wi))
 }
 
 /// Mirror reflection about the shading normal, falling back to the geometric normal where the

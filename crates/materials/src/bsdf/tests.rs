@@ -212,6 +212,23 @@ fn smooth_conductor_and_mirror_reflect_by_fresnel_and_r() {
     assert!(s.specular && s.weight.0[0] == 0.7 && (s.wi - reflect(wo, Vec3::Z)).length() < 1e-6);
 }
 
+#[test]
+fn smooth_conductor_falls_back_to_the_geometric_mirror_like_mirror() {
+    // Shading normal tilted 40° towards +x; wo is above both normals, but its mirror image
+    // about the shading normal lies below the geometric surface: Mirror (and the glTF delta
+    // layer) reflect about the geometric normal instead, and so must the smooth conductor.
+    let frame = Frame { n: Vec3::Z, ns: Vec3::new(40f32.to_radians().sin(), 0.0, 40f32.to_radians().cos()) };
+    let wo = Vec3::new(-0.6, 0.0, 0.8);
+    assert!(wo.dot(frame.ns) > 0.0 && reflect(wo, frame.ns).z < 0.0, "the case needs the fallback");
+    let mirror = Bsdf::Mirror { r: SampledSpectrum([1.0]) }.sample_f(&frame, wo, 0.5, Vec2::ZERO).unwrap();
+    let c = conductor(0.0, 0.0, false);
+    let s = c.sample_f(&frame, wo, 0.5, Vec2::ZERO).expect("a smooth conductor reflects like a mirror");
+    assert_eq!(s.wi, mirror.wi);
+    assert!(s.wi.z > 0.0 && s.flags.is_specular() && s.weight.0[0] > 0.0 && s.weight.0[0] <= 1.0, "{s:?}");
+    let g = gltf(1.0, 1.0, 0.0).sample_f(&frame, wo, 0.5, Vec2::ZERO).unwrap();
+    assert_eq!(g.wi, mirror.wi);
+}
+
 // ---------------------------------------------------------------------------------------
 // Energy.
 
