@@ -399,10 +399,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             if !bsdf.is_specular() && !self.lights.is_empty() {
                 radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, rng, count);
             }
-            let Some(s) = bsdf.sample(&frame, wo, rng.uniform(), rng.uniform2()) else { break };
+            let Some(s) = bsdf.sample_f(&frame, wo, rng.uniform(), rng.uniform2()) else { break };
             beta *= s.weight;
             eta_scale *= s.eta_scale;
-            specular_bounce = s.specular;
+            specular_bounce = s.flags.is_specular();
             prev_pdf = s.pdf;
             prev_ns = frame.facing(wo).1;
             ray = spawn_ray(&hit, s.wi);

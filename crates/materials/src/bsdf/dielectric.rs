@@ -206,19 +206,16 @@ impl<const N: usize> ThinDielectricBxdf<N> {
         if r < 1.0 { r + t * t * r / (1.0 - r * r) } else { r }
     }
 
-    /// Choose reflection (`true`) with probability R'; the sample's direction is left for the
-    /// caller (mirror or −ω_o), its weight is R'/R' = 1 or T'·tint/T' = tint.
-    pub(crate) fn sample(&self, cos_o: f32, uc: f32) -> Option<(bool, BsdfSample<N>)> {
+    /// Reflect along `wr` (the caller's mirror direction) with probability R', else leave along
+    /// `wt` (−ω_o); the weight is R'/R' = 1 or T'·tint/T' = tint. `cos_o` is ω_o's cosine
+    /// against the interface normal.
+    pub(crate) fn sample_f(&self, cos_o: f32, uc: f32, wr: Vec3, wt: Vec3) -> Option<BsdfSample<N>> {
         let r = self.reflectance(cos_o);
-        let reflected = uc < r;
-        let (weight, pdf, flags) = if reflected {
-            (SampledSpectrum([1.0; N]), r, BxdfFlags::REFLECTION | BxdfFlags::SPECULAR)
+        let (wi, weight, pdf, flags) = if uc < r {
+            (wr, SampledSpectrum([1.0; N]), r, BxdfFlags::REFLECTION | BxdfFlags::SPECULAR)
         } else {
-            (self.tint, 1.0 - r, BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR)
+            (wt, self.tint, 1.0 - r, BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR)
         };
-        if !(pdf > 0.0) {
-            return None;
-        }
-        Some((reflected, BsdfSample { wi: Vec3::ZERO, weight, pdf, specular: true, eta_scale: 1.0, flags }))
+        (pdf > 0.0).then_some(BsdfSample { wi, weight, pdf, eta_scale: 1.0, flags })
     }
 }
