@@ -15,14 +15,14 @@ use colorimetry::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, Samp
 use geometry::{Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{Bsdf, Frame};
-use materials::sampling::cosine_hemisphere;
+use materials::sampling::{cosine_hemisphere, uniform_sphere};
 use materials::{Ior, Scattering};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
 use crate::light::{Light, LightKind};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
-use crate::sampling::{Rng, power_heuristic, uniform_sphere, uniform_triangle};
+use crate::sampling::{Rng, power_heuristic, uniform_triangle};
 use crate::spectral::{Lanes, SpectrumKind};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough

@@ -134,38 +134,13 @@ impl TrowbridgeReitz {
 mod tests {
     use super::*;
 
-    /// ∫ D(ω_m) cos θ_m dω_m = 1 (projected area normalisation), by midpoint quadrature in
-    /// (cos θ, φ) with the peak resolved by a cos θ grid dense near 1.
-    fn projected_area(d: &TrowbridgeReitz) -> f64 {
-        let (nt, np) = (4000, 256);
+    /// ∫ f(ω_m) dω_m over the +z hemisphere by midpoint quadrature in (cos θ, φ), `nt` × 256
+    /// cells, the cos θ grid dense near the pole to resolve peaks there.
+    fn hemisphere_integral(nt: usize, f: impl Fn(Vec3) -> f64) -> f64 {
+        let np = 256;
         let mut sum = 0.0f64;
         for i in 0..nt {
             // u ∈ (0,1) → cos θ = 1 − u², dense near the pole; dcos = 2u du.
-            let u = (i as f64 + 0.5) / nt as f64;
-            let cos = 1.0 - u * u;
-            let sin = (1.0 - cos * cos).max(0.0).sqrt();
-            for j in 0..np {
-                let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-                let wm = Vec3::new((sin * phi.cos()) as f32, (sin * phi.sin()) as f32, cos as f32);
-                sum += f64::from(d.d(wm)) * cos * 2.0 * u / nt as f64 * std::f64::consts::TAU / np as f64;
-            }
-        }
-        sum
-    }
-
-    #[test]
-    fn d_is_normalised_over_projected_area() {
-        for (ax, ay) in [(0.05, 0.05), (0.2, 0.2), (0.5, 0.5), (1.0, 1.0), (0.1, 0.6)] {
-            let a = projected_area(&TrowbridgeReitz::new(ax, ay));
-            assert!((a - 1.0).abs() < 5e-3, "α = ({ax}, {ay}): ∫ D cos = {a}");
-        }
-    }
-
-    /// ∫ f(ω_m) dω_m over the +z hemisphere, the same quadrature as `projected_area`.
-    fn hemisphere_integral(f: impl Fn(Vec3) -> f64) -> f64 {
-        let (nt, np) = (2000, 256);
-        let mut sum = 0.0f64;
-        for i in 0..nt {
             let u = (i as f64 + 0.5) / nt as f64;
             let cos = 1.0 - u * u;
             let sin = (1.0 - cos * cos).max(0.0).sqrt();
@@ -179,13 +154,23 @@ mod tests {
     }
 
     #[test]
+    fn d_is_normalised_over_projected_area() {
+        // ∫ D(ω_m) cos θ_m dω_m = 1 (projected area normalisation).
+        for (ax, ay) in [(0.05, 0.05), (0.2, 0.2), (0.5, 0.5), (1.0, 1.0), (0.1, 0.6)] {
+            let d = TrowbridgeReitz::new(ax, ay);
+            let a = hemisphere_integral(4000, |wm| f64::from(d.d(wm)) * f64::from(wm.z));
+            assert!((a - 1.0).abs() < 5e-3, "α = ({ax}, {ay}): ∫ D cos = {a}");
+        }
+    }
+
+    #[test]
     fn visible_normals_are_normalised_and_sampling_is_finite_at_grazing() {
         // ∫ D_ω(ω_m) dω_m = 1 for every ω (Heitz 2014, eq. 17): the Smith G1 is consistent with D.
         for alpha in [0.2f32, 0.5, 1.0] {
             let d = TrowbridgeReitz::new(alpha, 0.7 * alpha);
             for theta in [0.0f32, 1.0, 1.48] {
                 let w = Vec3::new(theta.sin() * 0.8, theta.sin() * 0.6, theta.cos());
-                let total = hemisphere_integral(|wm| f64::from(d.d_visible(w, wm)));
+                let total = hemisphere_integral(2000, |wm| f64::from(d.d_visible(w, wm)));
                 assert!((total - 1.0).abs() < 5e-3, "α {alpha}, θ {theta}: {total}");
             }
         }
