@@ -87,7 +87,7 @@ impl<const N: usize> ConductorBxdf<N> {
 
     /// What the lobe can do.
     #[inline]
-    pub fn flags(&self) -> BxdfFlags {
+    pub(crate) fn flags(&self) -> BxdfFlags {
         if self.distrib.effectively_smooth() {
             BxdfFlags::REFLECTION | BxdfFlags::SPECULAR
         } else {
@@ -97,13 +97,13 @@ impl<const N: usize> ConductorBxdf<N> {
 
     /// Whether the lobe is a delta (α < 1e-3).
     #[inline]
-    pub fn is_smooth(&self) -> bool {
+    pub(crate) fn is_smooth(&self) -> bool {
         self.distrib.effectively_smooth()
     }
 
     /// Fresnel reflectance per wavelength at |cos θ| = `cos`.
     #[inline]
-    pub fn fresnel(&self, cos: f32) -> SampledSpectrum<N> {
+    pub(crate) fn fresnel(&self, cos: f32) -> SampledSpectrum<N> {
         let mut f = [0.0; N];
         for (i, f) in f.iter_mut().enumerate() {
             *f = fr_conductor(cos, self.eta.0[i], self.k.0[i]);

@@ -38,26 +38,26 @@ impl<const N: usize> RoughDielectricBxdf<N> {
 
     /// Index inside over outside.
     #[inline]
-    pub fn eta(&self) -> f32 {
+    pub(crate) fn eta(&self) -> f32 {
         self.eta
     }
 
     /// Transmission filter.
     #[inline]
-    pub fn tint(&self) -> SampledSpectrum<N> {
+    pub(crate) fn tint(&self) -> SampledSpectrum<N> {
         self.tint
     }
 
     /// Whether the interface is handled as smooth (α < 1e-3, or η = 1 which does not bend
     /// light, or η ≤ 0, glTF's "Fresnel ≡ 1").
     #[inline]
-    pub fn is_smooth(&self) -> bool {
+    pub(crate) fn is_smooth(&self) -> bool {
         self.distrib.effectively_smooth() || self.eta == 1.0 || self.eta <= 0.0
     }
 
     /// What the lobe can do.
     #[inline]
-    pub fn flags(&self) -> BxdfFlags {
+    pub(crate) fn flags(&self) -> BxdfFlags {
         let kind = if self.is_smooth() { BxdfFlags::SPECULAR } else { BxdfFlags::GLOSSY };
         BxdfFlags::REFLECTION | BxdfFlags::TRANSMISSION | kind
     }
@@ -208,13 +208,13 @@ impl<const N: usize> ThinDielectricBxdf<N> {
 
     /// What the lobe can do.
     #[inline]
-    pub fn flags(&self) -> BxdfFlags {
+    pub(crate) fn flags(&self) -> BxdfFlags {
         BxdfFlags::REFLECTION | BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR
     }
 
     /// Reflectance of the slab, inter-reflections included, at |cos θ| = `cos`.
     #[inline]
-    pub fn reflectance(&self, cos: f32) -> f32 {
+    pub(crate) fn reflectance(&self, cos: f32) -> f32 {
         let r = fr_dielectric(cos.abs(), self.eta);
         let t = 1.0 - r;
         if r < 1.0 { r + t * t * r / (1.0 - r * r) } else { r }

@@ -116,12 +116,12 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
 
     /// Whether the specular layer is a delta lobe.
     #[inline]
-    pub fn is_smooth(&self) -> bool {
+    pub(crate) fn is_smooth(&self) -> bool {
         self.distrib.effectively_smooth()
     }
 
     /// What the model can do.
-    pub fn flags(&self) -> BxdfFlags {
+    pub(crate) fn flags(&self) -> BxdfFlags {
         let specular = if self.is_smooth() { BxdfFlags::SPECULAR } else { BxdfFlags::GLOSSY };
         if self.metallic >= 1.0 {
             BxdfFlags::REFLECTION | specular

@@ -40,13 +40,14 @@ impl TrowbridgeReitz {
 
     /// Whether the surface is so smooth that it is handled as a delta lobe.
     #[inline]
-    pub fn effectively_smooth(&self) -> bool {
+    pub(crate) fn effectively_smooth(&self) -> bool {
         self.alpha_x.max(self.alpha_y) < SMOOTH_ALPHA
     }
 
     /// (α_x, α_y).
+    #[cfg(test)]
     #[inline]
-    pub fn alpha(&self) -> (f32, f32) {
+    pub(crate) fn alpha(&self) -> (f32, f32) {
         (self.alpha_x, self.alpha_y)
     }
 
@@ -59,7 +60,7 @@ impl TrowbridgeReitz {
     /// Density of microfacet normals per unit projected area, D(ω_m) = 1 / (π α_x α_y
     /// ((x/α_x)² + (y/α_y)² + z²)²), the form without tan θ that stays finite at grazing.
     #[inline]
-    pub fn d(&self, wm: Vec3) -> f32 {
+    pub(crate) fn d(&self, wm: Vec3) -> f32 {
         if wm.z <= 0.0 {
             return 0.0;
         }
@@ -71,7 +72,7 @@ impl TrowbridgeReitz {
     /// Smith's auxiliary function Λ(ω) = (√(1 + α² tan²θ) − 1) / 2 with α² = α_x² cos²φ +
     /// α_y² sin²φ; infinite at grazing (G1 = 0 there).
     #[inline]
-    pub fn lambda(&self, w: Vec3) -> f32 {
+    pub(crate) fn lambda(&self, w: Vec3) -> f32 {
         let z2 = w.z * w.z;
         if z2 == 0.0 {
             return f32::INFINITY;
@@ -83,20 +84,20 @@ impl TrowbridgeReitz {
 
     /// Masking G1(ω) = 1 / (1 + Λ(ω)).
     #[inline]
-    pub fn g1(&self, w: Vec3) -> f32 {
+    pub(crate) fn g1(&self, w: Vec3) -> f32 {
         1.0 / (1.0 + self.lambda(w))
     }
 
     /// Height-correlated masking–shadowing G(ω_o, ω_i) = 1 / (1 + Λ(ω_o) + Λ(ω_i)).
     #[inline]
-    pub fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
+    pub(crate) fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
         1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
     }
 
     /// Density of visible normals seen from `w`: D_ω(ω_m) = G1(ω) / |cos θ| · D(ω_m) ·
     /// max(0, ω·ω_m), for `w` below the surface read as seen from −ω (normals stay in +z).
     #[inline]
-    pub fn d_visible(&self, w: Vec3, wm: Vec3) -> f32 {
+    pub(crate) fn d_visible(&self, w: Vec3, wm: Vec3) -> f32 {
         let cos = w.z.abs();
         let facing = w.dot(wm) * w.z.signum();
         if cos == 0.0 || facing <= 0.0 {
@@ -107,7 +108,7 @@ impl TrowbridgeReitz {
 
     /// A visible normal seen from `w` (either hemisphere: it is mirrored to +z), distributed
     /// as [`TrowbridgeReitz::d_visible`]; always in the +z hemisphere.
-    pub fn sample_wm(&self, w: Vec3, u: Vec2) -> Vec3 {
+    pub(crate) fn sample_wm(&self, w: Vec3, u: Vec2) -> Vec3 {
         // Stretch to the hemisphere configuration (α = 1).
         let mut wh = Vec3::new(self.alpha_x * w.x, self.alpha_y * w.y, w.z).normalize_or(Vec3::Z);
         if wh.z < 0.0 {

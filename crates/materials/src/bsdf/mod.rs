@@ -43,7 +43,7 @@ pub use conductor::ConductorBxdf;
 pub use dielectric::{RoughDielectricBxdf, ThinDielectricBxdf};
 pub use gltf::GltfMetalRoughBxdf;
 pub use microfacet::TrowbridgeReitz;
-pub use spectral_ior::{KNOWN_METALS, Metal, MetalIor};
+pub use spectral_ior::{KNOWN_METALS, Metal};
 
 use crate::sampling::{basis, cosine_hemisphere};
 use crate::scattering::{fr_dielectric, reflect, refract};
@@ -70,8 +70,9 @@ impl BxdfFlags {
         self.0 & other.0 == other.0
     }
     /// Whether any reflection is possible.
+    #[cfg(test)]
     #[inline]
-    pub fn is_reflective(self) -> bool {
+    pub(crate) fn is_reflective(self) -> bool {
         self.contains(Self::REFLECTION)
     }
     /// Whether any transmission is possible.
@@ -86,7 +87,7 @@ impl BxdfFlags {
     }
     /// Whether a lobe with a density is present (diffuse or glossy): light sampling helps.
     #[inline]
-    pub fn is_non_specular(self) -> bool {
+    pub(crate) fn is_non_specular(self) -> bool {
         self.0 & (Self::DIFFUSE.0 | Self::GLOSSY.0) != 0
     }
 }

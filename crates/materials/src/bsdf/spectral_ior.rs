@@ -84,7 +84,7 @@ impl Metal {
     }
 
     /// The metal's tabulated index (parsed once).
-    pub fn ior(self) -> &'static MetalIor {
+    pub(crate) fn ior(self) -> &'static MetalIor {
         static TABLES: LazyLock<Vec<(Metal, MetalIor)>> = LazyLock::new(|| {
             METALS
                 .iter()
@@ -100,7 +100,7 @@ impl Metal {
 
 /// A tabulated complex index: η and κ at ascending wavelengths.
 #[derive(Debug, Clone)]
-pub struct MetalIor {
+pub(crate) struct MetalIor {
     lambda_nm: Vec<f32>,
     eta: Vec<f32>,
     k: Vec<f32>,
@@ -127,7 +127,7 @@ impl MetalIor {
     }
 
     /// (η, κ) at `lambda` nm.
-    pub fn eval(&self, lambda: f32) -> (f32, f32) {
+    pub(crate) fn eval(&self, lambda: f32) -> (f32, f32) {
         let l = &self.lambda_nm;
         let i = l.partition_point(|&x| x <= lambda).clamp(1, l.len() - 1);
         let t = ((lambda - l[i - 1]) / (l[i] - l[i - 1])).clamp(0.0, 1.0);
@@ -136,7 +136,10 @@ impl MetalIor {
     }
 
     /// (η, κ) at each of the path's wavelengths.
-    pub fn sample<const N: usize>(&self, lambda: &SampledWavelengths<N>) -> (SampledSpectrum<N>, SampledSpectrum<N>) {
+    pub(crate) fn sample<const N: usize>(
+        &self,
+        lambda: &SampledWavelengths<N>,
+    ) -> (SampledSpectrum<N>, SampledSpectrum<N>) {
         let mut eta = [0.0; N];
         let mut k = [0.0; N];
         for i in 0..N {
@@ -146,7 +149,8 @@ impl MetalIor {
     }
 
     /// The wavelength range the table covers (nm).
-    pub fn range(&self) -> (f32, f32) {
+    #[cfg(test)]
+    pub(crate) fn range(&self) -> (f32, f32) {
         (self.lambda_nm[0], self.lambda_nm[self.lambda_nm.len() - 1])
     }
 }
