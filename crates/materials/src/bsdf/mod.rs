@@ -18,7 +18,8 @@
 //! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B).
 //!
 //! The first three are what the path tracer has always used; their arithmetic is unchanged
-//! (the lead checks renders bit for bit). The rough lobes work in a local shading frame
+//! (`xtask/compare/same_renders.sh OLD NEW` renders every scene with two binaries and
+//! compares the outputs byte for byte). The rough lobes work in a local shading frame
 //! (z = shading normal, x/y = [`crate::sampling::basis`] of it, which also orients
 //! anisotropy until hits carry a tangent).
 

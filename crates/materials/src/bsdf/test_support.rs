@@ -7,10 +7,10 @@
 //! samples that were rejected (`None`). Expected counts integrate `pdf` over each bin
 //! numerically (midpoint rule on a sub-grid refined where it has not converged; the rejected
 //! cell gets 1 − ∫ pdf). Cells expected to hold fewer than [`MIN_EXPECTED`] samples are pooled
-//! into one (Mitsuba does the same);
-//! the statistic has (cells − 1) degrees of freedom, and its p-value, the χ² survival function
-//! Q(k/2, x/2), is computed here from the regularised incomplete gamma function. A family of m
-//! tests is judged at significance 0.01 with Šidák's correction, 1 − 0.99^(1/m) per test.
+//! into one (Mitsuba does the same); the statistic has (cells − 1) degrees of freedom, and its
+//! p-value, the χ² survival function Q(k/2, x/2), is computed here from the regularised
+//! incomplete gamma function. A family of m tests is judged at significance 0.01 with Šidák's
+//! correction, 1 − 0.99^(1/m) per test.
 
 use std::f64::consts::PI;
 
