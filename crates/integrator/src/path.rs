@@ -15,14 +15,14 @@ use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{Bsdf, Frame};
-use materials::sampling::cosine_hemisphere;
+use materials::sampling::{cosine_hemisphere, uniform_sphere};
 use materials::{Ior, Scattering};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
 use crate::light::{Light, LightKind};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
-use crate::sampling::{Rng, power_heuristic, uniform_sphere, uniform_triangle};
+use crate::sampling::{Rng, power_heuristic, uniform_triangle};
 use crate::spectral::{Lanes, SpectrumKind};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
@@ -386,10 +386,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             if !bsdf.is_specular() && !self.lights.is_empty() {
                 radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, rng, count);
             }
-            let Some(s) = bsdf.sample(&frame, wo, rng.uniform(), rng.uniform2()) else { break };
+            let Some(s) = bsdf.sample_f(&frame, wo, rng.uniform(), rng.uniform2()) else { break };
             beta *= s.weight;
             eta_scale *= s.eta_scale;
-            specular_bounce = s.specular;
+            specular_bounce = s.flags.is_specular();
             prev_pdf = s.pdf;
             prev_ns = frame.facing(wo).1;
             ray = spawn_ray(&hit, s.wi);

@@ -1,14 +1,12 @@
-//! Random numbers and the warps the path tracer needs (the BSDFs' own warps live in
-//! `materials::sampling`).
+//! Random numbers, the triangle warp and the power heuristic the path tracer needs (the
+//! sphere and hemisphere warps live with the BSDFs in `materials::sampling`).
 //!
 //! The generator is PCG32 (O'Neill 2014, "PCG: A family of simple fast space-efficient
 //! statistically good algorithms for random number generation", `pcg32_random_r` and
 //! `pcg32_srandom_r`), seeded from a hash of (seed, pixel, sample index) so that every sample
 //! has its own stream: the image does not depend on which thread renders which row.
 
-use std::f32::consts::PI;
-
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 
 /// PCG32's multiplier (O'Neill 2014, `PCG_DEFAULT_MULTIPLIER_64`).
 const PCG_MULT: u64 = 6_364_136_223_846_793_005;
@@ -62,15 +60,6 @@ impl Rng {
     pub(crate) fn uniform2(&mut self) -> Vec2 {
         Vec2::new(self.uniform(), self.uniform())
     }
-}
-
-/// A uniformly distributed unit vector (density 1/4π).
-#[inline]
-pub(crate) fn uniform_sphere(u: Vec2) -> Vec3 {
-    let z = 1.0 - 2.0 * u.x;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
 /// Barycentrics (b0, b1) of a point uniformly distributed over a triangle (Osada et al. 2002,

@@ -2,11 +2,14 @@
 //!
 //! Spectral reflectance and transmittance, index of refraction (constant or dispersive),
 //! Bouguer–Beer absorption (the paper's eq. 8), emission, Fresnel, reflection and
-//! refraction, the path tracer's BSDFs ([`bsdf::Bsdf`]: Lambertian, smooth and rough
-//! dielectrics and conductors with measured metals) and the paper's Hall shading terms
-//! (eqs. 6–7) as pure functions.
+//! refraction, the BSDFs ([`bsdf::Bsdf`]: the Lambertian, mirror and smooth dielectric the
+//! path tracer uses, and rough GGX conductors with measured metals, rough and thin
+//! dielectrics and the glTF metallic–roughness BRDF, not yet reachable from scenes), the
+//! warps they sample with ([`sampling`]) and the paper's Hall shading terms (eqs. 6–7) as
+//! pure functions.
 //!
-//! **Invariant:** depends on `colorimetry` only (and glam for vectors in a local frame).
+//! **Invariant:** depends on `colorimetry` only (and glam for vectors in a local frame,
+//! thiserror for the error type).
 //! Nothing here casts rays, recurses or samples lights: that is the integrator's job.
 //!
 //! ```

@@ -1,5 +1,6 @@
 //! The warps the BSDFs sample with (moved from the integrator so that a BSDF and its sampling
-//! live together): an orthonormal basis, the concentric disk and the cosine hemisphere.
+//! live together): an orthonormal basis, the concentric disk, the cosine hemisphere and the
+//! uniform sphere.
 
 use std::f32::consts::PI;
 
@@ -36,6 +37,15 @@ pub fn cosine_hemisphere(n: Vec3, u: Vec2) -> Vec3 {
     let z = (1.0 - d.length_squared()).max(0.0).sqrt();
     let (t, b) = basis(n);
     (d.x * t + d.y * b + z * n).normalize()
+}
+
+/// A uniformly distributed unit vector (density 1/4π).
+#[inline]
+pub fn uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
 #[cfg(test)]

@@ -19,7 +19,7 @@ use std::sync::LazyLock;
 use glam::{Vec2, Vec3};
 
 use super::microfacet::TrowbridgeReitz;
-use crate::scattering::{fr_dielectric, refract};
+use crate::scattering::{fr_dielectric, reflect, refract};
 
 /// Grid of the conductor table: √μ (μ = cos θ_o) and √α, both uniform on [0, 1]: dense near
 /// grazing and near smooth, where the albedo changes fastest.
@@ -69,6 +69,23 @@ fn lerp(a: f32, b: f32, t: f32) -> f32 {
     a + t * (b - a)
 }
 
+/// A row of values at √α uniform on [0, 1], read linearly in √α.
+#[inline]
+fn linear(row: &[f32], alpha: f32) -> f32 {
+    let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, row.len());
+    lerp(row[a], row[a + 1], ta)
+}
+
+/// A plane of values, α-major rows of `n_mu` entries at √μ uniform on [0, 1] (rows at √α
+/// uniform on [0, 1]), read bilinearly in (√μ, √α).
+#[inline]
+fn bilinear(plane: &[f32], n_mu: usize, mu: f32, alpha: f32) -> f32 {
+    let (m, tm) = locate(mu.max(0.0).sqrt(), 0.0, 1.0, n_mu);
+    let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, plane.len() / n_mu);
+    let at = |a: usize, m: usize| plane[a * n_mu + m];
+    lerp(lerp(at(a, m), at(a, m + 1), tm), lerp(at(a + 1, m), at(a + 1, m + 1), tm), ta)
+}
+
 /// The direction in the xz plane at grid node `s` = √μ.
 #[inline]
 fn direction(s: f32) -> Vec3 {
@@ -84,12 +101,6 @@ fn stratum(i: usize, j: usize, s: usize) -> Vec2 {
     Vec2::new((i as f32 + jx) / s as f32, (j as f32 + jy) / s as f32)
 }
 
-/// Single-scattering albedo of a white GGX mirror seen from `wo` (the tests' reference).
-#[cfg(test)]
-pub(crate) fn conductor_albedo(d: &TrowbridgeReitz, wo: Vec3, strata: usize) -> f32 {
-    mirror_albedos(d, wo, strata).0
-}
-
 /// The white GGX mirror's albedo E₁ and its Schlick-weighted albedo E₂ = ∫ (1 − ω_o·ω_m)⁵ f cos
 /// (so that a Schlick-Fresnel lobe of normal reflectance f0 reflects f0 E₁ + (1 − f0) E₂).
 pub(crate) fn mirror_albedos(d: &TrowbridgeReitz, wo: Vec3, strata: usize) -> (f32, f32) {
@@ -98,7 +109,7 @@ pub(crate) fn mirror_albedos(d: &TrowbridgeReitz, wo: Vec3, strata: usize) -> (f
     for i in 0..strata {
         for j in 0..strata {
             let wm = d.sample_wm(wo, stratum(i, j, strata));
-            let wi = 2.0 * wo.dot(wm) * wm - wo;
+            let wi = reflect(wo, wm);
             if wi.z > 0.0 {
                 let w = f64::from(d.g(wo, wi) / g1);
                 e1 += w;
@@ -119,7 +130,7 @@ pub(crate) fn dielectric_albedo(d: &TrowbridgeReitz, wo: Vec3, eta: f32, strata:
         for j in 0..strata {
             let wm = d.sample_wm(wo, stratum(i, j, strata));
             let f = fr_dielectric(wo.dot(wm), eta);
-            let wr = 2.0 * wo.dot(wm) * wm - wo;
+            let wr = reflect(wo, wm);
             if wr.z * wo.z > 0.0 {
                 sum += f64::from(f * d.g(wo, wr) / g1);
             }
@@ -164,30 +175,22 @@ impl ConductorTable {
 
     /// The Schlick-weighted albedo E₂(μ, α), bilinear in (√μ, √α).
     pub(crate) fn e_schlick(&self, mu: f32, alpha: f32) -> f32 {
-        let (m, tm) = locate(mu.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_MU);
-        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_ALPHA);
-        let at = |a: usize, m: usize| self.e_schlick[a * CONDUCTOR_MU + m];
-        lerp(lerp(at(a, m), at(a, m + 1), tm), lerp(at(a + 1, m), at(a + 1, m + 1), tm), ta)
+        bilinear(&self.e_schlick, CONDUCTOR_MU, mu, alpha)
     }
 
     /// The average of E₂, linear in √α.
     pub(crate) fn e_schlick_avg(&self, alpha: f32) -> f32 {
-        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_ALPHA);
-        lerp(self.e_schlick_avg[a], self.e_schlick_avg[a + 1], ta)
+        linear(&self.e_schlick_avg, alpha)
     }
 
     /// E(μ, α), bilinear in (√μ, √α).
     pub(crate) fn e(&self, mu: f32, alpha: f32) -> f32 {
-        let (m, tm) = locate(mu.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_MU);
-        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_ALPHA);
-        let at = |a: usize, m: usize| self.e[a * CONDUCTOR_MU + m];
-        lerp(lerp(at(a, m), at(a, m + 1), tm), lerp(at(a + 1, m), at(a + 1, m + 1), tm), ta)
+        bilinear(&self.e, CONDUCTOR_MU, mu, alpha)
     }
 
     /// E_avg(α), linear in √α.
     pub(crate) fn e_avg(&self, alpha: f32) -> f32 {
-        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, CONDUCTOR_ALPHA);
-        lerp(self.e_avg[a], self.e_avg[a + 1], ta)
+        linear(&self.e_avg, alpha)
     }
 }
 
@@ -216,12 +219,9 @@ impl DielectricTable {
     pub(crate) fn e(&self, mu: f32, alpha: f32, eta: f32, from_inside: bool) -> f32 {
         let (eta, from_inside) = if eta < 1.0 { (1.0 / eta, !from_inside) } else { (eta, from_inside) };
         let table = if from_inside { &self.inside } else { &self.outside };
-        let (m, tm) = locate(mu.max(0.0).sqrt(), 0.0, 1.0, DIELECTRIC_MU);
-        let (a, ta) = locate(alpha.max(0.0).sqrt(), 0.0, 1.0, DIELECTRIC_ALPHA);
         let (k, tk) = locate(eta, 1.0, DIELECTRIC_ETA_MAX, DIELECTRIC_ETA);
-        let at = |k: usize, a: usize, m: usize| table[(k * DIELECTRIC_ALPHA + a) * DIELECTRIC_MU + m];
-        let plane =
-            |k: usize| lerp(lerp(at(k, a, m), at(k, a, m + 1), tm), lerp(at(k, a + 1, m), at(k, a + 1, m + 1), tm), ta);
+        let size = DIELECTRIC_ALPHA * DIELECTRIC_MU;
+        let plane = |k: usize| bilinear(&table[k * size..(k + 1) * size], DIELECTRIC_MU, mu, alpha);
         lerp(plane(k), plane(k + 1), tk)
     }
 }

@@ -11,7 +11,7 @@ use super::compensation::conductor_table;
 use super::microfacet::TrowbridgeReitz;
 use super::{BxdfFlags, LocalSample, Metal};
 use crate::sampling::cosine_hemisphere;
-use crate::scattering::fr_conductor;
+use crate::scattering::{fr_conductor, reflect};
 
 /// Reflectance is capped here when turned into an index, so κ = 2√r / √(1 − r) stays finite
 /// (r = 1 − 1e-5 gives κ ≈ 632, F ≥ 0.99999 at every angle).
@@ -87,7 +87,7 @@ impl<const N: usize> ConductorBxdf<N> {
 
     /// What the lobe can do.
     #[inline]
-    pub fn flags(&self) -> BxdfFlags {
+    pub(crate) fn flags(&self) -> BxdfFlags {
         if self.distrib.effectively_smooth() {
             BxdfFlags::REFLECTION | BxdfFlags::SPECULAR
         } else {
@@ -97,13 +97,13 @@ impl<const N: usize> ConductorBxdf<N> {
 
     /// Whether the lobe is a delta (α < 1e-3).
     #[inline]
-    pub fn is_smooth(&self) -> bool {
+    pub(crate) fn is_smooth(&self) -> bool {
         self.distrib.effectively_smooth()
     }
 
     /// Fresnel reflectance per wavelength at |cos θ| = `cos`.
     #[inline]
-    pub fn fresnel(&self, cos: f32) -> SampledSpectrum<N> {
+    pub(crate) fn fresnel(&self, cos: f32) -> SampledSpectrum<N> {
         let mut f = [0.0; N];
         for (i, f) in f.iter_mut().enumerate() {
             *f = fr_conductor(cos, self.eta.0[i], self.k.0[i]);
@@ -111,12 +111,13 @@ impl<const N: usize> ConductorBxdf<N> {
         SampledSpectrum(f)
     }
 
-    /// The multiple-scattering lobe's probability of being sampled from `wo`: 1 − E(μ_o),
-    /// its share of the energy of a white conductor.
+    /// 1 − E(μ) of the white GGX mirror at `w` (0 without the multiple-scattering lobe): the
+    /// Kulla–Conty lobe's factor for one direction and, from ω_o, its share of the energy
+    /// (clamped to [0, 1], the probability of sampling it).
     #[inline]
-    fn ms_probability(&self, wo: Vec3) -> f32 {
+    fn ms_escape(&self, w: Vec3) -> f32 {
         match self.ms {
-            Some(ms) => (1.0 - conductor_table().e(wo.z.abs(), ms.alpha)).clamp(0.0, 1.0),
+            Some(ms) => 1.0 - conductor_table().e(w.z.abs(), ms.alpha),
             None => 0.0,
         }
     }
@@ -134,15 +135,12 @@ impl<const N: usize> ConductorBxdf<N> {
         f * (self.distrib.d(wm) * self.distrib.g(wo, wi) / (4.0 * cos_i * cos_o))
     }
 
-    /// The Kulla–Conty value (1 − E(μ_o)) (1 − E(μ_i)) F_ms / (π (1 − E_avg)).
+    /// The Kulla–Conty value (1 − E(μ_o)) (1 − E(μ_i)) F_ms / (π (1 − E_avg)), with
+    /// `escape_o` = [`Self::ms_escape`]`(wo)`.
     #[inline]
-    fn f_multi(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum<N> {
+    fn f_multi(&self, escape_o: f32, wi: Vec3) -> SampledSpectrum<N> {
         match self.ms {
-            Some(ms) => {
-                let t = conductor_table();
-                let e = |w: Vec3| 1.0 - t.e(w.z.abs(), ms.alpha);
-                ms.scale * (e(wo) * e(wi)).max(0.0)
-            }
+            Some(ms) => ms.scale * (escape_o * self.ms_escape(wi)).max(0.0),
             None => SampledSpectrum([0.0; N]),
         }
     }
@@ -152,7 +150,13 @@ impl<const N: usize> ConductorBxdf<N> {
         if wo.z * wi.z <= 0.0 || self.is_smooth() {
             return SampledSpectrum([0.0; N]);
         }
-        self.f_single(wo, wi) + self.f_multi(wo, wi)
+        self.f_with(wo, wi, self.ms_escape(wo))
+    }
+
+    /// [`Self::f`] of a valid rough pair, given [`Self::ms_escape`]`(wo)`.
+    #[inline]
+    fn f_with(&self, wo: Vec3, wi: Vec3, escape_o: f32) -> SampledSpectrum<N> {
+        self.f_single(wo, wi) + self.f_multi(escape_o, wi)
     }
 
     /// Density of [`ConductorBxdf::sample_f`] in the local frame.
@@ -160,7 +164,12 @@ impl<const N: usize> ConductorBxdf<N> {
         if wo.z * wi.z <= 0.0 || self.is_smooth() {
             return 0.0;
         }
-        let p_ms = self.ms_probability(wo);
+        self.pdf_with(wo, wi, self.ms_escape(wo).clamp(0.0, 1.0))
+    }
+
+    /// [`Self::pdf`] of a valid rough pair, given the multiple-scattering lobe's probability.
+    #[inline]
+    fn pdf_with(&self, wo: Vec3, wi: Vec3, p_ms: f32) -> f32 {
         let wm = wo + wi;
         let single = if wm.length_squared() == 0.0 {
             0.0
@@ -187,18 +196,19 @@ impl<const N: usize> ConductorBxdf<N> {
                 etap: 1.0,
             });
         }
-        let p_ms = self.ms_probability(wo);
+        let escape_o = self.ms_escape(wo);
+        let p_ms = escape_o.clamp(0.0, 1.0);
         let wi = if uc < p_ms {
             cosine_hemisphere(Vec3::Z, u)
         } else {
             let wm = self.distrib.sample_wm(wo, u);
-            2.0 * wo.dot(wm) * wm - wo
+            reflect(wo, wm)
         };
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
-        let f = self.f(wo, wi);
+        let pdf = self.pdf_with(wo, wi, p_ms);
+        let f = self.f_with(wo, wi, escape_o);
         if !(pdf > 0.0) || !f.is_finite() {
             return None;
         }

@@ -16,7 +16,7 @@ use glam::{Vec2, Vec3};
 use super::compensation::dielectric_table;
 use super::microfacet::TrowbridgeReitz;
 use super::{BsdfSample, BxdfFlags, LocalSample};
-use crate::scattering::{fr_dielectric, refract};
+use crate::scattering::{fr_dielectric, reflect, refract};
 
 /// A rough dielectric interface.
 #[derive(Debug, Clone, Copy)]
@@ -24,38 +24,40 @@ pub struct RoughDielectricBxdf<const N: usize> {
     distrib: TrowbridgeReitz,
     eta: f32,
     tint: SampledSpectrum<N>,
-    compensate: bool,
+    /// With energy compensation: α the albedo table is read at, min(1, √(α_x α_y)).
+    compensation_alpha: Option<f32>,
 }
 
 impl<const N: usize> RoughDielectricBxdf<N> {
     /// An interface of index `eta` (inside over outside, > 0) with roughness `distrib`,
     /// transmission filtered by `tint`; `compensate` scales the lobe by the inverse albedo.
     pub fn new(distrib: TrowbridgeReitz, eta: f32, tint: SampledSpectrum<N>, compensate: bool) -> Self {
-        Self { distrib, eta, tint, compensate }
+        let compensation_alpha = compensate.then(|| distrib.alpha_iso().min(1.0));
+        Self { distrib, eta, tint, compensation_alpha }
     }
 
     /// Index inside over outside.
     #[inline]
-    pub fn eta(&self) -> f32 {
+    pub(crate) fn eta(&self) -> f32 {
         self.eta
     }
 
     /// Transmission filter.
     #[inline]
-    pub fn tint(&self) -> SampledSpectrum<N> {
+    pub(crate) fn tint(&self) -> SampledSpectrum<N> {
         self.tint
     }
 
     /// Whether the interface is handled as smooth (α < 1e-3, or η = 1 which does not bend
     /// light, or η ≤ 0, glTF's "Fresnel ≡ 1").
     #[inline]
-    pub fn is_smooth(&self) -> bool {
+    pub(crate) fn is_smooth(&self) -> bool {
         self.distrib.effectively_smooth() || self.eta == 1.0 || self.eta <= 0.0
     }
 
     /// What the lobe can do.
     #[inline]
-    pub fn flags(&self) -> BxdfFlags {
+    pub(crate) fn flags(&self) -> BxdfFlags {
         let kind = if self.is_smooth() { BxdfFlags::SPECULAR } else { BxdfFlags::GLOSSY };
         BxdfFlags::REFLECTION | BxdfFlags::TRANSMISSION | kind
     }
@@ -63,10 +65,8 @@ impl<const N: usize> RoughDielectricBxdf<N> {
     /// 1 / E(μ_o) (Turquin 2019) or 1.
     #[inline]
     fn compensation(&self, wo: Vec3) -> f32 {
-        if !self.compensate {
-            return 1.0;
-        }
-        let e = dielectric_table().e(wo.z.abs(), self.distrib.alpha_iso().min(1.0), self.eta, wo.z < 0.0);
+        let Some(alpha) = self.compensation_alpha else { return 1.0 };
+        let e = dielectric_table().e(wo.z.abs(), alpha, self.eta, wo.z < 0.0);
         if e > 0.0 { 1.0 / e } else { 1.0 }
     }
 
@@ -106,15 +106,12 @@ impl<const N: usize> RoughDielectricBxdf<N> {
             return black;
         }
         let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return black };
-        let f = fr_dielectric(wo.dot(wm), self.eta);
-        let (d, g) = (self.distrib.d(wm), self.distrib.g(wo, wi));
+        let fr = fr_dielectric(wo.dot(wm), self.eta);
         let scale = self.compensation(wo);
         if reflect {
-            SampledSpectrum([d * g * f / (4.0 * wi.z * wo.z).abs() * scale; N])
+            SampledSpectrum([self.f_reflect(wo, wi, wm, fr) * scale; N])
         } else {
-            let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2) * wi.z * wo.z;
-            let ft = d * (1.0 - f) * g * (wi.dot(wm) * wo.dot(wm) / denom).abs() / (etap * etap);
-            self.tint * (ft * scale)
+            self.tint * (self.f_transmit(wo, wi, wm, etap, fr) * scale)
         }
     }
 
@@ -124,14 +121,44 @@ impl<const N: usize> RoughDielectricBxdf<N> {
             return 0.0;
         }
         let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return 0.0 };
-        let r = fr_dielectric(wo.dot(wm), self.eta);
-        let dv = self.distrib.d_visible(wo, wm);
-        if reflect {
-            dv / (4.0 * wo.dot(wm).abs()) * r
-        } else {
-            let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2);
-            dv * wi.dot(wm).abs() / denom * (1.0 - r)
-        }
+        let fr = fr_dielectric(wo.dot(wm), self.eta);
+        if reflect { self.pdf_reflect(wo, wm, fr) } else { self.pdf_transmit(wo, wi, wm, etap, fr) }
+    }
+
+    /// The uncompensated value of the reflection off microfacet ω_m, Fresnel reflectance `fr`:
+    /// D G F / |4 cos θ_i cos θ_o|.
+    #[inline]
+    fn f_reflect(&self, wo: Vec3, wi: Vec3, wm: Vec3, fr: f32) -> f32 {
+        self.distrib.d(wm) * self.distrib.g(wo, wi) * fr / (4.0 * wi.z * wo.z).abs()
+    }
+
+    /// Density of sampling the reflection: the visible normal's density times the Jacobian
+    /// 1 / (4 |ω_o·ω_m|), times the probability F of choosing reflection.
+    #[inline]
+    fn pdf_reflect(&self, wo: Vec3, wm: Vec3, fr: f32) -> f32 {
+        self.distrib.d_visible(wo, wm) / (4.0 * wo.dot(wm).abs()) * fr
+    }
+
+    /// (ω_i·ω_m + ω_o·ω_m / η')², the denominator of refraction's Jacobian.
+    #[inline]
+    fn refraction_denom(wo: Vec3, wi: Vec3, wm: Vec3, etap: f32) -> f32 {
+        (wi.dot(wm) + wo.dot(wm) / etap).powi(2)
+    }
+
+    /// The uncompensated, untinted value of the refraction through microfacet ω_m (Walter et
+    /// al. 2007 eq. 21, radiance mode): D (1 − F) G |ω_i·ω_m ω_o·ω_m / (denom cos θ_i cos θ_o)| / η'².
+    #[inline]
+    fn f_transmit(&self, wo: Vec3, wi: Vec3, wm: Vec3, etap: f32, fr: f32) -> f32 {
+        let denom = Self::refraction_denom(wo, wi, wm, etap) * wi.z * wo.z;
+        self.distrib.d(wm) * (1.0 - fr) * self.distrib.g(wo, wi) * (wi.dot(wm) * wo.dot(wm) / denom).abs()
+            / (etap * etap)
+    }
+
+    /// Density of sampling the refraction: the visible normal's density times the Jacobian
+    /// |ω_i·ω_m| / denom, times the probability 1 − F of choosing refraction.
+    #[inline]
+    fn pdf_transmit(&self, wo: Vec3, wi: Vec3, wm: Vec3, etap: f32, fr: f32) -> f32 {
+        self.distrib.d_visible(wo, wm) * wi.dot(wm).abs() / Self::refraction_denom(wo, wi, wm, etap) * (1.0 - fr)
     }
 
     /// Sample ω_i: a visible normal, then reflection with probability F, else refraction.
@@ -140,42 +167,29 @@ impl<const N: usize> RoughDielectricBxdf<N> {
             return None;
         }
         let wm = self.distrib.sample_wm(wo, u);
-        let r = fr_dielectric(wo.dot(wm), self.eta);
-        let (d, dv) = (self.distrib.d(wm), self.distrib.d_visible(wo, wm));
+        let fr = fr_dielectric(wo.dot(wm), self.eta);
         let scale = self.compensation(wo);
-        if uc < r {
-            let wi = 2.0 * wo.dot(wm) * wm - wo;
+        let (wi, f, pdf, flags, etap) = if uc < fr {
+            let wi = reflect(wo, wm);
             if wi.z * wo.z <= 0.0 {
                 return None;
             }
-            let pdf = dv / (4.0 * wo.dot(wm).abs()) * r;
-            let f = d * self.distrib.g(wo, wi) * r / (4.0 * wi.z * wo.z).abs() * scale;
-            if !(pdf > 0.0) || !f.is_finite() {
+            let f = SampledSpectrum([self.f_reflect(wo, wi, wm, fr) * scale; N]);
+            (wi, f, self.pdf_reflect(wo, wm, fr), BxdfFlags::REFLECTION | BxdfFlags::GLOSSY, 1.0)
+        } else {
+            // Total internal reflection has fr = 1, so this branch is not reached then; refract
+            // can still fail by rounding at the critical angle.
+            let (wi, etap) = refract(wo, wm, self.eta)?;
+            if wi.z * wo.z >= 0.0 {
                 return None;
             }
-            return Some(LocalSample {
-                wi,
-                f: SampledSpectrum([f; N]),
-                pdf,
-                flags: BxdfFlags::REFLECTION | BxdfFlags::GLOSSY,
-                etap: 1.0,
-            });
-        }
-        // Total internal reflection has r = 1, so this branch is not reached then; refract
-        // can still fail by rounding at the critical angle.
-        let (wi, etap) = refract(wo, wm, self.eta)?;
-        if wi.z * wo.z >= 0.0 {
-            return None;
-        }
-        let denom = (wi.dot(wm) + wo.dot(wm) / etap).powi(2);
-        let pdf = dv * wi.dot(wm).abs() / denom * (1.0 - r);
-        let ft = d * (1.0 - r) * self.distrib.g(wo, wi) * (wi.dot(wm) * wo.dot(wm) / (denom * wi.z * wo.z)).abs()
-            / (etap * etap);
-        let f = self.tint * (ft * scale);
+            let f = self.tint * (self.f_transmit(wo, wi, wm, etap, fr) * scale);
+            (wi, f, self.pdf_transmit(wo, wi, wm, etap, fr), BxdfFlags::TRANSMISSION | BxdfFlags::GLOSSY, etap)
+        };
         if !(pdf > 0.0) || !f.is_finite() {
             return None;
         }
-        Some(LocalSample { wi, f, pdf, flags: BxdfFlags::TRANSMISSION | BxdfFlags::GLOSSY, etap })
+        Some(LocalSample { wi, f, pdf, flags, etap })
     }
 }
 
@@ -194,31 +208,28 @@ impl<const N: usize> ThinDielectricBxdf<N> {
 
     /// What the lobe can do.
     #[inline]
-    pub fn flags(&self) -> BxdfFlags {
+    pub(crate) fn flags(&self) -> BxdfFlags {
         BxdfFlags::REFLECTION | BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR
     }
 
     /// Reflectance of the slab, inter-reflections included, at |cos θ| = `cos`.
     #[inline]
-    pub fn reflectance(&self, cos: f32) -> f32 {
+    pub(crate) fn reflectance(&self, cos: f32) -> f32 {
         let r = fr_dielectric(cos.abs(), self.eta);
         let t = 1.0 - r;
         if r < 1.0 { r + t * t * r / (1.0 - r * r) } else { r }
     }
 
-    /// Choose reflection (`true`) with probability R'; the sample's direction is left for the
-    /// caller (mirror or −ω_o), its weight is R'/R' = 1 or T'·tint/T' = tint.
-    pub(crate) fn sample(&self, cos_o: f32, uc: f32) -> Option<(bool, BsdfSample<N>)> {
+    /// Reflect along `wr` (the caller's mirror direction) with probability R', else leave along
+    /// `wt` (−ω_o); the weight is R'/R' = 1 or T'·tint/T' = tint. `cos_o` is ω_o's cosine
+    /// against the interface normal.
+    pub(crate) fn sample_f(&self, cos_o: f32, uc: f32, wr: Vec3, wt: Vec3) -> Option<BsdfSample<N>> {
         let r = self.reflectance(cos_o);
-        let reflected = uc < r;
-        let (weight, pdf, flags) = if reflected {
-            (SampledSpectrum([1.0; N]), r, BxdfFlags::REFLECTION | BxdfFlags::SPECULAR)
+        let (wi, weight, pdf, flags) = if uc < r {
+            (wr, SampledSpectrum([1.0; N]), r, BxdfFlags::REFLECTION | BxdfFlags::SPECULAR)
         } else {
-            (self.tint, 1.0 - r, BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR)
+            (wt, self.tint, 1.0 - r, BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR)
         };
-        if !(pdf > 0.0) {
-            return None;
-        }
-        Some((reflected, BsdfSample { wi: Vec3::ZERO, weight, pdf, specular: true, eta_scale: 1.0, flags }))
+        (pdf > 0.0).then_some(BsdfSample { wi, weight, pdf, eta_scale: 1.0, flags })
     }
 }

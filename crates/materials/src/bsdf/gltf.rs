@@ -32,12 +32,19 @@ use super::compensation::conductor_table;
 use super::microfacet::TrowbridgeReitz;
 use super::{BxdfFlags, LocalSample};
 use crate::sampling::cosine_hemisphere;
+use crate::scattering::reflect;
 
-/// Schlick's approximation F = f0 + (1 − f0)(1 − cos)⁵ (glTF Appendix B, `fresnel_mix` and
-/// `conductor_fresnel`).
+/// The weight (1 − cos)⁵ of Schlick's approximation, `cos` clamped to [0, 1].
 #[inline]
 fn schlick_weight(cos: f32) -> f32 {
     (1.0 - cos.clamp(0.0, 1.0)).powi(5)
+}
+
+/// Schlick's approximation F = f0 + (1 − f0)(1 − cos)⁵ of a dielectric's Fresnel reflectance
+/// (glTF Appendix B, `fresnel_mix`; `conductor_fresnel` is the same mix per wavelength).
+#[inline]
+fn schlick(f0: f32, cos: f32) -> f32 {
+    f0 + (1.0 - f0) * schlick_weight(cos)
 }
 
 /// The glTF metallic–roughness model of one hit.
@@ -48,8 +55,17 @@ pub struct GltfMetalRoughBxdf<const N: usize> {
     distrib: TrowbridgeReitz,
     /// Dielectric reflectance at normal incidence, ((1 − ior) / (1 + ior))².
     f0: f32,
-    /// Albedo-scaled diffuse coupling instead of the spec's `fresnel_mix`.
-    conserving: bool,
+    /// The albedo-scaled diffuse coupling instead of the spec's `fresnel_mix`, if chosen.
+    conserving: Option<Coupling>,
+}
+
+/// The albedo-scaled diffuse coupling's per-material constants.
+#[derive(Debug, Clone, Copy)]
+struct Coupling {
+    /// α the albedo tables are read at, √(α_x α_y).
+    alpha: f32,
+    /// The specular layer's cosine-weighted average albedo E_s,avg.
+    avg: f32,
 }
 
 impl<const N: usize> GltfMetalRoughBxdf<N> {
@@ -65,45 +81,47 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
             metallic,
             distrib: TrowbridgeReitz::isotropic(roughness * roughness),
             f0,
-            conserving: false,
+            conserving: None,
         }
     }
 
     /// The same model with the diffuse layer coupled by albedo scaling (module docs), so that
     /// it never reflects more than it receives.
     pub fn energy_conserving(base: SampledSpectrum<N>, metallic: f32, roughness: f32, ior: f32) -> Self {
-        Self { conserving: true, ..Self::new(base, metallic, roughness, ior) }
+        let g = Self::new(base, metallic, roughness, ior);
+        let alpha = g.distrib.alpha_iso();
+        Self { conserving: Some(Coupling { alpha, avg: g.specular_albedo_avg(alpha) }), ..g }
     }
 
     /// Directional albedo of the dielectric specular layer at μ: f0 E₁ + (1 − f0) E₂.
     #[inline]
-    fn specular_albedo(&self, mu: f32) -> f32 {
+    fn specular_albedo(&self, mu: f32, alpha: f32) -> f32 {
         if self.is_smooth() {
-            return self.f0 + (1.0 - self.f0) * schlick_weight(mu);
+            return schlick(self.f0, mu);
         }
-        let (t, alpha) = (conductor_table(), self.distrib.alpha_iso());
+        let t = conductor_table();
         self.f0 * t.e(mu, alpha) + (1.0 - self.f0) * t.e_schlick(mu, alpha)
     }
 
     /// Cosine-weighted average of [`Self::specular_albedo`].
     #[inline]
-    fn specular_albedo_avg(&self) -> f32 {
+    fn specular_albedo_avg(&self, alpha: f32) -> f32 {
         if self.is_smooth() {
             // 2 ∫ (1 − μ)⁵ μ dμ = 1/21.
             return self.f0 + (1.0 - self.f0) / 21.0;
         }
-        let (t, alpha) = (conductor_table(), self.distrib.alpha_iso());
+        let t = conductor_table();
         self.f0 * t.e_avg(alpha) + (1.0 - self.f0) * t.e_schlick_avg(alpha)
     }
 
     /// Whether the specular layer is a delta lobe.
     #[inline]
-    pub fn is_smooth(&self) -> bool {
+    pub(crate) fn is_smooth(&self) -> bool {
         self.distrib.effectively_smooth()
     }
 
     /// What the model can do.
-    pub fn flags(&self) -> BxdfFlags {
+    pub(crate) fn flags(&self) -> BxdfFlags {
         let specular = if self.is_smooth() { BxdfFlags::SPECULAR } else { BxdfFlags::GLOSSY };
         if self.metallic >= 1.0 {
             BxdfFlags::REFLECTION | specular
@@ -116,9 +134,8 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// (1 − metallic) F_dielectric + metallic F_conductor(base).
     #[inline]
     fn specular_fresnel(&self, vh: f32) -> SampledSpectrum<N> {
-        let w = schlick_weight(vh);
-        let dielectric = self.f0 + (1.0 - self.f0) * w;
-        let conductor = self.base + (SampledSpectrum([1.0; N]) - self.base) * w;
+        let dielectric = schlick(self.f0, vh);
+        let conductor = self.base + (SampledSpectrum([1.0; N]) - self.base) * schlick_weight(vh);
         conductor * self.metallic + (1.0 - self.metallic) * dielectric
     }
 
@@ -126,16 +143,13 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// writes it, or the albedo-scaled coupling.
     #[inline]
     fn diffuse(&self, wo: Vec3, wi: Vec3, vh: f32) -> SampledSpectrum<N> {
-        let weight = if self.conserving {
-            let avg = self.specular_albedo_avg();
-            if avg >= 1.0 {
-                0.0
-            } else {
-                let (eo, ei) = (self.specular_albedo(wo.z), self.specular_albedo(wi.z));
-                ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - avg)
+        let weight = match self.conserving {
+            Some(c) if c.avg >= 1.0 => 0.0,
+            Some(c) => {
+                let (eo, ei) = (self.specular_albedo(wo.z, c.alpha), self.specular_albedo(wi.z, c.alpha));
+                ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - c.avg)
             }
-        } else {
-            1.0 - (self.f0 + (1.0 - self.f0) * schlick_weight(vh))
+            None => 1.0 - schlick(self.f0, vh),
         };
         self.base * ((1.0 - self.metallic) * weight * FRAC_1_PI)
     }
@@ -144,7 +158,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// at V·H = N·V (metallic + (1 − metallic) F against (1 − metallic)(1 − F) · mean base).
     #[inline]
     fn specular_probability(&self, wo: Vec3) -> f32 {
-        let fr = self.f0 + (1.0 - self.f0) * schlick_weight(wo.z);
+        let fr = schlick(self.f0, wo.z);
         let ws = self.metallic + (1.0 - self.metallic) * fr;
         let wd = (1.0 - self.metallic) * (1.0 - fr) * self.base.average().clamp(0.0, 1.0);
         if ws + wd > 0.0 { ws / (ws + wd) } else { 1.0 }
@@ -199,7 +213,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         }
         let wi = if specular {
             let wm = self.distrib.sample_wm(wo, u);
-            2.0 * wo.dot(wm) * wm - wo
+            reflect(wo, wm)
         } else {
             cosine_hemisphere(Vec3::Z, u)
         };

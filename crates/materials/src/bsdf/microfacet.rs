@@ -40,13 +40,14 @@ impl TrowbridgeReitz {
 
     /// Whether the surface is so smooth that it is handled as a delta lobe.
     #[inline]
-    pub fn effectively_smooth(&self) -> bool {
+    pub(crate) fn effectively_smooth(&self) -> bool {
         self.alpha_x.max(self.alpha_y) < SMOOTH_ALPHA
     }
 
     /// (α_x, α_y).
+    #[cfg(test)]
     #[inline]
-    pub fn alpha(&self) -> (f32, f32) {
+    pub(crate) fn alpha(&self) -> (f32, f32) {
         (self.alpha_x, self.alpha_y)
     }
 
@@ -59,7 +60,7 @@ impl TrowbridgeReitz {
     /// Density of microfacet normals per unit projected area, D(ω_m) = 1 / (π α_x α_y
     /// ((x/α_x)² + (y/α_y)² + z²)²), the form without tan θ that stays finite at grazing.
     #[inline]
-    pub fn d(&self, wm: Vec3) -> f32 {
+    pub(crate) fn d(&self, wm: Vec3) -> f32 {
         if wm.z <= 0.0 {
             return 0.0;
         }
@@ -71,7 +72,7 @@ impl TrowbridgeReitz {
     /// Smith's auxiliary function Λ(ω) = (√(1 + α² tan²θ) − 1) / 2 with α² = α_x² cos²φ +
     /// α_y² sin²φ; infinite at grazing (G1 = 0 there).
     #[inline]
-    pub fn lambda(&self, w: Vec3) -> f32 {
+    pub(crate) fn lambda(&self, w: Vec3) -> f32 {
         let z2 = w.z * w.z;
         if z2 == 0.0 {
             return f32::INFINITY;
@@ -83,20 +84,20 @@ impl TrowbridgeReitz {
 
     /// Masking G1(ω) = 1 / (1 + Λ(ω)).
     #[inline]
-    pub fn g1(&self, w: Vec3) -> f32 {
+    pub(crate) fn g1(&self, w: Vec3) -> f32 {
         1.0 / (1.0 + self.lambda(w))
     }
 
     /// Height-correlated masking–shadowing G(ω_o, ω_i) = 1 / (1 + Λ(ω_o) + Λ(ω_i)).
     #[inline]
-    pub fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
+    pub(crate) fn g(&self, wo: Vec3, wi: Vec3) -> f32 {
         1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
     }
 
     /// Density of visible normals seen from `w`: D_ω(ω_m) = G1(ω) / |cos θ| · D(ω_m) ·
     /// max(0, ω·ω_m), for `w` below the surface read as seen from −ω (normals stay in +z).
     #[inline]
-    pub fn d_visible(&self, w: Vec3, wm: Vec3) -> f32 {
+    pub(crate) fn d_visible(&self, w: Vec3, wm: Vec3) -> f32 {
         let cos = w.z.abs();
         let facing = w.dot(wm) * w.z.signum();
         if cos == 0.0 || facing <= 0.0 {
@@ -107,7 +108,7 @@ impl TrowbridgeReitz {
 
     /// A visible normal seen from `w` (either hemisphere: it is mirrored to +z), distributed
     /// as [`TrowbridgeReitz::d_visible`]; always in the +z hemisphere.
-    pub fn sample_wm(&self, w: Vec3, u: Vec2) -> Vec3 {
+    pub(crate) fn sample_wm(&self, w: Vec3, u: Vec2) -> Vec3 {
         // Stretch to the hemisphere configuration (α = 1).
         let mut wh = Vec3::new(self.alpha_x * w.x, self.alpha_y * w.y, w.z).normalize_or(Vec3::Z);
         if wh.z < 0.0 {
@@ -134,38 +135,13 @@ impl TrowbridgeReitz {
 mod tests {
     use super::*;
 
-    /// ∫ D(ω_m) cos θ_m dω_m = 1 (projected area normalisation), by midpoint quadrature in
-    /// (cos θ, φ) with the peak resolved by a cos θ grid dense near 1.
-    fn projected_area(d: &TrowbridgeReitz) -> f64 {
-        let (nt, np) = (4000, 256);
+    /// ∫ f(ω_m) dω_m over the +z hemisphere by midpoint quadrature in (cos θ, φ), `nt` × 256
+    /// cells, the cos θ grid dense near the pole to resolve peaks there.
+    fn hemisphere_integral(nt: usize, f: impl Fn(Vec3) -> f64) -> f64 {
+        let np = 256;
         let mut sum = 0.0f64;
         for i in 0..nt {
             // u ∈ (0,1) → cos θ = 1 − u², dense near the pole; dcos = 2u du.
-            let u = (i as f64 + 0.5) / nt as f64;
-            let cos = 1.0 - u * u;
-            let sin = (1.0 - cos * cos).max(0.0).sqrt();
-            for j in 0..np {
-                let phi = (j as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-                let wm = Vec3::new((sin * phi.cos()) as f32, (sin * phi.sin()) as f32, cos as f32);
-                sum += f64::from(d.d(wm)) * cos * 2.0 * u / nt as f64 * std::f64::consts::TAU / np as f64;
-            }
-        }
-        sum
-    }
-
-    #[test]
-    fn d_is_normalised_over_projected_area() {
-        for (ax, ay) in [(0.05, 0.05), (0.2, 0.2), (0.5, 0.5), (1.0, 1.0), (0.1, 0.6)] {
-            let a = projected_area(&TrowbridgeReitz::new(ax, ay));
-            assert!((a - 1.0).abs() < 5e-3, "α = ({ax}, {ay}): ∫ D cos = {a}");
-        }
-    }
-
-    /// ∫ f(ω_m) dω_m over the +z hemisphere, the same quadrature as `projected_area`.
-    fn hemisphere_integral(f: impl Fn(Vec3) -> f64) -> f64 {
-        let (nt, np) = (2000, 256);
-        let mut sum = 0.0f64;
-        for i in 0..nt {
             let u = (i as f64 + 0.5) / nt as f64;
             let cos = 1.0 - u * u;
             let sin = (1.0 - cos * cos).max(0.0).sqrt();
@@ -179,13 +155,23 @@ mod tests {
     }
 
     #[test]
+    fn d_is_normalised_over_projected_area() {
+        // ∫ D(ω_m) cos θ_m dω_m = 1 (projected area normalisation).
+        for (ax, ay) in [(0.05, 0.05), (0.2, 0.2), (0.5, 0.5), (1.0, 1.0), (0.1, 0.6)] {
+            let d = TrowbridgeReitz::new(ax, ay);
+            let a = hemisphere_integral(4000, |wm| f64::from(d.d(wm)) * f64::from(wm.z));
+            assert!((a - 1.0).abs() < 5e-3, "α = ({ax}, {ay}): ∫ D cos = {a}");
+        }
+    }
+
+    #[test]
     fn visible_normals_are_normalised_and_sampling_is_finite_at_grazing() {
         // ∫ D_ω(ω_m) dω_m = 1 for every ω (Heitz 2014, eq. 17): the Smith G1 is consistent with D.
         for alpha in [0.2f32, 0.5, 1.0] {
             let d = TrowbridgeReitz::new(alpha, 0.7 * alpha);
             for theta in [0.0f32, 1.0, 1.48] {
                 let w = Vec3::new(theta.sin() * 0.8, theta.sin() * 0.6, theta.cos());
-                let total = hemisphere_integral(|wm| f64::from(d.d_visible(w, wm)));
+                let total = hemisphere_integral(2000, |wm| f64::from(d.d_visible(w, wm)));
                 assert!((total - 1.0).abs() < 5e-3, "α {alpha}, θ {theta}: {total}");
             }
         }

@@ -18,7 +18,8 @@
 //! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B).
 //!
 //! The first three are what the path tracer has always used; their arithmetic is unchanged
-//! (the lead checks renders bit for bit). The rough lobes work in a local shading frame
+//! (`xtask/compare/same_renders.sh OLD NEW` renders every scene with two binaries and
+//! compares the outputs byte for byte). The rough lobes work in a local shading frame
 //! (z = shading normal, x/y = [`crate::sampling::basis`] of it, which also orients
 //! anisotropy until hits carry a tangent).
 
@@ -33,6 +34,7 @@ pub(crate) mod test_support;
 #[cfg(test)]
 mod tests;
 
+use std::f32::consts::FRAC_1_PI;
 use std::ops::BitOr;
 
 use colorimetry::SampledSpectrum;
@@ -42,7 +44,7 @@ pub use conductor::ConductorBxdf;
 pub use dielectric::{RoughDielectricBxdf, ThinDielectricBxdf};
 pub use gltf::GltfMetalRoughBxdf;
 pub use microfacet::TrowbridgeReitz;
-pub use spectral_ior::{KNOWN_METALS, Metal, MetalIor};
+pub use spectral_ior::{KNOWN_METALS, Metal};
 
 use crate::sampling::{basis, cosine_hemisphere};
 use crate::scattering::{fr_dielectric, reflect, refract};
@@ -52,8 +54,6 @@ use crate::scattering::{fr_dielectric, reflect, refract};
 pub struct BxdfFlags(u8);
 
 impl BxdfFlags {
-    /// No scattering at all.
-    pub const UNSET: Self = Self(0);
     /// Light leaves on the side it arrived from.
     pub const REFLECTION: Self = Self(1);
     /// Light crosses the surface.
@@ -67,28 +67,19 @@ impl BxdfFlags {
 
     /// Whether all of `other`'s bits are set.
     #[inline]
-    pub fn contains(self, other: Self) -> bool {
-        self.0 & other.0 == other.0 && other.0 != 0
+    fn contains(self, other: Self) -> bool {
+        self.0 & other.0 == other.0
     }
     /// Whether any reflection is possible.
+    #[cfg(test)]
     #[inline]
-    pub fn is_reflective(self) -> bool {
+    pub(crate) fn is_reflective(self) -> bool {
         self.contains(Self::REFLECTION)
     }
     /// Whether any transmission is possible.
     #[inline]
     pub fn is_transmissive(self) -> bool {
         self.contains(Self::TRANSMISSION)
-    }
-    /// Whether a diffuse lobe is present.
-    #[inline]
-    pub fn is_diffuse(self) -> bool {
-        self.contains(Self::DIFFUSE)
-    }
-    /// Whether a glossy lobe is present.
-    #[inline]
-    pub fn is_glossy(self) -> bool {
-        self.contains(Self::GLOSSY)
     }
     /// Whether a delta lobe is present.
     #[inline]
@@ -97,7 +88,7 @@ impl BxdfFlags {
     }
     /// Whether a lobe with a density is present (diffuse or glossy): light sampling helps.
     #[inline]
-    pub fn is_non_specular(self) -> bool {
+    pub(crate) fn is_non_specular(self) -> bool {
         self.0 & (Self::DIFFUSE.0 | Self::GLOSSY.0) != 0
     }
 }
@@ -138,6 +129,14 @@ impl Frame {
     fn interface_normal(&self, wo: Vec3) -> Vec3 {
         if self.ns.dot(wo).signum() == self.n.dot(wo).signum() { self.ns } else { self.n }
     }
+
+    /// Whether a pair a lobe's local frame sees as a reflection (`local_reflection`) or a
+    /// transmission is the same to the geometric normal; otherwise light would leak through
+    /// the surface.
+    #[inline]
+    fn agrees_with_geometry(&self, wo: Vec3, wi: Vec3, local_reflection: bool) -> bool {
+        local_reflection == (self.n.dot(wo) * self.n.dot(wi) > 0.0)
+    }
 }
 
 /// A sampled scattering direction.
@@ -150,8 +149,6 @@ pub struct BsdfSample<const N: usize> {
     /// Density of `wi` per steradian (for MIS); for specular samples the discrete probability
     /// of the chosen lobe (meaningless for MIS).
     pub pdf: f32,
-    /// Whether the lobe is a Dirac delta (no light sampling, no MIS); `flags.is_specular()`.
-    pub specular: bool,
     /// η² of a refraction (1 otherwise): radiance scaling undone in Russian roulette
     /// (pbrt-v4's `etaScale`).
     pub eta_scale: f32,
@@ -248,128 +245,87 @@ impl<const N: usize> Bsdf<N> {
     /// Whether the model has only delta lobes (light sampling is pointless there).
     #[inline]
     pub fn is_specular(&self) -> bool {
-        match self {
-            Self::Lambertian { .. } => false,
-            Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => true,
-            _ => !self.flags().is_non_specular(),
-        }
+        !self.flags().is_non_specular()
     }
 
     /// f(wo, wi), the BSDF value (0 for delta lobes, whose value at a given direction is zero
     /// with probability one).
     #[inline]
     pub fn f(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> SampledSpectrum<N> {
-        match *self {
-            Self::Lambertian { r } => {
-                let (ng, ns) = frame.facing(wo);
-                if ns.dot(wi) <= 0.0 || ng.dot(wi) <= 0.0 {
-                    return SampledSpectrum([0.0; N]);
-                }
-                r * std::f32::consts::FRAC_1_PI
-            }
-            _ => self.f_and_cos(frame, wo, wi).0,
+        let black = SampledSpectrum([0.0; N]);
+        if let Self::Lambertian { r } = self {
+            let (ng, ns) = frame.facing(wo);
+            return if lambert_cos(ng, ns, wi).is_some() { *r * FRAC_1_PI } else { black };
         }
+        self.f_local(frame, wo, wi).map_or(black, |(f, _)| f)
     }
 
     /// f(wo, wi) · |cos θ_i| for non-specular models (0 for delta lobes).
     #[inline]
     pub fn f_cos(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> SampledSpectrum<N> {
-        match *self {
-            Self::Lambertian { r } => {
-                let (ng, ns) = frame.facing(wo);
-                // Both normals must agree that wi is on wo's side: no light leaks through.
-                let cos = ns.dot(wi);
-                if cos <= 0.0 || ng.dot(wi) <= 0.0 {
-                    return SampledSpectrum([0.0; N]);
-                }
-                r * (cos * std::f32::consts::FRAC_1_PI)
-            }
-            Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => SampledSpectrum([0.0; N]),
-            _ => {
-                let (f, cos) = self.f_and_cos(frame, wo, wi);
-                f * cos
-            }
+        let black = SampledSpectrum([0.0; N]);
+        if let Self::Lambertian { r } = self {
+            let (ng, ns) = frame.facing(wo);
+            return match lambert_cos(ng, ns, wi) {
+                Some(cos) => *r * (cos * FRAC_1_PI),
+                None => black,
+            };
         }
-    }
-
-    /// The rough lobes' f and |cos θ_i| in their local frame.
-    fn f_and_cos(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> (SampledSpectrum<N>, f32) {
-        let black = (SampledSpectrum([0.0; N]), 0.0);
-        match self {
-            Self::Conductor(c) => {
-                let (ng, ns) = frame.facing(wo);
-                if ng.dot(wi) <= 0.0 {
-                    return black;
-                }
-                let l = Local::new(ns);
-                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
-                (c.f(wo_l, wi_l), wi_l.z.abs())
-            }
-            Self::RoughDielectric(d) => {
-                let n = frame.interface_normal(wo);
-                let l = Local::new(n);
-                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
-                // Reflection or transmission as the shading frame sees it must agree with the
-                // geometric normal, or light would leak through the surface.
-                if (wo_l.z * wi_l.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
-                    return black;
-                }
-                (d.f(wo_l, wi_l), wi_l.z.abs())
-            }
-            Self::GltfMetalRough(g) => {
-                let (ng, ns) = frame.facing(wo);
-                if ng.dot(wi) <= 0.0 {
-                    return black;
-                }
-                let l = Local::new(ns);
-                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
-                (g.f(wo_l, wi_l), wi_l.z.abs())
-            }
-            Self::Lambertian { .. } | Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => black,
-        }
+        self.f_local(frame, wo, wi).map_or(black, |(f, cos)| f * cos)
     }
 
     /// Density per steradian with which [`Bsdf::sample_f`] picks `wi` (0 for delta lobes).
     #[inline]
     pub fn pdf(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> f32 {
+        if let Self::Lambertian { .. } = self {
+            let (ng, ns) = frame.facing(wo);
+            return lambert_cos(ng, ns, wi).map_or(0.0, |cos| cos * FRAC_1_PI);
+        }
+        let Some((wo_l, wi_l)) = self.local_pair(frame, wo, wi) else { return 0.0 };
         match self {
-            Self::Lambertian { .. } => {
-                let (ng, ns) = frame.facing(wo);
-                let cos = ns.dot(wi);
-                if cos <= 0.0 || ng.dot(wi) <= 0.0 { 0.0 } else { cos * std::f32::consts::FRAC_1_PI }
-            }
-            Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => 0.0,
-            Self::Conductor(c) => {
-                let (ng, ns) = frame.facing(wo);
-                if ng.dot(wi) <= 0.0 {
-                    return 0.0;
-                }
-                let l = Local::new(ns);
-                c.pdf(l.local(wo), l.local(wi))
-            }
-            Self::RoughDielectric(d) => {
-                let l = Local::new(frame.interface_normal(wo));
-                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
-                if (wo_l.z * wi_l.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
-                    return 0.0;
-                }
-                d.pdf(wo_l, wi_l)
-            }
-            Self::GltfMetalRough(g) => {
-                let (ng, ns) = frame.facing(wo);
-                if ng.dot(wi) <= 0.0 {
-                    return 0.0;
-                }
-                let l = Local::new(ns);
-                g.pdf(l.local(wo), l.local(wi))
-            }
+            Self::Conductor(c) => c.pdf(wo_l, wi_l),
+            Self::RoughDielectric(d) => d.pdf(wo_l, wi_l),
+            Self::GltfMetalRough(g) => g.pdf(wo_l, wi_l),
+            _ => 0.0,
         }
     }
 
-    /// The name the path tracer calls [`Bsdf::sample_f`] by.
+    /// The rough lobes' f and |cos θ_i| in their local frame; `None` for the other models and
+    /// where [`Bsdf::local_pair`] rejects the pair.
     #[inline]
-    pub fn sample(&self, frame: &Frame, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample<N>> {
-        self.sample_f(frame, wo, uc, u)
+    fn f_local(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> Option<(SampledSpectrum<N>, f32)> {
+        let (wo_l, wi_l) = self.local_pair(frame, wo, wi)?;
+        let f = match self {
+            Self::Conductor(c) => c.f(wo_l, wi_l),
+            Self::RoughDielectric(d) => d.f(wo_l, wi_l),
+            Self::GltfMetalRough(g) => g.f(wo_l, wi_l),
+            _ => return None,
+        };
+        Some((f, wi_l.z.abs()))
+    }
+
+    /// (wo, wi) in a rough lobe's local frame; `None` for the other models (Lambertian is
+    /// evaluated in world space, delta lobes have no value) and where the geometric normal
+    /// forbids the pair (light would leak through the surface).
+    #[inline]
+    fn local_pair(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+        match self {
+            // Reflection only: wi must be on wo's side of the geometric surface.
+            Self::Conductor(_) | Self::GltfMetalRough(_) => {
+                let (ng, ns) = frame.facing(wo);
+                if ng.dot(wi) <= 0.0 {
+                    return None;
+                }
+                let l = Local::new(ns);
+                Some((l.local(wo), l.local(wi)))
+            }
+            Self::RoughDielectric(_) => {
+                let l = Local::new(frame.interface_normal(wo));
+                let (wo_l, wi_l) = (l.local(wo), l.local(wi));
+                frame.agrees_with_geometry(wo, wi, wo_l.z * wi_l.z > 0.0).then_some((wo_l, wi_l))
+            }
+            Self::Lambertian { .. } | Self::Dielectric { .. } | Self::Mirror { .. } | Self::ThinDielectric(_) => None,
+        }
     }
 
     /// Sample an incident direction; `uc` chooses between lobes (reflection or refraction),
@@ -377,18 +333,14 @@ impl<const N: usize> Bsdf<N> {
     #[inline]
     pub fn sample_f(&self, frame: &Frame, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample<N>> {
         let (ng, ns) = frame.facing(wo);
-        match *self {
+        match self {
             Self::Lambertian { r } => {
                 let wi = cosine_hemisphere(ns, u);
-                let cos = ns.dot(wi);
-                if cos <= 0.0 || ng.dot(wi) <= 0.0 {
-                    return None;
-                }
+                let cos = lambert_cos(ng, ns, wi)?;
                 Some(BsdfSample {
                     wi,
-                    weight: r,
-                    pdf: cos * std::f32::consts::FRAC_1_PI,
-                    specular: false,
+                    weight: *r,
+                    pdf: cos * FRAC_1_PI,
                     eta_scale: 1.0,
                     flags: BxdfFlags::REFLECTION | BxdfFlags::DIFFUSE,
                 })
@@ -397,14 +349,13 @@ impl<const N: usize> Bsdf<N> {
                 let wi = mirror(wo, ns, ng);
                 Some(BsdfSample {
                     wi,
-                    weight: r,
+                    weight: *r,
                     pdf: 1.0,
-                    specular: true,
                     eta_scale: 1.0,
                     flags: BxdfFlags::REFLECTION | BxdfFlags::SPECULAR,
                 })
             }
-            Self::Dielectric { eta, tint } => {
+            &Self::Dielectric { eta, tint } => {
                 // Fresnel against the stored normal keeps track of inside and outside.
                 // (The shading normal lies in the stored normal's hemisphere; where it puts wo on
                 // the other side than the geometric normal does, trust the geometric one.)
@@ -417,7 +368,6 @@ impl<const N: usize> Bsdf<N> {
                         wi,
                         weight: SampledSpectrum([1.0; N]),
                         pdf: f,
-                        specular: true,
                         eta_scale: 1.0,
                         flags: BxdfFlags::REFLECTION | BxdfFlags::SPECULAR,
                     });
@@ -432,19 +382,13 @@ impl<const N: usize> Bsdf<N> {
                     wi,
                     weight: tint * (1.0 / (etap * etap)),
                     pdf: 1.0 - f,
-                    specular: true,
                     eta_scale: etap * etap,
                     flags: BxdfFlags::TRANSMISSION | BxdfFlags::SPECULAR,
                 })
             }
             Self::Conductor(c) => {
                 let l = Local::new(ns);
-                let s = c.sample_f(l.local(wo), uc, u)?;
-                let wi = l.world(s.wi);
-                if ng.dot(wi) <= 0.0 {
-                    return None;
-                }
-                Some(world_sample(s, wi))
+                reflection_sample(c.sample_f(l.local(wo), uc, u)?, &l, wo, ns, ng)
             }
             Self::RoughDielectric(d) => {
                 if d.is_smooth() {
@@ -454,53 +398,49 @@ impl<const N: usize> Bsdf<N> {
                 let wo_l = l.local(wo);
                 let s = d.sample_f(wo_l, uc, u)?;
                 let wi = l.world(s.wi);
-                if (wo_l.z * s.wi.z > 0.0) != (frame.n.dot(wo) * frame.n.dot(wi) > 0.0) {
-                    return None;
-                }
-                Some(world_sample(s, wi))
+                frame.agrees_with_geometry(wo, wi, wo_l.z * s.wi.z > 0.0).then(|| world_sample(s, wi))
             }
             Self::GltfMetalRough(g) => {
                 let l = Local::new(ns);
-                let s = g.sample_f(l.local(wo), uc, u)?;
-                // The delta layer mirrors like `Mirror` (geometric fallback); the rest must stay
-                // above the geometric surface.
-                let wi = if s.flags.is_specular() { mirror(wo, ns, ng) } else { l.world(s.wi) };
-                if ng.dot(wi) <= 0.0 {
-                    return None;
-                }
-                Some(world_sample(s, wi))
+                reflection_sample(g.sample_f(l.local(wo), uc, u)?, &l, wo, ns, ng)
             }
-            Self::ThinDielectric(d) => {
-                let (reflected, s) = d.sample(frame.interface_normal(wo).dot(wo), uc)?;
-                let wi = if reflected { mirror(wo, ns, ng) } else { -wo };
-                Some(s.with_wi(wi))
-            }
+            Self::ThinDielectric(d) => d.sample_f(frame.interface_normal(wo).dot(wo), uc, mirror(wo, ns, ng), -wo),
         }
     }
 }
 
-impl<const N: usize> BsdfSample<N> {
-    #[inline]
-    fn with_wi(mut self, wi: Vec3) -> Self {
-        self.wi = wi;
-        self
-    }
+/// |cos θ_i| of a Lambertian lobe: `wi` against the shading normal, or `None` unless both
+/// normals agree that `wi` is on `wo`'s side (no light leaks through the surface).
+#[inline]
+fn lambert_cos(ng: Vec3, ns: Vec3, wi: Vec3) -> Option<f32> {
+    let cos = ns.dot(wi);
+    if cos <= 0.0 || ng.dot(wi) <= 0.0 { None } else { Some(cos) }
 }
 
 /// A local sample turned into the path tracer's weight form, direction already in world space.
 #[inline]
 fn world_sample<const N: usize>(s: LocalSample<N>, wi: Vec3) -> BsdfSample<N> {
-    let specular = s.flags.is_specular();
-    let weight = if specular { s.f } else { s.f * (s.wi.z.abs() / s.pdf) };
+    let weight = if s.flags.is_specular() { s.f } else { s.f * (s.wi.z.abs() / s.pdf) };
     let transmitted = s.flags.is_transmissive();
-    BsdfSample {
-        wi,
-        weight,
-        pdf: s.pdf,
-        specular,
-        eta_scale: if transmitted { s.etap * s.etap } else { 1.0 },
-        flags: s.flags,
+    BsdfSample { wi, weight, pdf: s.pdf, eta_scale: if transmitted { s.etap * s.etap } else { 1.0 }, flags: s.flags }
+}
+
+/// A reflection lobe's local sample in world space. A delta lobe mirrors like
+/// [`Bsdf::Mirror`] (about the shading normal, else the geometric one); any other direction
+/// must stay above the geometric surface.
+#[inline]
+fn reflection_sample<const N: usize>(
+    s: LocalSample<N>,
+    l: &Local,
+    wo: Vec3,
+    ns: Vec3,
+    ng: Vec3,
+) -> Option<BsdfSample<N>> {
+    let wi = if s.flags.is_specular() { mirror(wo, ns, ng) } else { l.world(s.wi) };
+    if ng.dot(wi) <= 0.0 {
+        return None;
     }
+    Some(world_sample(s, wi))
 }
 
 /// Mirror reflection about the shading normal, falling back to the geometric normal where the

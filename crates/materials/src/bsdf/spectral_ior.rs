@@ -9,100 +9,98 @@ use colorimetry::{SampledSpectrum, SampledWavelengths};
 
 use crate::error::Error;
 
-macro_rules! table {
+/// The text of `data/metals/<file>`, embedded.
+macro_rules! metal_file {
     ($file:literal) => {
         include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/metals/", $file))
     };
 }
 
-/// The metal names [`Metal::from_str`] accepts.
-pub const KNOWN_METALS: &str = "Au, Ag, Cu, Al, Cr, Ni, Ti, Fe, Pt";
+/// Declares [`Metal`], [`METALS`] and [`KNOWN_METALS`] from one list (the first entry apart,
+/// for the separators), so that they cannot disagree.
+macro_rules! metals {
+    ($(#[$doc0:meta])* $m0:ident => $file0:literal, $($(#[$doc:meta])* $m:ident => $file:literal,)*) => {
+        /// A metal with measured optical constants.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+        pub enum Metal {
+            $(#[$doc0])* $m0,
+            $($(#[$doc])* $m,)*
+        }
 
-/// A metal with measured optical constants.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Metal {
-    /// Gold (Johnson & Christy 1972).
-    Au,
-    /// Silver (Johnson & Christy 1972).
-    Ag,
-    /// Copper (Johnson & Christy 1972).
-    Cu,
-    /// Aluminium (McPeak et al. 2015).
-    Al,
-    /// Chromium (Johnson & Christy 1974).
-    Cr,
-    /// Nickel (Johnson & Christy 1974).
-    Ni,
-    /// Titanium (Johnson & Christy 1974).
-    Ti,
-    /// Iron (Johnson & Christy 1974).
-    Fe,
-    /// Platinum (Rakić et al. 1998, Lorentz–Drude fit).
-    Pt,
+        /// Every metal: (metal, chemical symbol, table file in `data/metals/`, its text).
+        const METALS: &[(Metal, &str, &str, &str)] = &[
+            (Metal::$m0, stringify!($m0), $file0, metal_file!($file0)),
+            $((Metal::$m, stringify!($m), $file, metal_file!($file)),)*
+        ];
+
+        /// The metal names [`Metal::from_str`] accepts.
+        pub const KNOWN_METALS: &str = concat!(stringify!($m0) $(, ", ", stringify!($m))*);
+    };
 }
 
-/// Every metal, in [`KNOWN_METALS`] order.
-const ALL: [Metal; 9] =
-    [Metal::Au, Metal::Ag, Metal::Cu, Metal::Al, Metal::Cr, Metal::Ni, Metal::Ti, Metal::Fe, Metal::Pt];
+metals! {
+    /// Gold (Johnson & Christy 1972).
+    Au => "Au_johnson_christy_1972.csv",
+    /// Silver (Johnson & Christy 1972).
+    Ag => "Ag_johnson_christy_1972.csv",
+    /// Copper (Johnson & Christy 1972).
+    Cu => "Cu_johnson_christy_1972.csv",
+    /// Aluminium (McPeak et al. 2015).
+    Al => "Al_mcpeak_2015.csv",
+    /// Chromium (Johnson & Christy 1974).
+    Cr => "Cr_johnson_christy_1974.csv",
+    /// Nickel (Johnson & Christy 1974).
+    Ni => "Ni_johnson_christy_1974.csv",
+    /// Titanium (Johnson & Christy 1974).
+    Ti => "Ti_johnson_christy_1974.csv",
+    /// Iron (Johnson & Christy 1974).
+    Fe => "Fe_johnson_christy_1974.csv",
+    /// Platinum (Rakić et al. 1998, Lorentz–Drude fit).
+    Pt => "Pt_rakic_1998_ld.csv",
+}
 
 impl FromStr for Metal {
     type Err = Error;
     /// A chemical symbol, case-insensitive (`"Au"`, `"au"`).
     fn from_str(name: &str) -> Result<Self, Error> {
         let trimmed = name.trim();
-        ALL.into_iter()
-            .find(|m| m.symbol().eq_ignore_ascii_case(trimmed))
+        METALS
+            .iter()
+            .find(|e| e.1.eq_ignore_ascii_case(trimmed))
+            .map(|e| e.0)
             .ok_or_else(|| Error::UnknownMetal { name: name.to_owned(), known: KNOWN_METALS })
     }
 }
 
 impl Metal {
+    /// The metal's entry in [`METALS`] (`metals!` declares every variant with one).
+    fn entry(self) -> &'static (Metal, &'static str, &'static str, &'static str) {
+        METALS.iter().find(|e| e.0 == self).expect("metals! declares every metal with its table")
+    }
+
     /// The chemical symbol.
     pub fn symbol(self) -> &'static str {
-        match self {
-            Self::Au => "Au",
-            Self::Ag => "Ag",
-            Self::Cu => "Cu",
-            Self::Al => "Al",
-            Self::Cr => "Cr",
-            Self::Ni => "Ni",
-            Self::Ti => "Ti",
-            Self::Fe => "Fe",
-            Self::Pt => "Pt",
-        }
+        self.entry().1
     }
 
     /// The metal's tabulated index (parsed once).
-    pub fn ior(self) -> &'static MetalIor {
-        static TABLES: LazyLock<Vec<MetalIor>> = LazyLock::new(|| {
-            ALL.iter()
-                .map(|&m| {
-                    let (text, file) = m.table();
-                    MetalIor::parse(text).unwrap_or_else(|e| panic!("embedded table {file} is corrupt: {e}"))
+    pub(crate) fn ior(self) -> &'static MetalIor {
+        static TABLES: LazyLock<Vec<(Metal, MetalIor)>> = LazyLock::new(|| {
+            METALS
+                .iter()
+                .map(|&(m, _, file, text)| {
+                    (m, MetalIor::parse(text).unwrap_or_else(|e| panic!("embedded table {file} is corrupt: {e}")))
                 })
                 .collect()
         });
-        &TABLES[self as usize]
-    }
-
-    fn table(self) -> (&'static str, &'static str) {
-        match self {
-            Self::Au => (table!("Au_johnson_christy_1972.csv"), "Au_johnson_christy_1972.csv"),
-            Self::Ag => (table!("Ag_johnson_christy_1972.csv"), "Ag_johnson_christy_1972.csv"),
-            Self::Cu => (table!("Cu_johnson_christy_1972.csv"), "Cu_johnson_christy_1972.csv"),
-            Self::Al => (table!("Al_mcpeak_2015.csv"), "Al_mcpeak_2015.csv"),
-            Self::Cr => (table!("Cr_johnson_christy_1974.csv"), "Cr_johnson_christy_1974.csv"),
-            Self::Ni => (table!("Ni_johnson_christy_1974.csv"), "Ni_johnson_christy_1974.csv"),
-            Self::Ti => (table!("Ti_johnson_christy_1974.csv"), "Ti_johnson_christy_1974.csv"),
-            Self::Fe => (table!("Fe_johnson_christy_1974.csv"), "Fe_johnson_christy_1974.csv"),
-            Self::Pt => (table!("Pt_rakic_1998_ld.csv"), "Pt_rakic_1998_ld.csv"),
-        }
+        let entry = TABLES.iter().find(|(m, _)| *m == self).expect("metals! declares every metal with its table");
+        &entry.1
     }
 }
 
 /// A tabulated complex index: η and κ at ascending wavelengths.
 #[derive(Debug, Clone)]
-pub struct MetalIor {
+pub(crate) struct MetalIor {
     lambda_nm: Vec<f32>,
     eta: Vec<f32>,
     k: Vec<f32>,
@@ -129,7 +127,7 @@ impl MetalIor {
     }
 
     /// (η, κ) at `lambda` nm.
-    pub fn eval(&self, lambda: f32) -> (f32, f32) {
+    pub(crate) fn eval(&self, lambda: f32) -> (f32, f32) {
         let l = &self.lambda_nm;
         let i = l.partition_point(|&x| x <= lambda).clamp(1, l.len() - 1);
         let t = ((lambda - l[i - 1]) / (l[i] - l[i - 1])).clamp(0.0, 1.0);
@@ -138,7 +136,10 @@ impl MetalIor {
     }
 
     /// (η, κ) at each of the path's wavelengths.
-    pub fn sample<const N: usize>(&self, lambda: &SampledWavelengths<N>) -> (SampledSpectrum<N>, SampledSpectrum<N>) {
+    pub(crate) fn sample<const N: usize>(
+        &self,
+        lambda: &SampledWavelengths<N>,
+    ) -> (SampledSpectrum<N>, SampledSpectrum<N>) {
         let mut eta = [0.0; N];
         let mut k = [0.0; N];
         for i in 0..N {
@@ -148,7 +149,8 @@ impl MetalIor {
     }
 
     /// The wavelength range the table covers (nm).
-    pub fn range(&self) -> (f32, f32) {
+    #[cfg(test)]
+    pub(crate) fn range(&self) -> (f32, f32) {
         (self.lambda_nm[0], self.lambda_nm[self.lambda_nm.len() - 1])
     }
 }
@@ -160,7 +162,8 @@ mod tests {
 
     #[test]
     fn every_table_parses_and_covers_the_visible_range() {
-        for m in ALL {
+        assert_eq!(KNOWN_METALS, "Au, Ag, Cu, Al, Cr, Ni, Ti, Fe, Pt");
+        for &(m, ..) in METALS {
             let (lo, hi) = m.ior().range();
             assert!(lo <= colorimetry::LAMBDA_MIN && hi >= colorimetry::LAMBDA_MAX, "{m:?}: {lo}..{hi}");
             assert_eq!(m.symbol().parse::<Metal>().unwrap(), m);

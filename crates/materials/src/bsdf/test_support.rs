@@ -1,18 +1,22 @@
 //! The test harness every BSDF uses: a χ² goodness-of-fit test of `sample_f` against `pdf`
 //! (after pbrt-v4 `src/pbrt/bsdfs_test.cpp` and Mitsuba 3 `chi2.py`), the directional albedo
-//! with its standard error (energy), and a small deterministic generator.
+//! with its standard error (energy), and a small deterministic generator (whose sphere
+//! directions come from [`crate::sampling::uniform_sphere`], as the integrator's do).
 //!
 //! χ² test: directions are binned on a (θ, φ) grid over the whole sphere, plus one cell for
 //! samples that were rejected (`None`). Expected counts integrate `pdf` over each bin
-//! numerically (midpoint rule on a sub-grid refined where it has not converged; the rejected cell gets 1 − ∫ pdf). Cells expected
-//! to hold fewer than [`MIN_EXPECTED`] samples are pooled into one (Mitsuba does the same);
-//! the statistic has (cells − 1) degrees of freedom, and its p-value, the χ² survival function
-//! Q(k/2, x/2), is computed here from the regularised incomplete gamma function. A family of m
-//! tests is judged at significance 0.01 with Šidák's correction, 1 − 0.99^(1/m) per test.
+//! numerically (midpoint rule on a sub-grid refined where it has not converged; the rejected
+//! cell gets 1 − ∫ pdf). Cells expected to hold fewer than [`MIN_EXPECTED`] samples are pooled
+//! into one (Mitsuba does the same); the statistic has (cells − 1) degrees of freedom, and its
+//! p-value, the χ² survival function Q(k/2, x/2), is computed here from the regularised
+//! incomplete gamma function. A family of m tests is judged at significance 0.01 with Šidák's
+//! correction, 1 − 0.99^(1/m) per test.
 
 use std::f64::consts::PI;
 
 use glam::{Vec2, Vec3};
+
+use crate::sampling::uniform_sphere;
 
 /// SplitMix64 (Steele, Lea & Flood 2014) as a test-only uniform generator: deterministic per
 /// seed, independent of the integrator's PCG streams.
@@ -43,11 +47,7 @@ impl TestRng {
 
     /// A uniformly distributed unit vector.
     pub(crate) fn sphere(&mut self) -> Vec3 {
-        let u = self.uniform2();
-        let z = 1.0 - 2.0 * u.x;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = std::f32::consts::TAU * u.y;
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        uniform_sphere(self.uniform2())
     }
 }
 
