@@ -29,7 +29,7 @@
 mod assembly;
 mod error;
 mod film;
-mod light;
+mod lights;
 mod output;
 mod path;
 mod render;
