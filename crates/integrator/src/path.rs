@@ -15,7 +15,7 @@ use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Ray, spawn_ray, spawn_ray_to};
 use glam::Vec3;
 use materials::bsdf::{Bsdf, Frame};
-use materials::{Ior, Scattering};
+use materials::{Ior, LAMBDA_D, Scattering};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
@@ -31,10 +31,6 @@ const DEFAULT_MAX_DEPTH: u32 = 64;
 /// Russian roulette starts after this many bounces, so short paths (direct and first indirect
 /// light) are never cut (pbrt-v4 starts at depth 1; a few more keep low-order noise down).
 const RR_START_DEPTH: u32 = 3;
-
-/// Index of refraction used where a path cannot split by wavelength (RGB lanes): the sodium
-/// D line, where glass catalogues quote n_d (as the paper's model does).
-const LAMBDA_D: f32 = 589.0;
 
 /// Index into the render's spectrum table.
 type SpecId = u32;

@@ -37,7 +37,7 @@ struct LaneMaterial<const N: usize> {
     sigma_a: Option<SampledSpectrum<N>>,
     emission: Option<SampledSpectrum<N>>,
     shininess: f32,
-    /// Index of refraction (at 589 nm: this model does not disperse).
+    /// Index of refraction at n_d's wavelength (this model does not disperse).
     eta: f32,
     has_diffuse: bool,
     has_specular: bool,
@@ -112,7 +112,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
                 sigma_a,
                 emission: m.emission.as_ref().map(|e| project(e, SpectrumKind::Emission)),
                 shininess: m.shininess,
-                eta: m.ior.eval(589.0),
+                eta: m.ior.eval(materials::LAMBDA_D),
                 has_diffuse: kd.0.iter().any(|&v| v > 0.0),
                 has_specular: ks.0.iter().any(|&v| v > 0.0),
                 transmissive: kt.0.iter().any(|&v| v > 0.0),
