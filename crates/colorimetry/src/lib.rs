@@ -44,7 +44,7 @@ pub use csv::{MAX_CSV_BYTES, NamedSpectrum, parse_spectra_csv, read_spectra_csv}
 pub use data::{Cmf, Illuminant, KNOWN_ILLUMINANTS, Observer, blackbody, colorchecker, daylight_chromaticity, tcs};
 pub use error::{Error, Num, Result};
 pub use lab::{Lab, delta_e_2000};
-pub use luminance::{luminance_normalized, relative_luminance, relative_xyz, y_sum};
+pub use luminance::{K_M, luminance_normalized, luminous_efficacy, relative_luminance, relative_xyz, y_sum};
 pub use rgb::{Rgb, RgbColorSpace, bradford, quantize_u8, srgb_decode, srgb_encode, srgb_encode_u8};
 pub use spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, MIN_STEP_NM, SampledSpectrum, SampledWavelengths};
 pub use xyz::{Integration, Xyz, emission_to_xyz, reflectance_to_xyz};

@@ -52,6 +52,18 @@ pub fn luminance_normalized(spd: &DenselySampledSpectrum) -> DenselySampledSpect
     if sy > 0.0 { spd.scaled(y_sum() / sy) } else { spd.clone() }
 }
 
+/// K_m, the maximum luminous efficacy of photopic vision: 683 lm/W at 540 THz (≈ 555 nm), the
+/// SI definition of the candela (BIPM, SI Brochure 9th ed., 2019).
+pub const K_M: f64 = 683.0;
+
+/// Luminous efficacy of radiation with spectrum `spd` (lm/W): `K_m Σ S ȳ / Σ S` at 1 nm over
+/// 360–830 nm (CIE 1931 2°) — what turns a radiant quantity (W, W/m², W/(m² sr)) of that
+/// spectrum into its photometric one (lm, lux, cd/m²). 0 for a spectrum with no power.
+pub fn luminous_efficacy(spd: &DenselySampledSpectrum) -> f64 {
+    let power: f64 = visible_nm().map(|lambda| spd.eval(lambda)).sum();
+    if power > 0.0 { K_M * y_weighted_sum(|lambda| spd.eval(lambda)) / power } else { 0.0 }
+}
+
 /// XYZ of an emission spectrum relative to an equal-energy spectrum of value 1:
 /// `X = Σ S x̄ / Σ ȳ` (and Y, Z alike) at 1 nm over 360–830 nm (CIE 1931 2°), so Y is
 /// [`relative_luminance`].
@@ -63,6 +75,20 @@ pub fn relative_xyz(spd: &DenselySampledSpectrum) -> Xyz {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn luminous_efficacy_matches_published_values() {
+        use super::*;
+        // Monochromatic 555 nm: ȳ(555) = 1.0 in the CIE 1931 table, so 683 lm/W.
+        let line =
+            DenselySampledSpectrum::new(360.0, 1.0, (360..=830).map(|nm| if nm == 555 { 1.0 } else { 0.0 }).collect())
+                .unwrap();
+        assert!((luminous_efficacy(&line) - 683.0).abs() < 1e-9, "{}", luminous_efficacy(&line));
+        // Equal energy over 360–830 nm: 683 · Σȳ / 471 = 683 · 106.856917 / 471 = 154.95 lm/W.
+        let flat = DenselySampledSpectrum::constant(2.5);
+        assert!((luminous_efficacy(&flat) - 683.0 * 106.856_917 / 471.0).abs() < 1e-4);
+        assert_eq!(luminous_efficacy(&DenselySampledSpectrum::constant(0.0)), 0.0);
+    }
+
     use super::*;
     use crate::data::Illuminant;
 

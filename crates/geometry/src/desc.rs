@@ -233,8 +233,50 @@ impl MaterialDesc {
     }
 }
 
-/// A light source as written in a scene file. Intensities are numbers scaling the spectrum; the integrator
-/// defines the units (`docs/scene-format.md` gives the conventions).
+/// The unit a light's `intensity` is stated in (`docs/scene-format.md`, "Light units").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightUnit {
+    /// Radiant: W (point, spot: flux), W/m² (directional: irradiance), W/(m² sr) (environment).
+    Watt,
+    /// Luminous flux (point, spot).
+    Lumen,
+    /// Luminous intensity, lm/sr (point, spot; glTF's unit for them).
+    Candela,
+    /// Illuminance, lm/m² (directional; glTF's unit for it).
+    Lux,
+    /// Luminance, cd/m² (environment, background, emissive surfaces).
+    Nit,
+}
+
+impl LightUnit {
+    /// The name a manifest writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Watt => "W",
+            Self::Lumen => "lm",
+            Self::Candela => "cd",
+            Self::Lux => "lux",
+            Self::Nit => "nits",
+        }
+    }
+
+    /// The unit of a manifest's `"unit"` string.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Watt, Self::Lumen, Self::Candela, Self::Lux, Self::Nit].into_iter().find(|u| u.name() == name)
+    }
+}
+
+/// How bright a light is: a number and its unit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightAmount {
+    /// The number the file writes (finite, ≥ 0).
+    pub value: f32,
+    /// Its unit.
+    pub unit: LightUnit,
+}
+
+/// A light source as written in a scene file: where it is, its spectrum (whose shape, not scale, is
+/// used) and how bright it is in a stated unit; assembly converts to the renderer's photometric scale.
 #[derive(Clone, Debug, PartialEq)]
 pub enum LightDesc {
     /// Isotropic point light; irradiance at distance d is `intensity · spectrum / d²`.
@@ -243,8 +285,8 @@ pub enum LightDesc {
         position: Vec3,
         /// Emission spectrum.
         spectrum: SpectrumDesc,
-        /// Scale (glTF: candela).
-        intensity: f32,
+        /// Luminous intensity (cd), flux (lm, W).
+        intensity: LightAmount,
     },
     /// Spot light, full intensity inside `inner_cone_deg`, smooth falloff to zero at `outer_cone_deg`.
     Spot {
@@ -258,8 +300,8 @@ pub enum LightDesc {
         outer_cone_deg: f32,
         /// Emission spectrum.
         spectrum: SpectrumDesc,
-        /// Scale (glTF: candela).
-        intensity: f32,
+        /// Luminous intensity (cd), flux (lm, W).
+        intensity: LightAmount,
     },
     /// Distant light; `direction` is the unit direction the light travels.
     Directional {
@@ -267,15 +309,15 @@ pub enum LightDesc {
         direction: Vec3,
         /// Emission spectrum.
         spectrum: SpectrumDesc,
-        /// Scale (glTF: lux, irradiance on a surface facing the light).
-        intensity: f32,
+        /// Illuminance on a surface facing the light (lux, W/m²).
+        intensity: LightAmount,
     },
     /// Uniform environment illuminating the scene from all directions.
     Environment {
         /// Emission spectrum.
         spectrum: SpectrumDesc,
-        /// Scale (radiance).
-        intensity: f32,
+        /// Luminance (nits) or radiance (W/(m² sr)).
+        intensity: LightAmount,
     },
 }
 

@@ -16,8 +16,8 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
 use crate::desc::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat,
-    SpectrumDesc,
+    AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
+    SceneDescription, SceneFormat, SpectrumDesc,
 };
 use crate::error::{Error, Result};
 use crate::limits::{BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
@@ -294,12 +294,14 @@ impl Loader<'_> {
             self.warn(format!("light '{name}': intensity {intensity} is not finite and ≥ 0; ignored"));
             return;
         }
+        let amount = |unit| LightAmount { value: intensity, unit };
         let position = world.transform_point3(Vec3::ZERO);
         // Lights shine along their local −Z (KHR_lights_punctual).
         let direction = world.transform_vector3(Vec3::NEG_Z).try_normalize().unwrap_or(Vec3::NEG_Z);
         let desc = match light.kind() {
-            Kind::Point => LightDesc::Point { position, spectrum, intensity },
-            Kind::Directional => LightDesc::Directional { direction, spectrum, intensity },
+            // KHR_lights_punctual: point and spot lights in candela, directional lights in lux.
+            Kind::Point => LightDesc::Point { position, spectrum, intensity: amount(LightUnit::Candela) },
+            Kind::Directional => LightDesc::Directional { direction, spectrum, intensity: amount(LightUnit::Lux) },
             Kind::Spot { inner_cone_angle, outer_cone_angle } => {
                 let outer = outer_cone_angle.to_degrees().clamp(0.0, 90.0);
                 LightDesc::Spot {
@@ -308,7 +310,7 @@ impl Loader<'_> {
                     inner_cone_deg: inner_cone_angle.to_degrees().clamp(0.0, outer),
                     outer_cone_deg: outer,
                     spectrum,
-                    intensity,
+                    intensity: amount(LightUnit::Candela),
                 }
             }
         };

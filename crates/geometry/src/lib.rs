@@ -49,8 +49,8 @@ mod manifest;
 mod obj_loader;
 mod prefilter;
 pub use desc::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat,
-    SpectrumDesc,
+    AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
+    SceneDescription, SceneFormat, SpectrumDesc,
 };
 pub use limits::{DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};
 pub use load::{load_scene, load_scene_with, parse_manifest, parse_manifest_with};

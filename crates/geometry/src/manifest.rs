@@ -11,7 +11,10 @@ use glam::{Mat4, Quat, Vec3};
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
-use crate::desc::{CameraDesc, LightDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc};
+use crate::desc::{
+    CameraDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat,
+    SpectrumDesc,
+};
 use crate::error::{Error, Result};
 use crate::forms::{Ctx, absorption, ior, number, spectrum};
 use crate::limits::{Budget, check_coordinates};
@@ -69,6 +72,7 @@ enum LightJson {
         spectrum: Value,
         #[serde(default = "one")]
         intensity: f32,
+        unit: Option<String>,
     },
     Spot {
         position: [f32; 3],
@@ -79,6 +83,7 @@ enum LightJson {
         spectrum: Value,
         #[serde(default = "one")]
         intensity: f32,
+        unit: Option<String>,
     },
     Directional {
         direction: [f32; 3],
@@ -86,12 +91,14 @@ enum LightJson {
         spectrum: Value,
         #[serde(default = "one")]
         intensity: f32,
+        unit: Option<String>,
     },
     Environment {
         #[serde(default = "default_light_spectrum")]
         spectrum: Value,
         #[serde(default = "one")]
         intensity: f32,
+        unit: Option<String>,
     },
 }
 
@@ -325,23 +332,33 @@ fn camera(ctx: &Ctx<'_>, c: CameraJson) -> Result<CameraDesc> {
     Ok(CameraDesc { position, look_at, up, vfov_deg: c.vfov_deg, width: c.width, height: c.height })
 }
 
-fn intensity(ctx: &Ctx<'_>, context: &str, v: f32) -> Result<f32> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(ctx.err(format!("{context}.intensity"), format!("{v} must be finite and ≥ 0")))
+/// A light's `intensity` and `unit`: `allowed` units for its kind, the first being the default.
+fn intensity(ctx: &Ctx<'_>, context: &str, v: f32, unit: Option<&str>, allowed: &[LightUnit]) -> Result<LightAmount> {
+    if !(v.is_finite() && v >= 0.0) {
+        return Err(ctx.err(format!("{context}.intensity"), format!("{v} must be finite and ≥ 0")));
     }
+    let unit = match unit {
+        None => allowed[0],
+        Some(name) => LightUnit::from_name(name).filter(|u| allowed.contains(u)).ok_or_else(|| {
+            let names: Vec<_> = allowed.iter().map(|u| format!("\"{}\"", u.name())).collect();
+            ctx.err(format!("{context}.unit"), format!("\"{name}\" is not one of {} for this light", names.join(", ")))
+        })?,
+    };
+    Ok(LightAmount { value: v, unit })
 }
+
+/// Units of point and spot lights, the default first.
+const POINT_UNITS: &[LightUnit] = &[LightUnit::Candela, LightUnit::Lumen, LightUnit::Watt];
 
 fn light_desc(ctx: &Ctx<'_>, context: &str, light: LightJson) -> Result<LightDesc> {
     let spec = |v: &Value| spectrum(ctx, &format!("{context}.spectrum"), v);
     Ok(match light {
-        LightJson::Point { position, spectrum, intensity: i } => LightDesc::Point {
+        LightJson::Point { position, spectrum, intensity: i, unit } => LightDesc::Point {
             position: ctx.vec3(&format!("{context}.position"), position)?,
             spectrum: spec(&spectrum)?,
-            intensity: intensity(ctx, context, i)?,
+            intensity: intensity(ctx, context, i, unit.as_deref(), POINT_UNITS)?,
         },
-        LightJson::Spot { position, direction, inner_cone_deg, outer_cone_deg, spectrum, intensity: i } => {
+        LightJson::Spot { position, direction, inner_cone_deg, outer_cone_deg, spectrum, intensity: i, unit } => {
             let outer = ctx.in_range(&format!("{context}.outer_cone_deg"), outer_cone_deg, 0.0, 90.0)?;
             let inner = ctx.in_range(&format!("{context}.inner_cone_deg"), inner_cone_deg, 0.0, outer)?;
             LightDesc::Spot {
@@ -350,17 +367,18 @@ fn light_desc(ctx: &Ctx<'_>, context: &str, light: LightJson) -> Result<LightDes
                 inner_cone_deg: inner,
                 outer_cone_deg: outer,
                 spectrum: spec(&spectrum)?,
-                intensity: intensity(ctx, context, i)?,
+                intensity: intensity(ctx, context, i, unit.as_deref(), POINT_UNITS)?,
             }
         }
-        LightJson::Directional { direction, spectrum, intensity: i } => LightDesc::Directional {
+        LightJson::Directional { direction, spectrum, intensity: i, unit } => LightDesc::Directional {
             direction: ctx.unit(&format!("{context}.direction"), direction)?,
             spectrum: spec(&spectrum)?,
-            intensity: intensity(ctx, context, i)?,
+            intensity: intensity(ctx, context, i, unit.as_deref(), &[LightUnit::Lux, LightUnit::Watt])?,
         },
-        LightJson::Environment { spectrum, intensity: i } => {
-            LightDesc::Environment { spectrum: spec(&spectrum)?, intensity: intensity(ctx, context, i)? }
-        }
+        LightJson::Environment { spectrum, intensity: i, unit } => LightDesc::Environment {
+            spectrum: spec(&spectrum)?,
+            intensity: intensity(ctx, context, i, unit.as_deref(), &[LightUnit::Nit, LightUnit::Watt])?,
+        },
     })
 }
 
@@ -375,7 +393,7 @@ fn background(ctx: &Ctx<'_>, v: &Value) -> Result<(SpectrumDesc, f32)> {
             None => 1.0,
             Some(x) => number(ctx, "background.intensity", x)?,
         };
-        return Ok((s, intensity(ctx, "background", i)?));
+        return Ok((s, intensity(ctx, "background", i, None, &[LightUnit::Nit])?.value));
     }
     Ok((spectrum(ctx, "background", v)?, 1.0))
 }

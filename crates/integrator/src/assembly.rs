@@ -2,12 +2,13 @@
 //! lights, and primitives are tied to materials. This is the first place that sees both a
 //! mesh and a spectrum.
 
+use std::f64::consts::PI;
 use std::path::Path;
 
 use colorimetry::DenselySampledSpectrum;
 use geometry::{
-    AbsorptionDesc, Camera, CameraDesc, IorDesc, LightDesc, LoadOptions, MaterialDesc, MaterialFormat, Scene,
-    SceneDescription, SpectrumDesc,
+    AbsorptionDesc, Camera, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, LoadOptions, MaterialDesc,
+    MaterialFormat, Scene, SceneDescription, SpectrumDesc,
 };
 use glam::Vec3;
 use materials::{Absorption, Ior, Material};
@@ -111,8 +112,8 @@ impl RenderScene {
             })?);
             if let LightDesc::Point { position, intensity, .. } = &light {
                 warnings.push(format!(
-                    "no light in the scene: added a D65 point light at ({:.3}, {:.3}, {:.3}) with intensity {intensity:.4} (irradiance 1 at the centre)",
-                    position.x, position.y, position.z
+                    "no light in the scene: added a D65 point light at ({:.3}, {:.3}, {:.3}) with intensity {:.4} cd (illuminance 1 lux at the centre)",
+                    position.x, position.y, position.z, intensity.value
                 ));
             }
             light_descs.push(light);
@@ -217,7 +218,7 @@ fn default_light(center: Vec3, radius: f32) -> LightDesc {
     LightDesc::Point {
         position: center + distance * Vec3::new(-1.0, 1.0, 1.0).normalize(),
         spectrum: SpectrumDesc::Named("D65".into()),
-        intensity: distance * distance,
+        intensity: LightAmount { value: distance * distance, unit: LightUnit::Candela },
     }
 }
 
@@ -387,37 +388,76 @@ fn reflectance_spectrum(desc: &SpectrumDesc) -> materials::Result<DenselySampled
 
 /// An emission spectrum scaled to luminance `intensity` (RGB colours are upsampled as light).
 fn emission_spectrum(desc: &SpectrumDesc, intensity: f32) -> materials::Result<DenselySampledSpectrum> {
+    emission_spectrum_scaled(desc, f64::from(intensity))
+}
+
+/// A light's emission on the renderer's photometric scale, where relative luminance is the light's
+/// cd (point, spot), lux (directional) or nits (environment) — so the film's Y is in nits. `steradians`
+/// is the solid angle a point or spot light's flux spreads over (4π; a spot's cone as pbrt-v4's
+/// `SpotLight::Phi`); radiant units (W) become photometric through the spectrum's own luminous efficacy
+/// K_m Σ S ȳ / Σ S (not a fixed 1/683).
+fn light_spectrum(
+    desc: &SpectrumDesc,
+    amount: LightAmount,
+    steradians: f64,
+) -> materials::Result<DenselySampledSpectrum> {
+    let value = f64::from(amount.value);
+    let efficacy =
+        || -> materials::Result<f64> { Ok(colorimetry::luminous_efficacy(&emission_spectrum_scaled(desc, 1.0)?)) };
+    let photometric = match amount.unit {
+        // The scale spectra are normalised to: unchanged, and bit-identical to before units existed.
+        LightUnit::Candela | LightUnit::Lux | LightUnit::Nit => return emission_spectrum(desc, amount.value),
+        LightUnit::Lumen => value / steradians,
+        // W (point, spot) → lm → cd; W/m² → lux and W/(m² sr) → nits (steradians = 1).
+        LightUnit::Watt => value * efficacy()? / steradians,
+    };
+    emission_spectrum_scaled(desc, photometric)
+}
+
+fn emission_spectrum_scaled(desc: &SpectrumDesc, intensity: f64) -> materials::Result<DenselySampledSpectrum> {
     if !(intensity.is_finite() && intensity >= 0.0) {
-        return Err(materials::Error::OutOfRange { what: "intensity", value: intensity.into(), range: "finite, >= 0" });
+        return Err(materials::Error::OutOfRange { what: "intensity", value: intensity, range: "finite, >= 0" });
     }
     let spd = match desc {
         SpectrumDesc::Rgb(rgb) => materials::illuminant_from_rgb(*rgb)?,
         SpectrumDesc::Constant(v) => DenselySampledSpectrum::constant(f64::from(*v)),
         other => materials::luminance_normalized(&reflectance_spectrum(other)?),
     };
-    Ok(spd.scaled(f64::from(intensity)))
+    Ok(spd.scaled(intensity))
 }
 
 fn light_from_desc(desc: &LightDesc) -> materials::Result<Light> {
     Ok(match desc {
         LightDesc::Point { position, spectrum, intensity } => {
-            Light::new(LightKind::Point { position: *position }, emission_spectrum(spectrum, *intensity)?)
+            Light::new(LightKind::Point { position: *position }, light_spectrum(spectrum, *intensity, 4.0 * PI)?)
         }
-        LightDesc::Spot { position, direction, inner_cone_deg, outer_cone_deg, spectrum, intensity } => Light::new(
-            LightKind::Spot {
-                position: *position,
-                direction: direction.normalize_or(Vec3::NEG_Y),
-                cos_inner: inner_cone_deg.to_radians().cos(),
-                cos_outer: outer_cone_deg.to_radians().cos(),
-            },
-            emission_spectrum(spectrum, *intensity)?,
-        ),
+        LightDesc::Spot { position, direction, inner_cone_deg, outer_cone_deg, spectrum, intensity } => {
+            let (cos_inner, cos_outer) = (inner_cone_deg.to_radians().cos(), outer_cone_deg.to_radians().cos());
+            // The cone's effective solid angle: full inside, half through the smooth fall-off.
+            let steradians = 2.0 * PI * (1.0 - 0.5 * f64::from(cos_inner + cos_outer));
+            if intensity.unit != LightUnit::Candela && !(steradians > 0.0) {
+                return Err(materials::Error::OutOfRange {
+                    what: "spot cone (a flux needs a cone of positive solid angle)",
+                    value: f64::from(*outer_cone_deg),
+                    range: "> 0 degrees",
+                });
+            }
+            Light::new(
+                LightKind::Spot {
+                    position: *position,
+                    direction: direction.normalize_or(Vec3::NEG_Y),
+                    cos_inner,
+                    cos_outer,
+                },
+                light_spectrum(spectrum, *intensity, steradians)?,
+            )
+        }
         LightDesc::Directional { direction, spectrum, intensity } => Light::new(
             LightKind::Directional { direction: direction.normalize_or(Vec3::NEG_Y) },
-            emission_spectrum(spectrum, *intensity)?,
+            light_spectrum(spectrum, *intensity, 1.0)?,
         ),
         LightDesc::Environment { spectrum, intensity } => {
-            Light::new(LightKind::Environment, emission_spectrum(spectrum, *intensity)?)
+            Light::new(LightKind::Environment, light_spectrum(spectrum, *intensity, 1.0)?)
         }
     })
 }

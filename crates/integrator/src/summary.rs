@@ -114,21 +114,25 @@ fn light_json(l: &LightDesc) -> Value {
         match l {
             LightDesc::Point { position, intensity, .. } => {
                 obj.insert("position".into(), json!(position.to_array()));
-                obj.insert("intensity".into(), json!(intensity));
+                obj.insert("intensity".into(), json!(intensity.value));
+                obj.insert("unit".into(), json!(intensity.unit.name()));
             }
             LightDesc::Spot { position, direction, inner_cone_deg, outer_cone_deg, intensity, .. } => {
                 obj.insert("position".into(), json!(position.to_array()));
                 obj.insert("direction".into(), json!(direction.to_array()));
                 obj.insert("inner_cone_deg".into(), json!(inner_cone_deg));
                 obj.insert("outer_cone_deg".into(), json!(outer_cone_deg));
-                obj.insert("intensity".into(), json!(intensity));
+                obj.insert("intensity".into(), json!(intensity.value));
+                obj.insert("unit".into(), json!(intensity.unit.name()));
             }
             LightDesc::Directional { direction, intensity, .. } => {
                 obj.insert("direction".into(), json!(direction.to_array()));
-                obj.insert("intensity".into(), json!(intensity));
+                obj.insert("intensity".into(), json!(intensity.value));
+                obj.insert("unit".into(), json!(intensity.unit.name()));
             }
             LightDesc::Environment { intensity, .. } => {
-                obj.insert("intensity".into(), json!(intensity));
+                obj.insert("intensity".into(), json!(intensity.value));
+                obj.insert("unit".into(), json!(intensity.unit.name()));
             }
         }
     }

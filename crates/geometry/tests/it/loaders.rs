@@ -175,7 +175,11 @@ fn glass_torus_reads_transmission_ior_volume_light_and_camera() {
     let [LightDesc::Point { position, spectrum, intensity }] = d.lights.as_slice() else { panic!("{:?}", d.lights) };
     assert_eq!(spectrum, &SpectrumDesc::Named("D65".into()));
     assert_eq!(*position, Vec3::new(-3.0, 6.0, 4.0));
-    assert_eq!(*intensity, 47.0);
+    assert_eq!(
+        *intensity,
+        geometry::LightAmount { value: 47.0, unit: geometry::LightUnit::Candela },
+        "KHR_lights_punctual point lights are in candela"
+    );
     let c = d.camera.as_ref().unwrap_or_else(|| panic!("camera"));
     // yfov 0.6981317 rad = 40°.
     assert!((c.vfov_deg - 40.0).abs() < 1e-4);

@@ -7,6 +7,7 @@ mod paper_model;
 mod path;
 mod prism;
 mod spectral_film;
+mod units;
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;

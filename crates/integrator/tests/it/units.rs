@@ -1,0 +1,95 @@
+//! Photometric units end to end (issue 13): a light stated in cd, lux, lm or W lights a white
+//! Lambertian plane with the luminance photometry predicts, and the film's Y is in nits.
+
+use integrator::SpectralMode;
+
+use crate::{assert_all_finite, options, render_with, scene};
+
+/// A white diffuse quad in the z = 0 plane, seen straight down the z axis from 1 m through a
+/// narrow lens (the light's fall-off across the pixel is below 1e-6), and one light.
+fn plane_under(light: &str) -> String {
+    format!(
+        r#"{{ "camera": {{"position": [0, 0, 1], "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov_deg": 0.01}},
+        "lights": [{light}],
+        "materials": {{"white": {{"base_color": 1, "diffuse": 1, "ks": 0}}}},
+        "objects": [{{"type": "quad", "corner": [-1, -1, 0], "edge_u": [2, 0, 0], "edge_v": [0, 2, 0], "material": "white"}}]
+        }}"#
+    )
+}
+
+/// Y of the single pixel, path-traced (a delta light over a lone plane: every sample is exact).
+fn path_y(light: &str) -> f64 {
+    let s = scene(&plane_under(light));
+    let opts = integrator::RenderOptions { spectral: SpectralMode::Bins(16), spp: 2, ..options(1, 1) }.path(|_| {});
+    let (image, stats) = render_with(&s, &opts);
+    assert_all_finite(&image, &stats);
+    f64::from(image.xyz(0, 0)[1])
+}
+
+fn assert_close(got: f64, want: f64, what: &str) {
+    assert!((got / want - 1.0).abs() < 1e-4, "{what}: Y = {got}, expected {want}");
+}
+
+#[test]
+fn one_candela_at_one_metre_gives_one_lux_and_one_over_pi_nits() {
+    let pi = std::f64::consts::PI;
+    // E = I / d² = 1 lux; a white Lambertian surface has L = E / π.
+    assert_close(
+        path_y(r#"{"type": "point", "position": [0, 0, 1], "spectrum": "D65", "intensity": 1}"#),
+        1.0 / pi,
+        "1 cd",
+    );
+    assert_close(
+        path_y(r#"{"type": "point", "position": [0, 0, 1], "spectrum": "D65", "intensity": 1, "unit": "cd"}"#),
+        1.0 / pi,
+        "1 cd, stated",
+    );
+    // Twice as far: a quarter.
+    assert_close(
+        path_y(r#"{"type": "point", "position": [0, 0, 2], "spectrum": "D65", "intensity": 1}"#),
+        0.25 / pi,
+        "1 cd at 2 m",
+    );
+    // 100 lux from a directional light along −z.
+    assert_close(
+        path_y(r#"{"type": "directional", "direction": [0, 0, -1], "spectrum": "A", "intensity": 100, "unit": "lux"}"#),
+        100.0 / pi,
+        "100 lux",
+    );
+}
+
+#[test]
+fn flux_spreads_over_the_sphere_and_watts_go_through_the_spectrum_efficacy() {
+    let pi = std::f64::consts::PI;
+    // 1000 lm from a point source: I = 1000 / 4π cd.
+    let lm = path_y(r#"{"type": "point", "position": [0, 0, 1], "spectrum": "D65", "intensity": 1000, "unit": "lm"}"#);
+    assert_close(lm, 1000.0 / (4.0 * pi) / pi, "1000 lm");
+    // 1 W of D65: Φ_v = K_m Σ S ȳ / Σ S lm, computed here from the same tables.
+    let d65 = colorimetry::Illuminant::D65.spectrum().unwrap();
+    let efficacy = colorimetry::luminous_efficacy(&d65);
+    assert!((182.5..183.7).contains(&efficacy), "D65 over 360–830 nm: {efficacy} lm/W, 183.1 by hand");
+    let w = path_y(r#"{"type": "point", "position": [0, 0, 1], "spectrum": "D65", "intensity": 1, "unit": "W"}"#);
+    assert_close(w, efficacy / (4.0 * pi) / pi, "1 W");
+    // An irradiance of 1 W/m² of equal-energy light: K_m Σȳ / 471 = 154.95 lux.
+    let wm2 =
+        path_y(r#"{"type": "directional", "direction": [0, 0, -1], "spectrum": "E", "intensity": 1, "unit": "W"}"#);
+    assert_close(wm2, 683.0 * colorimetry::y_sum() / 471.0 / pi, "1 W/m²");
+}
+
+#[test]
+fn the_paper_model_reads_illuminance_times_reflectance() {
+    // Hall's diffuse term is k_d F_d S cos θ: the pixel's Y is the illuminance itself (π times
+    // the Lambertian luminance) — the paper's convention, kept; docs/scene-format.md says so.
+    let s = scene(&plane_under(r#"{"type": "point", "position": [0, 0, 1], "spectrum": "D65", "intensity": 1}"#));
+    let (image, stats) =
+        render_with(&s, &integrator::RenderOptions { spectral: SpectralMode::Bins(16), ..options(1, 1) });
+    assert_all_finite(&image, &stats);
+    assert_close(f64::from(image.xyz(0, 0)[1]), 1.0, "Hall, 1 cd at 1 m");
+}
+
+#[test]
+fn a_unit_that_does_not_fit_the_light_is_refused_with_its_place() {
+    let json = plane_under(r#"{"type": "directional", "direction": [0, 0, -1], "intensity": 1, "unit": "cd"}"#);
+    let e = geometry::parse_manifest(&json, std::path::Path::new("."), "<test>").unwrap_err().to_string();
+    assert!(e.contains("lights[0].unit") && e.contains("\"lux\""), "{e}");
+}
