@@ -8,7 +8,7 @@ use std::path::Path;
 use colorimetry::DenselySampledSpectrum;
 use geometry::{
     AbsorptionDesc, Camera, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, LoadOptions, MaterialDesc,
-    MaterialFormat, Scene, SceneDescription, SpectrumDesc,
+    MaterialFormat, Scene, SceneDescription, SceneFormat, SpectrumDesc,
 };
 use glam::Vec3;
 use materials::{Absorption, Ior, Material};
@@ -71,7 +71,7 @@ impl RenderScene {
         // light when the file has none (computed before the BVH takes the meshes).
         let bounds = desc.bounds();
         let SceneDescription {
-            format: _,
+            format,
             spheres,
             meshes,
             materials: material_descs,
@@ -104,7 +104,29 @@ impl RenderScene {
             .map(|(index, l)| light_from_desc(l).map_err(|source| Error::Light { index, source }))
             .collect::<Result<Vec<_>>>()?;
         let emissive = materials.iter().any(Material::emits);
-        if lights.is_empty() && !emissive {
+        let unlit = lights.is_empty() && background.is_none();
+        if unlit && matches!(format, SceneFormat::Gltf | SceneFormat::Obj) {
+            // A glTF or OBJ file has no way to say "lit by the world": light it as a viewer would.
+            let added = default_lights(&camera, emissive);
+            for light in &added {
+                lights.push(light_from_desc(light).map_err(|source| Error::Spectrum {
+                    what: "the default lights (added because the file has none)",
+                    source,
+                })?);
+            }
+            warnings.push(if emissive {
+                format!(
+                    "no light in the file: added a uniform D65 environment of {DIM_ENVIRONMENT_NITS} nits (Blender's default world) to its emitters"
+                )
+            } else {
+                format!(
+                    "no light in the file: added a uniform D65 environment of {ENVIRONMENT_NITS} nits and a D65 key light of {:.3} lux from above and to the right of the camera (a white surface facing the camera reads {:.1})",
+                    key_illuminance(),
+                    ENVIRONMENT_NITS + KEY_NITS
+                )
+            });
+            light_descs.extend(added);
+        } else if lights.is_empty() && !emissive {
             let light = default_light(center, radius);
             lights.push(light_from_desc(&light).map_err(|source| Error::Spectrum {
                 what: "the default light (added because the scene has none)",
@@ -220,6 +242,53 @@ fn default_light(center: Vec3, radius: f32) -> LightDesc {
         spectrum: SpectrumDesc::Named("D65".into()),
         intensity: LightAmount { value: distance * distance, unit: LightUnit::Candela },
     }
+}
+
+/// Luminance the default environment gives a white Lambertian surface (it sees the whole hemisphere).
+const ENVIRONMENT_NITS: f32 = 0.3;
+/// Luminance the default key light adds to a white Lambertian surface facing the camera.
+const KEY_NITS: f32 = 0.5;
+/// The environment of a file lit only by its own emitters: Blender's default world colour (0.050876, the
+/// sRGB grey 0.25 linearised), so emitters still dominate but unlit corners are not pure black.
+const DIM_ENVIRONMENT_NITS: f32 = 0.050_876;
+/// The key light comes from up, and to the right, behind the camera: (−forward + up + ½ right), normalised.
+const KEY_FROM: [f32; 3] = [1.0, 1.0, 0.5];
+
+/// cos θ between the key light and the normal of a surface facing the camera: 1 / |(1, 1, ½)| = 2/3.
+fn key_cos() -> f32 {
+    1.0 / Vec3::from(KEY_FROM).length()
+}
+
+/// Illuminance of the key light (lux) such that a white Lambertian surface facing the camera gets
+/// `KEY_NITS` from it: L = E cos θ / π.
+fn key_illuminance() -> f32 {
+    KEY_NITS * std::f32::consts::PI / key_cos()
+}
+
+/// The lights of a glTF or OBJ file that has none: a uniform D65 environment and a D65 key light placed
+/// relative to the camera, so a white Lambertian surface facing the camera has luminance 0.8 (0.3 + 0.5);
+/// a file with emitters gets only a dim environment (its emitters are its lights).
+fn default_lights(camera: &CameraDesc, emissive: bool) -> Vec<LightDesc> {
+    let env = |nits: f32| LightDesc::Environment {
+        spectrum: SpectrumDesc::Named("D65".into()),
+        intensity: LightAmount { value: nits, unit: LightUnit::Nit },
+    };
+    if emissive {
+        return vec![env(DIM_ENVIRONMENT_NITS)];
+    }
+    let forward = (camera.look_at - camera.position).normalize_or(Vec3::NEG_Z);
+    let right = forward.cross(camera.up).normalize_or(Vec3::X);
+    let up = right.cross(forward);
+    let [b, u, r] = KEY_FROM;
+    let towards_light = (-forward * b + up * u + right * r).normalize();
+    vec![
+        env(ENVIRONMENT_NITS),
+        LightDesc::Directional {
+            direction: -towards_light,
+            spectrum: SpectrumDesc::Named("D65".into()),
+            intensity: LightAmount { value: key_illuminance(), unit: LightUnit::Lux },
+        },
+    ]
 }
 
 /// One warning for the keys a scene writes that the renderer reads but does not honour yet.

@@ -93,3 +93,34 @@ fn a_unit_that_does_not_fit_the_light_is_refused_with_its_place() {
     let e = geometry::parse_manifest(&json, std::path::Path::new("."), "<test>").unwrap_err().to_string();
     assert!(e.contains("lights[0].unit") && e.contains("\"lux\""), "{e}");
 }
+
+/// An OBJ file's white quad (z = 0, facing +z), assembled with a camera 1 m in front of it.
+fn obj_plane(extra: &str) -> integrator::RenderScene {
+    let dir = std::env::temp_dir().join(format!("spectrace-units-{}-{}", std::process::id(), extra.len()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("plane.obj");
+    std::fs::write(&obj, format!("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n{extra}")).unwrap();
+    let mut desc = geometry::load_scene(&obj).unwrap();
+    desc.camera = Some(geometry::CameraDesc {
+        position: glam::Vec3::new(0.0, 0.0, 1.0),
+        look_at: glam::Vec3::ZERO,
+        up: glam::Vec3::Y,
+        vfov_deg: 0.01,
+        width: Some(1),
+        height: Some(1),
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    integrator::RenderScene::from_description(desc).unwrap()
+}
+
+#[test]
+fn a_file_without_lights_reads_as_light_grey() {
+    // Default lighting: environment 0.3 nits + key light 0.5 nits on a white surface facing the camera.
+    // A face without material gets the assembled default grey, reflectance 0.5: Y = 0.4.
+    let s = obj_plane("");
+    let opts = integrator::RenderOptions { spectral: SpectralMode::Bins(16), spp: 4096, ..options(1, 1) }.path(|_| {});
+    let (image, stats) = render_with(&s, &opts);
+    assert_all_finite(&image, &stats);
+    let y = f64::from(image.xyz(0, 0)[1]);
+    assert!((y / 0.4 - 1.0).abs() < 0.03, "Y = {y}, expected 0.8 × 0.5");
+}
