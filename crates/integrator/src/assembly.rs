@@ -10,7 +10,7 @@ use geometry::{
     SceneDescription, SpectrumDesc,
 };
 use glam::Vec3;
-use materials::{Absorption, Ior, Material};
+use materials::{Absorption, Ior, Material, MaterialModel};
 
 use crate::error::{Error, Result};
 use crate::light::{Light, LightKind};
@@ -277,7 +277,8 @@ fn hall_params(d: &MaterialDesc) -> HallParams {
                 shininess: d.shininess.unwrap_or_else(|| shininess_from_roughness(roughness)),
                 roughness,
                 metallic: d.metallic.unwrap_or(0.0),
-                kt: d.transmission.unwrap_or(0.0),
+                // `"model": "dielectric"` alone means clear glass.
+                kt: d.transmission.unwrap_or(if d.model.as_deref() == Some("dielectric") { 1.0 } else { 0.0 }),
                 ior,
                 emission_strength,
             }
@@ -346,6 +347,27 @@ fn hall_params(d: &MaterialDesc) -> HallParams {
                 kt,
                 ior,
                 emission_strength,
+            }
+        }
+    }
+}
+
+/// The physically based model of a material, decided here once: the manifest's explicit `model` key, else
+/// what the file format means (`docs/scene-format.md`, "Material models"). `transmits`: k_t T_s is not black.
+fn material_model(d: &MaterialDesc, p: &HallParams, transmits: bool) -> MaterialModel {
+    match (d.format, d.model.as_deref()) {
+        (MaterialFormat::Manifest, Some("diffuse")) => MaterialModel::Diffuse,
+        (MaterialFormat::Manifest, Some("dielectric")) => MaterialModel::Dielectric,
+        (MaterialFormat::Manifest, Some("mirror" | "conductor")) => MaterialModel::Mirror,
+        // Hall's coefficients read physically (a manifest without `model` is a Hall material; glTF and MTL
+        // as today): transmissive → dielectric, metallic or purely specular → mirror, else Lambertian.
+        _ => {
+            if transmits {
+                MaterialModel::Dielectric
+            } else if p.metallic >= 0.5 || (p.kd == 0.0 && p.ks > 0.0) {
+                MaterialModel::Mirror
+            } else {
+                MaterialModel::Diffuse
             }
         }
     }
@@ -446,6 +468,8 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         Some(e) if p.emission_strength > 0.0 => Some(emission_spectrum(e, p.emission_strength).map_err(wrap)?),
         _ => None,
     };
+    let transmits = p.kt > 0.0 && transmittance.max_value() > 0.0;
+    let model = material_model(desc, &p, transmits);
     let material = Material {
         name: desc.name.clone(),
         kd: p.kd,
@@ -458,8 +482,7 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         ior,
         absorption,
         emission,
-        roughness: p.roughness,
-        metallic: p.metallic,
+        model,
     };
     material.validate().map_err(wrap)?;
     Ok(material)

@@ -16,7 +16,7 @@ use geometry::{Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{Bsdf, Frame};
 use materials::sampling::{cosine_hemisphere, uniform_sphere};
-use materials::{Ior, Scattering};
+use materials::{Ior, MaterialModel};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
@@ -65,13 +65,21 @@ enum Kind {
     SigmaA,
 }
 
+/// A material's BSDF with its spectra in the render's table: the [`MaterialModel`] baked.
+#[derive(Debug, Clone, Copy)]
+enum PathScattering {
+    /// Lambertian, reflectance k_d F_d clamped to 1.
+    Diffuse { r: SpecId },
+    /// Smooth mirror, reflectance k_s F_s clamped to 1.
+    Mirror { r: SpecId },
+    /// Smooth dielectric, transmission filter k_t T_s clamped to 1.
+    Dielectric { tint: SpecId },
+}
+
 #[derive(Debug, Clone)]
 struct PathMaterial {
-    scattering: Scattering,
-    /// k_d F_d (Lambertian) or k_s F_s (mirror), clamped to 1.
-    reflectance: SpecId,
-    /// k_t T_s, the transmission filter of a dielectric, clamped to 1.
-    tint: SpecId,
+    scattering: PathScattering,
+    /// σ_a of the enclosed medium, when it absorbs (only a transmissive model encloses one).
     sigma_a: Option<SpecId>,
     emission: Option<SpecId>,
     ior: Ior,
@@ -123,16 +131,19 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         };
         let clamp01 = |s: &DenselySampledSpectrum, k: f32| s.map(|v| (v * f64::from(k)).clamp(0.0, 1.0));
         let mut path_material = |m: &materials::Material| -> PathMaterial {
-            let scattering = m.scattering();
-            let reflectance = match scattering {
-                Scattering::Conductor => clamp01(&m.specular, m.ks),
-                _ => clamp01(&m.diffuse, m.kd),
+            let scattering = match m.model {
+                MaterialModel::Diffuse => {
+                    PathScattering::Diffuse { r: add(clamp01(&m.diffuse, m.kd), Kind::Reflectance) }
+                }
+                MaterialModel::Mirror => {
+                    PathScattering::Mirror { r: add(clamp01(&m.specular, m.ks), Kind::Reflectance) }
+                }
+                MaterialModel::Dielectric => {
+                    PathScattering::Dielectric { tint: add(clamp01(&m.transmittance, m.kt), Kind::Reflectance) }
+                }
             };
-            let tint = clamp01(&m.transmittance, m.kt);
             PathMaterial {
                 scattering,
-                reflectance: add(reflectance, Kind::Reflectance),
-                tint: add(tint, Kind::Reflectance),
                 sigma_a: m.absorption.as_ref().filter(|_| m.absorbs()).map(|a| add(a.sigma_a().clone(), Kind::SigmaA)),
                 emission: m.emission.as_ref().filter(|_| m.emits()).map(|e| add(e.clone(), Kind::Emission)),
                 ior: m.ior,
@@ -356,7 +367,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let wo = -ray.dir / dir_len;
             // Beer–Lambert over the segment just travelled inside a dielectric: the ray leaves
             // through this surface (this also covers a camera inside glass).
-            if m.scattering == Scattering::Dielectric
+            if matches!(m.scattering, PathScattering::Dielectric { .. })
                 && hit.n.dot(wo) < 0.0
                 && let Some(sigma_a) = m.sigma_a
             {
@@ -375,11 +386,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 break;
             }
             let bsdf = match m.scattering {
-                Scattering::Diffuse => Bsdf::Lambertian { r: self.spectra.eval(m.reflectance, lambda) },
-                Scattering::Conductor => Bsdf::Mirror { r: self.spectra.eval(m.reflectance, lambda) },
-                Scattering::Dielectric => {
+                PathScattering::Diffuse { r } => Bsdf::Lambertian { r: self.spectra.eval(r, lambda) },
+                PathScattering::Mirror { r } => Bsdf::Mirror { r: self.spectra.eval(r, lambda) },
+                PathScattering::Dielectric { tint } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
-                    Bsdf::Dielectric { eta, tint: self.spectra.eval(m.tint, lambda) }
+                    Bsdf::Dielectric { eta, tint: self.spectra.eval(tint, lambda) }
                 }
             };
             let frame = Frame { n: hit.n, ns: hit.ns };

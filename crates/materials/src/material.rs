@@ -1,4 +1,5 @@
-//! The material record shared by both integrators.
+//! The material record shared by both integrators, with its physically based model decided once, at
+//! assembly ([`MaterialModel`]).
 
 use colorimetry::DenselySampledSpectrum;
 
@@ -10,8 +11,10 @@ use crate::spectra::is_flat;
 /// A surface and, for transparent objects, the medium it encloses.
 ///
 /// The paper's Hall model reads the coefficients and spectra directly (`k_d F_d(λ)`,
-/// `k_s F_s(λ)`, `k_t T_s(λ)`, exponent n). The path tracer reads the same record as a
-/// physically based BSDF: see [`Material::scattering`].
+/// `k_s F_s(λ)`, `k_t T_s(λ)`, exponent n). The path tracer reads the same record through its
+/// [`MaterialModel`], which the scene assembly chose from the file's explicit `model` key or
+/// from what the file format means (pbrt-v4's `Material` variants: the closed list of what a
+/// surface can be); nothing downstream guesses.
 #[derive(Debug, Clone)]
 pub struct Material {
     /// Name, for messages and `spectrace info`.
@@ -36,21 +39,32 @@ pub struct Material {
     pub absorption: Option<Absorption>,
     /// Emitted radiance spectrum (luminance-normalised × strength), if the surface emits.
     pub emission: Option<DenselySampledSpectrum>,
-    /// GGX roughness α in [0, 1] (0: smooth).
-    pub roughness: f32,
-    /// glTF metallic factor in [0, 1].
-    pub metallic: f32,
+    /// The physically based model: which BSDF the path tracer builds from this record.
+    pub model: MaterialModel,
 }
 
-/// How the path tracer scatters light at a surface, derived from a [`Material`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Scattering {
-    /// Lambertian reflection.
+/// What a surface is for a physically based integrator (pbrt-v4 `Material`'s closed list of
+/// variants). Each variant says which fields of the [`Material`] record its BSDF reads.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MaterialModel {
+    /// Lambertian reflection of k_d F_d(λ).
     Diffuse,
-    /// A smooth dielectric interface: Fresnel-weighted specular reflection and refraction.
+    /// A smooth mirror reflecting k_s F_s(λ) at every angle.
+    Mirror,
+    /// A smooth dielectric interface: Fresnel-weighted specular reflection and refraction into
+    /// the enclosed medium (`ior`, `absorption`), transmission filtered by k_t T_s(λ).
     Dielectric,
-    /// A smooth mirror-like conductor.
-    Conductor,
+}
+
+impl MaterialModel {
+    /// The name `spectrace info` reports (the manifest `model` value that selects it).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Diffuse => "diffuse",
+            Self::Mirror => "mirror",
+            Self::Dielectric => "dielectric",
+        }
+    }
 }
 
 impl Material {
@@ -68,21 +82,13 @@ impl Material {
             ior: Ior::Constant(1.5),
             absorption: None,
             emission: None,
-            roughness: 1.0,
-            metallic: 0.0,
+            model: MaterialModel::Diffuse,
         }
     }
 
     /// Check coefficients and spectra: finite, non-negative, reflectances within [0, 1].
     pub fn validate(&self) -> Result<()> {
-        for (what, v) in [
-            ("kd", self.kd),
-            ("ks", self.ks),
-            ("kt", self.kt),
-            ("shininess", self.shininess),
-            ("roughness", self.roughness),
-            ("metallic", self.metallic),
-        ] {
+        for (what, v) in [("kd", self.kd), ("ks", self.ks), ("kt", self.kt), ("shininess", self.shininess)] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(Error::OutOfRange { what, value: v.into(), range: "finite, >= 0" });
             }
@@ -110,9 +116,10 @@ impl Material {
         Ok(())
     }
 
-    /// Whether light passes through the surface.
+    /// Whether light passes through the surface: the model transmits and its filter
+    /// k_t T_s(λ) is not black. The one answer both integrators and `spectrace info` use.
     pub fn is_transmissive(&self) -> bool {
-        self.kt > 0.0 && self.transmittance.max_value() > 0.0
+        matches!(self.model, MaterialModel::Dielectric) && self.kt > 0.0 && self.transmittance.max_value() > 0.0
     }
 
     /// Whether refraction separates wavelengths (only then do paths split by wavelength).
@@ -139,18 +146,6 @@ impl Material {
             && self.emission.as_ref().is_none_or(is_flat)
             && !self.ior.is_dispersive()
     }
-
-    /// The physically based reading of this material for the path tracer: transmissive →
-    /// smooth dielectric; metallic or purely specular → conductor; otherwise Lambertian.
-    pub fn scattering(&self) -> Scattering {
-        if self.is_transmissive() {
-            Scattering::Dielectric
-        } else if self.metallic >= 0.5 || (self.kd == 0.0 && self.ks > 0.0) {
-            Scattering::Conductor
-        } else {
-            Scattering::Diffuse
-        }
-    }
 }
 
 #[cfg(test)]
@@ -171,12 +166,13 @@ mod tests {
     #[test]
     fn flags_follow_the_data() {
         let mut m = Material::diffuse("glass", DenselySampledSpectrum::constant(0.0));
-        assert_eq!(m.scattering(), Scattering::Diffuse);
         assert!(!m.is_transmissive() && !m.absorbs() && !m.is_dispersive());
         m.kt = 0.9;
         m.transmittance = DenselySampledSpectrum::constant(1.0);
         m.absorption = Some(Absorption::from_per_unit_transmittance(&DenselySampledSpectrum::constant(0.95)).unwrap());
-        assert_eq!(m.scattering(), Scattering::Dielectric);
+        // Hall coefficients alone do not make a surface transmit: the model decides.
+        assert!(!m.is_transmissive() && !m.absorbs());
+        m.model = MaterialModel::Dielectric;
         assert!(m.is_transmissive() && m.absorbs() && !m.is_dispersive());
         assert!(m.is_spectrally_flat());
         m.ior = Ior::from_abbe(1.5, 40.0).unwrap();
