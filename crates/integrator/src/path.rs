@@ -14,7 +14,9 @@
 use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
 use glam::{Vec2, Vec3};
-use materials::bsdf::{Bsdf, Frame};
+use materials::bsdf::{
+    Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, ThinDielectricBxdf, TrowbridgeReitz,
+};
 use materials::sampling::{cosine_hemisphere, uniform_sphere};
 use materials::{Ior, MaterialModel};
 
@@ -74,6 +76,15 @@ enum PathScattering {
     Mirror { r: SpecId },
     /// Smooth dielectric, transmission filter k_t T_s clamped to 1.
     Dielectric { tint: SpecId },
+    /// GGX rough dielectric (α > 0), transmission filter k_t T_s clamped to 1.
+    RoughDielectric { tint: SpecId, alpha: f32 },
+    /// Thin-walled dielectric, transmission filter k_t T_s clamped to 1, index at n_d.
+    ThinDielectric { tint: SpecId, eta: f32 },
+    /// GGX conductor: a measured metal, or the reflectance `r` = k_s F_s clamped to 1 (also the
+    /// metal's colour in RGB, where the lanes are not wavelengths).
+    Conductor { metal: Option<Metal>, r: SpecId, alpha: f32 },
+    /// The glTF metallic–roughness BRDF: base colour k_d F_d clamped to 1, index at n_d.
+    GltfMetalRough { base: SpecId, metallic: f32, roughness: f32, ior: f32 },
 }
 
 #[derive(Debug, Clone)]
@@ -138,9 +149,29 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 MaterialModel::Mirror => {
                     PathScattering::Mirror { r: add(clamp01(&m.specular, m.ks), Kind::Reflectance) }
                 }
-                MaterialModel::Dielectric => {
-                    PathScattering::Dielectric { tint: add(clamp01(&m.transmittance, m.kt), Kind::Reflectance) }
+                MaterialModel::Dielectric { roughness } => {
+                    let tint = add(clamp01(&m.transmittance, m.kt), Kind::Reflectance);
+                    if roughness > 0.0 {
+                        PathScattering::RoughDielectric { tint, alpha: roughness * roughness }
+                    } else {
+                        PathScattering::Dielectric { tint }
+                    }
                 }
+                MaterialModel::ThinDielectric => PathScattering::ThinDielectric {
+                    tint: add(clamp01(&m.transmittance, m.kt), Kind::Reflectance),
+                    eta: m.ior.eval(LAMBDA_D),
+                },
+                MaterialModel::Conductor { metal, roughness } => PathScattering::Conductor {
+                    metal,
+                    r: add(clamp01(&m.specular, m.ks), Kind::Reflectance),
+                    alpha: roughness * roughness,
+                },
+                MaterialModel::GltfMetalRough { metallic, roughness } => PathScattering::GltfMetalRough {
+                    base: add(clamp01(&m.diffuse, m.kd), Kind::Reflectance),
+                    metallic,
+                    roughness,
+                    ior: m.ior.eval(LAMBDA_D),
+                },
             };
             PathMaterial {
                 scattering,
@@ -367,7 +398,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let wo = -ray.dir / dir_len;
             // Beer–Lambert over the segment just travelled inside a dielectric: the ray leaves
             // through this surface (this also covers a camera inside glass).
-            if matches!(m.scattering, PathScattering::Dielectric { .. })
+            if matches!(m.scattering, PathScattering::Dielectric { .. } | PathScattering::RoughDielectric { .. })
                 && hit.n.dot(wo) < 0.0
                 && let Some(sigma_a) = m.sigma_a
             {
@@ -392,6 +423,27 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                     Bsdf::Dielectric { eta, tint: self.spectra.eval(tint, lambda) }
                 }
+                PathScattering::RoughDielectric { tint, alpha } => {
+                    let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
+                    let distrib = TrowbridgeReitz::isotropic(alpha);
+                    Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, self.spectra.eval(tint, lambda), true))
+                }
+                PathScattering::ThinDielectric { tint, eta } => {
+                    Bsdf::ThinDielectric(ThinDielectricBxdf::new(eta, self.spectra.eval(tint, lambda)))
+                }
+                PathScattering::Conductor { metal, r, alpha } => {
+                    let distrib = TrowbridgeReitz::isotropic(alpha);
+                    Bsdf::Conductor(match metal {
+                        // RGB lanes are not wavelengths: there the metal is its reflectance colour.
+                        Some(metal) if !matches!(sensor, Sensor::Fixed(lanes) if lanes.rgb) => {
+                            ConductorBxdf::metal(metal, lambda, distrib, true)
+                        }
+                        _ => ConductorBxdf::from_reflectance(self.spectra.eval(r, lambda), distrib, true),
+                    })
+                }
+                PathScattering::GltfMetalRough { base, metallic, roughness, ior } => Bsdf::GltfMetalRough(
+                    GltfMetalRoughBxdf::energy_conserving(self.spectra.eval(base, lambda), metallic, roughness, ior),
+                ),
             };
             let frame = Frame { n: hit.n, ns: hit.ns };
             if !bsdf.is_specular() && !self.lights.is_empty() {

@@ -4,6 +4,7 @@
 use colorimetry::DenselySampledSpectrum;
 
 use crate::absorption::Absorption;
+use crate::bsdf::Metal;
 use crate::error::{Error, Result};
 use crate::ior::Ior;
 use crate::spectra::is_flat;
@@ -41,28 +42,72 @@ pub struct Material {
     pub emission: Option<DenselySampledSpectrum>,
     /// The physically based model: which BSDF the path tracer builds from this record.
     pub model: MaterialModel,
+    /// Whether Hall's k_s and k_t of a transmissive surface are weighted per hit by the Fresnel
+    /// reflectance F and 1 − F (glTF transmission, whose k_s = k_t = 1 assume it), rather than
+    /// constants as the paper writes them. Read by the paper's model only.
+    pub fresnel_weighted: bool,
 }
 
 /// What a surface is for a physically based integrator (pbrt-v4 `Material`'s closed list of
 /// variants). Each variant says which fields of the [`Material`] record its BSDF reads.
+///
+/// Roughness is glTF's perceptual roughness r in [0, 1]; the GGX (Trowbridge–Reitz) α is r²
+/// (glTF 2.0 Appendix B; pbrt-v4's `remaproughness` is the same idea).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum MaterialModel {
     /// Lambertian reflection of k_d F_d(λ).
     Diffuse,
     /// A smooth mirror reflecting k_s F_s(λ) at every angle.
     Mirror,
-    /// A smooth dielectric interface: Fresnel-weighted specular reflection and refraction into
-    /// the enclosed medium (`ior`, `absorption`), transmission filtered by k_t T_s(λ).
-    Dielectric,
+    /// A dielectric interface: Fresnel-weighted reflection and refraction into the enclosed
+    /// medium (`ior`, `absorption`), transmission filtered by k_t T_s(λ); smooth at roughness 0,
+    /// else GGX (Walter et al. 2007).
+    Dielectric {
+        /// Perceptual roughness r (α = r²).
+        roughness: f32,
+    },
+    /// A thin-walled dielectric slab (glTF transmission without `KHR_materials_volume`): Fresnel
+    /// reflection with inter-reflections, transmission straight through filtered by k_t T_s(λ);
+    /// encloses no medium.
+    ThinDielectric,
+    /// A GGX conductor with the measured complex index of `metal`, or (`None`) a normal-incidence
+    /// reflectance k_s F_s(λ) (η = 1, κ from the reflectance), with Kulla–Conty compensation.
+    Conductor {
+        /// The measured metal, if named.
+        metal: Option<Metal>,
+        /// Perceptual roughness r (α = r²).
+        roughness: f32,
+    },
+    /// The glTF 2.0 metallic–roughness BRDF (Appendix B) with base colour F_d(λ) and the
+    /// dielectric index `ior` at n_d, its diffuse layer coupled by albedo scaling
+    /// ([`crate::bsdf::GltfMetalRoughBxdf::energy_conserving`]).
+    GltfMetalRough {
+        /// glTF `metallicFactor` in [0, 1].
+        metallic: f32,
+        /// glTF `roughnessFactor` in [0, 1].
+        roughness: f32,
+    },
 }
 
 impl MaterialModel {
-    /// The name `spectrace info` reports (the manifest `model` value that selects it).
+    /// The name `spectrace info` reports (for the first five, the manifest `model` value).
     pub fn name(&self) -> &'static str {
         match self {
             Self::Diffuse => "diffuse",
             Self::Mirror => "mirror",
-            Self::Dielectric => "dielectric",
+            Self::Dielectric { .. } => "dielectric",
+            Self::ThinDielectric => "thin_dielectric",
+            Self::Conductor { .. } => "conductor",
+            Self::GltfMetalRough { .. } => "gltf_metal_rough",
+        }
+    }
+
+    /// The parameters in [0, 1] the model carries: (what, value).
+    fn unit_parameters(&self) -> Vec<(&'static str, f32)> {
+        match *self {
+            Self::Dielectric { roughness } | Self::Conductor { roughness, .. } => vec![("roughness", roughness)],
+            Self::GltfMetalRough { metallic, roughness } => vec![("metallic", metallic), ("roughness", roughness)],
+            Self::Diffuse | Self::Mirror | Self::ThinDielectric => Vec::new(),
         }
     }
 }
@@ -83,6 +128,7 @@ impl Material {
             absorption: None,
             emission: None,
             model: MaterialModel::Diffuse,
+            fresnel_weighted: false,
         }
     }
 
@@ -91,6 +137,11 @@ impl Material {
         for (what, v) in [("kd", self.kd), ("ks", self.ks), ("kt", self.kt), ("shininess", self.shininess)] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(Error::OutOfRange { what, value: v.into(), range: "finite, >= 0" });
+            }
+        }
+        for (what, v) in self.model.unit_parameters() {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(Error::OutOfRange { what, value: v.into(), range: "[0, 1]" });
             }
         }
         for (what, s) in [
@@ -119,17 +170,25 @@ impl Material {
     /// Whether light passes through the surface: the model transmits and its filter
     /// k_t T_s(λ) is not black. The one answer both integrators and `spectrace info` use.
     pub fn is_transmissive(&self) -> bool {
-        matches!(self.model, MaterialModel::Dielectric) && self.kt > 0.0 && self.transmittance.max_value() > 0.0
+        matches!(self.model, MaterialModel::Dielectric { .. } | MaterialModel::ThinDielectric)
+            && self.kt > 0.0
+            && self.transmittance.max_value() > 0.0
+    }
+
+    /// Whether light refracts into a medium the surface encloses (a dielectric that is not
+    /// thin-walled and transmits).
+    pub fn encloses_medium(&self) -> bool {
+        matches!(self.model, MaterialModel::Dielectric { .. }) && self.is_transmissive()
     }
 
     /// Whether refraction separates wavelengths (only then do paths split by wavelength).
     pub fn is_dispersive(&self) -> bool {
-        self.is_transmissive() && self.ior.is_dispersive()
+        self.encloses_medium() && self.ior.is_dispersive()
     }
 
     /// Whether the enclosed medium absorbs (only then is Beer's law evaluated).
     pub fn absorbs(&self) -> bool {
-        self.is_transmissive() && self.absorption.as_ref().is_some_and(Absorption::absorbs)
+        self.encloses_medium() && self.absorption.as_ref().is_some_and(Absorption::absorbs)
     }
 
     /// Whether the surface emits light.
@@ -172,10 +231,23 @@ mod tests {
         m.absorption = Some(Absorption::from_per_unit_transmittance(&DenselySampledSpectrum::constant(0.95)).unwrap());
         // Hall coefficients alone do not make a surface transmit: the model decides.
         assert!(!m.is_transmissive() && !m.absorbs());
-        m.model = MaterialModel::Dielectric;
+        m.model = MaterialModel::ThinDielectric;
+        assert!(m.is_transmissive() && !m.encloses_medium() && !m.absorbs(), "a thin wall encloses nothing");
+        m.model = MaterialModel::Dielectric { roughness: 0.0 };
         assert!(m.is_transmissive() && m.absorbs() && !m.is_dispersive());
         assert!(m.is_spectrally_flat());
         m.ior = Ior::from_abbe(1.5, 40.0).unwrap();
         assert!(m.is_dispersive() && !m.is_spectrally_flat());
+    }
+
+    #[test]
+    fn validation_rejects_model_parameters_outside_the_unit_interval() {
+        let mut m = Material::diffuse("m", DenselySampledSpectrum::constant(0.5));
+        m.model = MaterialModel::GltfMetalRough { metallic: 1.0, roughness: 1.0 };
+        assert!(m.validate().is_ok());
+        m.model = MaterialModel::GltfMetalRough { metallic: 1.5, roughness: 0.5 };
+        assert!(matches!(m.validate(), Err(Error::OutOfRange { what: "metallic", .. })));
+        m.model = MaterialModel::Conductor { metal: Some(Metal::Au), roughness: f32::NAN };
+        assert!(matches!(m.validate(), Err(Error::OutOfRange { what: "roughness", .. })));
     }
 }
