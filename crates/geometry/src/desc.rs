@@ -134,6 +134,8 @@ pub struct MaterialDesc {
     /// The manifest's explicit `model` key: `"hall"`, `"diffuse"`, `"dielectric"`, `"conductor"`, `"mirror"`.
     /// Only a manifest writes it; nothing is guessed.
     pub model: Option<String>,
+    /// Manifest `metal`: a chemical symbol naming measured optical constants (`"Au"`), for `"model": "conductor"`.
+    pub metal: Option<String>,
     /// Diffuse colour: manifest `base_color`, glTF `baseColorFactor` (RGB part), MTL `Kd`.
     pub base_color: Option<SpectrumDesc>,
     /// Manifest `diffuse` (k_d of Hall's model).
@@ -182,6 +184,7 @@ impl MaterialDesc {
             name: name.into(),
             format,
             model: None,
+            metal: None,
             base_color: None,
             diffuse: None,
             specular: None,

@@ -167,6 +167,7 @@ enum ScaleJson {
 #[derive(Deserialize)]
 struct MaterialJson {
     model: Option<String>,
+    metal: Option<String>,
     base_color: Option<Value>,
     diffuse: Option<f32>,
     specular: Option<Value>,
@@ -421,7 +422,11 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>
             format!("unknown model `{model}` (expected {})", KNOWN_MODELS.join(", ")),
         ));
     }
+    if m.metal.is_some() && m.model.as_deref() != Some("conductor") {
+        return Err(ctx.err(format!("{context}.metal"), "`metal` needs `\"model\": \"conductor\"`"));
+    }
     out.model = m.model;
+    out.metal = m.metal;
     out.base_color = spectrum_of("base_color", &m.base_color)?;
     out.diffuse = non_negative("diffuse", m.diffuse)?;
     out.specular = spectrum_of("specular", &m.specular)?;

@@ -11,7 +11,8 @@ use geometry::{
     MaterialFormat, Scene, SceneDescription, SceneFormat, SpectrumDesc,
 };
 use glam::Vec3;
-use materials::{Absorption, Ior, Material};
+use materials::bsdf::Metal;
+use materials::{Absorption, Ior, Material, MaterialModel};
 
 use crate::error::{Error, Result};
 use crate::lights::{Emitters, Light, LightKind};
@@ -306,7 +307,7 @@ fn warn_unused_keys(materials: &[MaterialDesc], warnings: &mut Vec<String>) {
     let thick = names(&|m| m.thickness.is_some_and(|t| t > 0.0));
     if !thick.is_empty() {
         warnings.push(format!(
-            "material(s) {}: `thickness` is not used (absorption follows the path length inside the closed mesh)",
+            "material(s) {}: `thickness` only chooses a solid over a thin wall (absorption follows the path length inside the closed mesh)",
             thick.join(", ")
         ));
     }
@@ -358,15 +359,18 @@ fn hall_params(d: &MaterialDesc) -> HallParams {
     match d.format {
         MaterialFormat::Manifest => {
             let roughness = d.roughness.unwrap_or(DEFAULT_ROUGHNESS);
+            // A mirror or conductor is all specular unless the file adds a diffuse part.
+            let specular_model = matches!(d.model.as_deref(), Some("mirror" | "conductor"));
             HallParams {
                 base_color: d.base_color.clone().unwrap_or(SpectrumDesc::Constant(0.5)),
-                kd: d.diffuse.unwrap_or(1.0),
-                ks: d.ks.unwrap_or(0.0),
+                kd: d.diffuse.unwrap_or(if specular_model { 0.0 } else { 1.0 }),
+                ks: d.ks.unwrap_or(if specular_model { 1.0 } else { 0.0 }),
                 specular: d.specular.clone(),
                 shininess: d.shininess.unwrap_or_else(|| shininess_from_roughness(roughness)),
                 roughness,
                 metallic: d.metallic.unwrap_or(0.0),
-                kt: d.transmission.unwrap_or(0.0),
+                // `"model": "dielectric"` alone means clear glass.
+                kt: d.transmission.unwrap_or(if d.model.as_deref() == Some("dielectric") { 1.0 } else { 0.0 }),
                 ior,
                 emission_strength,
             }
@@ -389,7 +393,9 @@ fn hall_params(d: &MaterialDesc) -> HallParams {
             };
             HallParams {
                 base_color,
-                kd: 1.0,
+                // Transmitted light is not also diffusely reflected (KHR_materials_transmission: the
+                // transmission replaces the diffuse lobe by the factor).
+                kd: 1.0 - kt,
                 ks,
                 specular,
                 shininess: shininess_from_roughness(roughness),
@@ -438,6 +444,72 @@ fn hall_params(d: &MaterialDesc) -> HallParams {
             }
         }
     }
+}
+
+/// The physically based model of a material, decided here once: the manifest's explicit `model` key, else
+/// what the file format means (`docs/scene-format.md`, "Material models"). `transmits`: k_t T_s is not
+/// black; `diffuse_black`: F_d is black.
+fn material_model(
+    d: &MaterialDesc,
+    p: &HallParams,
+    transmits: bool,
+    diffuse_black: bool,
+) -> materials::Result<MaterialModel> {
+    // The physical models are polished unless the file says otherwise (Hall's exponent keeps its own
+    // default, `DEFAULT_ROUGHNESS`, so the paper's scenes keep their highlights).
+    let roughness = || d.roughness.unwrap_or(0.0).clamp(0.0, 1.0);
+    Ok(match d.format {
+        MaterialFormat::Manifest => match d.model.as_deref() {
+            Some("diffuse") => MaterialModel::Diffuse,
+            Some("dielectric") => MaterialModel::Dielectric { roughness: roughness() },
+            Some("mirror") => MaterialModel::Mirror,
+            Some("conductor") => MaterialModel::Conductor {
+                metal: d.metal.as_deref().map(str::parse::<Metal>).transpose()?,
+                roughness: roughness(),
+            },
+            // Hall's coefficients read physically (a manifest without `model` is a Hall material):
+            // transmissive → smooth dielectric, metallic or purely specular → mirror, else Lambertian.
+            _ => {
+                if transmits {
+                    MaterialModel::Dielectric { roughness: 0.0 }
+                } else if p.metallic >= 0.5 || (p.kd == 0.0 && p.ks > 0.0) {
+                    MaterialModel::Mirror
+                } else {
+                    MaterialModel::Diffuse
+                }
+            }
+        },
+        // glTF 2.0: transmission refracts into the closed mesh when KHR_materials_volume gives a thickness,
+        // else the surface is thin-walled (KHR_materials_volume: "thicknessFactor 0 … thin-walled");
+        // everything else is the metallic–roughness BRDF of Appendix B.
+        MaterialFormat::Gltf => {
+            if transmits {
+                if d.thickness.is_some_and(|t| t > 0.0) {
+                    MaterialModel::Dielectric { roughness: p.roughness }
+                } else {
+                    MaterialModel::ThinDielectric
+                }
+            } else {
+                MaterialModel::GltfMetalRough { metallic: p.metallic, roughness: p.roughness }
+            }
+        }
+        // MTL: glass (illum 4/6/7 or d < 1) is a smooth dielectric (`Ns` of glass sets its highlight, not a
+        // rough surface); illum 5 or a black Kd with a Ks is a GGX conductor reflecting Ks; a Ks with Kd is a
+        // GGX specular layer over the diffuse one (the glTF BRDF with metallic 0, Fresnel from Ni);
+        // α from Ns as documented; illum 0/1 or no Ks is Lambertian.
+        MaterialFormat::Mtl => {
+            let illum = d.illum.unwrap_or(2);
+            if transmits {
+                MaterialModel::Dielectric { roughness: 0.0 }
+            } else if p.ks > 0.0 && (illum == 5 || diffuse_black) {
+                MaterialModel::Conductor { metal: None, roughness: p.roughness }
+            } else if p.ks > 0.0 && illum >= 2 {
+                MaterialModel::GltfMetalRough { metallic: 0.0, roughness: p.roughness }
+            } else {
+                MaterialModel::Diffuse
+            }
+        }
+    })
 }
 
 /// A reflectance-like spectrum (values in [0, 1] expected): RGB is upsampled as a reflectance.
@@ -535,14 +607,20 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
     let wrap = |source| Error::Material { material: desc.name.clone(), source };
     let p = hall_params(desc);
     let diffuse = reflectance_spectrum(&p.base_color).map_err(wrap)?;
-    let specular = match &p.specular {
-        Some(s) => reflectance_spectrum(s).map_err(wrap)?,
-        None => DenselySampledSpectrum::constant(1.0),
+    let metal = desc.metal.as_deref().map(str::parse::<Metal>).transpose().map_err(wrap)?;
+    // A named metal's specular colour is its normal-incidence reflectance (what Hall's model and RGB
+    // rendering see of it).
+    let specular = match (&p.specular, metal) {
+        (Some(s), _) => reflectance_spectrum(s).map_err(wrap)?,
+        (None, Some(metal)) => metal.normal_reflectance(),
+        (None, None) => DenselySampledSpectrum::constant(1.0),
     };
-    // glTF tints transmitted light by the base colour; a manifest may give its own spectrum.
-    let transmittance = match &desc.transmittance {
-        Some(s) => reflectance_spectrum(s).map_err(wrap)?,
-        None => diffuse.clone(),
+    // glTF tints transmitted light by the base colour; a manifest may give its own spectrum; MTL glass
+    // without `Tf` is clear (its `Kd` is the colour of the diffuse part, often black for glass).
+    let transmittance = match (&desc.transmittance, desc.format) {
+        (Some(s), _) => reflectance_spectrum(s).map_err(wrap)?,
+        (None, MaterialFormat::Mtl) => DenselySampledSpectrum::constant(1.0),
+        (None, _) => diffuse.clone(),
     };
     let mut ior = match p.ior {
         IorDesc::Constant(n) => Ior::Constant(n),
@@ -574,6 +652,8 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         Some(e) if p.emission_strength > 0.0 => Some(emission_spectrum(e, p.emission_strength).map_err(wrap)?),
         _ => None,
     };
+    let transmits = p.kt > 0.0 && transmittance.max_value() > 0.0;
+    let model = material_model(desc, &p, transmits, diffuse.max_value() <= 0.0).map_err(wrap)?;
     let material = Material {
         name: desc.name.clone(),
         kd: p.kd,
@@ -586,8 +666,10 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         ior,
         absorption,
         emission,
-        roughness: p.roughness,
-        metallic: p.metallic,
+        model,
+        // glTF writes a transmission factor, not Hall's constants: its reflection and transmission share
+        // the light by Fresnel (issue 11: k_s = k_t = 1 made glass 10–30× brighter than paper).
+        fresnel_weighted: desc.format == MaterialFormat::Gltf && transmits,
     };
     material.validate().map_err(wrap)?;
     Ok(material)

@@ -30,6 +30,8 @@ mod assembly;
 mod error;
 mod film;
 mod lights;
+#[cfg(test)]
+mod material_tests;
 mod output;
 mod path;
 mod render;

@@ -14,8 +14,10 @@
 use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Ray, spawn_ray, spawn_ray_to};
 use glam::Vec3;
-use materials::bsdf::{Bsdf, Frame};
-use materials::{Ior, LAMBDA_D, Scattering};
+use materials::bsdf::{
+    Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, ThinDielectricBxdf, TrowbridgeReitz,
+};
+use materials::{Ior, LAMBDA_D, MaterialModel};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
@@ -60,13 +62,30 @@ enum Kind {
     SigmaA,
 }
 
+/// A material's BSDF with its spectra in the render's table: the [`MaterialModel`] baked.
+#[derive(Debug, Clone, Copy)]
+enum PathScattering {
+    /// Lambertian, reflectance k_d F_d clamped to 1.
+    Diffuse { r: SpecId },
+    /// Smooth mirror, reflectance k_s F_s clamped to 1.
+    Mirror { r: SpecId },
+    /// Smooth dielectric, transmission filter k_t T_s clamped to 1.
+    Dielectric { tint: SpecId },
+    /// GGX rough dielectric (α > 0), transmission filter k_t T_s clamped to 1.
+    RoughDielectric { tint: SpecId, alpha: f32 },
+    /// Thin-walled dielectric, transmission filter k_t T_s clamped to 1, index at n_d.
+    ThinDielectric { tint: SpecId, eta: f32 },
+    /// GGX conductor: a measured metal, or the reflectance `r` = k_s F_s clamped to 1 (also the
+    /// metal's colour in RGB, where the lanes are not wavelengths).
+    Conductor { metal: Option<Metal>, r: SpecId, alpha: f32 },
+    /// The glTF metallic–roughness BRDF: base colour k_d F_d clamped to 1, index at n_d.
+    GltfMetalRough { base: SpecId, metallic: f32, roughness: f32, ior: f32 },
+}
+
 #[derive(Debug, Clone)]
 struct PathMaterial {
-    scattering: Scattering,
-    /// k_d F_d (Lambertian) or k_s F_s (mirror), clamped to 1.
-    reflectance: SpecId,
-    /// k_t T_s, the transmission filter of a dielectric, clamped to 1.
-    tint: SpecId,
+    scattering: PathScattering,
+    /// σ_a of the enclosed medium, when it absorbs (only a transmissive model encloses one).
     sigma_a: Option<SpecId>,
     emission: Option<SpecId>,
     ior: Ior,
@@ -96,16 +115,39 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         };
         let clamp01 = |s: &DenselySampledSpectrum, k: f32| s.map(|v| (v * f64::from(k)).clamp(0.0, 1.0));
         let mut path_material = |m: &materials::Material| -> PathMaterial {
-            let scattering = m.scattering();
-            let reflectance = match scattering {
-                Scattering::Conductor => clamp01(&m.specular, m.ks),
-                _ => clamp01(&m.diffuse, m.kd),
+            let scattering = match m.model {
+                MaterialModel::Diffuse => {
+                    PathScattering::Diffuse { r: add(clamp01(&m.diffuse, m.kd), Kind::Reflectance) }
+                }
+                MaterialModel::Mirror => {
+                    PathScattering::Mirror { r: add(clamp01(&m.specular, m.ks), Kind::Reflectance) }
+                }
+                MaterialModel::Dielectric { roughness } => {
+                    let tint = add(clamp01(&m.transmittance, m.kt), Kind::Reflectance);
+                    if roughness > 0.0 {
+                        PathScattering::RoughDielectric { tint, alpha: roughness * roughness }
+                    } else {
+                        PathScattering::Dielectric { tint }
+                    }
+                }
+                MaterialModel::ThinDielectric => PathScattering::ThinDielectric {
+                    tint: add(clamp01(&m.transmittance, m.kt), Kind::Reflectance),
+                    eta: m.ior.eval(LAMBDA_D),
+                },
+                MaterialModel::Conductor { metal, roughness } => PathScattering::Conductor {
+                    metal,
+                    r: add(clamp01(&m.specular, m.ks), Kind::Reflectance),
+                    alpha: roughness * roughness,
+                },
+                MaterialModel::GltfMetalRough { metallic, roughness } => PathScattering::GltfMetalRough {
+                    base: add(clamp01(&m.diffuse, m.kd), Kind::Reflectance),
+                    metallic,
+                    roughness,
+                    ior: m.ior.eval(LAMBDA_D),
+                },
             };
-            let tint = clamp01(&m.transmittance, m.kt);
             PathMaterial {
                 scattering,
-                reflectance: add(reflectance, Kind::Reflectance),
-                tint: add(tint, Kind::Reflectance),
                 sigma_a: m.absorption.as_ref().filter(|_| m.absorbs()).map(|a| add(a.sigma_a().clone(), Kind::SigmaA)),
                 emission: m.emission.as_ref().filter(|_| m.emits()).map(|e| add(e.clone(), Kind::Emission)),
                 ior: m.ior,
@@ -253,7 +295,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let wo = -ray.dir / dir_len;
             // Beer–Lambert over the segment just travelled inside a dielectric: the ray leaves
             // through this surface (this also covers a camera inside glass).
-            if m.scattering == Scattering::Dielectric
+            if matches!(m.scattering, PathScattering::Dielectric { .. } | PathScattering::RoughDielectric { .. })
                 && hit.n.dot(wo) < 0.0
                 && let Some(sigma_a) = m.sigma_a
             {
@@ -272,12 +314,33 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 break;
             }
             let bsdf = match m.scattering {
-                Scattering::Diffuse => Bsdf::Lambertian { r: self.spectra.eval(m.reflectance, lambda) },
-                Scattering::Conductor => Bsdf::Mirror { r: self.spectra.eval(m.reflectance, lambda) },
-                Scattering::Dielectric => {
+                PathScattering::Diffuse { r } => Bsdf::Lambertian { r: self.spectra.eval(r, lambda) },
+                PathScattering::Mirror { r } => Bsdf::Mirror { r: self.spectra.eval(r, lambda) },
+                PathScattering::Dielectric { tint } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
-                    Bsdf::Dielectric { eta, tint: self.spectra.eval(m.tint, lambda) }
+                    Bsdf::Dielectric { eta, tint: self.spectra.eval(tint, lambda) }
                 }
+                PathScattering::RoughDielectric { tint, alpha } => {
+                    let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
+                    let distrib = TrowbridgeReitz::isotropic(alpha);
+                    Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, self.spectra.eval(tint, lambda), true))
+                }
+                PathScattering::ThinDielectric { tint, eta } => {
+                    Bsdf::ThinDielectric(ThinDielectricBxdf::new(eta, self.spectra.eval(tint, lambda)))
+                }
+                PathScattering::Conductor { metal, r, alpha } => {
+                    let distrib = TrowbridgeReitz::isotropic(alpha);
+                    Bsdf::Conductor(match metal {
+                        // RGB lanes are not wavelengths: there the metal is its reflectance colour.
+                        Some(metal) if !matches!(sensor, Sensor::Fixed(lanes) if lanes.rgb) => {
+                            ConductorBxdf::metal(metal, lambda, distrib, true)
+                        }
+                        _ => ConductorBxdf::from_reflectance(self.spectra.eval(r, lambda), distrib, true),
+                    })
+                }
+                PathScattering::GltfMetalRough { base, metallic, roughness, ior } => Bsdf::GltfMetalRough(
+                    GltfMetalRoughBxdf::energy_conserving(self.spectra.eval(base, lambda), metallic, roughness, ior),
+                ),
             };
             let frame = Frame { n: hit.n, ns: hit.ns };
             if !bsdf.is_specular() && !self.scene.emitters.is_empty() {

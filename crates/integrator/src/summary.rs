@@ -11,7 +11,8 @@ use crate::assembly::RenderScene;
 
 /// Summarises a loaded description and the scene assembled from it as JSON.
 ///
-/// Keys: `triangles`, `spheres`, `meshes`, `materials` (each with `name`, `model`, `uses`: `transmission`,
+/// Keys: `triangles`, `spheres`, `meshes`, `materials` (each with `name`, `model` (the assembled
+/// [`materials::MaterialModel`]), `model_key` (the manifest's `model` as written, if any), `uses`: `transmission`,
 /// `absorption`, `dispersion`, `emission`, and its spectra), `lights`, `camera`, `bounds` (`min`, `max`),
 /// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `settings`, `warnings`, and `needs`:
 /// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
@@ -94,7 +95,8 @@ fn ior_json(ior: &IorDesc) -> Value {
 fn material_json(d: &MaterialDesc, m: &Material, used: bool) -> Value {
     json!({
         "name": d.name,
-        "model": d.model,
+        "model": m.model.name(),
+        "model_key": d.model,
         "used": used,
         "uses": {
             "transmission": m.is_transmissive(),
@@ -162,18 +164,36 @@ mod tests {
         summarize(&desc, &scene)
     }
 
-    /// Issue 10: `"model": "dielectric"` with transmission 0 renders diffuse, so `info` must not call it
-    /// transmissive (the description's hint said it was).
+    /// Issue 10: `info` reports the assembled model and the one `is_transmissive`. `"model": "dielectric"`
+    /// with transmission 0 is a dielectric whose transmission is black (reflection only), so not transmissive;
+    /// without `transmission` it is clear glass.
     #[test]
     fn dielectric_model_without_transmission_is_reported_as_rendered() {
         let s = summary(
-            r#"{"materials": {"g": {"model": "dielectric", "ior": {"abbe": {"nd": 1.5, "vd": 30}}}},
+            r#"{"materials": {"g": {"model": "dielectric", "transmission": 0, "ior": {"abbe": {"nd": 1.5, "vd": 30}}}},
                 "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "g"}]}"#,
         );
         assert_eq!(s["materials"][0]["model"], json!("dielectric"));
+        assert_eq!(s["materials"][0]["model_key"], json!("dielectric"));
         assert_eq!(s["materials"][0]["uses"]["transmission"], json!(false));
         assert_eq!(s["materials"][0]["uses"]["dispersion"], json!(false));
         assert_eq!(s["needs"]["transmission"], json!(false));
+        let glass = summary(
+            r#"{"materials": {"g": {"model": "dielectric", "ior": 1.5}},
+                "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "g"}]}"#,
+        );
+        assert_eq!(glass["needs"]["transmission"], json!(true));
+        // A Hall material with k_t > 0 and no `model` reads as a dielectric; `"model": "diffuse"` does not
+        // transmit whatever k_t says.
+        let hall = summary(
+            r#"{"materials": {"a": {"transmission": 0.9}, "b": {"model": "diffuse", "transmission": 0.9}},
+                "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "a"},
+                            {"type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "b"}]}"#,
+        );
+        assert_eq!(hall["materials"][0]["model"], json!("dielectric"));
+        assert_eq!(hall["materials"][0]["model_key"], json!(null));
+        assert_eq!(hall["materials"][1]["model"], json!("diffuse"));
+        assert_eq!(hall["materials"][1]["uses"]["transmission"], json!(false));
         let t = summary(
             r#"{"materials": {"g": {"transmission": 1, "ior": {"abbe": {"nd": 1.5, "vd": 30}}}},
                 "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "g"}]}"#,

@@ -42,6 +42,8 @@ struct LaneMaterial<const N: usize> {
     has_diffuse: bool,
     has_specular: bool,
     transmissive: bool,
+    /// k_s and k_t weighted per hit by Fresnel's F and 1 − F ([`materials::Material::fresnel_weighted`]).
+    fresnel: bool,
 }
 
 /// A point, spot or directional light with its emission on the lanes.
@@ -116,6 +118,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
                 has_diffuse: kd.0.iter().any(|&v| v > 0.0),
                 has_specular: ks.0.iter().any(|&v| v > 0.0),
                 transmissive: kt.0.iter().any(|&v| v > 0.0),
+                fresnel: m.fresnel_weighted,
             }
         };
         let materials = scene.materials.iter().map(lane_material).collect();
@@ -244,23 +247,31 @@ impl<'a, const N: usize> Whitted<'a, N> {
         }
 
         // Eq. 1: specular reflection, R = V − 2 (V·N) N.
-        let mut reflect_coeff = m.ks;
-        let mut reflect_weight = weight * m.ks.max_component();
+        // A Fresnel-weighted surface shares the light: F reflected, 1 − F transmitted (F = 1 under
+        // total internal reflection), so k_s F + k_t (1 − F) ≤ 1.
+        let (ks, kt) = if m.fresnel && m.transmissive {
+            let f = scattering::fr_dielectric(ng.dot(wo), if entering { m.eta } else { 1.0 / m.eta });
+            (m.ks * f, m.kt * (1.0 - f))
+        } else {
+            (m.ks, m.kt)
+        };
+        let mut reflect_coeff = ks;
+        let mut reflect_weight = weight * ks.max_component();
         // Eq. 2: refraction (Snell); under total internal reflection the transmitted share is
         // reflected instead.
         if m.transmissive {
             let eta = if entering { m.eta } else { 1.0 / m.eta };
             match scattering::refract(wo, ng, eta) {
                 Some((wt, _)) => {
-                    let w = weight * m.kt.max_component();
+                    let w = weight * kt.max_component();
                     if w > self.min_weight {
                         let next_inside = if entering { Some(m) } else { None };
                         let transmitted = self.trace(&spawn_ray(hit, wt), depth + 1, w, next_inside, count);
-                        color += m.kt * transmitted;
+                        color += kt * transmitted;
                     }
                 }
                 None => {
-                    reflect_coeff += m.kt;
+                    reflect_coeff += kt;
                     reflect_weight = weight * reflect_coeff.max_component();
                 }
             }

@@ -2,9 +2,9 @@
 //!
 //! Spectral reflectance and transmittance, index of refraction (constant or dispersive),
 //! Bouguer–Beer absorption (the paper's eq. 8), emission, Fresnel, reflection and
-//! refraction, the BSDFs ([`bsdf::Bsdf`]: the Lambertian, mirror and smooth dielectric the
-//! path tracer uses, and rough GGX conductors with measured metals, rough and thin
-//! dielectrics and the glTF metallic–roughness BRDF, not yet reachable from scenes), the
+//! refraction, the material record with its closed [`MaterialModel`], the BSDFs
+//! ([`bsdf::Bsdf`]: Lambertian, mirror, smooth, rough and thin dielectrics, rough GGX
+//! conductors with measured metals and the glTF metallic–roughness BRDF), the
 //! warps they sample with ([`sampling`]) and the paper's Hall shading terms (eqs. 6–7) as
 //! pure functions.
 //!
@@ -38,7 +38,7 @@ mod spectra;
 pub use absorption::{Absorption, beer_transmittance};
 pub use error::{Error, Result};
 pub use ior::{Ior, LAMBDA_D};
-pub use material::{Material, Scattering};
+pub use material::{Material, MaterialModel};
 pub use spectra::{
     KNOWN_SPECTRUM_NAMES, csv_spectrum, illuminant_from_rgb, is_flat, luminance_normalized, named_spectrum,
     reflectance_from_rgb, spikiness,

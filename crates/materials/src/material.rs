@@ -1,8 +1,10 @@
-//! The material record shared by both integrators.
+//! The material record shared by both integrators, with its physically based model decided once, at
+//! assembly ([`MaterialModel`]).
 
 use colorimetry::DenselySampledSpectrum;
 
 use crate::absorption::Absorption;
+use crate::bsdf::Metal;
 use crate::error::{Error, Result};
 use crate::ior::Ior;
 use crate::spectra::is_flat;
@@ -10,8 +12,10 @@ use crate::spectra::is_flat;
 /// A surface and, for transparent objects, the medium it encloses.
 ///
 /// The paper's Hall model reads the coefficients and spectra directly (`k_d F_d(λ)`,
-/// `k_s F_s(λ)`, `k_t T_s(λ)`, exponent n). The path tracer reads the same record as a
-/// physically based BSDF: see [`Material::scattering`].
+/// `k_s F_s(λ)`, `k_t T_s(λ)`, exponent n). The path tracer reads the same record through its
+/// [`MaterialModel`], which the scene assembly chose from the file's explicit `model` key or
+/// from what the file format means (pbrt-v4's `Material` variants: the closed list of what a
+/// surface can be); nothing downstream guesses.
 #[derive(Debug, Clone)]
 pub struct Material {
     /// Name, for messages and `spectrace info`.
@@ -36,21 +40,76 @@ pub struct Material {
     pub absorption: Option<Absorption>,
     /// Emitted radiance spectrum (luminance-normalised × strength), if the surface emits.
     pub emission: Option<DenselySampledSpectrum>,
-    /// GGX roughness α in [0, 1] (0: smooth).
-    pub roughness: f32,
-    /// glTF metallic factor in [0, 1].
-    pub metallic: f32,
+    /// The physically based model: which BSDF the path tracer builds from this record.
+    pub model: MaterialModel,
+    /// Whether Hall's k_s and k_t of a transmissive surface are weighted per hit by the Fresnel
+    /// reflectance F and 1 − F (glTF transmission, whose k_s = k_t = 1 assume it), rather than
+    /// constants as the paper writes them. Read by the paper's model only.
+    pub fresnel_weighted: bool,
 }
 
-/// How the path tracer scatters light at a surface, derived from a [`Material`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Scattering {
-    /// Lambertian reflection.
+/// What a surface is for a physically based integrator (pbrt-v4 `Material`'s closed list of
+/// variants). Each variant says which fields of the [`Material`] record its BSDF reads.
+///
+/// Roughness is glTF's perceptual roughness r in [0, 1]; the GGX (Trowbridge–Reitz) α is r²
+/// (glTF 2.0 Appendix B; pbrt-v4's `remaproughness` is the same idea).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MaterialModel {
+    /// Lambertian reflection of k_d F_d(λ).
     Diffuse,
-    /// A smooth dielectric interface: Fresnel-weighted specular reflection and refraction.
-    Dielectric,
-    /// A smooth mirror-like conductor.
-    Conductor,
+    /// A smooth mirror reflecting k_s F_s(λ) at every angle.
+    Mirror,
+    /// A dielectric interface: Fresnel-weighted reflection and refraction into the enclosed
+    /// medium (`ior`, `absorption`), transmission filtered by k_t T_s(λ); smooth at roughness 0,
+    /// else GGX (Walter et al. 2007).
+    Dielectric {
+        /// Perceptual roughness r (α = r²).
+        roughness: f32,
+    },
+    /// A thin-walled dielectric slab (glTF transmission without `KHR_materials_volume`): Fresnel
+    /// reflection with inter-reflections, transmission straight through filtered by k_t T_s(λ);
+    /// encloses no medium.
+    ThinDielectric,
+    /// A GGX conductor with the measured complex index of `metal`, or (`None`) a normal-incidence
+    /// reflectance k_s F_s(λ) (η = 1, κ from the reflectance), with Kulla–Conty compensation.
+    Conductor {
+        /// The measured metal, if named.
+        metal: Option<Metal>,
+        /// Perceptual roughness r (α = r²).
+        roughness: f32,
+    },
+    /// The glTF 2.0 metallic–roughness BRDF (Appendix B) with base colour F_d(λ) and the
+    /// dielectric index `ior` at n_d, its diffuse layer coupled by albedo scaling
+    /// ([`crate::bsdf::GltfMetalRoughBxdf::energy_conserving`]).
+    GltfMetalRough {
+        /// glTF `metallicFactor` in [0, 1].
+        metallic: f32,
+        /// glTF `roughnessFactor` in [0, 1].
+        roughness: f32,
+    },
+}
+
+impl MaterialModel {
+    /// The name `spectrace info` reports (for the first five, the manifest `model` value).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Diffuse => "diffuse",
+            Self::Mirror => "mirror",
+            Self::Dielectric { .. } => "dielectric",
+            Self::ThinDielectric => "thin_dielectric",
+            Self::Conductor { .. } => "conductor",
+            Self::GltfMetalRough { .. } => "gltf_metal_rough",
+        }
+    }
+
+    /// The parameters in [0, 1] the model carries: (what, value).
+    fn unit_parameters(&self) -> Vec<(&'static str, f32)> {
+        match *self {
+            Self::Dielectric { roughness } | Self::Conductor { roughness, .. } => vec![("roughness", roughness)],
+            Self::GltfMetalRough { metallic, roughness } => vec![("metallic", metallic), ("roughness", roughness)],
+            Self::Diffuse | Self::Mirror | Self::ThinDielectric => Vec::new(),
+        }
+    }
 }
 
 impl Material {
@@ -68,23 +127,21 @@ impl Material {
             ior: Ior::Constant(1.5),
             absorption: None,
             emission: None,
-            roughness: 1.0,
-            metallic: 0.0,
+            model: MaterialModel::Diffuse,
+            fresnel_weighted: false,
         }
     }
 
     /// Check coefficients and spectra: finite, non-negative, reflectances within [0, 1].
     pub fn validate(&self) -> Result<()> {
-        for (what, v) in [
-            ("kd", self.kd),
-            ("ks", self.ks),
-            ("kt", self.kt),
-            ("shininess", self.shininess),
-            ("roughness", self.roughness),
-            ("metallic", self.metallic),
-        ] {
+        for (what, v) in [("kd", self.kd), ("ks", self.ks), ("kt", self.kt), ("shininess", self.shininess)] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(Error::OutOfRange { what, value: v.into(), range: "finite, >= 0" });
+            }
+        }
+        for (what, v) in self.model.unit_parameters() {
+            if !(0.0..=1.0).contains(&v) {
+                return Err(Error::OutOfRange { what, value: v.into(), range: "[0, 1]" });
             }
         }
         for (what, s) in [
@@ -110,19 +167,28 @@ impl Material {
         Ok(())
     }
 
-    /// Whether light passes through the surface.
+    /// Whether light passes through the surface: the model transmits and its filter
+    /// k_t T_s(λ) is not black. The one answer both integrators and `spectrace info` use.
     pub fn is_transmissive(&self) -> bool {
-        self.kt > 0.0 && self.transmittance.max_value() > 0.0
+        matches!(self.model, MaterialModel::Dielectric { .. } | MaterialModel::ThinDielectric)
+            && self.kt > 0.0
+            && self.transmittance.max_value() > 0.0
+    }
+
+    /// Whether light refracts into a medium the surface encloses (a dielectric that is not
+    /// thin-walled and transmits).
+    pub fn encloses_medium(&self) -> bool {
+        matches!(self.model, MaterialModel::Dielectric { .. }) && self.is_transmissive()
     }
 
     /// Whether refraction separates wavelengths (only then do paths split by wavelength).
     pub fn is_dispersive(&self) -> bool {
-        self.is_transmissive() && self.ior.is_dispersive()
+        self.encloses_medium() && self.ior.is_dispersive()
     }
 
     /// Whether the enclosed medium absorbs (only then is Beer's law evaluated).
     pub fn absorbs(&self) -> bool {
-        self.is_transmissive() && self.absorption.as_ref().is_some_and(Absorption::absorbs)
+        self.encloses_medium() && self.absorption.as_ref().is_some_and(Absorption::absorbs)
     }
 
     /// Whether the surface emits light.
@@ -138,18 +204,6 @@ impl Material {
             && self.absorption.as_ref().is_none_or(|a| is_flat(a.sigma_a()))
             && self.emission.as_ref().is_none_or(is_flat)
             && !self.ior.is_dispersive()
-    }
-
-    /// The physically based reading of this material for the path tracer: transmissive →
-    /// smooth dielectric; metallic or purely specular → conductor; otherwise Lambertian.
-    pub fn scattering(&self) -> Scattering {
-        if self.is_transmissive() {
-            Scattering::Dielectric
-        } else if self.metallic >= 0.5 || (self.kd == 0.0 && self.ks > 0.0) {
-            Scattering::Conductor
-        } else {
-            Scattering::Diffuse
-        }
     }
 }
 
@@ -171,15 +225,29 @@ mod tests {
     #[test]
     fn flags_follow_the_data() {
         let mut m = Material::diffuse("glass", DenselySampledSpectrum::constant(0.0));
-        assert_eq!(m.scattering(), Scattering::Diffuse);
         assert!(!m.is_transmissive() && !m.absorbs() && !m.is_dispersive());
         m.kt = 0.9;
         m.transmittance = DenselySampledSpectrum::constant(1.0);
         m.absorption = Some(Absorption::from_per_unit_transmittance(&DenselySampledSpectrum::constant(0.95)).unwrap());
-        assert_eq!(m.scattering(), Scattering::Dielectric);
+        // Hall coefficients alone do not make a surface transmit: the model decides.
+        assert!(!m.is_transmissive() && !m.absorbs());
+        m.model = MaterialModel::ThinDielectric;
+        assert!(m.is_transmissive() && !m.encloses_medium() && !m.absorbs(), "a thin wall encloses nothing");
+        m.model = MaterialModel::Dielectric { roughness: 0.0 };
         assert!(m.is_transmissive() && m.absorbs() && !m.is_dispersive());
         assert!(m.is_spectrally_flat());
         m.ior = Ior::from_abbe(1.5, 40.0).unwrap();
         assert!(m.is_dispersive() && !m.is_spectrally_flat());
+    }
+
+    #[test]
+    fn validation_rejects_model_parameters_outside_the_unit_interval() {
+        let mut m = Material::diffuse("m", DenselySampledSpectrum::constant(0.5));
+        m.model = MaterialModel::GltfMetalRough { metallic: 1.0, roughness: 1.0 };
+        assert!(m.validate().is_ok());
+        m.model = MaterialModel::GltfMetalRough { metallic: 1.5, roughness: 0.5 };
+        assert!(matches!(m.validate(), Err(Error::OutOfRange { what: "metallic", .. })));
+        m.model = MaterialModel::Conductor { metal: Some(Metal::Au), roughness: f32::NAN };
+        assert!(matches!(m.validate(), Err(Error::OutOfRange { what: "roughness", .. })));
     }
 }

@@ -83,6 +83,23 @@ impl Metal {
         self.entry().1
     }
 
+    /// Reflectance at normal incidence, ((η − 1)² + κ²) / ((η + 1)² + κ²), every 5 nm over
+    /// 360–830 nm: the colour of the metal, for RGB rendering and Hall's specular colour F_s.
+    pub fn normal_reflectance(self) -> colorimetry::DenselySampledSpectrum {
+        let ior = self.ior();
+        let lambda: Vec<f64> = (0..=94).map(|i| 360.0 + 5.0 * f64::from(i)).collect();
+        let r: Vec<f64> = lambda
+            .iter()
+            .map(|&l| {
+                let (n, k) = ior.eval(l as f32);
+                let (n, k) = (f64::from(n), f64::from(k));
+                ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k)
+            })
+            .collect();
+        colorimetry::DenselySampledSpectrum::from_samples(&lambda, &r)
+            .expect("an ascending 5 nm grid with finite reflectances in [0, 1] is a valid spectrum")
+    }
+
     /// The metal's tabulated index (parsed once).
     pub(crate) fn ior(self) -> &'static MetalIor {
         static TABLES: LazyLock<Vec<(Metal, MetalIor)>> = LazyLock::new(|| {
