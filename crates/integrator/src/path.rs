@@ -29,8 +29,9 @@ use crate::spectral::{Lanes, SpectrumKind};
 /// that Russian roulette, not the limit, ends almost every path.
 const DEFAULT_MAX_DEPTH: u32 = 64;
 
-/// Russian roulette starts after this many bounces, so short paths (direct and first indirect
-/// light) are never cut (pbrt-v4 starts at depth 1; a few more keep low-order noise down).
+/// Russian roulette starts after this many bounces when neither the options nor the scene's
+/// `rr_depth` setting say, so short paths (direct and first indirect light) are never cut
+/// (pbrt-v4 starts at depth 1; a few more keep low-order noise down).
 const RR_START_DEPTH: u32 = 3;
 
 /// Index of refraction used where a path cannot split by wavelength (RGB lanes): the sodium
@@ -110,6 +111,8 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     environment: Option<usize>,
     environment_spectra: Vec<SpecId>,
     max_depth: u32,
+    /// Bounces before Russian roulette may end a path.
+    rr_depth: u32,
 }
 
 impl<'a, const N: usize> PathTracer<'a, N> {
@@ -250,6 +253,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let max_depth = options
             .max_depth
             .unwrap_or_else(|| scene.setting_f64("max_depth").map_or(DEFAULT_MAX_DEPTH, |d| d.max(0.0) as u32));
+        let rr_depth = options
+            .rr_depth
+            .unwrap_or_else(|| scene.setting_f64("rr_depth").map_or(RR_START_DEPTH, |d| d.max(0.0) as u32));
         let tracer = Self {
             scene,
             spectra,
@@ -262,6 +268,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             environment,
             environment_spectra,
             max_depth,
+            rr_depth,
         };
         (tracer, sensor)
     }
@@ -396,7 +403,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             depth += 1;
             // Russian roulette on the throughput with refraction's radiance scaling undone
             // (pbrt-v4: rrBeta = beta · etaScale, q = max(0, 1 − max(rrBeta))).
-            if depth >= RR_START_DEPTH {
+            if depth >= self.rr_depth {
                 let rr = (beta * eta_scale).max_component();
                 if rr < 1.0 {
                     let q = (1.0 - rr).max(0.0);
