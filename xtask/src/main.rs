@@ -5,7 +5,7 @@
 //! dispatches. Commands:
 //! - `gen-upsampling-table`: fit the RGB → spectrum coefficient table into `data/`.
 //! - `upsampling-report`: round-trip error and speed of the upsampling over a dense sRGB grid.
-//! - `validate`: the validation suite (colorimetry, analytic renders, hard cases, speed against error, scaling).
+//! - `validate`: the validation suite (colorimetry, analytic renders, hard cases, speed against error, `auto` on absorbing glass, scaling; `--only PART,…` for some of them).
 //! - `paper`: the paper's figures 8–11 as side-by-side renders with their backing numbers.
 //! - `exr-diff`: the largest difference between two EXR files (refactorings must move no number).
 

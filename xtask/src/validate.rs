@@ -9,6 +9,7 @@
 //! against error; its `PATH_CASES` list is where new reference scenes plug in) and
 //! [`scaling`]; the paper's figures come from `crate::paper`.
 
+mod absorbing;
 mod analytic;
 mod colorimetry;
 mod hard;
@@ -45,6 +46,10 @@ pub(crate) struct ValidateArgs {
     /// Render every converged reference again, ignoring the cache.
     #[arg(long)]
     regen: bool,
+    /// Run only these parts (comma-separated): colorimetry, analytic, hard, speed, absorbing,
+    /// paper, scaling. The report then holds only their checks.
+    #[arg(long, value_delimiter = ',')]
+    only: Vec<String>,
 }
 
 /// One check: what was measured, against what, with which tolerance.
@@ -79,6 +84,9 @@ impl Report {
     }
 }
 
+/// The parts `--only` may name, in the order they run.
+const PARTS: [&str; 7] = ["colorimetry", "analytic", "hard", "speed", "absorbing", "paper", "scaling"];
+
 pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     let root = crate::project_root();
     let absolute = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { root.join(p) };
@@ -93,19 +101,39 @@ pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
         *since = Instant::now();
     };
     let mut since = Instant::now();
-    colorimetry::checks(&mut report, args.quick);
-    step("colorimetry", &mut since);
-    analytic::whitted_checks(&mut report)?;
-    analytic::path_checks(&mut report, &root, args.quick)?;
-    step("analytic renders", &mut since);
-    hard::checks(&mut report, &out, args.quick)?;
-    step("hard cases", &mut since);
-    speed::speed_vs_error(&mut report, &root, &out, &refs, args.quick)?;
-    step("speed against error", &mut since);
-    paper(&mut report, &out, args.quick);
-    step("the paper's figures", &mut since);
-    scaling::scaling(&mut report, &out, args.quick)?;
-    step("scaling", &mut since);
+    let wanted = |part: &str| args.only.is_empty() || args.only.iter().any(|p| p == part);
+    if let Some(unknown) = args.only.iter().find(|p| !PARTS.contains(&p.as_str())) {
+        anyhow::bail!("--only {unknown}: expected some of {}", PARTS.join(", "));
+    }
+    if wanted("colorimetry") {
+        colorimetry::checks(&mut report, args.quick);
+        step("colorimetry", &mut since);
+    }
+    if wanted("analytic") {
+        analytic::whitted_checks(&mut report)?;
+        analytic::path_checks(&mut report, &root, args.quick)?;
+        step("analytic renders", &mut since);
+    }
+    if wanted("hard") {
+        hard::checks(&mut report, &out, args.quick)?;
+        step("hard cases", &mut since);
+    }
+    if wanted("speed") {
+        speed::speed_vs_error(&mut report, &root, &out, &refs, args.quick)?;
+        step("speed against error", &mut since);
+    }
+    if wanted("absorbing") {
+        absorbing::checks(&mut report, &root, &refs, args.quick)?;
+        step("auto on absorbing glass", &mut since);
+    }
+    if wanted("paper") {
+        paper(&mut report, &out, args.quick);
+        step("the paper's figures", &mut since);
+    }
+    if wanted("scaling") {
+        scaling::scaling(&mut report, &out, args.quick)?;
+        step("scaling", &mut since);
+    }
 
     let (passed, failed) =
         (report.checks.iter().filter(|c| c.pass).count(), report.checks.iter().filter(|c| !c.pass).count());
@@ -329,6 +357,7 @@ mod tests {
     fn quick_validation_passes() {
         let out = crate::project_root().join("target/validate-quick-test");
         let refs = crate::project_root().join("target/validate-quick-test-refs");
-        run(&ValidateArgs { quick: true, out, refs, regen: false }).expect("every quick validation check passes");
+        run(&ValidateArgs { quick: true, out, refs, regen: false, only: Vec::new() })
+            .expect("every quick validation check passes");
     }
 }

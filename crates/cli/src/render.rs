@@ -62,6 +62,10 @@ pub(crate) struct RenderArgs {
     /// paper's value) or 64 for path].
     #[arg(long)]
     max_depth: Option<u32>,
+    /// Path tracer: bounces before Russian roulette may end a path [default: the scene's
+    /// `rr_depth`, else 3].
+    #[arg(long)]
+    rr_depth: Option<u32>,
     /// Skip ray-tree branches whose weight is below this (0 = trace the full tree).
     #[arg(long, default_value_t = 1e-3)]
     min_weight: f32,
@@ -199,9 +203,11 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             absorption: args.absorption,
             ambient: args.ambient,
         }),
-        IntegratorKind::Path => {
-            Integrator::Path(PathOptions { max_depth: args.max_depth, wavelength_pdf: args.wavelength_pdf })
-        }
+        IntegratorKind::Path => Integrator::Path(PathOptions {
+            max_depth: args.max_depth,
+            rr_depth: args.rr_depth,
+            wavelength_pdf: args.wavelength_pdf,
+        }),
     };
     let options = RenderOptions {
         width: args.width.unwrap_or(scene_width),

@@ -190,6 +190,30 @@ mod tests {
         assert!((t[0].spectrum.eval(415.0) - 0.25).abs() < 1e-12);
     }
 
+    /// Issue 16: CSV files whose first lines are `#` comments were rejected. Comments (also
+    /// indented, also between rows and after the last one), blank and whitespace-only lines
+    /// and CRLF endings are skipped; the line numbers of errors stay the file's own.
+    #[test]
+    fn comment_and_blank_lines_are_skipped_and_still_counted() {
+        let text = "# measured 2026-11-30, spectroradiometer X\r\n# units: W/(sr m^2 nm)\r\n\r\n\
+                    wavelength_nm,radiance\r\n  # 400 nm first\r\n400,0.5\r\n   \r\n410,0.75\r\n# end\r\n\r\n";
+        let t = parse_spectra_csv(text, "c.csv").unwrap();
+        assert_eq!(t.len(), 1);
+        assert_eq!(t[0].name, "radiance");
+        let s = &t[0].spectrum;
+        assert_eq!((s.lambda_min(), s.lambda_max()), (400.0, 410.0));
+        assert!((s.eval(405.0) - 0.625).abs() < 1e-12);
+        // The bad row is on the file's line 8 (two comments, a blank line, the header, an
+        // indented comment, a row, a blank line before it).
+        let bad = text.replace("410,0.75", "410,x");
+        assert_eq!(
+            parse_spectra_csv(&bad, "c.csv").unwrap_err().to_string(),
+            "c.csv:8: column `radiance`: `x` is not a number"
+        );
+        // Only comments: no header.
+        assert!(matches!(parse_spectra_csv("# a\n\n# b\n", "c.csv"), Err(Error::Empty { .. })));
+    }
+
     #[test]
     fn an_even_table_is_bounded_by_its_own_grid() {
         // 200 columns every 5 nm from 1 to 99 996 nm: 20 000 rows, 4e6 values, kept on their

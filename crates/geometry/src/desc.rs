@@ -42,13 +42,20 @@ pub enum SpectrumDesc {
         /// Values at those wavelengths.
         values: Vec<f32>,
     },
+    /// The inner spectrum as given, not rescaled (manifest `"normalize": false`): as an emission
+    /// spectrum its values are radiance (times the intensity) instead of being normalised to
+    /// luminance 1. Reflectances are never normalised, so there it is the inner spectrum.
+    Absolute(Box<SpectrumDesc>),
 }
 
 impl SpectrumDesc {
     /// Whether this spectrum is given as RGB or a constant (`false`) rather than spectral data that the
     /// layers above must inspect for spikes (named, CSV or sampled: `true`).
     pub fn is_spectral(&self) -> bool {
-        matches!(self, Self::Named(_) | Self::Csv { .. } | Self::Samples { .. })
+        match self {
+            Self::Absolute(inner) => inner.is_spectral(),
+            other => matches!(other, Self::Named(_) | Self::Csv { .. } | Self::Samples { .. }),
+        }
     }
 
     /// A short human-readable label: the name, the CSV file (and column), or `samples[N]`.
@@ -60,6 +67,7 @@ impl SpectrumDesc {
             Self::Csv { path, column: Some(c) } => format!("{}#{c}", path.display()),
             Self::Csv { path, column: None } => path.display().to_string(),
             Self::Samples { lambda, .. } => format!("samples[{}]", lambda.len()),
+            Self::Absolute(inner) => format!("{} (absolute)", inner.label()),
         }
     }
 }

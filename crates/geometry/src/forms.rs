@@ -70,11 +70,34 @@ pub(crate) fn only_keys(ctx: &Ctx<'_>, context: &str, obj: &Map<String, Value>, 
     }
 }
 
-/// `number | "name" | {"rgb":[r,g,b]} | {"csv":"file","column":"c"} | {"samples":[[λ,v],…]}`.
+/// `number | "name" | {"rgb":[r,g,b]} | {"csv":"file","column":"c"} | {"samples":[[λ,v],…]} | {"name":"n"}`;
+/// the `name`, `csv` and `samples` objects may add `"normalize": false` (an absolute emission
+/// spectrum, [`SpectrumDesc::Absolute`]; `true` is the default).
 pub(crate) fn spectrum(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<SpectrumDesc> {
     const FORMS: &str = "a number, a name (\"D65\", \"colorchecker:13\"), {\"rgb\": [r, g, b]}, \
-                         {\"csv\": \"file\", \"column\": \"name\"} or {\"samples\": [[nm, value], …]}";
+                         {\"csv\": \"file\", \"column\": \"name\"}, {\"samples\": [[nm, value], …]} or \
+                         {\"name\": \"D65\"} (the last three may add \"normalize\": false)";
+    if let Value::Object(obj) = v
+        && let Some(flag) = obj.get("normalize")
+    {
+        let c = format!("{context}.normalize");
+        let normalize = flag.as_bool().ok_or_else(|| ctx.err(&c, format!("expected true or false, found {flag}")))?;
+        if !["name", "csv", "samples"].iter().any(|k| obj.contains_key(*k)) {
+            return Err(ctx.err(&c, "only a {\"name\"}, {\"csv\"} or {\"samples\"} spectrum is normalised"));
+        }
+        let mut rest = obj.clone();
+        rest.remove("normalize");
+        let inner = spectrum(ctx, context, &Value::Object(rest))?;
+        return Ok(if normalize { inner } else { SpectrumDesc::Absolute(Box::new(inner)) });
+    }
     match v {
+        Value::Object(obj) if obj.contains_key("name") => {
+            only_keys(ctx, context, obj, &["name"])?;
+            match obj["name"].as_str().map(str::trim).filter(|s| !s.is_empty()) {
+                Some(name) => Ok(SpectrumDesc::Named(name.to_owned())),
+                None => Err(ctx.err(format!("{context}.name"), format!("expected a name, found {}", obj["name"]))),
+            }
+        }
         Value::Number(_) => Ok(SpectrumDesc::Constant(number(ctx, context, v)?)),
         Value::String(s) if !s.trim().is_empty() => Ok(SpectrumDesc::Named(s.trim().to_owned())),
         Value::Object(obj) if obj.contains_key("rgb") => {

@@ -50,11 +50,12 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<SceneDescri
             let base = path.parent().unwrap_or_else(|| Path::new("."));
             manifest(&text, base, &path.display().to_string(), &budget)?
         }
-        "gltf" | "glb" => require_geometry(crate::gltf_loader::load_gltf_file(path, &budget)?, path)?,
-        "obj" => require_geometry(crate::obj_loader::load_obj_file(path, &budget)?, path)?,
+        "gltf" | "glb" => crate::gltf_loader::load_gltf_file(path, &budget)?,
+        "obj" => crate::obj_loader::load_obj_file(path, &budget)?,
         _ => return Err(Error::UnsupportedFormat { path: path.to_path_buf(), extension }),
     };
-    Ok(finish(desc, &path.display().to_string()))
+    let desc = finish(desc, &path.display().to_string());
+    if extension == "json" { Ok(desc) } else { require_geometry(desc, path) }
 }
 
 /// Parses a manifest from text with the default [`LoadOptions`]. `base_dir` resolves relative file paths
@@ -111,7 +112,8 @@ fn require_geometry(desc: SceneDescription, path: &Path) -> Result<SceneDescript
     }
     let detail = match std::fs::metadata(path) {
         Ok(m) if m.len() == 0 => "; the file is empty".to_owned(),
-        _ => String::new(),
+        // The loader's notes say why (skipped primitives, unknown statements, removed triangles).
+        _ => desc.warnings.iter().map(|w| format!("; {w}")).collect(),
     };
     Err(Error::NoGeometry { path: path.to_path_buf(), detail })
 }

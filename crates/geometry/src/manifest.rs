@@ -544,6 +544,29 @@ mod tests {
         assert!(s("{\"samples\":[[500,0.1],[400,0.9]]}").is_err());
         assert!(s("[1,2,3]").is_err());
         assert!(s("{\"rgb\":[1,2,3],\"x\":1}").is_err());
+        // `"normalize": false`: the spectrum as given (absolute), for any spectral form.
+        let absolute = |inner| Some(SpectrumDesc::Absolute(Box::new(inner)));
+        assert_eq!(
+            s("{\"samples\":[[400,2],[700,3]],\"normalize\":false}").ok(),
+            absolute(SpectrumDesc::Samples { lambda: vec![400.0, 700.0], values: vec![2.0, 3.0] })
+        );
+        assert_eq!(s("{\"name\":\"D65\",\"normalize\":false}").ok(), absolute(SpectrumDesc::Named("D65".into())));
+        assert_eq!(
+            s("{\"csv\":\"a.csv\",\"normalize\":false}").ok(),
+            absolute(SpectrumDesc::Csv { path: dir.join("a.csv"), column: None })
+        );
+        // `true` is the default; `{"name"}` alone is the name.
+        assert_eq!(s("{\"name\":\"D65\",\"normalize\":true}").ok(), Some(SpectrumDesc::Named("D65".into())));
+        assert_eq!(s("{\"name\":\"D65\"}").ok(), Some(SpectrumDesc::Named("D65".into())));
+        // Not a boolean, or on a form that is never normalised (RGB, a number): an error naming the key.
+        let msg = |t: &str| s(t).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(
+            msg("{\"name\":\"D65\",\"normalize\":0}").contains("x.normalize"),
+            "{}",
+            msg("{\"name\":\"D65\",\"normalize\":0}")
+        );
+        assert!(msg("{\"rgb\":[1,1,1],\"normalize\":false}").contains("x.normalize"));
+        assert!(s("{\"name\":\"\"}").is_err());
     }
 
     #[test]

@@ -524,10 +524,12 @@ fn reflectance_spectrum(desc: &SpectrumDesc) -> materials::Result<DenselySampled
             let v: Vec<f64> = values.iter().map(|&x| f64::from(x)).collect();
             DenselySampledSpectrum::from_samples(&l, &v)?
         }
+        SpectrumDesc::Absolute(inner) => reflectance_spectrum(inner)?,
     })
 }
 
-/// An emission spectrum scaled to luminance `intensity` (RGB colours are upsampled as light).
+/// An emission spectrum scaled to luminance `intensity` (RGB colours are upsampled as light);
+/// an absolute one (`"normalize": false`) is its own values times `intensity`.
 fn emission_spectrum(desc: &SpectrumDesc, intensity: f32) -> materials::Result<DenselySampledSpectrum> {
     emission_spectrum_scaled(desc, f64::from(intensity))
 }
@@ -562,6 +564,10 @@ fn emission_spectrum_scaled(desc: &SpectrumDesc, intensity: f64) -> materials::R
     let spd = match desc {
         SpectrumDesc::Rgb(rgb) => materials::illuminant_from_rgb(*rgb)?,
         SpectrumDesc::Constant(v) => DenselySampledSpectrum::constant(f64::from(*v)),
+        SpectrumDesc::Absolute(inner) => match inner.as_ref() {
+            SpectrumDesc::Rgb(rgb) => materials::illuminant_from_rgb(*rgb)?,
+            other => reflectance_spectrum(other)?,
+        },
         other => materials::luminance_normalized(&reflectance_spectrum(other)?),
     };
     Ok(spd.scaled(intensity))
@@ -673,4 +679,41 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
     };
     material.validate().map_err(wrap)?;
     Ok(material)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn assemble(json: &str) -> RenderScene {
+        RenderScene::from_description(geometry::parse_manifest(json, Path::new("."), "<test>").unwrap()).unwrap()
+    }
+
+    /// Issue 16: every light or emission spectrum was rescaled to luminance 1, so a measured
+    /// radiance could not be used as is. `"normalize": false` keeps the values (× intensity).
+    #[test]
+    fn absolute_spectra_keep_their_values_and_normalised_ones_have_unit_luminance() {
+        let scene = |normalize: &str| {
+            assemble(&format!(
+                r#"{{ "camera": {{"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 30}},
+                "lights": [{{"type": "point", "position": [0, 0, 10], "intensity": 3,
+                             "spectrum": {{"samples": [[360, 2], [600, 4], [830, 2]]{normalize}}}}}],
+                "materials": {{"lamp": {{"emission": {{"name": "D65"{normalize}}}, "emission_strength": 0.5}}}},
+                "objects": [{{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "lamp"}}] }}"#
+            ))
+        };
+        let absolute = scene(r#", "normalize": false"#);
+        let light = &absolute.lights[0].spectrum;
+        assert!((light.eval(360.0) - 6.0).abs() < 1e-12 && (light.eval(600.0) - 12.0).abs() < 1e-12);
+        // D65 as tabulated (100 at 560 nm) × 0.5.
+        let lamp = absolute.materials[0].emission.as_ref().unwrap();
+        assert!((lamp.eval(560.0) - 50.0).abs() < 1e-9, "{}", lamp.eval(560.0));
+        let relative = scene("");
+        let y = colorimetry::relative_luminance;
+        assert!((y(&relative.lights[0].spectrum) - 3.0).abs() < 1e-9);
+        assert!((y(relative.materials[0].emission.as_ref().unwrap()) - 0.5).abs() < 1e-9);
+        // The absolute light is brighter by its own luminance (between 2 and 4 here).
+        let ratio = y(light) / y(&relative.lights[0].spectrum);
+        assert!((2.0..4.0).contains(&ratio), "{ratio}");
+    }
 }

@@ -27,6 +27,7 @@
 #![warn(missing_docs)]
 
 mod assembly;
+mod auto;
 mod error;
 mod film;
 mod lights;
@@ -41,6 +42,7 @@ mod summary;
 mod whitted;
 
 pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
+pub use auto::choose_auto;
 pub use error::{Error, Result};
 pub use film::{Display, Film, Image, ObjectId};
 pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};
@@ -56,42 +58,9 @@ pub use summary::summarize;
 /// D65 0.16; ColorChecker and TCS reflectances below 0.09.
 const SPIKY: f64 = 0.5;
 
-/// Wavelength counts `auto` may choose, cheapest first.
-const AUTO_CANDIDATES: [usize; 8] = [8, 12, 16, 24, 32, 48, 64, 95];
-
-/// Largest colour error (ΔE00) `auto` accepts for any light × surface spectrum of the scene,
-/// against the 1 nm integral: a tenth of a just-noticeable difference.
-const AUTO_MAX_DELTA_E: f64 = 0.1;
-
-/// The 5 nm grid over 360–830 nm, on which the CIE tabulates line spectra.
-const FINE_BINS: usize = 95;
-
-/// What `--spectral auto` picks for a scene.
-///
-/// The paper's model (`whitted-hall`): the fewest evenly spaced wavelengths whose colour error
-/// is negligible (ΔE00 < 0.1) for every product of a light spectrum with a surface spectrum of
-/// the scene, once and twice (two interactions), against the 1 nm integral. Smooth scenes get
-/// few wavelengths; line spectra such as F11 need the 5 nm grid.
-///
-/// The path tracer (`path`):
-/// - a dispersive dielectric → `hero:8` (fixed lanes would have to keep one lane per path past
-///   the prism and waste the others; hero sampling keeps its hero wavelength, stratified);
-/// - otherwise the same bin count as the paper's model: fixed bins add no colour noise and
-///   their bias is below ΔE00 0.1 by construction. Measured on the F11 ColorChecker
-///   (`docs/path-tracer.md`): `bins:95` costs 1.4–1.9× `hero:8` per sample on the Cornell box
-///   but reaches mean ΔE00 0.03 at 1 spp, where `hero:8` needs ~512 spp.
-pub fn choose_auto(scene: &RenderScene, integrator: IntegratorKind) -> SpectralMode {
-    match integrator {
-        IntegratorKind::Path if scene.materials.iter().any(materials::Material::is_dispersive) => {
-            SpectralMode::Hero { count: 8 }
-        }
-        IntegratorKind::WhittedHall | IntegratorKind::Path => SpectralMode::Bins(auto_bins(scene)),
-    }
-}
-
 /// The spectra that light the scene: point/spot/directional/environment lights, the
 /// background and emissive materials (black ones dropped).
-fn emitter_spectra(scene: &RenderScene) -> Vec<&colorimetry::DenselySampledSpectrum> {
+pub(crate) fn emitter_spectra(scene: &RenderScene) -> Vec<&colorimetry::DenselySampledSpectrum> {
     let mut lights: Vec<_> = scene.lights.iter().map(|l| &l.spectrum).collect();
     lights.extend(scene.background.iter());
     lights.extend(scene.materials.iter().filter_map(|m| m.emission.as_ref()));
@@ -116,50 +85,6 @@ pub(crate) fn scene_white(scene: &RenderScene) -> colorimetry::DenselySampledSpe
         .map(|nm| normalized.iter().map(|s| s.eval(f64::from(nm))).sum::<f64>() / normalized.len() as f64)
         .collect();
     colorimetry::DenselySampledSpectrum::new(f64::from(lo), 1.0, mean).unwrap_or_else(|_| lights[0].clone())
-}
-
-fn auto_bins(scene: &RenderScene) -> usize {
-    use colorimetry::{DenselySampledSpectrum, Lab, Xyz, delta_e_2000};
-    let lights = emitter_spectra(scene);
-    let white = scene_white(scene);
-    let mut surfaces = vec![DenselySampledSpectrum::constant(1.0)];
-    for m in &scene.materials {
-        let used = [(m.kd > 0.0, &m.diffuse), (m.ks > 0.0, &m.specular), (m.is_transmissive(), &m.transmittance)];
-        for (on, s) in used {
-            if on && !materials::is_flat(s) {
-                surfaces.push(s.clone());
-                surfaces.push(s.product(s));
-            }
-        }
-    }
-    let xyz = colorimetry::relative_xyz;
-    // (lit surface spectrum, its light's 1 nm XYZ, its own 1 nm XYZ).
-    let cases: Vec<_> = lights
-        .iter()
-        .flat_map(|l| surfaces.iter().map(move |r| ((*l).clone(), r.product(l))))
-        .map(|(light, lit)| {
-            let (light_xyz, color) = (xyz(&light), xyz(&lit));
-            (lit, light_xyz, color)
-        })
-        .collect();
-    let lab = |c: Xyz, white: Xyz| Lab::from_xyz(c.scaled(1.0 / white.y), white.scaled(1.0 / white.y));
-    for n in AUTO_CANDIDATES {
-        let lanes = spectral::Lanes::<{ MAX_BINS }>::bins(n, &white);
-        let lane_xyz = |s: &DenselySampledSpectrum| {
-            let v = lanes.xyz(&lanes.project(s, spectral::SpectrumKind::Emission));
-            Xyz { x: v[0].into(), y: v[1].into(), z: v[2].into() }
-        };
-        // Absolute error: the lanes' colour of each lit surface against its 1 nm colour, both
-        // in CIELAB relative to the light's exact white (what the film's XYZ will be judged by).
-        let acceptable = cases.iter().all(|(lit, light_xyz, color)| {
-            light_xyz.y <= 0.0
-                || delta_e_2000(lab(*color, *light_xyz), lab(lane_xyz(lit), *light_xyz)) < AUTO_MAX_DELTA_E
-        });
-        if acceptable {
-            return n;
-        }
-    }
-    FINE_BINS
 }
 
 /// Whether any light, background or material spectrum of the scene is a line spectrum.

@@ -30,8 +30,9 @@ use crate::spectral::{Lanes, SpectrumKind};
 /// that Russian roulette, not the limit, ends almost every path.
 const DEFAULT_MAX_DEPTH: u32 = 64;
 
-/// Russian roulette starts after this many bounces, so short paths (direct and first indirect
-/// light) are never cut (pbrt-v4 starts at depth 1; a few more keep low-order noise down).
+/// Russian roulette starts after this many bounces when neither the options nor the scene's
+/// `rr_depth` setting say, so short paths (direct and first indirect light) are never cut
+/// (pbrt-v4 starts at depth 1; a few more keep low-order noise down).
 const RR_START_DEPTH: u32 = 3;
 
 /// Index into the render's spectrum table.
@@ -102,6 +103,8 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     /// The spectra the environment sums.
     environment_spectra: Vec<SpecId>,
     max_depth: u32,
+    /// Bounces before Russian roulette may end a path.
+    rr_depth: u32,
 }
 
 impl<'a, const N: usize> PathTracer<'a, N> {
@@ -201,8 +204,19 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let max_depth = options
             .max_depth
             .unwrap_or_else(|| scene.setting_f64("max_depth").map_or(DEFAULT_MAX_DEPTH, |d| d.max(0.0) as u32));
-        let tracer =
-            Self { scene, spectra, materials, default_material, light_spectra, environment_spectra, max_depth };
+        let rr_depth = options
+            .rr_depth
+            .unwrap_or_else(|| scene.setting_f64("rr_depth").map_or(RR_START_DEPTH, |d| d.max(0.0) as u32));
+        let tracer = Self {
+            scene,
+            spectra,
+            materials,
+            default_material,
+            light_spectra,
+            environment_spectra,
+            max_depth,
+            rr_depth,
+        };
         (tracer, sensor)
     }
 
@@ -356,7 +370,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             depth += 1;
             // Russian roulette on the throughput with refraction's radiance scaling undone
             // (pbrt-v4: rrBeta = beta · etaScale, q = max(0, 1 − max(rrBeta))).
-            if depth >= RR_START_DEPTH {
+            if depth >= self.rr_depth {
                 let rr = (beta * eta_scale).max_component();
                 if rr < 1.0 {
                     let q = (1.0 - rr).max(0.0);

@@ -147,13 +147,16 @@ impl Default for WhittedOptions {
 pub struct PathOptions {
     /// Bounce limit; `None` takes the scene's `max_depth` or 64.
     pub max_depth: Option<u32>,
+    /// Bounces after which Russian roulette may end a path; `None` takes the scene's
+    /// `rr_depth` setting or 3.
+    pub rr_depth: Option<u32>,
     /// With `hero:K`: the wavelength density.
     pub wavelength_pdf: WavelengthPdf,
 }
 
 impl Default for PathOptions {
     fn default() -> Self {
-        Self { max_depth: None, wavelength_pdf: WavelengthPdf::Illuminant }
+        Self { max_depth: None, rr_depth: None, wavelength_pdf: WavelengthPdf::Illuminant }
     }
 }
 

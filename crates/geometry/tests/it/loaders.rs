@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use geometry::{
-    AbsorptionDesc, Error, IorDesc, LightDesc, MaterialDesc, MaterialFormat, Scene, SceneDescription, SpectrumDesc,
-    load_scene, parse_manifest,
+    AbsorptionDesc, Error, IorDesc, LightDesc, LoadOptions, MaterialDesc, MaterialFormat, Scene, SceneDescription,
+    SpectrumDesc, load_scene, load_scene_with, parse_manifest,
 };
 use glam::Vec3;
 use serde_json::json;
@@ -547,4 +547,173 @@ fn gltf_primitive_without_material_gets_an_empty_gltf_material() {
     let m = d.meshes[0].material().unwrap_or_else(|| panic!("no material index")) as usize;
     assert_eq!(d.materials.len(), 1);
     assert_eq!(d.materials[m], MaterialDesc::new("gltf-default", MaterialFormat::Gltf));
+}
+
+// --- issue 16: bounded resources, hostile geometry, clear errors (each failed before the fix) ---
+
+/// A glTF whose `nodes` all instance mesh 0, whose POSITION accessor has `count` vertices without a buffer
+/// view (all zeros: free in file size, not in memory).
+fn shared_accessor_gltf(nodes: usize, count: usize) -> serde_json::Value {
+    json!({
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": (0..nodes).collect::<Vec<_>>()}],
+        "nodes": (0..nodes).map(|_| json!({"mesh": 0})).collect::<Vec<_>>(),
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "accessors": [{"componentType": 5126, "count": count, "type": "VEC3",
+                       "sparse": {"count": 1, "indices": {"bufferView": 0, "componentType": 5125},
+                                  "values": {"bufferView": 1}}}],
+        "bufferViews": [{"buffer": 0, "byteLength": 4}, {"buffer": 0, "byteOffset": 4, "byteLength": 12}],
+        "buffers": [{"uri": data_uri(&[0u8; 16]), "byteLength": 16}],
+    })
+}
+
+#[test]
+fn budget_is_per_scene_not_per_accessor_read() {
+    let dir = temp_dir("budget");
+    let options = LoadOptions { max_memory: 64 << 20, ..LoadOptions::default() };
+    // One node: ≈ 19 MB charged, within 64 MiB.
+    let one = write_gltf(&dir, "one.gltf", &shared_accessor_gltf(1, 99_999));
+    load_scene_with(&one, &options)
+        .map(|_| ())
+        .or_else(|e| match e {
+            // All its triangles are zero-area: loaded, then refused for having no geometry — not for memory.
+            Error::NoGeometry { .. } => Ok(()),
+            other => Err(other),
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+    // Fifty nodes sharing the accessor: each read is charged, the file is refused by name, with the budget.
+    let fifty = write_gltf(&dir, "fifty.gltf", &shared_accessor_gltf(50, 99_999));
+    assert!(std::fs::metadata(&fifty).map(|m| m.len()).unwrap_or(0) < 2000);
+    let e = load_scene_with(&fifty, &options).err().unwrap_or_else(|| panic!("loaded"));
+    let msg = e.to_string();
+    assert!(matches!(e, Error::OverBudget { limit, .. } if limit == 64 << 20), "{e:?}");
+    assert!(msg.contains("fifty.gltf") && msg.contains(&(64u64 << 20).to_string()), "{msg}");
+}
+
+#[test]
+fn devices_and_absolute_buffer_paths_are_refused() {
+    let dir = temp_dir("devices");
+    let doc = triangle_gltf(Some("/dev/zero"), 36, json!({}));
+    let path = write_gltf(&dir, "dev.gltf", &doc);
+    let (e, msg) = error_message(&path);
+    assert!(matches!(e, Error::AbsolutePath { .. }), "{e:?}");
+    assert!(msg.contains("/dev/zero"), "{msg}");
+    let allow = LoadOptions { allow_absolute_paths: true, ..LoadOptions::default() };
+    let e = load_scene_with(&path, &allow).err().unwrap_or_else(|| panic!("loaded"));
+    assert!(matches!(e, Error::NotRegularFile { .. }), "{e:?}");
+    // A spectrum CSV naming a device through a relative path is refused too.
+    let text = r#"{"materials": {"m": {"base_color": {"csv": "../../../../../../../../dev/zero"}}}}"#;
+    let e = parse_manifest(text, &dir, "m.json").err().unwrap_or_else(|| panic!("loaded"));
+    assert!(matches!(e, Error::NotRegularFile { .. }), "{e:?}");
+}
+
+#[test]
+fn coordinates_beyond_1e18_are_refused_naming_file_and_object() {
+    let dir = temp_dir("far");
+    let far: Vec<f32> = vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1e25, 1.0, 0.0];
+    let doc = triangle_gltf(Some(&data_uri(&f32_bytes(&far))), 36, json!({}));
+    let (e, msg) = error_message(&write_gltf(&dir, "far.gltf", &doc));
+    assert!(matches!(e, Error::CoordinateTooLarge { vertex: 2, .. }), "{e:?}");
+    assert!(msg.contains("meshes[0]"), "{msg}");
+    let (e, msg) = error_message(&write(&dir, "far.obj", b"o big\nv 0 0 0\nv 1 0 0\nv 0 2e18 0\nf 1 2 3\n"));
+    assert!(matches!(e, Error::CoordinateTooLarge { .. }) && msg.contains("big"), "{msg}");
+    let text = r#"{"objects": [{"type": "sphere", "center": [1e25, 0, 0], "radius": 1}]}"#;
+    let e = parse_manifest(text, &dir, "m.json").err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(e.contains("m.json") && e.contains("objects[0]"), "{e}");
+    // A valid file pushed far away by the manifest's transform.
+    write(&dir, "t.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let text = r#"{"objects": [{"type": "mesh", "file": "t.obj", "transform": {"translate": [2e18, 0, 0]}}]}"#;
+    let e = parse_manifest(text, &dir, "m.json").err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(e.contains("m.json") && e.contains("objects[0]") && e.contains("t.obj"), "{e}");
+}
+
+#[test]
+fn zero_area_and_duplicate_triangles_are_removed_before_the_build() {
+    let dir = temp_dir("degenerate");
+    // 20 000 copies of one triangle plus 20 000 triangles with all three vertices equal.
+    let mut obj = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for _ in 0..20_000 {
+        obj.push_str("f 1 2 3\nf 1 1 1\n");
+    }
+    let d = load_scene(&write(&dir, "dup.obj", obj.as_bytes())).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes.iter().map(|m| m.triangle_count()).sum::<usize>(), 1);
+    assert!(d.warnings.iter().any(|w| w.contains("20000 zero-area and 19999 duplicate")), "{:?}", d.warnings);
+    // Only zero-area triangles: nothing to render is an error, not a blank image.
+    let (e, _) = error_message(&write(&dir, "flat.obj", b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n"));
+    assert!(matches!(e, Error::NoGeometry { .. }), "{e:?}");
+}
+
+#[test]
+fn empty_or_garbage_obj_is_a_no_geometry_error() {
+    let dir = temp_dir("empty-obj");
+    let (e, msg) = error_message(&write(&dir, "empty.obj", b""));
+    assert!(matches!(e, Error::NoGeometry { .. }) && msg.contains("empty"), "{msg}");
+    let (e, msg) = error_message(&write(&dir, "garbage.obj", b"hello world\nthis is not an obj\n"));
+    assert!(matches!(e, Error::NoGeometry { .. }) && msg.contains("not OBJ statements"), "{msg}");
+}
+
+#[test]
+fn manifest_with_a_utf8_bom_loads() {
+    let dir = temp_dir("bom");
+    let path = write(
+        &dir,
+        "bom.json",
+        "\u{feff}{\"objects\": [{\"type\": \"sphere\", \"center\": [0,0,0], \"radius\": 1}]}".as_bytes(),
+    );
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.spheres.len(), 1);
+}
+
+#[test]
+fn negative_gltf_ior_is_warned_not_silently_replaced() {
+    let dir = temp_dir("neg-ior");
+    let doc = triangle_gltf(
+        Some(&data_uri(&f32_bytes(&TRIANGLE))),
+        36,
+        json!({"materials": [{"name": "bad", "extensions": {"KHR_materials_ior": {"ior": -1.0}}}],
+               "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+               "extensionsUsed": ["KHR_materials_ior"]}),
+    );
+    let d = load_scene(&write_gltf(&dir, "n.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.materials[0].ior, None);
+    assert!(d.warnings.iter().any(|w| w.contains("n.gltf") && w.contains("-1")), "{:?}", d.warnings);
+}
+
+#[test]
+fn missing_mesh_names_the_manifest_and_the_object() {
+    let dir = temp_dir("missing-mesh");
+    let text = r#"{"objects": [{"type": "sphere", "center": [0,0,0], "radius": 1},
+                              {"type": "mesh", "file": "nowhere.obj"}]}"#;
+    let e = parse_manifest(text, &dir, "scene.json").err().unwrap_or_else(|| panic!("loaded"));
+    let msg = e.to_string();
+    assert!(matches!(e, Error::IncludedFile { .. }), "{e:?}");
+    assert!(msg.contains("scene.json") && msg.contains("objects[1]") && msg.contains("nowhere.obj"), "{msg}");
+}
+
+/// The malformed files of /work/shared/real_assets/robustness (third-party, read only): none may panic.
+#[test]
+fn robustness_corpus_never_panics() {
+    let dir = Path::new("/work/shared/real_assets/robustness");
+    if !dir.is_dir() {
+        eprintln!("skipped: {} is absent", dir.display());
+        return;
+    }
+    let mut files = Vec::new();
+    all_scene_files(dir, &mut files);
+    let mut count = 0;
+    for path in files {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or_default().to_ascii_lowercase();
+        if !matches!(ext.as_str(), "gltf" | "glb" | "obj") {
+            continue;
+        }
+        count += 1;
+        let result =
+            std::panic::catch_unwind(|| load_scene(&path).and_then(|d| Scene::build(d.spheres, d.meshes)).map(|_| ()));
+        match result {
+            Err(_) => panic!("{}: panicked", path.display()),
+            Ok(Err(e @ Error::ParserPanic { .. })) => panic!("{e}"),
+            Ok(_) => {}
+        }
+    }
+    assert!(count > 0);
 }
