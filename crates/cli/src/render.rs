@@ -136,7 +136,7 @@ fn parse_range(s: &str) -> Result<std::ops::Range<u32>, String> {
 
 fn parse_interval(s: &str) -> Result<std::time::Duration, String> {
     match s.parse::<f64>() {
-        Ok(v) if v.is_finite() && v >= 0.0 && v < 1e9 => Ok(std::time::Duration::from_secs_f64(v)),
+        Ok(v) if (0.0..1e9).contains(&v) => Ok(std::time::Duration::from_secs_f64(v)),
         _ => Err(format!("expected a number of seconds >= 0, got `{s}`")),
     }
 }
