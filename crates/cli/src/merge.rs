@@ -64,15 +64,19 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
     integrator::check_distinct_outputs(&paths)?;
 
     let start = Instant::now();
-    let parts = args
-        .parts
-        .iter()
-        .map(|path| Ok((path.clone(), FilmFile::read(path)?)))
-        .collect::<integrator::Result<Vec<_>>>()?;
+    // One part at a time: only the sum and the part being added are in memory.
+    let mut merger = integrator::Merger::new();
+    let (mut read, mut merge) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
+    for path in &args.parts {
+        let t = Instant::now();
+        let part = FilmFile::read(path)?;
+        read += t.elapsed();
+        let t = Instant::now();
+        merger.add(path.clone(), part)?;
+        merge += t.elapsed();
+    }
     let bytes_read: u64 = args.parts.iter().filter_map(|p| std::fs::metadata(p).ok()).map(|m| m.len()).sum();
-    let read = start.elapsed();
-    let merged = integrator::merge_parts(parts)?;
-    let merge = start.elapsed() - read;
+    let merged = merger.finish()?;
     if !merged.is_complete() {
         let gaps = merged.gaps().join("\n  ");
         if !args.allow_gaps {
@@ -98,7 +102,7 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
         }
         image.write_outputs(&outputs).context("writing the outputs (none was written)")?;
     }
-    let write = start.elapsed() - read - merge;
+    let write = start.elapsed().saturating_sub(read + merge);
     if !args.quiet {
         let mut written: Vec<String> = outputs.iter().map(|o| o.path.display().to_string()).collect();
         written.extend(args.film.iter().map(|p| p.display().to_string()));

@@ -311,8 +311,11 @@ impl FilmFile {
             }
             sums.push(PixelSums { xyz: [v[0], v[1], v[2]], y2: v[3], count });
         }
-        let ids = (0..n).map(|_| r.u32().map(id_from_code)).collect::<Option<Vec<_>>>().ok_or_else(truncated)?;
-        let spectral = (0..n * p.lanes).map(|_| r.i128()).collect::<Option<Vec<_>>>().ok_or_else(truncated)?;
+        let ids = r.take(4 * n).ok_or_else(truncated)?;
+        let ids = ids.chunks_exact(4).map(|b| id_from_code(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))).collect();
+        let spectral = r.take(16 * n * p.lanes).ok_or_else(truncated)?;
+        let spectral =
+            spectral.chunks_exact(16).map(|b| i128::from_le_bytes(b.try_into().unwrap_or_default())).collect();
         let film = Film {
             width: p.width,
             height: p.height,
@@ -415,104 +418,137 @@ impl Merged {
     }
 }
 
-/// Merge the films of disjoint sample ranges of one render. Refuses parts of different
-/// scenes, options, seeds, sizes or wavelengths, and overlapping ranges (each error names the
-/// two files); samples no part covers are reported in [`Merged::missing`], not refused.
+fn mismatch(path: &Path, other: &Path, message: String) -> Error {
+    Error::FilmMismatch { path: path.to_owned(), other: other.to_owned(), message }
+}
+
+/// Merges the films of disjoint sample ranges of one render, one at a time (so only the sum
+/// and the part being added are in memory). Refuses parts of different scenes, options,
+/// seeds, sizes, spectral modes or program versions when they are added, and overlapping
+/// ranges when finished (each error names the two files); samples no part covers are
+/// reported in [`Merged::missing`], not refused.
+#[derive(Debug, Default)]
+pub struct Merger {
+    /// The sum so far, and the first part's path (what later parts are compared with).
+    sum: Option<(PathBuf, FilmFile)>,
+    /// Every part's path, range, and fewest and most samples held.
+    ranges: Vec<(PathBuf, Range<u32>, u32, u32)>,
+}
+
+impl Merger {
+    /// An empty merge.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Add one part.
+    pub fn add(&mut self, path: PathBuf, part: FilmFile) -> Result<()> {
+        let range =
+            (path.clone(), part.header.samples.clone(), part.film.min_sample_count(), part.film.max_sample_count());
+        match &mut self.sum {
+            None => self.sum = Some((path, part)),
+            Some((first_path, sum)) => {
+                let (h, reference) = (&part.header, &sum.header);
+                let size = (sum.film.width, sum.film.height);
+                if h.scene_hash != reference.scene_hash {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("a different scene (digest {:016x}, not {:016x})", h.scene_hash, reference.scene_hash),
+                    ));
+                }
+                if h.options != reference.options {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("other options (`{}`, not `{}`)", h.options, reference.options),
+                    ));
+                }
+                if h.seed != reference.seed {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("another seed ({}, not {})", h.seed, reference.seed),
+                    ));
+                }
+                if h.spectral != reference.spectral || (part.film.width, part.film.height) != size {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!(
+                            "another size or spectral mode ({}x{} {}, not {}x{} {})",
+                            part.film.width, part.film.height, h.spectral, size.0, size.1, reference.spectral
+                        ),
+                    ));
+                }
+                if h.writer != reference.writer {
+                    // Same options and scene but another build: the numbers may differ.
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("another program ({}, not {})", h.writer, reference.writer),
+                    ));
+                }
+                sum.film.merge(&part.film).map_err(|e| mismatch(&path, first_path, e.to_string()))?;
+            }
+        }
+        self.ranges.push(range);
+        Ok(())
+    }
+
+    /// The merged film, once the ranges are checked to be disjoint.
+    pub fn finish(self) -> Result<Merged> {
+        let Some((_, mut file)) = self.sum else {
+            return Err(Error::InvalidOption {
+                option: "films to merge",
+                value: "none".to_owned(),
+                expected: "one or more",
+            });
+        };
+        let mut ranges = self.ranges;
+        ranges.sort_by_key(|(_, r, ..)| (r.start, r.end));
+        for pair in ranges.windows(2) {
+            let ((pa, a, ..), (pb, b, ..)) = (&pair[0], &pair[1]);
+            if b.start < a.end {
+                return Err(mismatch(
+                    pb,
+                    pa,
+                    format!(
+                        "overlapping sample ranges ({}..{} and {}..{}): a sample would be counted twice",
+                        b.start, b.end, a.start, a.end
+                    ),
+                ));
+            }
+        }
+        let spp = file.header.spp;
+        let mut missing = Vec::new();
+        let mut covered = 0;
+        for (_, r, ..) in &ranges {
+            if r.start > covered {
+                missing.push(covered..r.start);
+            }
+            covered = r.end;
+        }
+        if covered < spp {
+            missing.push(covered..spp);
+        }
+        let incomplete = ranges
+            .iter()
+            .filter(|(_, r, lo, _)| *lo < r.len() as u32)
+            .map(|(path, r, lo, hi)| (path.clone(), *lo, *hi, r.len() as u32))
+            .collect();
+        file.header.samples = ranges[0].1.start..ranges[ranges.len() - 1].1.end;
+        Ok(Merged { file, missing, incomplete })
+    }
+}
+
+/// Merge the films of disjoint sample ranges of one render (see [`Merger`]).
 pub fn merge_parts(parts: Vec<(PathBuf, FilmFile)>) -> Result<Merged> {
-    let mismatch = |path: &Path, other: &Path, message: String| Error::FilmMismatch {
-        path: path.to_owned(),
-        other: other.to_owned(),
-        message,
-    };
-    let mut parts = parts;
-    let Some((first_path, first)) = parts.first() else {
-        return Err(Error::InvalidOption {
-            option: "films to merge",
-            value: "none".to_owned(),
-            expected: "one or more",
-        });
-    };
-    let (first_path, reference) = (first_path.clone(), first.header.clone());
-    let size = (first.film.width, first.film.height);
-    for (path, part) in &parts[1..] {
-        let h = &part.header;
-        if h.scene_hash != reference.scene_hash {
-            return Err(mismatch(
-                path,
-                &first_path,
-                format!("a different scene (digest {:016x}, not {:016x})", h.scene_hash, reference.scene_hash),
-            ));
-        }
-        if h.options != reference.options {
-            return Err(mismatch(
-                path,
-                &first_path,
-                format!("other options (`{}`, not `{}`)", h.options, reference.options),
-            ));
-        }
-        if h.seed != reference.seed {
-            return Err(mismatch(path, &first_path, format!("another seed ({}, not {})", h.seed, reference.seed)));
-        }
-        if h.spectral != reference.spectral || (part.film.width, part.film.height) != size {
-            return Err(mismatch(
-                path,
-                &first_path,
-                format!(
-                    "another size or spectral mode ({}x{} {}, not {}x{} {})",
-                    part.film.width, part.film.height, h.spectral, size.0, size.1, reference.spectral
-                ),
-            ));
-        }
-        if h.writer != reference.writer {
-            // Same options and scene but another build: the numbers may differ.
-            return Err(mismatch(
-                path,
-                &first_path,
-                format!("another program ({}, not {})", h.writer, reference.writer),
-            ));
-        }
+    let mut merger = Merger::new();
+    for (path, part) in parts {
+        merger.add(path, part)?;
     }
-    parts.sort_by_key(|(_, p)| (p.header.samples.start, p.header.samples.end));
-    for pair in parts.windows(2) {
-        let ((pa, a), (pb, b)) = (&pair[0], &pair[1]);
-        if b.header.samples.start < a.header.samples.end {
-            return Err(mismatch(
-                pb,
-                pa,
-                format!(
-                    "overlapping sample ranges ({}..{} and {}..{}): a sample would be counted twice",
-                    b.header.samples.start, b.header.samples.end, a.header.samples.start, a.header.samples.end
-                ),
-            ));
-        }
-    }
-    let mut missing = Vec::new();
-    let mut covered = 0;
-    for (_, p) in &parts {
-        if p.header.samples.start > covered {
-            missing.push(covered..p.header.samples.start);
-        }
-        covered = p.header.samples.end;
-    }
-    if covered < reference.spp {
-        missing.push(covered..reference.spp);
-    }
-    let incomplete = parts
-        .iter()
-        .filter(|(_, p)| !p.is_complete())
-        .map(|(path, p)| {
-            (path.clone(), p.film.min_sample_count(), p.film.max_sample_count(), p.header.samples.len() as u32)
-        })
-        .collect();
-    let start = parts[0].1.header.samples.start;
-    let end = parts[parts.len() - 1].1.header.samples.end;
-    let mut iter = parts.into_iter();
-    let (_, mut merged) = iter.next().unwrap_or_else(|| unreachable!("checked non-empty"));
-    for (path, part) in iter {
-        merged.film.merge(&part.film).map_err(|e| mismatch(&path, &first_path, e.to_string()))?;
-    }
-    merged.header.samples = start..end;
-    Ok(Merged { file: merged, missing, incomplete })
+    merger.finish()
 }
 
 #[cfg(test)]

@@ -42,7 +42,7 @@ mod whitted;
 pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
 pub use error::{Error, Result};
 pub use film::{Display, Film, Image, ObjectId};
-pub use film_file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, merge_parts};
+pub use film_file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Merger, merge_parts};
 pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};
 pub use render::{
     Ambient, Checkpoint, DEFAULT_K_A, Integrator, IntegratorKind, MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES,
