@@ -1,4 +1,5 @@
 //! End-to-end tests of the `spectrace` binary.
 mod color;
+mod farm;
 mod fuzz_replay;
 mod render;

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn spectrace() -> Command {
+pub(crate) fn spectrace() -> Command {
     Command::new(env!("CARGO_BIN_EXE_spectrace"))
 }
 
@@ -26,7 +26,7 @@ fn listing(dir: &Path) -> Vec<std::ffi::OsString> {
 /// Runs `spectrace <args>` in `dir`, which must refuse it: exit code `code` (1 for a refused
 /// run, 2 for an argument clap rejects), each of `needles` in stderr, and nothing in `dir`
 /// that was not there before. Returns stderr.
-fn refused(dir: &Path, args: &[&str], code: i32, needles: &[&str]) -> String {
+pub(crate) fn refused(dir: &Path, args: &[&str], code: i32, needles: &[&str]) -> String {
     let before = listing(dir);
     let output = spectrace().current_dir(dir).args(args).output().unwrap();
     let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
@@ -38,7 +38,7 @@ fn refused(dir: &Path, args: &[&str], code: i32, needles: &[&str]) -> String {
     stderr
 }
 
-fn repo(path: &str) -> PathBuf {
+pub(crate) fn repo(path: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..").join(path)
 }
 

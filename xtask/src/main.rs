@@ -8,8 +8,11 @@
 //! - `validate`: the validation suite (colorimetry, analytic renders, hard cases, speed against error, `auto` on absorbing glass, scaling; `--only PART,…` for some of them).
 //! - `paper`: the paper's figures 8–11 as side-by-side renders with their backing numbers.
 //! - `exr-diff`: the largest difference between two EXR files (refactorings must move no number).
+//! - `farm`: a render split into parts (separate processes or a Slurm job array), merged, and
+//!   compared byte for byte with the single render.
 
 mod exr_diff;
+mod farm;
 mod paper;
 mod stats;
 mod upsampling;
@@ -38,6 +41,9 @@ enum Command {
     Validate(validate::ValidateArgs),
     /// The largest difference between two EXR files of the same layout.
     ExrDiff(exr_diff::ExrDiffArgs),
+    /// Render in parts (`--engine local` processes or a `slurm` job array), merge, compare
+    /// byte for byte with one render, and time it.
+    Farm(farm::FarmArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -47,6 +53,7 @@ fn main() -> anyhow::Result<()> {
         Command::Paper(args) => paper::run(&args),
         Command::Validate(args) => validate::run(&args),
         Command::ExrDiff(args) => exr_diff::run(&args),
+        Command::Farm(args) => farm::run(&args),
     }
 }
 

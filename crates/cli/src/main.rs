@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 
 mod color;
 mod info;
+mod merge;
 mod render;
 
 /// A spectral ray tracer: every ray carries a spectrum, not three RGB numbers.
@@ -24,6 +25,9 @@ struct Cli {
 enum Command {
     /// Render a scene (default: the paper's five spheres) to EXR and PNG.
     Render(render::RenderArgs),
+    /// Merge the film files of a render's parts (`render --part K/M --film`) into its images,
+    /// bit for bit those of the whole render.
+    Merge(merge::MergeArgs),
     /// Print a JSON summary of a scene: geometry, materials, lights, and what it needs.
     Info(info::InfoArgs),
     /// Compute XYZ, chromaticity and sRGB of spectra in a CSV file.
@@ -34,6 +38,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render::run(&args),
+        Command::Merge(args) => merge::run(&args),
         Command::Info(args) => info::run(&args),
         Command::Color(args) => color::run(&args),
     };

@@ -17,9 +17,10 @@ pub(crate) struct RenderArgs {
     /// Scene file: a manifest (.json), glTF (.gltf/.glb) or OBJ (.obj). Without it, the
     /// paper's five transparent spheres are rendered.
     scene: Option<PathBuf>,
-    /// Output EXR (linear RGB); a display-encoded PNG of the same name is written beside it.
-    #[arg(short, long, default_value = "render.exr")]
-    output: PathBuf,
+    /// Output EXR (linear RGB); a display-encoded PNG of the same name is written beside it
+    /// [default: render.exr, none when --film is given].
+    #[arg(short, long)]
+    output: Option<PathBuf>,
     /// Image width in pixels [default: the scene's, else 640].
     #[arg(long)]
     width: Option<u32>,
@@ -81,7 +82,67 @@ pub(crate) struct RenderArgs {
     #[arg(short, long)]
     quiet: bool,
     #[command(flatten)]
+    parts: PartArgs,
+    #[command(flatten)]
     load: LoadArgs,
+}
+
+/// Rendering a part of a render, checkpoints and resuming (docs/film-format.md).
+#[derive(Debug, clap::Args)]
+pub(crate) struct PartArgs {
+    /// Render part K of M of the samples (K = 1..M, e.g. a Slurm array task id); needs --film.
+    /// Merge the parts with `spectrace merge`.
+    #[arg(long, value_name = "K/M", value_parser = parse_part, conflicts_with = "samples")]
+    part: Option<(u32, u32)>,
+    /// Render only the sample indices A..B (A included, B not) of the --spp; needs --film.
+    #[arg(long, value_name = "A..B", value_parser = parse_range)]
+    samples: Option<std::ops::Range<u32>>,
+    /// Write the film (exact per-pixel sums, mergeable and resumable) to this file.
+    #[arg(long, value_name = "FILE.film")]
+    film: Option<PathBuf>,
+    /// Keep per-wavelength sums in the film, so `spectrace merge --spectral-exr` can write a
+    /// spectral image (fixed wavelengths only; implied by --spectral-exr).
+    #[arg(long)]
+    spectral_film: bool,
+    /// Write the film to this file periodically (and when the render ends or its time limit
+    /// is up), so a killed render can be resumed with --resume FILE.
+    #[arg(long, value_name = "FILE.film")]
+    checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoints (0: after every pass of one sample per pixel).
+    #[arg(long, value_name = "SECONDS", default_value = "60", value_parser = parse_interval)]
+    checkpoint_every: std::time::Duration,
+    /// Continue the render whose film (a checkpoint, or a --film of a time-limited render) is
+    /// this file; the scene and options must be the same. The result is bit for bit the
+    /// uninterrupted render's.
+    #[arg(long, value_name = "FILE.film")]
+    resume: Option<PathBuf>,
+}
+
+fn parse_part(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected K/M with 1 <= K <= M (e.g. 3/8), got `{s}`");
+    let (k, m) = s.split_once('/').ok_or_else(bad)?;
+    let (k, m) = (k.trim().parse::<u32>().map_err(|_| bad())?, m.trim().parse::<u32>().map_err(|_| bad())?);
+    if k == 0 || k > m {
+        return Err(bad());
+    }
+    Ok((k, m))
+}
+
+fn parse_range(s: &str) -> Result<std::ops::Range<u32>, String> {
+    let bad = || format!("expected A..B with A < B (e.g. 0..16), got `{s}`");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let (a, b) = (a.trim().parse::<u32>().map_err(|_| bad())?, b.trim().parse::<u32>().map_err(|_| bad())?);
+    if a >= b {
+        return Err(bad());
+    }
+    Ok(a..b)
+}
+
+fn parse_interval(s: &str) -> Result<std::time::Duration, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (0.0..1e9).contains(&v) => Ok(std::time::Duration::from_secs_f64(v)),
+        _ => Err(format!("expected a number of seconds >= 0, got `{s}`")),
+    }
 }
 
 /// What a scene may cost to load (shared by `render` and `info`).
@@ -158,31 +219,61 @@ fn check_limits(options: &RenderOptions, args: &RenderArgs) -> anyhow::Result<()
 static WRITING: AtomicBool = AtomicBool::new(false);
 
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
-    let png = png_path(&args.output)?;
+    let parts = &args.parts;
+    // Images are written unless only a film is asked for.
+    let image_path = match (&args.output, &parts.film) {
+        (Some(path), _) => Some(path.clone()),
+        (None, None) => Some(PathBuf::from("render.exr")),
+        (None, Some(_)) => None,
+    };
+    let samples = match (parts.part, &parts.samples) {
+        (Some((k, m)), _) => Some(integrator::part_samples(k, m, args.spp).context("--part")?),
+        (None, Some(range)) => Some(range.clone()),
+        (None, None) => None,
+    };
+    if let Some(range) = &samples {
+        if parts.film.is_none() {
+            anyhow::bail!(
+                "--part/--samples render only samples {}..{} of {}: give --film PART.film and merge the parts with `spectrace merge`",
+                range.start,
+                range.end,
+                args.spp
+            );
+        }
+        if range.end > args.spp {
+            anyhow::bail!("--samples {}..{} is beyond --spp {}", range.start, range.end, args.spp);
+        }
+    }
+    if args.spectral_exr.is_some() && image_path.is_none() {
+        anyhow::bail!("--spectral-exr needs an image (-o); to keep the spectrum in the film, use --spectral-film");
+    }
+    let mut outputs = Vec::new();
+    let mut png = None;
+    if let Some(output) = &image_path {
+        let p = png_path(output)?;
+        outputs.push(OutputFile { path: output.clone(), kind: OutputKind::Exr(args.display) });
+        outputs.push(OutputFile { path: p.clone(), kind: OutputKind::Png(args.display) });
+        png = Some(p);
+    }
     if let Some(path) = &args.spectral_exr
         && !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"))
     {
         anyhow::bail!("{}: the spectral image must end in .exr", path.display());
     }
-    let mut outputs = vec![
-        OutputFile { path: args.output.clone(), kind: OutputKind::Exr(args.display) },
-        OutputFile { path: png.clone(), kind: OutputKind::Png(args.display) },
-    ];
     if let Some(path) = &args.spectral_exr {
         outputs.push(OutputFile { path: path.clone(), kind: OutputKind::SpectralExr });
     }
     // Before loading or rendering anything: two outputs on one path would replace each other.
-    let paths: Vec<&Path> = outputs.iter().map(|o| o.path.as_path()).collect();
-    integrator::check_distinct_outputs(&paths).map_err(|e| match e {
-        integrator::Error::Write { path, message } => {
-            anyhow::anyhow!(
-                "{}: {message} (-o {} also writes {})",
-                path.display(),
-                args.output.display(),
-                png.display()
-            )
+    let mut paths: Vec<&Path> = outputs.iter().map(|o| o.path.as_path()).collect();
+    paths.extend(parts.film.as_deref());
+    if parts.checkpoint != parts.film {
+        paths.extend(parts.checkpoint.as_deref());
+    }
+    integrator::check_distinct_outputs(&paths).map_err(|e| match (e, &image_path, &png) {
+        (integrator::Error::Write { path, message }, Some(output), Some(png)) => {
+            anyhow::anyhow!("{}: {message} (-o {} also writes {})", path.display(), output.display(), png.display())
         }
-        other => other.into(),
+        (other, ..) => other.into(),
     })?;
 
     let scene = match &args.scene {
@@ -215,13 +306,21 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         integrator,
         spectral: args.spectral,
         spp: args.spp,
-        samples: None,
+        samples,
         seed: args.seed,
         time_limit: args.time_limit,
         threads: args.threads,
-        spectral_film: args.spectral_exr.is_some(),
+        spectral_film: args.spectral_exr.is_some() || parts.spectral_film,
     };
     check_limits(&options, args)?;
+    let header = integrator::FilmHeader::new(&scene, &options, integrator::resolved_spectral(&scene, &options)?);
+    let resume = match &parts.resume {
+        Some(path) => {
+            let file = integrator::FilmFile::read(path)?;
+            Some(file.resumable(&header, options.width, options.height, path)?)
+        }
+        None => None,
+    };
 
     let cancel = Arc::new(AtomicBool::new(false));
     {
@@ -249,12 +348,28 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         let secs = p.elapsed.as_secs_f64().max(1e-9);
         bar.set_message(format!("{:.2} Mrays/s", p.rays as f64 / secs / 1e6));
     };
-    let result = integrator::render(&scene, &options, &report, &cancel);
+    let write_checkpoint = |film: &integrator::Film| -> integrator::Result<()> {
+        match &parts.checkpoint {
+            Some(path) => header.write_film(film, path),
+            None => Ok(()),
+        }
+    };
+    let checkpoint = parts
+        .checkpoint
+        .as_ref()
+        .map(|_| integrator::Checkpoint { every: parts.checkpoint_every, write: &write_checkpoint });
+    let control = integrator::RenderControl { progress: &report, cancel: &cancel, resume, checkpoint };
+    let result = integrator::render_film_with(&scene, &options, control);
     bar.finish_and_clear();
-    let (image, stats) = match result {
+    let (film, stats) = match result {
         Err(integrator::Error::Cancelled) => cancelled(),
         other => other?,
     };
+    // The film first: it is what a time-limited or partial render is for.
+    for path in [&parts.film, &parts.checkpoint].into_iter().flatten() {
+        header.write_film(&film, path).context("writing the film")?;
+    }
+    let image = film.to_image();
 
     // Set before checking `cancel`, as the handler sets `cancel` before checking this: a
     // signal arriving now is seen by one side or the other (or both, which is harmless).
@@ -263,20 +378,27 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         cancelled();
     }
     // All or nothing: every file is written to a temporary and fsynced, then all are renamed.
-    image.write_outputs(&outputs).context("writing the outputs (none was written)")?;
+    if !outputs.is_empty() {
+        image.write_outputs(&outputs).context("writing the outputs (none was written)")?;
+    }
     WRITING.store(false, Ordering::SeqCst);
     if !args.quiet {
         let secs = stats.elapsed.as_secs_f64();
-        let mut written = format!("{}, {}", args.output.display(), png.display());
-        if let Some(path) = &args.spectral_exr {
-            written.push_str(&format!(", {}", path.display()));
-        }
+        let mut written: Vec<String> = outputs.iter().map(|o| o.path.display().to_string()).collect();
+        written.extend([&parts.film, &parts.checkpoint].into_iter().flatten().map(|p| p.display().to_string()));
+        written.dedup();
+        let written = written.join(", ");
+        let range = header.samples.clone();
+        let spp = if range.len() as u32 == options.spp {
+            format!("{} spp", stats.spp)
+        } else {
+            format!("{} spp (samples {}..{} of {})", stats.spp, range.start, range.end, options.spp)
+        };
         eprintln!(
-            "spectrace: {}x{} {} {} spp in {:.3} s ({} rays, {:.2} Mrays/s, {} non-finite samples) -> {written}",
+            "spectrace: {}x{} {} {spp} in {:.3} s ({} rays, {:.2} Mrays/s, {} non-finite samples) -> {written}",
             options.width,
             options.height,
             stats.spectral,
-            stats.spp,
             secs,
             stats.rays,
             stats.rays as f64 / secs.max(1e-9) / 1e6,

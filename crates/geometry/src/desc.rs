@@ -403,6 +403,11 @@ pub struct SceneDescription {
     pub settings: serde_json::Map<String, serde_json::Value>,
     /// Things the user should know: skipped primitives, ignored textures, defaults added.
     pub warnings: Vec<String>,
+    /// Digest (XXH64) of the bytes of every file read to build the description, the scene file
+    /// and each file it refers to, in the order read (not their paths, so a moved scene keeps
+    /// it); 0 for a description built in code. Film files record it so that parts rendered
+    /// on different machines are known to come from the same scene.
+    pub source_hash: u64,
 }
 
 impl SceneDescription {
@@ -418,6 +423,7 @@ impl SceneDescription {
             background: None,
             settings: serde_json::Map::new(),
             warnings: Vec::new(),
+            source_hash: 0,
         }
     }
 

@@ -43,6 +43,7 @@ pub use simd::SimdLevel;
 mod desc;
 mod forms;
 mod gltf_loader;
+mod hash;
 mod limits;
 mod load;
 mod manifest;
@@ -52,5 +53,6 @@ pub use desc::{
     AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
     SceneDescription, SceneFormat, SpectrumDesc,
 };
+pub use hash::xxh64;
 pub use limits::{DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};
 pub use load::{load_scene, load_scene_with, parse_manifest, parse_manifest_with};

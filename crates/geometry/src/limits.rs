@@ -59,11 +59,13 @@ impl Default for LoadOptions {
 pub(crate) struct Budget {
     pub(crate) options: LoadOptions,
     used: Cell<u64>,
+    /// (length, XXH64) of every file read, in order: the scene's content digest.
+    sources: std::cell::RefCell<Vec<(u64, u64)>>,
 }
 
 impl Budget {
     pub(crate) fn new(options: LoadOptions) -> Self {
-        Self { options, used: Cell::new(0) }
+        Self { options, used: Cell::new(0), sources: std::cell::RefCell::new(Vec::new()) }
     }
 
     /// A budget with the default memory limit that also allows absolute paths (for unit tests, whose inputs
@@ -121,7 +123,22 @@ impl Budget {
         // The file may have grown between the check and the read; charge the difference.
         let extra = (bytes.len() as u64).saturating_sub(size);
         self.charge(referrer, || format!("reading {}", file.display()), extra)?;
+        self.record(&bytes);
         Ok(bytes)
+    }
+
+    /// Adds `bytes` (a file read, or a manifest given as text) to the scene's content digest.
+    pub(crate) fn record(&self, bytes: &[u8]) {
+        self.sources.borrow_mut().push((bytes.len() as u64, crate::hash::xxh64(bytes, 0)));
+    }
+
+    /// The digest of everything recorded: XXH64 over each input's length and digest, in the
+    /// order read. Paths are left out, so a scene folder moved or copied to another machine
+    /// keeps its digest; any changed byte of any file changes it.
+    pub(crate) fn content_hash(&self) -> u64 {
+        let bytes: Vec<u8> =
+            self.sources.borrow().iter().flat_map(|(n, h)| [n.to_le_bytes(), h.to_le_bytes()]).flatten().collect();
+        crate::hash::xxh64(&bytes, 0)
     }
 
     /// Checks that `file` is a regular file of at most `max_bytes` (without reading it); returns its size.

@@ -54,7 +54,8 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<SceneDescri
         "obj" => crate::obj_loader::load_obj_file(path, &budget)?,
         _ => return Err(Error::UnsupportedFormat { path: path.to_path_buf(), extension }),
     };
-    let desc = finish(desc, &path.display().to_string());
+    let mut desc = finish(desc, &path.display().to_string());
+    desc.source_hash = budget.content_hash();
     if extension == "json" { Ok(desc) } else { require_geometry(desc, path) }
 }
 
@@ -82,7 +83,10 @@ pub fn parse_manifest_with(
     options: &LoadOptions,
 ) -> Result<SceneDescription> {
     let budget = Budget::new(*options);
-    Ok(finish(manifest(text, base_dir, origin, &budget)?, origin))
+    budget.record(text.as_bytes());
+    let mut desc = finish(manifest(text, base_dir, origin, &budget)?, origin);
+    desc.source_hash = budget.content_hash();
+    Ok(desc)
 }
 
 fn manifest(text: &str, base_dir: &Path, origin: &str, budget: &Budget) -> Result<SceneDescription> {

@@ -38,6 +38,8 @@ pub struct RenderScene {
     pub(crate) light_descs: Vec<LightDesc>,
     /// Notes for the user (defaults that were filled in), printed by the CLI.
     pub warnings: Vec<String>,
+    /// Digest of the scene's files ([`SceneDescription::source_hash`]).
+    pub(crate) source_hash: u64,
 }
 
 impl RenderScene {
@@ -81,6 +83,7 @@ impl RenderScene {
             background,
             settings,
             mut warnings,
+            source_hash,
         } = desc;
         let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
         warn_unused_keys(&material_descs, &mut warnings);
@@ -162,6 +165,7 @@ impl RenderScene {
             settings,
             light_descs,
             warnings,
+            source_hash,
         };
         scene.emitters = Emitters::new(
             &scene.lights,
@@ -179,6 +183,12 @@ impl RenderScene {
             geometry::Primitive::Sphere { index } => self.geometry.spheres().get(index as usize)?.material(),
             geometry::Primitive::Triangle { mesh, .. } => self.geometry.meshes().get(mesh as usize)?.material(),
         }
+    }
+
+    /// Digest (XXH64) of the bytes of the scene file and every file it refers to; film files
+    /// record it so that parts are known to come from the same scene.
+    pub fn source_hash(&self) -> u64 {
+        self.source_hash
     }
 
     /// The image size the scene asks for (the paper's 640×480 if it does not say).

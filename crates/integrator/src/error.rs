@@ -116,6 +116,25 @@ pub enum Error {
         /// What went wrong.
         message: String,
     },
+    /// A film file that cannot be read or used: not a film file, another format version,
+    /// truncated, corrupted (checksum), or not the render it is resumed for.
+    #[error("{}: {message}", path.display())]
+    FilmFile {
+        /// The film file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// Two film files that are not parts of one render, or whose sample ranges overlap.
+    #[error("{}: cannot merge with {}: {message}", path.display(), other.display())]
+    FilmMismatch {
+        /// The film file refused.
+        path: PathBuf,
+        /// The film file it was compared with.
+        other: PathBuf,
+        /// How they differ.
+        message: String,
+    },
     /// A thread pool could not be created.
     #[error("thread pool: {0}")]
     ThreadPool(String),

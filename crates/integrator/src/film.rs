@@ -146,30 +146,30 @@ fn from_fixed(sum: i128, bits: i32) -> f64 {
 
 /// One pixel's sums: Σ X, Σ Y, Σ Z, Σ Y² (fixed point) and the number of samples.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-struct PixelSums {
-    xyz: [i128; 3],
-    y2: i128,
-    count: u32,
+pub(crate) struct PixelSums {
+    pub(crate) xyz: [i128; 3],
+    pub(crate) y2: i128,
+    pub(crate) count: u32,
 }
 
 /// The per-pixel sums of one render or of a range of its samples. Films of disjoint sample
 /// ranges of the same render merge ([`Film::merge`]) into exactly the film of their union.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Film {
-    width: u32,
-    height: u32,
-    pixels: Vec<PixelSums>,
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) pixels: Vec<PixelSums>,
     /// Wavelengths of the spectral channels (empty: no spectral film).
-    wavelengths: Vec<f32>,
+    pub(crate) wavelengths: Vec<f32>,
     /// Σ lane radiance per pixel and wavelength, pixel-major.
-    spectral: Vec<i128>,
+    pub(crate) spectral: Vec<i128>,
     /// What each pixel's sample 0 hit (valid where `has_first_sample`).
-    ids: Vec<ObjectId>,
-    has_first_sample: bool,
+    pub(crate) ids: Vec<ObjectId>,
+    pub(crate) has_first_sample: bool,
     /// Samples whose value was NaN or infinite (added as black; must be 0).
-    nonfinite: u64,
+    pub(crate) nonfinite: u64,
     /// Samples whose value exceeded [`MAX_SAMPLE_VALUE`] (clamped).
-    clamped: u64,
+    pub(crate) clamped: u64,
 }
 
 /// One row of a film, lent to a worker thread.
@@ -217,6 +217,21 @@ impl Film {
     /// Fewest samples taken in any pixel.
     pub fn min_sample_count(&self) -> u32 {
         self.pixels.iter().map(|p| p.count).min().unwrap_or(0)
+    }
+
+    /// Most samples taken in any pixel.
+    pub fn max_sample_count(&self) -> u32 {
+        self.pixels.iter().map(|p| p.count).max().unwrap_or(0)
+    }
+
+    /// Samples taken in each pixel, row by row from the top.
+    pub fn sample_counts(&self) -> Vec<u32> {
+        self.pixels.iter().map(|p| p.count).collect()
+    }
+
+    /// Wavelengths (nm) of the spectral sums (empty without a spectral film).
+    pub fn wavelengths(&self) -> &[f32] {
+        &self.wavelengths
     }
 
     /// Samples that were NaN or infinite (added as black).
@@ -371,6 +386,12 @@ impl FilmRow<'_> {
                 *sum += to_fixed_f32(clamp(v));
             }
         }
+    }
+
+    /// Samples pixel `x` of this row holds so far.
+    #[inline]
+    pub(crate) fn count(&self, x: usize) -> u32 {
+        self.pixels[x].count
     }
 
     /// Record what pixel `x`'s sample 0 hit.
@@ -528,6 +549,15 @@ pub struct Image {
     pub(crate) nonfinite: u64,
     /// Spectral radiance per pixel at fixed wavelengths, when the render kept it.
     pub(crate) spectral: Option<SpectralFilm>,
+    /// Per-pixel variance of the mean luminance and sample counts, for a variance image.
+    pub(crate) sample_stats: Option<SampleStats>,
+}
+
+/// What [`Image::set_sample_statistics`] keeps of a film.
+#[derive(Debug, Clone)]
+pub(crate) struct SampleStats {
+    pub(crate) variance: Vec<f32>,
+    pub(crate) counts: Vec<u32>,
 }
 
 /// Per-pixel radiance at the lanes' wavelengths (`RenderOptions::spectral_film`): what a
@@ -542,7 +572,15 @@ impl Image {
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
-        Self { width, height, xyz: vec![[0.0; 3]; n], ids: vec![ObjectId::Background; n], nonfinite: 0, spectral: None }
+        Self {
+            width,
+            height,
+            xyz: vec![[0.0; 3]; n],
+            ids: vec![ObjectId::Background; n],
+            nonfinite: 0,
+            spectral: None,
+            sample_stats: None,
+        }
     }
 
     #[cfg(test)]
@@ -555,6 +593,12 @@ impl Image {
     /// top), if the render kept a spectral film.
     pub fn spectral(&self) -> Option<(&[f32], &[f32])> {
         self.spectral.as_ref().map(|f| (f.wavelengths.as_slice(), f.values.as_slice()))
+    }
+
+    /// Keep `film`'s per-pixel luminance variance and sample counts (the film this image was
+    /// resolved from), for an [`crate::OutputKind::Variance`] image.
+    pub fn set_sample_statistics(&mut self, film: &Film) {
+        self.sample_stats = Some(SampleStats { variance: film.luminance_variance(), counts: film.sample_counts() });
     }
 
     /// Width in pixels.

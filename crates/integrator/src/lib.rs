@@ -30,6 +30,7 @@ mod assembly;
 mod auto;
 mod error;
 mod film;
+mod film_file;
 mod lights;
 #[cfg(test)]
 mod material_tests;
@@ -45,10 +46,12 @@ pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
 pub use auto::choose_auto;
 pub use error::{Error, Result};
 pub use film::{Display, Film, Image, ObjectId};
+pub use film_file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Merger, merge_parts};
 pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};
 pub use render::{
-    Ambient, DEFAULT_K_A, Integrator, IntegratorKind, MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES, MAX_THREADS,
-    PathOptions, Progress, RenderOptions, RenderStats, WavelengthPdf, WhittedOptions, render, render_film,
+    Ambient, Checkpoint, DEFAULT_K_A, Integrator, IntegratorKind, MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES,
+    MAX_THREADS, PathOptions, Progress, RenderControl, RenderOptions, RenderStats, WavelengthPdf, WhittedOptions,
+    part_samples, render, render_film, render_film_with, resolved_spectral,
 };
 pub use spectral::{MAX_BINS, SpectralMode};
 pub use summary::summarize;

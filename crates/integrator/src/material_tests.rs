@@ -20,7 +20,11 @@ fn sphere_scene(material: MaterialDesc) -> RenderScene {
     d.spheres.push(Sphere::new(Vec3::ZERO, 1.0, Some(0)).unwrap());
     d.materials.push(material);
     let eye = Vec3::new(0.0, 0.0, 10.0);
-    d.lights.push(LightDesc::Point { position: eye, spectrum: SpectrumDesc::Named("D65".into()), intensity: 81.0 });
+    d.lights.push(LightDesc::Point {
+        position: eye,
+        spectrum: SpectrumDesc::Named("D65".into()),
+        intensity: geometry::LightAmount { value: 81.0, unit: geometry::LightUnit::Candela },
+    });
     // 2 atan(1 / √99) = 11.5°: the sphere's silhouette just fits; a little margin.
     d.camera =
         Some(CameraDesc { position: eye, look_at: Vec3::ZERO, up: Vec3::Y, vfov_deg: 12.0, width: None, height: None });
@@ -224,7 +228,10 @@ fn whitted_gltf_glass_does_not_gain_energy_in_a_uniform_environment() {
     let mut d = SceneDescription::empty(SceneFormat::Gltf);
     d.spheres.push(Sphere::new(Vec3::ZERO, 1.0, Some(0)).unwrap());
     d.materials.push(glass);
-    d.lights.push(LightDesc::Environment { spectrum: SpectrumDesc::Named("D65".into()), intensity: 1.0 });
+    d.lights.push(LightDesc::Environment {
+        spectrum: SpectrumDesc::Named("D65".into()),
+        intensity: geometry::LightAmount { value: 1.0, unit: geometry::LightUnit::Nit },
+    });
     let eye = Vec3::new(0.0, 0.0, 10.0);
     d.camera =
         Some(CameraDesc { position: eye, look_at: Vec3::ZERO, up: Vec3::Y, vfov_deg: 14.0, width: None, height: None });

@@ -23,6 +23,9 @@ pub enum OutputKind {
     Png(Display),
     /// The spectral film as an OpenEXR (Fichet et al. 2021 layout).
     SpectralExr,
+    /// Per-pixel sample statistics as an OpenEXR: the variance of the mean luminance, the
+    /// relative error √variance / Y and the samples taken ([`Image::set_sample_statistics`]).
+    Variance,
 }
 
 /// One file to write: where, and what.
@@ -69,40 +72,11 @@ impl Image {
                 message: "the render kept no spectral film (render with fixed wavelengths, bins:N)".to_owned(),
             });
         }
-        let mut staged: Vec<(PathBuf, &Path)> = Vec::with_capacity(outputs.len());
-        for output in outputs {
-            let result = temporary_path(&output.path).and_then(|tmp| {
-                register(&tmp).map_err(|message| Error::Write { path: output.path.clone(), message })?;
-                staged.push((tmp.clone(), &output.path));
-                write_file(&tmp, |w| self.encode(output.kind, w))
-                    .map_err(|message| Error::Write { path: output.path.clone(), message })
-            });
-            if let Err(e) = result {
-                discard(&staged);
-                return Err(e);
-            }
-        }
-        // Every temporary is complete and on disk: rename them all. The registry stays locked
-        // so that a signal handler's cleanup waits for the renames instead of racing them.
-        let mut pending = lock_pending();
-        for (i, (tmp, path)) in staged.iter().enumerate() {
-            if let Err(e) = std::fs::rename(tmp, path) {
-                drop(pending);
-                // The ones already renamed are complete files; the rest are removed.
-                discard(&staged[i..]);
-                return Err(Error::Write { path: path.to_path_buf(), message: format!("rename: {e}") });
-            }
-            pending.paths.retain(|p| p != tmp);
-        }
-        drop(pending);
-        // Make the renames themselves durable (the folder entries), best effort: not every
-        // file system supports fsync on a folder.
-        for (_, path) in &staged {
-            if let Some(dir) = path.parent().map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d }) {
-                let _ = File::open(dir).and_then(|d| d.sync_all());
-            }
-        }
-        Ok(())
+        let files: Vec<(&Path, Encoder<'_>)> = outputs
+            .iter()
+            .map(|o| -> (&Path, Encoder<'_>) { (o.path.as_path(), Box::new(move |w| self.encode(o.kind, w))) })
+            .collect();
+        write_all_or_nothing(&files)
     }
 
     /// Encode one output into `w`.
@@ -111,7 +85,36 @@ impl Image {
             OutputKind::Exr(display) => self.encode_exr(display, w),
             OutputKind::Png(display) => self.encode_png(display, w),
             OutputKind::SpectralExr => self.encode_spectral_exr(w),
+            OutputKind::Variance => self.encode_variance_exr(w),
         }
+    }
+
+    fn encode_variance_exr<W: Write + Seek>(&self, w: &mut W) -> std::result::Result<(), String> {
+        use exr::prelude::*;
+        let Some(stats) = &self.sample_stats else {
+            return Err("no sample statistics (they come from a film: spectrace merge)".to_owned());
+        };
+        let relative: Vec<f32> = stats
+            .variance
+            .iter()
+            .zip(&self.xyz)
+            .map(|(v, xyz)| if xyz[1] > 0.0 { v.sqrt() / xyz[1] } else { 0.0 })
+            .collect();
+        let spp: Vec<f32> = stats.counts.iter().map(|&c| c as f32).collect();
+        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
+            [("Y.variance", stats.variance.clone()), ("Y.relativeError", relative), ("spp", spp)]
+                .into_iter()
+                .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
+                .collect();
+        let (width, height) = (self.width as usize, self.height as usize);
+        let attributes = ImageAttributes::new(IntegerBounds::from_dimensions((width, height)));
+        let layer = Layer::new(
+            (width, height),
+            LayerAttributes::named("statistics"),
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(channels),
+        );
+        Image { attributes, layer_data: layer }.write().to_buffered(w).map_err(|e| e.to_string())
     }
 
     fn encode_exr<W: Write + Seek>(&self, display: Display, w: &mut W) -> std::result::Result<(), String> {
@@ -180,6 +183,52 @@ impl Image {
             .write_image(&bytes, self.width, self.height, image::ExtendedColorType::Rgb8)
             .map_err(|e| e.to_string())
     }
+}
+
+/// Writes one file's content into the buffered temporary.
+type Encoder<'a> = Box<dyn Fn(&mut BufWriter<File>) -> std::result::Result<(), String> + 'a>;
+
+/// Write `bytes` to `path` atomically: a temporary beside it, checked, fsynced, renamed.
+pub(crate) fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_all_or_nothing(&[(path, Box::new(|w: &mut BufWriter<File>| w.write_all(bytes).map_err(|e| e.to_string())))])
+}
+
+/// Every file to a temporary beside it, checked and fsynced; then, only when all succeeded,
+/// each renamed into place. On an error every temporary is removed and nothing is renamed.
+fn write_all_or_nothing(files: &[(&Path, Encoder<'_>)]) -> Result<()> {
+    let mut staged: Vec<(PathBuf, &Path)> = Vec::with_capacity(files.len());
+    for (path, encode) in files {
+        let result = temporary_path(path).and_then(|tmp| {
+            register(&tmp).map_err(|message| Error::Write { path: path.to_path_buf(), message })?;
+            staged.push((tmp.clone(), path));
+            write_file(&tmp, encode).map_err(|message| Error::Write { path: path.to_path_buf(), message })
+        });
+        if let Err(e) = result {
+            discard(&staged);
+            return Err(e);
+        }
+    }
+    // Every temporary is complete and on disk: rename them all. The registry stays locked
+    // so that a signal handler's cleanup waits for the renames instead of racing them.
+    let mut pending = lock_pending();
+    for (i, (tmp, path)) in staged.iter().enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            drop(pending);
+            // The ones already renamed are complete files; the rest are removed.
+            discard(&staged[i..]);
+            return Err(Error::Write { path: path.to_path_buf(), message: format!("rename: {e}") });
+        }
+        pending.paths.retain(|p| p != tmp);
+    }
+    drop(pending);
+    // Make the renames themselves durable (the folder entries), best effort: not every
+    // file system supports fsync on a folder.
+    for (_, path) in &staged {
+        if let Some(dir) = path.parent().map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d }) {
+            let _ = File::open(dir).and_then(|d| d.sync_all());
+        }
+    }
+    Ok(())
 }
 
 /// Refuse two outputs on one path (`-o x.exr --spectral-exr x.exr` silently replaced the RGB
@@ -280,7 +329,7 @@ fn temporary_path(path: &Path) -> Result<PathBuf> {
 /// success reported.)
 fn write_file(
     tmp: &Path,
-    encode: impl FnOnce(&mut BufWriter<File>) -> std::result::Result<(), String>,
+    encode: &dyn Fn(&mut BufWriter<File>) -> std::result::Result<(), String>,
 ) -> std::result::Result<(), String> {
     let file = File::create(tmp).map_err(|e| e.to_string())?;
     let file = encode_checked(file, encode)?;

@@ -287,6 +287,46 @@ impl RenderOptions {
         f(&mut o);
         Self { integrator: Integrator::Path(o), ..self }
     }
+
+    /// Every option that changes the film, besides the seed, the sample range and the image
+    /// size (which a film file records on their own), as one canonical line: the integrator
+    /// and its options, the spectral mode asked for, the samples per pixel and whether
+    /// per-wavelength sums are kept. Threads and the time limit change no sum and are left
+    /// out. Film files store it and its digest, and parts merge only when it is the same.
+    pub fn result_key(&self) -> String {
+        let integrator = match &self.integrator {
+            Integrator::WhittedHall(w) => format!(
+                "whitted-hall max_depth={:?} min_weight={:?} absorption={} ambient={:?}",
+                w.max_depth, w.min_weight, w.absorption, w.ambient
+            ),
+            Integrator::Path(p) => {
+                format!("path max_depth={:?} wavelength_pdf={:?}", p.max_depth, p.wavelength_pdf)
+            }
+        };
+        format!("{integrator} spectral={} spp={} spectral_film={}", self.spectral, self.spp, self.spectral_film)
+    }
+}
+
+/// The sample indices of part `k` of `m` (k = 1..=m, as a Slurm array task id) of a render of
+/// `spp` samples per pixel: `⌊(k−1)·spp/m⌋ .. ⌊k·spp/m⌋`, so the parts are disjoint, cover
+/// `0..spp` and differ in size by at most one.
+pub fn part_samples(k: u32, m: u32, spp: u32) -> Result<Range<u32>> {
+    if m == 0 || k == 0 || k > m {
+        return Err(Error::InvalidOption {
+            option: "part",
+            value: format!("{k}/{m}"),
+            expected: "K/M with 1 <= K <= M (e.g. 3/8)",
+        });
+    }
+    if m > spp {
+        return Err(Error::InvalidOption {
+            option: "part",
+            value: format!("{k}/{m} of {spp} spp"),
+            expected: "at most as many parts as samples per pixel",
+        });
+    }
+    let at = |i: u32| (u64::from(i) * u64::from(spp) / u64::from(m)) as u32;
+    Ok(at(k - 1)..at(k))
 }
 
 /// Longest image side in pixels.
@@ -370,6 +410,42 @@ pub(crate) trait Kernel<const N: usize>: Sync {
     ) -> Radiance<N>;
 }
 
+/// Calls [`render_film_with`] makes between passes over the image: a checkpoint.
+#[derive(Clone, Copy)]
+pub struct Checkpoint<'a> {
+    /// Least time between two calls (zero: after every pass).
+    pub every: Duration,
+    /// Called with the film so far (every pixel holding a prefix of its sample range); an
+    /// error stops the render.
+    pub write: &'a (dyn Fn(&Film) -> Result<()> + Sync),
+}
+
+impl std::fmt::Debug for Checkpoint<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Checkpoint").field("every", &self.every).finish_non_exhaustive()
+    }
+}
+
+/// What a caller controls in a running render besides its options.
+pub struct RenderControl<'a> {
+    /// Called from worker threads after each row.
+    pub progress: &'a (dyn Fn(Progress) + Sync),
+    /// Setting it stops the render at the next row with [`Error::Cancelled`].
+    pub cancel: &'a AtomicBool,
+    /// The film of an interrupted render of the same scene, options and sample range
+    /// (checked by the caller, e.g. `FilmFile::resumable`): each pixel continues after the
+    /// samples it holds, and the result is bit for bit the uninterrupted render's.
+    pub resume: Option<Film>,
+    /// Write the film periodically; samples are then taken in passes of one per pixel.
+    pub checkpoint: Option<Checkpoint<'a>>,
+}
+
+impl std::fmt::Debug for RenderControl<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RenderControl").field("checkpoint", &self.checkpoint).finish_non_exhaustive()
+    }
+}
+
 /// Render `scene`. `progress` is called from worker threads after each row; setting `cancel`
 /// stops the render at the next row and returns [`Error::Cancelled`].
 pub fn render(
@@ -390,6 +466,16 @@ pub fn render_film(
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Film, RenderStats)> {
+    render_film_with(scene, options, RenderControl { progress, cancel, resume: None, checkpoint: None })
+}
+
+/// [`render_film`] with checkpoints and resumption ([`RenderControl`]).
+pub fn render_film_with(
+    scene: &RenderScene,
+    options: &RenderOptions,
+    control: RenderControl<'_>,
+) -> Result<(Film, RenderStats)> {
+    let RenderControl { progress, cancel, resume, checkpoint } = control;
     options.check_limits()?;
     if options.spp == 0 || options.spp > MAX_SPP {
         return Err(Error::OutOfRange { what: "spp", value: f64::from(options.spp), range: "1..=1048576" });
@@ -407,17 +493,7 @@ pub fn render_film(
     {
         return Err(Error::OutOfRange { what: "min weight", value: w.min_weight.into(), range: ">= 0" });
     }
-    let spectral = match options.spectral {
-        SpectralMode::Auto => crate::choose_auto(scene, options.integrator.kind()),
-        SpectralMode::Hero { .. } if options.integrator.kind() == IntegratorKind::WhittedHall => {
-            return Err(Error::InvalidOption {
-                option: "spectral mode",
-                value: options.spectral.to_string(),
-                expected: "rgb, bins:N or auto for the whitted-hall integrator (hero sampling needs a Monte Carlo integrator)",
-            });
-        }
-        mode => mode,
-    };
+    let spectral = resolved_spectral(scene, options)?;
     if options.spectral_film && !matches!(spectral, SpectralMode::Bins(_)) {
         return Err(Error::InvalidOption {
             option: "spectral mode for a spectral image",
@@ -427,8 +503,24 @@ pub fn render_film(
     }
     let lanes = lane_count(spectral)?;
     let pool = thread_pool(options)?;
-    let job = RenderJob { scene, options, spectral, samples, progress, cancel };
+    let job = RenderJob { scene, options, spectral, samples, progress, cancel, resume, checkpoint };
     pool.install(|| with_lanes(lanes, job))
+}
+
+/// The spectral mode a render of `scene` with `options` uses: `auto` resolved, hero refused
+/// for the paper's model.
+pub fn resolved_spectral(scene: &RenderScene, options: &RenderOptions) -> Result<SpectralMode> {
+    Ok(match options.spectral {
+        SpectralMode::Auto => crate::choose_auto(scene, options.integrator.kind()),
+        SpectralMode::Hero { .. } if options.integrator.kind() == IntegratorKind::WhittedHall => {
+            return Err(Error::InvalidOption {
+                option: "spectral mode",
+                value: options.spectral.to_string(),
+                expected: "rgb, bins:N or auto for the whitted-hall integrator (hero sampling needs a Monte Carlo integrator)",
+            });
+        }
+        mode => mode,
+    })
 }
 
 /// Lane counts the renderer is compiled for, smallest first ([`with_lanes`] has one arm each).
@@ -477,6 +569,8 @@ struct RenderJob<'a> {
     samples: Range<u32>,
     progress: &'a (dyn Fn(Progress) + Sync),
     cancel: &'a AtomicBool,
+    resume: Option<Film>,
+    checkpoint: Option<Checkpoint<'a>>,
 }
 
 impl LaneJob for RenderJob<'_> {
@@ -515,19 +609,45 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     sensor: &Sensor<N>,
     job: RenderJob<'_>,
 ) -> Result<(Film, RenderStats)> {
-    let RenderJob { scene, options, spectral, samples, progress, cancel } = job;
+    let RenderJob { scene, options, spectral, samples, progress, cancel, resume, checkpoint } = job;
     let (width, height) = (options.width, options.height);
     let camera = scene.camera(width, height)?;
     let wavelengths = if options.spectral_film { sensor.film_wavelengths().unwrap_or_default() } else { Vec::new() };
-    let mut film = Film::new(width, height, wavelengths);
+    let mut film = match resume {
+        Some(film) => {
+            if (film.width, film.height) != (width, height) || film.wavelengths != wavelengths {
+                return Err(Error::InvalidOption {
+                    option: "film to resume",
+                    value: format!("{}x{} with {} wavelengths", film.width, film.height, film.wavelengths.len()),
+                    expected: "a film of the same size and wavelengths as the render",
+                });
+            }
+            if film.max_sample_count() > samples.len() as u32 {
+                return Err(Error::InvalidOption {
+                    option: "film to resume",
+                    value: format!("{} samples in a pixel", film.max_sample_count()),
+                    expected: "at most the render's sample range",
+                });
+            }
+            film
+        }
+        None => Film::new(width, height, wavelengths),
+    };
     let spp = options.spp;
     let offsets = if K::RANDOM { Vec::new() } else { pixel_offsets(spp) };
     // With a time limit, passes of one sample each spread the samples taken evenly over the
     // image when it stops, and every row of a pass is short whatever the spp. The first pass
-    // ignores the limit, so every pixel gets at least one sample.
-    let pass_size = if options.time_limit.is_some() { 1 } else { samples.len() as u32 };
+    // ignores the limit, so every pixel gets at least one sample. Checkpoints are taken
+    // between passes, so they also want short passes.
+    let short_passes = options.time_limit.is_some() || checkpoint.is_some();
+    let pass_size = if short_passes { 1 } else { samples.len() as u32 };
     let passes = (samples.len() as u32).div_ceil(pass_size);
-    let rows_total = u64::from(height) * u64::from(passes);
+    // A resumed film: skip the passes every pixel has done. Each pixel holds the first
+    // `count` samples of the range and continues after them (rows a time limit skipped hold
+    // one fewer than the others).
+    let first_pass = film.min_sample_count() / pass_size;
+    let rows_total = u64::from(height) * u64::from(passes - first_pass);
+    let mut last_checkpoint = Instant::now();
     // Only hero sensors place wavelengths per sample; fixed lanes are the same for all.
     let hero = !matches!(sensor, Sensor::Fixed(_));
     let fixed_lambda = sensor.sample_wavelengths(0.0);
@@ -535,7 +655,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     let out_of_time = || options.time_limit.is_some_and(|limit| start.elapsed() >= limit);
     let rays = AtomicU64::new(0);
     let rows_done = AtomicU64::new(0);
-    for pass in 0..passes {
+    for pass in first_pass..passes {
         let first_sample = samples.start + pass * pass_size;
         let last_sample = (first_sample + pass_size).min(samples.end);
         let counts: Vec<(u64, u64)> = film
@@ -557,7 +677,8 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     // its own stream, so skipping it for fixed lanes changes no other number.
                     let rotation =
                         if K::RANDOM && hero { Rng::new(options.seed, pixel, u64::MAX).uniform() } else { 0.0 };
-                    for i in first_sample..last_sample {
+                    let next = samples.start + row.count(x);
+                    for i in first_sample.max(next)..last_sample {
                         let mut sample_rng;
                         let (rng, mut lambda, ray) = if K::RANDOM {
                             sample_rng = Rng::new(options.seed, pixel, u64::from(i));
@@ -596,6 +717,13 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
         }
         if out_of_time() {
             break;
+        }
+        if let Some(c) = &checkpoint
+            && pass + 1 < passes
+            && last_checkpoint.elapsed() >= c.every
+        {
+            (c.write)(&film)?;
+            last_checkpoint = Instant::now();
         }
     }
     let stats = RenderStats {

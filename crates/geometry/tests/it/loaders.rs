@@ -717,3 +717,25 @@ fn robustness_corpus_never_panics() {
     }
     assert!(count > 0);
 }
+
+#[test]
+fn the_source_digest_covers_referenced_files_but_not_where_the_scene_lies() {
+    // prism.json includes prism.obj: a copy of the folder elsewhere keeps the digest, a
+    // changed byte in the included file changes it.
+    let src = repo().join("scenes/reference");
+    let (a, b) = (temp_dir("digest-a"), temp_dir("digest-b"));
+    for dir in [&a, &b] {
+        for name in ["prism.json", "prism.obj"] {
+            std::fs::copy(src.join(name), dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        }
+    }
+    let digest = |dir: &Path| load_scene(&dir.join("prism.json")).unwrap_or_else(|e| panic!("{e}")).source_hash;
+    let original = digest(&src);
+    assert_ne!(original, 0);
+    assert_eq!(digest(&a), original);
+    let mut obj = std::fs::read(b.join("prism.obj")).unwrap_or_else(|e| panic!("{e}"));
+    obj.extend_from_slice(b"# one more comment\n");
+    write(&b, "prism.obj", &obj);
+    assert_ne!(digest(&b), original, "the included mesh is part of the digest");
+    assert_ne!(scene("reference/cornell_box.json").source_hash, original);
+}

@@ -94,3 +94,54 @@ fn luminance_variance_is_the_variance_of_the_mean() {
     let ratio = v16 / v64;
     assert!((2.5..6.5).contains(&ratio), "variance ratio {ratio}");
 }
+
+/// A checkpoint taken between passes, read back from its bytes and resumed, gives exactly the
+/// uninterrupted film (uneven counts, as a time limit leaves them, are `tests/e2e/farm.rs`).
+#[test]
+fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
+    use integrator::{Checkpoint, FilmFile, FilmHeader, RenderControl};
+    use std::sync::Mutex;
+    let scene = reference("cornell_box.json");
+    let options = RenderOptions {
+        width: 10,
+        height: 8,
+        integrator: Integrator::Path(PathOptions::default()),
+        spectral: SpectralMode::Bins(8),
+        spp: 6,
+        seed: 3,
+        threads: Some(2),
+        spectral_film: true,
+        ..RenderOptions::default()
+    };
+    let whole = film(&scene, &options);
+    let header = FilmHeader::new(&scene, &options, SpectralMode::Bins(8));
+    let saved: Mutex<Vec<Vec<u8>>> = Mutex::new(Vec::new());
+    let write = |f: &Film| {
+        let bytes = FilmFile { header: header.clone(), film: f.clone() }.to_bytes();
+        saved.lock().unwrap().push(bytes);
+        Ok(())
+    };
+    let cancel = AtomicBool::new(false);
+    let control = RenderControl {
+        progress: &|_| {},
+        cancel: &cancel,
+        resume: None,
+        checkpoint: Some(Checkpoint { every: std::time::Duration::ZERO, write: &write }),
+    };
+    let (checkpointed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
+    assert!(checkpointed == whole, "short passes change no sum");
+    let saved = saved.into_inner().unwrap();
+    assert_eq!(saved.len(), 5, "one checkpoint between each of the 6 passes");
+    for (k, bytes) in saved.iter().enumerate() {
+        let file = FilmFile::from_bytes(bytes, std::path::Path::new("c.film")).unwrap();
+        assert_eq!(file.film.min_sample_count(), k as u32 + 1);
+        let resume = file.resumable(&header, 10, 8, std::path::Path::new("c.film")).unwrap();
+        let control = RenderControl { progress: &|_| {}, cancel: &cancel, resume: Some(resume), checkpoint: None };
+        let (resumed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
+        assert!(resumed == whole, "resumed after pass {}", k + 1);
+    }
+    // A film of another seed is refused.
+    let other = FilmHeader::new(&scene, &RenderOptions { seed: 4, ..options.clone() }, SpectralMode::Bins(8));
+    let file = FilmFile::from_bytes(&saved[0], std::path::Path::new("c.film")).unwrap();
+    assert!(file.resumable(&other, 10, 8, std::path::Path::new("c.film")).is_err());
+}

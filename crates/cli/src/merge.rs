@@ -1,0 +1,130 @@
+//! `spectrace merge`: the films of a render's parts into its images.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use integrator::{Display, FilmFile, OutputFile, OutputKind};
+
+/// Arguments of `spectrace merge`.
+#[derive(Debug, clap::Args)]
+pub(crate) struct MergeArgs {
+    /// The parts' film files (`spectrace render --part K/M --film PART.film`), in any order.
+    #[arg(required = true, value_name = "PART.film")]
+    parts: Vec<PathBuf>,
+    /// Output EXR (linear RGB); a display-encoded PNG of the same name is written beside it.
+    #[arg(short, long, value_name = "OUT.exr")]
+    output: Option<PathBuf>,
+    /// Also write the spectral OpenEXR (the parts need per-wavelength sums: rendered with
+    /// --spectral-film).
+    #[arg(long, value_name = "FILE.exr")]
+    spectral_exr: Option<PathBuf>,
+    /// Also write an EXR of per-pixel statistics: variance of the mean luminance
+    /// (`Y.variance`), relative error √variance / Y (`Y.relativeError`) and samples (`spp`).
+    #[arg(long, value_name = "FILE.exr")]
+    variance: Option<PathBuf>,
+    /// Write the merged film too (it merges further: a tree of merges for many parts).
+    #[arg(long, value_name = "FILE.film")]
+    film: Option<PathBuf>,
+    /// Write the images even if samples are missing (a part not rendered or interrupted);
+    /// each pixel averages the samples it has (the `spp` channel of --variance says how many).
+    #[arg(long)]
+    allow_gaps: bool,
+    /// Output display: `srgb` or `paper9300`.
+    #[arg(long, default_value = "srgb")]
+    display: Display,
+    /// No summary on stderr.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
+    if args.output.is_none() && args.film.is_none() {
+        anyhow::bail!("nothing to write: give -o OUT.exr and/or --film OUT.film");
+    }
+    if (args.spectral_exr.is_some() || args.variance.is_some()) && args.output.is_none() {
+        anyhow::bail!("--spectral-exr and --variance go with -o OUT.exr");
+    }
+    let mut outputs = Vec::new();
+    if let Some(output) = &args.output {
+        if !output.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+            anyhow::bail!("{}: the output must end in .exr (a .png is written beside it)", output.display());
+        }
+        outputs.push(OutputFile { path: output.clone(), kind: OutputKind::Exr(args.display) });
+        outputs.push(OutputFile { path: output.with_extension("png"), kind: OutputKind::Png(args.display) });
+    }
+    if let Some(path) = &args.spectral_exr {
+        outputs.push(OutputFile { path: path.clone(), kind: OutputKind::SpectralExr });
+    }
+    if let Some(path) = &args.variance {
+        outputs.push(OutputFile { path: path.clone(), kind: OutputKind::Variance });
+    }
+    let mut paths: Vec<&std::path::Path> = outputs.iter().map(|o| o.path.as_path()).collect();
+    paths.extend(args.film.as_deref());
+    integrator::check_distinct_outputs(&paths)?;
+
+    let start = Instant::now();
+    // One part at a time: only the sum and the part being added are in memory.
+    let mut merger = integrator::Merger::new();
+    let (mut read, mut merge) = (std::time::Duration::ZERO, std::time::Duration::ZERO);
+    for path in &args.parts {
+        let t = Instant::now();
+        let part = FilmFile::read(path)?;
+        read += t.elapsed();
+        let t = Instant::now();
+        merger.add(path.clone(), part)?;
+        merge += t.elapsed();
+    }
+    let bytes_read: u64 = args.parts.iter().filter_map(|p| std::fs::metadata(p).ok()).map(|m| m.len()).sum();
+    let merged = merger.finish()?;
+    if !merged.is_complete() {
+        let gaps = merged.gaps().join("\n  ");
+        if !args.allow_gaps {
+            anyhow::bail!("the parts do not make the whole render:\n  {gaps}\n(--allow-gaps writes the images anyway)");
+        }
+        if !args.quiet {
+            eprintln!("spectrace: warning: the parts do not make the whole render:\n  {gaps}");
+        }
+    }
+    let file = &merged.file;
+    if args.spectral_exr.is_some() && file.film.wavelengths().is_empty() {
+        anyhow::bail!(
+            "--spectral-exr: the films have no per-wavelength sums (render the parts with --spectral-film and bins:N)"
+        );
+    }
+    if let Some(path) = &args.film {
+        file.write(path).context("writing the merged film")?;
+    }
+    if !outputs.is_empty() {
+        let mut image = file.film.to_image();
+        if args.variance.is_some() {
+            image.set_sample_statistics(&file.film);
+        }
+        image.write_outputs(&outputs).context("writing the outputs (none was written)")?;
+    }
+    let write = start.elapsed().saturating_sub(read + merge);
+    if !args.quiet {
+        let mut written: Vec<String> = outputs.iter().map(|o| o.path.display().to_string()).collect();
+        written.extend(args.film.iter().map(|p| p.display().to_string()));
+        let h = &file.header;
+        eprintln!(
+            "spectrace: merged {} parts ({:.1} MB): {}x{} {} samples {}..{} of {} spp, {}..={} per pixel; \
+             read {:.3} s, merge {:.3} s, write {:.3} s -> {}",
+            args.parts.len(),
+            bytes_read as f64 / 1e6,
+            file.film.width(),
+            file.film.height(),
+            h.spectral,
+            h.samples.start,
+            h.samples.end,
+            h.spp,
+            file.film.min_sample_count(),
+            file.film.max_sample_count(),
+            read.as_secs_f64(),
+            merge.as_secs_f64(),
+            write.as_secs_f64(),
+            written.join(", ")
+        );
+    }
+    Ok(())
+}

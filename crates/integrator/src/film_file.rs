@@ -1,0 +1,626 @@
+//! Film files: a [`Film`] with the facts that say which render it belongs to, so the parts of
+//! a render split over processes or machines can be checked and merged ([`merge_parts`]), and
+//! an interrupted render resumed. The layout is `docs/film-format.md`: little-endian, a
+//! versioned header, the exact fixed-point sums as they are in memory, an XXH64 checksum.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use crate::assembly::RenderScene;
+use crate::error::{Error, Result};
+use crate::film::{Film, ObjectId, PixelSums};
+use crate::render::RenderOptions;
+use crate::spectral::{MAX_BINS, SpectralMode};
+
+/// The first 8 bytes of every film file.
+pub const FILM_MAGIC: [u8; 8] = *b"SPTRFILM";
+/// The layout version this build writes and reads.
+pub const FILM_VERSION: u32 = 1;
+/// Bytes per pixel of the sums: a u32 count and four i128 (Σ X, Σ Y, Σ Z, Σ Y²).
+const PIXEL_BYTES: usize = 4 + 4 * 16;
+/// Fixed part of the header after the length field (see `docs/film-format.md`).
+const FIXED_HEADER_BYTES: usize = 3 * 8 + 7 * 4 + 2 * 8;
+/// Longest text field of a header (the option line is about 120 bytes).
+const MAX_TEXT: usize = 4096;
+
+/// What a film file says about the render it is (a part of).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FilmHeader {
+    /// Digest of the scene's files ([`RenderScene::source_hash`]).
+    pub scene_hash: u64,
+    /// [`RenderOptions::result_key`]: every option that changes the result.
+    pub options: String,
+    /// XXH64 of `options`.
+    pub options_hash: u64,
+    /// Seed of the random numbers.
+    pub seed: u64,
+    /// Samples per pixel of the whole render.
+    pub spp: u32,
+    /// The sample indices this film is for; pixel p holds the first `count(p)` of them.
+    pub samples: Range<u32>,
+    /// The spectral mode rendered (`auto` resolved), e.g. `bins:16` or `hero:8`.
+    pub spectral: String,
+    /// The program that wrote the file, e.g. `spectrace 0.1.0`.
+    pub writer: String,
+}
+
+impl FilmHeader {
+    /// The header of a render of `scene` with `options` (its sample range, or all samples).
+    pub fn new(scene: &RenderScene, options: &RenderOptions, spectral: SpectralMode) -> Self {
+        let key = options.result_key();
+        Self {
+            scene_hash: scene.source_hash(),
+            options_hash: geometry::xxh64(key.as_bytes(), 0),
+            options: key,
+            seed: options.seed,
+            spp: options.spp,
+            samples: options.samples.clone().unwrap_or(0..options.spp),
+            spectral: spectral.to_string(),
+            writer: format!("spectrace {}", env!("CARGO_PKG_VERSION")),
+        }
+    }
+}
+
+/// A film and its header: what a `.film` file holds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FilmFile {
+    /// Which render and which samples.
+    pub header: FilmHeader,
+    /// The sums.
+    pub film: Film,
+}
+
+/// A little-endian reader that reports running off the end as `None`.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let end = self.at.checked_add(n)?;
+        let slice = self.bytes.get(self.at..end)?;
+        self.at = end;
+        Some(slice)
+    }
+    fn u32(&mut self) -> Option<u32> {
+        self.take(4).map(|b| u32::from_le_bytes(b.try_into().unwrap_or_default()))
+    }
+    fn u64(&mut self) -> Option<u64> {
+        self.take(8).map(|b| u64::from_le_bytes(b.try_into().unwrap_or_default()))
+    }
+    fn i128(&mut self) -> Option<i128> {
+        self.take(16).map(|b| i128::from_le_bytes(b.try_into().unwrap_or_default()))
+    }
+    fn text(&mut self) -> Option<String> {
+        let n = self.u32()? as usize;
+        if n > MAX_TEXT {
+            return None;
+        }
+        String::from_utf8(self.take(n)?.to_vec()).ok()
+    }
+}
+
+fn put_text(out: &mut Vec<u8>, s: &str) {
+    out.extend_from_slice(&(s.len() as u32).to_le_bytes());
+    out.extend_from_slice(s.as_bytes());
+}
+
+/// A material id as stored: 0 background, 1 the default material, 2 + k material k.
+fn id_code(id: ObjectId) -> u32 {
+    match id {
+        ObjectId::Background => 0,
+        ObjectId::Material(None) => 1,
+        ObjectId::Material(Some(k)) => k.saturating_add(2),
+    }
+}
+
+fn id_from_code(code: u32) -> ObjectId {
+    match code {
+        0 => ObjectId::Background,
+        1 => ObjectId::Material(None),
+        k => ObjectId::Material(Some(k - 2)),
+    }
+}
+
+/// The header fields after the length, and the dimensions they announce.
+struct Parsed {
+    header: FilmHeader,
+    width: u32,
+    height: u32,
+    lanes: usize,
+    has_first_sample: bool,
+    nonfinite: u64,
+    clamped: u64,
+    wavelengths: Vec<f32>,
+}
+
+impl Parsed {
+    /// Bytes of the payload the header announces (`None` if beyond any real film).
+    fn payload_bytes(&self) -> Option<usize> {
+        let pixels = (self.width as usize).checked_mul(self.height as usize)?;
+        let per_pixel = PIXEL_BYTES + 4 + 16 * self.lanes;
+        pixels.checked_mul(per_pixel)
+    }
+}
+
+fn parse_header(r: &mut Reader<'_>) -> Option<Parsed> {
+    let scene_hash = r.u64()?;
+    let options_hash = r.u64()?;
+    let seed = r.u64()?;
+    let spp = r.u32()?;
+    let start = r.u32()?;
+    let end = r.u32()?;
+    let width = r.u32()?;
+    let height = r.u32()?;
+    let lanes = r.u32()? as usize;
+    let flags = r.u32()?;
+    let nonfinite = r.u64()?;
+    let clamped = r.u64()?;
+    if lanes > MAX_BINS {
+        return None;
+    }
+    let spectral = r.text()?;
+    let options = r.text()?;
+    let writer = r.text()?;
+    let wavelengths = (0..lanes)
+        .map(|_| r.take(4).map(|b| f32::from_le_bytes(b.try_into().unwrap_or_default())))
+        .collect::<Option<_>>()?;
+    let header = FilmHeader { scene_hash, options, options_hash, seed, spp, samples: start..end, spectral, writer };
+    Some(Parsed { header, width, height, lanes, has_first_sample: flags & 1 == 1, nonfinite, clamped, wavelengths })
+}
+
+impl FilmHeader {
+    /// Write `film` with this header to `path` atomically (a temporary beside it, fsynced,
+    /// then renamed): what a checkpoint does without copying the film.
+    pub fn write_film(&self, film: &Film, path: &Path) -> Result<()> {
+        crate::output::write_bytes_atomically(path, &encode(self, film))
+    }
+}
+
+/// The bytes of a film file (layout: `docs/film-format.md`).
+fn encode(h: &FilmHeader, f: &Film) -> Vec<u8> {
+    let mut header = Vec::with_capacity(FIXED_HEADER_BYTES + 256);
+    for v in [h.scene_hash, h.options_hash, h.seed] {
+        header.extend_from_slice(&v.to_le_bytes());
+    }
+    let flags = u32::from(f.has_first_sample);
+    let lanes = f.wavelengths.len() as u32;
+    for v in [h.spp, h.samples.start, h.samples.end, f.width, f.height, lanes, flags] {
+        header.extend_from_slice(&v.to_le_bytes());
+    }
+    for v in [f.nonfinite, f.clamped] {
+        header.extend_from_slice(&v.to_le_bytes());
+    }
+    put_text(&mut header, &h.spectral);
+    put_text(&mut header, &h.options);
+    put_text(&mut header, &h.writer);
+    for w in &f.wavelengths {
+        header.extend_from_slice(&w.to_le_bytes());
+    }
+    let n = f.pixels.len();
+    let mut out = Vec::with_capacity(24 + header.len() + n * (PIXEL_BYTES + 4) + f.spectral.len() * 16 + 8);
+    out.extend_from_slice(&FILM_MAGIC);
+    out.extend_from_slice(&FILM_VERSION.to_le_bytes());
+    out.extend_from_slice(&(header.len() as u32).to_le_bytes());
+    out.extend_from_slice(&header);
+    let header_checksum = geometry::xxh64(&out, 0);
+    out.extend_from_slice(&header_checksum.to_le_bytes());
+    for p in &f.pixels {
+        out.extend_from_slice(&p.count.to_le_bytes());
+        for s in [p.xyz[0], p.xyz[1], p.xyz[2], p.y2] {
+            out.extend_from_slice(&s.to_le_bytes());
+        }
+    }
+    for id in &f.ids {
+        out.extend_from_slice(&id_code(*id).to_le_bytes());
+    }
+    for s in &f.spectral {
+        out.extend_from_slice(&s.to_le_bytes());
+    }
+    let checksum = geometry::xxh64(&out, 0);
+    out.extend_from_slice(&checksum.to_le_bytes());
+    out
+}
+
+impl FilmFile {
+    /// The file's bytes (layout: `docs/film-format.md`).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        encode(&self.header, &self.film)
+    }
+
+    /// Read a film file from `bytes`; errors name `path`: not a film file, another version,
+    /// truncated, corrupted (checksum), or impossible values.
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self> {
+        let bad = |message: String| Error::FilmFile { path: path.to_owned(), message };
+        if bytes.len() < 8 || bytes[..8] != FILM_MAGIC {
+            return Err(bad("not a spectrace film file (no SPTRFILM magic number)".to_owned()));
+        }
+        let mut r = Reader { bytes, at: 8 };
+        let version = r.u32().ok_or_else(|| bad(format!("truncated: {} bytes, ends in the header", bytes.len())))?;
+        if version != FILM_VERSION {
+            return Err(bad(format!(
+                "film format version {version}, but this build reads version {FILM_VERSION} only (merge with the spectrace that rendered it)"
+            )));
+        }
+        let header_len =
+            r.u32().ok_or_else(|| bad(format!("truncated: {} bytes, ends in the header", bytes.len())))? as usize;
+        // The header has its own checksum, so the size it announces can be trusted: a short
+        // file is then "truncated", a damaged one "corrupted".
+        let header_end = 16usize.saturating_add(header_len);
+        let (Some(header), Some(stored)) = (bytes.get(16..header_end), bytes.get(header_end..header_end + 8)) else {
+            return Err(bad(format!("truncated: {} bytes, ends in the header", bytes.len())));
+        };
+        let stored = u64::from_le_bytes(stored.try_into().unwrap_or_default());
+        if geometry::xxh64(&bytes[..header_end], 0) != stored {
+            return Err(bad("corrupted: the header's checksum does not match".to_owned()));
+        }
+        let mut hr = Reader { bytes: header, at: 0 };
+        let p = parse_header(&mut hr)
+            .filter(|_| hr.at == header.len())
+            .ok_or_else(|| bad("corrupted: the header does not parse".to_owned()))?;
+        let payload_at = header_end + 8;
+        let expected = p.payload_bytes().and_then(|payload| payload.checked_add(payload_at + 8));
+        match expected {
+            Some(e) if bytes.len() < e => {
+                return Err(bad(format!("truncated: {} bytes of the {e} its header announces", bytes.len())));
+            }
+            Some(e) if bytes.len() > e => {
+                return Err(bad(format!("corrupted: {} bytes, but its header announces {e}", bytes.len())));
+            }
+            Some(_) => {}
+            None => return Err(bad("corrupted: the header announces an impossible size".to_owned())),
+        }
+        let (body, tail) = bytes.split_at(bytes.len() - 8);
+        let stored = u64::from_le_bytes(tail.try_into().unwrap_or_default());
+        let computed = geometry::xxh64(body, 0);
+        if stored != computed {
+            return Err(bad(format!(
+                "corrupted: checksum {computed:016x} of the content does not match the stored {stored:016x}"
+            )));
+        }
+        let h = &p.header;
+        let pixels = u64::from(p.width) * u64::from(p.height);
+        let sane = p.width > 0
+            && p.height > 0
+            && p.width <= crate::MAX_SIDE
+            && p.height <= crate::MAX_SIDE
+            && pixels <= crate::MAX_PIXELS
+            && h.samples.start < h.samples.end
+            && h.samples.end <= h.spp
+            && h.options_hash == geometry::xxh64(h.options.as_bytes(), 0);
+        if !sane {
+            return Err(bad(format!(
+                "impossible header: {}x{} pixels, samples {}..{} of {} spp",
+                p.width, p.height, h.samples.start, h.samples.end, h.spp
+            )));
+        }
+        let n = pixels as usize;
+        let mut r = Reader { bytes: body, at: payload_at };
+        let truncated = || bad("truncated payload".to_owned());
+        let mut sums = Vec::with_capacity(n);
+        let range = h.samples.len() as u32;
+        for i in 0..n {
+            let count = r.u32().ok_or_else(truncated)?;
+            if count > range {
+                return Err(bad(format!("pixel {i} holds {count} samples, more than its range's {range}")));
+            }
+            let mut v = [0i128; 4];
+            for s in &mut v {
+                *s = r.i128().ok_or_else(truncated)?;
+            }
+            sums.push(PixelSums { xyz: [v[0], v[1], v[2]], y2: v[3], count });
+        }
+        let ids = r.take(4 * n).ok_or_else(truncated)?;
+        let ids = ids.chunks_exact(4).map(|b| id_from_code(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))).collect();
+        let spectral = r.take(16 * n * p.lanes).ok_or_else(truncated)?;
+        let spectral =
+            spectral.chunks_exact(16).map(|b| i128::from_le_bytes(b.try_into().unwrap_or_default())).collect();
+        let film = Film {
+            width: p.width,
+            height: p.height,
+            pixels: sums,
+            wavelengths: p.wavelengths,
+            spectral,
+            ids,
+            has_first_sample: p.has_first_sample,
+            nonfinite: p.nonfinite,
+            clamped: p.clamped,
+        };
+        Ok(Self { header: p.header, film })
+    }
+
+    /// Read a film file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let bytes =
+            std::fs::read(path).map_err(|e| Error::FilmFile { path: path.to_owned(), message: e.to_string() })?;
+        Self::from_bytes(&bytes, path)
+    }
+
+    /// Write the file atomically (a temporary beside it, fsynced, then renamed).
+    pub fn write(&self, path: &Path) -> Result<()> {
+        self.header.write_film(&self.film, path)
+    }
+
+    /// Whether every pixel holds all the samples of the range.
+    pub fn is_complete(&self) -> bool {
+        self.film.min_sample_count() == self.header.samples.len() as u32
+    }
+
+    /// The film, to resume a render whose header would be `expected` (same scene, options,
+    /// seed, sample range and size); errors name `path`.
+    pub fn resumable(self, expected: &FilmHeader, width: u32, height: u32, path: &Path) -> Result<Film> {
+        let h = &self.header;
+        let differs = |what: &str, was: String, now: String| Error::FilmFile {
+            path: path.to_owned(),
+            message: format!("cannot resume: rendered with {what} {was}, this render has {now}"),
+        };
+        if h.scene_hash != expected.scene_hash {
+            return Err(differs(
+                "a different scene: digest",
+                format!("{:016x}", h.scene_hash),
+                format!("{:016x}", expected.scene_hash),
+            ));
+        }
+        if h.options != expected.options {
+            return Err(differs("other options:", format!("`{}`", h.options), format!("`{}`", expected.options)));
+        }
+        if h.seed != expected.seed {
+            return Err(differs("seed", h.seed.to_string(), expected.seed.to_string()));
+        }
+        if h.spectral != expected.spectral {
+            return Err(differs("spectral mode", h.spectral.clone(), expected.spectral.clone()));
+        }
+        if h.samples != expected.samples {
+            return Err(differs("samples", format!("{:?}", h.samples), format!("{:?}", expected.samples)));
+        }
+        if (self.film.width, self.film.height) != (width, height) {
+            return Err(differs(
+                "size",
+                format!("{}x{}", self.film.width, self.film.height),
+                format!("{width}x{height}"),
+            ));
+        }
+        Ok(self.film)
+    }
+}
+
+/// The merge of the parts of one render ([`merge_parts`]).
+#[derive(Debug)]
+pub struct Merged {
+    /// The merged film and its header (sample range: from the first part's start to the last
+    /// part's end).
+    pub file: FilmFile,
+    /// Sample indices of `0..spp` no part is for.
+    pub missing: Vec<Range<u32>>,
+    /// Parts that do not hold all of their range in every pixel (an interrupted render):
+    /// their path, and the fewest and most samples a pixel holds of the range's length.
+    pub incomplete: Vec<(PathBuf, u32, u32, u32)>,
+}
+
+impl Merged {
+    /// Whether the merged film is the whole render.
+    pub fn is_complete(&self) -> bool {
+        self.missing.is_empty() && self.incomplete.is_empty()
+    }
+
+    /// The gaps in words, one per line.
+    pub fn gaps(&self) -> Vec<String> {
+        let mut lines: Vec<String> =
+            self.missing.iter().map(|r| format!("samples {}..{} are in no part", r.start, r.end)).collect();
+        lines.extend(self.incomplete.iter().map(|(path, lo, hi, len)| {
+            format!(
+                "{}: pixels hold {lo}..={hi} of its {len} samples (an interrupted render: --resume it)",
+                path.display()
+            )
+        }));
+        lines
+    }
+}
+
+fn mismatch(path: &Path, other: &Path, message: String) -> Error {
+    Error::FilmMismatch { path: path.to_owned(), other: other.to_owned(), message }
+}
+
+/// Merges the films of disjoint sample ranges of one render, one at a time (so only the sum
+/// and the part being added are in memory). Refuses parts of different scenes, options,
+/// seeds, sizes, spectral modes or program versions when they are added, and overlapping
+/// ranges when finished (each error names the two files); samples no part covers are
+/// reported in [`Merged::missing`], not refused.
+#[derive(Debug, Default)]
+pub struct Merger {
+    /// The sum so far, and the first part's path (what later parts are compared with).
+    sum: Option<(PathBuf, FilmFile)>,
+    /// Every part's path, range, and fewest and most samples held.
+    ranges: Vec<(PathBuf, Range<u32>, u32, u32)>,
+}
+
+impl Merger {
+    /// An empty merge.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Add one part.
+    pub fn add(&mut self, path: PathBuf, part: FilmFile) -> Result<()> {
+        let range =
+            (path.clone(), part.header.samples.clone(), part.film.min_sample_count(), part.film.max_sample_count());
+        match &mut self.sum {
+            None => self.sum = Some((path, part)),
+            Some((first_path, sum)) => {
+                let (h, reference) = (&part.header, &sum.header);
+                let size = (sum.film.width, sum.film.height);
+                if h.scene_hash != reference.scene_hash {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("a different scene (digest {:016x}, not {:016x})", h.scene_hash, reference.scene_hash),
+                    ));
+                }
+                if h.options != reference.options {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("other options (`{}`, not `{}`)", h.options, reference.options),
+                    ));
+                }
+                if h.seed != reference.seed {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("another seed ({}, not {})", h.seed, reference.seed),
+                    ));
+                }
+                if h.spectral != reference.spectral || (part.film.width, part.film.height) != size {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!(
+                            "another size or spectral mode ({}x{} {}, not {}x{} {})",
+                            part.film.width, part.film.height, h.spectral, size.0, size.1, reference.spectral
+                        ),
+                    ));
+                }
+                if h.writer != reference.writer {
+                    // Same options and scene but another build: the numbers may differ.
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("another program ({}, not {})", h.writer, reference.writer),
+                    ));
+                }
+                sum.film.merge(&part.film).map_err(|e| mismatch(&path, first_path, e.to_string()))?;
+            }
+        }
+        self.ranges.push(range);
+        Ok(())
+    }
+
+    /// The merged film, once the ranges are checked to be disjoint.
+    pub fn finish(self) -> Result<Merged> {
+        let Some((_, mut file)) = self.sum else {
+            return Err(Error::InvalidOption {
+                option: "films to merge",
+                value: "none".to_owned(),
+                expected: "one or more",
+            });
+        };
+        let mut ranges = self.ranges;
+        ranges.sort_by_key(|(_, r, ..)| (r.start, r.end));
+        for pair in ranges.windows(2) {
+            let ((pa, a, ..), (pb, b, ..)) = (&pair[0], &pair[1]);
+            if b.start < a.end {
+                return Err(mismatch(
+                    pb,
+                    pa,
+                    format!(
+                        "overlapping sample ranges ({}..{} and {}..{}): a sample would be counted twice",
+                        b.start, b.end, a.start, a.end
+                    ),
+                ));
+            }
+        }
+        let spp = file.header.spp;
+        let mut missing = Vec::new();
+        let mut covered = 0;
+        for (_, r, ..) in &ranges {
+            if r.start > covered {
+                missing.push(covered..r.start);
+            }
+            covered = r.end;
+        }
+        if covered < spp {
+            missing.push(covered..spp);
+        }
+        let incomplete = ranges
+            .iter()
+            .filter(|(_, r, lo, _)| *lo < r.len() as u32)
+            .map(|(path, r, lo, hi)| (path.clone(), *lo, *hi, r.len() as u32))
+            .collect();
+        file.header.samples = ranges[0].1.start..ranges[ranges.len() - 1].1.end;
+        Ok(Merged { file, missing, incomplete })
+    }
+}
+
+/// Merge the films of disjoint sample ranges of one render (see [`Merger`]).
+pub fn merge_parts(parts: Vec<(PathBuf, FilmFile)>) -> Result<Merged> {
+    let mut merger = Merger::new();
+    for (path, part) in parts {
+        merger.add(path, part)?;
+    }
+    merger.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rayon::prelude::*;
+
+    fn sample_file() -> FilmFile {
+        let mut film = Film::new(3, 2, vec![450.0, 550.0]);
+        {
+            let mut rows = film.rows_mut().collect::<Vec<_>>();
+            rows[0].add_sample::<4>(1, [0.25, 1.5, -3.0e-9], &[0.5, 2.0, 0.0, 0.0]);
+            rows[1].set_first_hit(2, ObjectId::Material(Some(7)));
+            rows[1].set_first_hit(0, ObjectId::Material(None));
+        }
+        film.set_has_first_sample();
+        film.add_counts(2, 1);
+        let header = FilmHeader {
+            scene_hash: 0x0123_4567_89ab_cdef,
+            options: "path spp=4".to_owned(),
+            options_hash: geometry::xxh64(b"path spp=4", 0),
+            seed: 9,
+            spp: 4,
+            samples: 0..1,
+            spectral: "bins:2".to_owned(),
+            writer: "spectrace test".to_owned(),
+        };
+        FilmFile { header, film }
+    }
+
+    #[test]
+    fn a_film_file_reads_back_exactly() {
+        let file = sample_file();
+        let bytes = file.to_bytes();
+        assert_eq!(&bytes[..8], b"SPTRFILM");
+        let back = FilmFile::from_bytes(&bytes, Path::new("a.film")).unwrap();
+        assert_eq!(back, file);
+        assert_eq!(back.film.nonfinite_samples(), 2);
+    }
+
+    #[test]
+    fn damaged_files_are_named_errors() {
+        let bytes = sample_file().to_bytes();
+        let err = |b: &[u8]| FilmFile::from_bytes(b, Path::new("p.film")).unwrap_err().to_string();
+        // Every cut short is "truncated", never a panic or a film.
+        for len in [0, 5, 12, 40, bytes.len() / 2, bytes.len() - 1] {
+            let e = err(&bytes[..len]);
+            assert!(
+                e.starts_with("p.film: ") && (e.contains("truncated") || e.contains("not a spectrace")),
+                "{len}: {e}"
+            );
+        }
+        assert!(err(&bytes[..bytes.len() - 1]).contains("truncated"));
+        // Any flipped byte after the magic and version is caught.
+        for at in (16..bytes.len()).step_by(7) {
+            let mut b = bytes.clone();
+            b[at] ^= 0x10;
+            let e = err(&b);
+            assert!(e.starts_with("p.film: corrupted"), "{at}: {e}");
+        }
+        let mut b = bytes.clone();
+        b[8] = 2;
+        assert!(err(&b).contains("version 2"), "{}", err(&b));
+        let mut b = bytes.clone();
+        b[0] = b'X';
+        assert!(err(&b).contains("not a spectrace film file"));
+        let mut b = bytes.clone();
+        b.push(0);
+        assert!(err(&b).contains("corrupted"), "{}", err(&b));
+        // A corrupted header length is not mistaken for a short file.
+        let mut b = bytes.clone();
+        b[12] ^= 1;
+        assert!(err(&b).contains("corrupted") || err(&b).contains("truncated"), "{}", err(&b));
+    }
+}

@@ -1,0 +1,237 @@
+//! A render split into parts (`render --part K/M --film`) and merged (`spectrace merge`) is bit
+//! for bit the single render; merge refuses what does not belong together; a killed render
+//! resumes from its checkpoint to the same bits.
+
+use std::path::Path;
+
+use crate::render::{refused, repo, scratch, spectrace};
+
+/// Runs `spectrace <args>` in `dir`; it must succeed. Returns stderr.
+fn run(dir: &Path, args: &[&str]) -> String {
+    let output = spectrace().current_dir(dir).args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert!(output.status.success(), "{args:?}: {stderr}");
+    stderr
+}
+
+fn same_bytes(dir: &Path, a: &str, b: &str) {
+    let (x, y) = (std::fs::read(dir.join(a)).unwrap(), std::fs::read(dir.join(b)).unwrap());
+    assert!(x == y, "{a} and {b} differ ({} and {} bytes)", x.len(), y.len());
+}
+
+fn cornell() -> String {
+    repo("scenes/reference/cornell_box.json").display().to_string()
+}
+
+#[test]
+fn parts_merge_bit_for_bit_into_the_single_render() {
+    let dir = scratch("farm_parts");
+    let scene = cornell();
+    let cases: [(&str, &[&str], bool); 5] = [
+        ("whitted", &["--integrator", "whitted-hall", "--spectral", "bins:16"], true),
+        ("whitted-rgb", &["--integrator", "whitted-hall", "--spectral", "rgb"], false),
+        ("path-bins", &["--integrator", "path", "--spectral", "bins:16"], true),
+        ("path-bins-plain", &["--integrator", "path", "--spectral", "bins:16"], false),
+        ("path-hero", &["--integrator", "path", "--spectral", "hero:8", "--seed", "7"], false),
+    ];
+    for (name, options, spectral) in cases {
+        let base: Vec<&str> = [scene.as_str(), "--width", "20", "--height", "15", "--spp", "7", "--quiet"]
+            .into_iter()
+            .chain(options.iter().copied())
+            .collect();
+        let mut single = vec!["render"];
+        single.extend(&base);
+        let (exr, sexr) = (format!("{name}-single.exr"), format!("{name}-single-spectral.exr"));
+        single.extend(["-o", &exr]);
+        if spectral {
+            single.extend(["--spectral-exr", &sexr]);
+        }
+        run(&dir, &single);
+        // Three parts by --part, rendered in another order than merged; then uneven --samples.
+        let splits: [&[&str]; 2] =
+            [&["--part", "1/3", "--part", "2/3", "--part", "3/3"], &["--samples", "0..1", "--samples", "1..7"]];
+        for (s, split) in splits.iter().enumerate() {
+            let mut films = Vec::new();
+            for (i, pair) in split.chunks(2).enumerate().rev() {
+                let film = format!("{name}-{s}-{i}.film");
+                let mut part = vec!["render"];
+                part.extend(&base);
+                part.extend([pair[0], pair[1], "--film", &film]);
+                if spectral {
+                    part.push("--spectral-film");
+                }
+                run(&dir, &part);
+                films.push(film);
+            }
+            let (merged, mexr) = (format!("{name}-{s}-merged.exr"), format!("{name}-{s}-merged-spectral.exr"));
+            let mut merge = vec!["merge"];
+            merge.extend(films.iter().map(String::as_str));
+            merge.extend(["-o", &merged]);
+            if spectral {
+                merge.extend(["--spectral-exr", &mexr]);
+            }
+            let stderr = run(&dir, &merge);
+            same_bytes(&dir, &exr, &merged);
+            same_bytes(&dir, &exr.replace(".exr", ".png"), &merged.replace(".exr", ".png"));
+            if spectral {
+                same_bytes(&dir, &sexr, &mexr);
+            }
+            assert!(stderr.contains("samples 0..7 of 7 spp, 7..=7 per pixel"), "{name}: {stderr}");
+        }
+    }
+    // The comparison can fail: two parts of another seed merge into other bytes.
+    let base = [
+        scene.as_str(),
+        "--width",
+        "20",
+        "--height",
+        "15",
+        "--spp",
+        "7",
+        "--integrator",
+        "path",
+        "--spectral",
+        "hero:8",
+        "-q",
+    ];
+    for (k, film) in [("1/2", "s1.film"), ("2/2", "s2.film")] {
+        let mut part = vec!["render"];
+        part.extend(base);
+        part.extend(["--part", k, "--film", film]);
+        run(&dir, &part);
+    }
+    run(&dir, &["merge", "s1.film", "s2.film", "-o", "seed0.exr", "-q"]);
+    let other = std::fs::read(dir.join("seed0.exr")).unwrap();
+    assert_ne!(other, std::fs::read(dir.join("path-hero-single.exr")).unwrap(), "seed 0 and seed 7 differ");
+}
+
+#[test]
+fn merge_refuses_what_is_not_one_render_and_damaged_files() {
+    let dir = scratch("farm_refuse");
+    let scene = cornell();
+    let prism = repo("scenes/reference/prism.json").display().to_string();
+    let part = |file: &str, scene: &str, extra: &[&str]| {
+        let mut args = vec!["render", scene, "--width", "8", "--height", "6", "--spp", "4", "--integrator", "path"];
+        args.extend(["--spectral", "bins:8", "--film", file, "-q"]);
+        args.extend(extra);
+        run(&dir, &args);
+    };
+    part("a.film", &scene, &["--part", "1/2"]);
+    part("b.film", &scene, &["--part", "2/2"]);
+    part("prism.film", &prism, &["--part", "2/2"]);
+    part("depth.film", &scene, &["--part", "2/2", "--max-depth", "3"]);
+    part("seed.film", &scene, &["--part", "2/2", "--seed", "1"]);
+    part("over.film", &scene, &["--samples", "1..4"]);
+    let merge = |parts: &[&str], needles: &[&str]| {
+        let mut args = vec!["merge"];
+        args.extend(parts);
+        args.extend(["-o", "out.exr"]);
+        refused(&dir, &args, 1, needles);
+    };
+    merge(&["a.film", "prism.film"], &["prism.film: cannot merge with a.film", "a different scene"]);
+    merge(&["a.film", "depth.film"], &["depth.film", "other options", "max_depth=Some(3)"]);
+    merge(&["a.film", "seed.film"], &["seed.film", "another seed (1, not 0)"]);
+    merge(&["a.film", "over.film"], &["over.film: cannot merge with a.film", "overlapping sample ranges"]);
+    merge(&["b.film"], &["samples 0..2 are in no part", "--allow-gaps"]);
+    // With --allow-gaps the image is written, with a warning.
+    let stderr = run(&dir, &["merge", "b.film", "-o", "gaps.exr", "--allow-gaps", "--variance", "v.exr"]);
+    assert!(stderr.contains("warning") && stderr.contains("samples 0..2 are in no part"), "{stderr}");
+    assert!(dir.join("gaps.exr").exists() && dir.join("gaps.png").exists() && dir.join("v.exr").exists());
+    // Damaged films: each error names the file.
+    let bytes = std::fs::read(dir.join("b.film")).unwrap();
+    std::fs::write(dir.join("short.film"), &bytes[..bytes.len() - 100]).unwrap();
+    let mut flipped = bytes.clone();
+    flipped[bytes.len() / 2] ^= 0x01;
+    std::fs::write(dir.join("flipped.film"), &flipped).unwrap();
+    let mut future = bytes.clone();
+    future[8] = 9;
+    std::fs::write(dir.join("future.film"), &future).unwrap();
+    std::fs::write(dir.join("text.film"), b"hello").unwrap();
+    merge(&["a.film", "short.film"], &["short.film: truncated"]);
+    merge(&["a.film", "flipped.film"], &["flipped.film: corrupted: checksum"]);
+    merge(&["a.film", "future.film"], &["future.film: film format version 9"]);
+    merge(&["text.film"], &["text.film: not a spectrace film file"]);
+    merge(&["missing.film"], &["missing.film"]);
+    // A part without --film is refused before rendering.
+    refused(&dir, &["render", &scene, "--part", "1/2", "--spp", "4"], 1, &["--film"]);
+    refused(&dir, &["render", &scene, "--part", "3/2", "--film", "x.film"], 2, &["K/M"]);
+    // Resuming another render's film is refused.
+    refused(
+        &dir,
+        &[
+            "render",
+            &scene,
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--spp",
+            "4",
+            "--integrator",
+            "path",
+            "--spectral",
+            "bins:8",
+            "--resume",
+            "a.film",
+            "-o",
+            "r.exr",
+        ],
+        1,
+        &["a.film: cannot resume", "samples"],
+    );
+}
+
+/// Samples done in a film file (the fewest of any pixel).
+fn samples_done(path: &Path) -> u32 {
+    integrator::FilmFile::read(path).unwrap().film.min_sample_count()
+}
+
+#[test]
+fn a_render_killed_after_a_checkpoint_resumes_to_the_same_bits() {
+    let dir = scratch("farm_resume");
+    let scene = cornell();
+    let spp = 48;
+    let args: Vec<String> =
+        [&scene, "--width", "24", "--height", "18", "--spp", &spp.to_string(), "--integrator", "path"]
+            .iter()
+            .map(|s| s.to_string())
+            .chain(["--spectral", "hero:8", "--threads", "1", "-q"].map(String::from))
+            .collect();
+    let render = |extra: &[&str]| {
+        let mut a: Vec<&str> = vec!["render"];
+        a.extend(args.iter().map(String::as_str));
+        a.extend(extra);
+        run(&dir, &a);
+    };
+    render(&["-o", "whole.exr"]);
+    // A checkpoint after every pass of one sample per pixel; SIGKILL as soon as one exists.
+    let mut child = spectrace()
+        .current_dir(&dir)
+        .arg("render")
+        .args(&args)
+        .args(["-o", "killed.exr", "--checkpoint", "c.film", "--checkpoint-every", "0"])
+        .spawn()
+        .unwrap();
+    let checkpoint = dir.join("c.film");
+    while !checkpoint.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "the render ended before its first checkpoint");
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    child.kill().unwrap(); // SIGKILL: no handler runs
+    child.wait().unwrap();
+    let done = samples_done(&checkpoint);
+    assert!((1..spp).contains(&done), "killed after {done} of {spp} samples: the test needs a partial render");
+    assert!(!dir.join("killed.exr").exists());
+    render(&["-o", "resumed.exr", "--resume", "c.film"]);
+    same_bytes(&dir, "whole.exr", "resumed.exr");
+    same_bytes(&dir, "whole.png", "resumed.png");
+    // A time-limited render writes a resumable film (rows the limit skipped hold one sample
+    // fewer); resuming it gives the same bits too.
+    render(&["--time-limit", "0.01", "--film", "t.film"]);
+    assert!(samples_done(&dir.join("t.film")) < spp);
+    render(&["-o", "t.exr", "--resume", "t.film"]);
+    same_bytes(&dir, "whole.exr", "t.exr");
+    // The comparison can fail: a render stopped by the time limit, not resumed, differs.
+    render(&["--time-limit", "0.01", "-o", "short.exr"]);
+    assert_ne!(std::fs::read(dir.join("short.exr")).unwrap(), std::fs::read(dir.join("whole.exr")).unwrap());
+}
