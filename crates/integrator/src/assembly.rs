@@ -172,7 +172,10 @@ impl RenderScene {
             scene.background.as_ref(),
             &scene.geometry,
             |id| scene.primitive_material(id),
-            |m| scene.materials.get(m as usize).filter(|m| m.emits()).and_then(|m| m.emission.as_ref()),
+            |m| {
+                let m = scene.materials.get(m as usize).filter(|m| m.emits())?;
+                Some((m.emission.as_ref()?, m.two_sided))
+            },
         );
         Ok(scene)
     }
@@ -307,10 +310,11 @@ fn warn_unused_keys(materials: &[MaterialDesc], warnings: &mut Vec<String>) {
     let names = |f: &dyn Fn(&MaterialDesc) -> bool| -> Vec<&str> {
         materials.iter().filter(|m| f(m)).map(|m| m.name.as_str()).collect()
     };
-    let one_sided = names(&|m| m.double_sided == Some(false) && m.format != MaterialFormat::Gltf);
+    let one_sided =
+        names(&|m| m.double_sided == Some(false) && m.format != MaterialFormat::Gltf && m.emission.is_none());
     if !one_sided.is_empty() {
         warnings.push(format!(
-            "material(s) {}: `double_sided: false` is not honoured yet (both sides are shaded)",
+            "material(s) {}: `double_sided: false` only makes emission one-sided; both sides are shaded",
             one_sided.join(", ")
         ));
     }
@@ -686,6 +690,8 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         // glTF writes a transmission factor, not Hall's constants: its reflection and transmission share
         // the light by Fresnel (issue 11: k_s = k_t = 1 made glass 10–30× brighter than paper).
         fresnel_weighted: desc.format == MaterialFormat::Gltf && transmits,
+        // glTF's doubleSided defaults to false; the manifest's `double_sided` and OBJ default to both sides.
+        two_sided: desc.double_sided.unwrap_or(desc.format != MaterialFormat::Gltf),
     };
     material.validate().map_err(wrap)?;
     Ok(material)

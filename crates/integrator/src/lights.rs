@@ -27,10 +27,11 @@ pub(crate) enum LightKind {
     Directional { direction: Vec3 },
     /// A uniform environment, seen by escaping rays and illuminating from every direction.
     Environment,
-    /// An emissive triangle, sampled uniformly by area; emits from both sides.
-    Triangle { p: [Vec3; 3], area: f32 },
-    /// An emissive sphere, sampled uniformly by area; emits from both sides.
-    Sphere { center: Vec3, radius: f32, area: f32 },
+    /// An emissive triangle, sampled uniformly by area; emits from its front (the winding's normal) or
+    /// from both sides.
+    Triangle { p: [Vec3; 3], area: f32, two_sided: bool },
+    /// An emissive sphere, sampled uniformly by area; emits outwards or from both sides.
+    Sphere { center: Vec3, radius: f32, area: f32, two_sided: bool },
 }
 
 /// A light as the scene file describes it, with its emission spectrum (luminance-normalised ×
@@ -113,7 +114,7 @@ impl LightKind {
                 let pdf = pmf * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI;
                 (pdf > 0.0).then(|| sample(wi, None, pdf, 1.0))
             }
-            Self::Triangle { area, .. } | Self::Sphere { area, .. } => {
+            Self::Triangle { area, two_sided, .. } | Self::Sphere { area, two_sided, .. } => {
                 let (q, n_light) = self.sample_area(u);
                 let d = q - ctx.p;
                 let distance2 = d.length_squared();
@@ -121,6 +122,9 @@ impl LightKind {
                     return None;
                 }
                 let wi = d / distance2.sqrt();
+                if !emits_towards(two_sided, n_light, -wi) {
+                    return None;
+                }
                 let cos_light = n_light.dot(wi).abs();
                 if cos_light <= 1e-7 {
                     return None;
@@ -162,10 +166,20 @@ impl LightKind {
             Self::Directional { .. } => pi * r2 * y,
             // pbrt-v4 UniformInfiniteLight::Phi = 4π · π r² · L.
             Self::Environment => 4.0 * pi * pi * r2 * y,
-            // Two-sided emitter: Φ = 2 π A L.
-            Self::Triangle { area, .. } | Self::Sphere { area, .. } => 2.0 * pi * f64::from(area) * y,
+            // Φ = π A L per emitting side.
+            Self::Triangle { area, two_sided, .. } | Self::Sphere { area, two_sided, .. } => {
+                let sides = if two_sided { 2.0 } else { 1.0 };
+                sides * pi * f64::from(area) * y
+            }
         }
     }
+}
+
+/// Whether an emitting surface with geometric normal `n` sends light towards `w` (unit or not): always
+/// when it is two-sided, else only from its front.
+#[inline]
+pub(crate) fn emits_towards(two_sided: bool, n: Vec3, w: Vec3) -> bool {
+    two_sided || n.dot(w) > 0.0
 }
 
 /// The unit direction from `p` to a point light at `position`, and the inverse-square fall-off
@@ -205,13 +219,14 @@ pub(crate) struct Emitters {
 
 impl Emitters {
     /// The lights of an assembled scene: `lights` from the file, the `background`, and every
-    /// primitive of positive area whose material (`emission_of`, by material index) emits.
+    /// primitive of positive area whose material (`emission_of`, by material index: spectrum and
+    /// whether both faces emit) emits.
     pub(crate) fn new<'a>(
         lights: &[Light],
         background: Option<&DenselySampledSpectrum>,
         geometry: &Scene,
         primitive_material: impl Fn(u32) -> Option<u32>,
-        emission_of: impl Fn(u32) -> Option<&'a DenselySampledSpectrum>,
+        emission_of: impl Fn(u32) -> Option<(&'a DenselySampledSpectrum, bool)>,
     ) -> Self {
         let (lo, hi) = geometry.bounds();
         let radius = if geometry.primitive_count() == 0 { 1.0 } else { ((hi - lo).length() * 0.5).max(1e-6) };
@@ -245,7 +260,7 @@ impl Emitters {
         set.area_light_of = vec![u32::MAX; count];
         for id in 0..count as u32 {
             let Some(material) = primitive_material(id) else { continue };
-            let Some(e) = emission_of(material) else { continue };
+            let Some((e, two_sided)) = emission_of(material) else { continue };
             let area = geometry.primitive_area(id);
             if !(area > 0.0) {
                 continue;
@@ -253,12 +268,12 @@ impl Emitters {
             let kind = match geometry.primitive(id) {
                 Primitive::Sphere { index } => {
                     let s = &geometry.spheres()[index as usize];
-                    LightKind::Sphere { center: s.center(), radius: s.radius(), area }
+                    LightKind::Sphere { center: s.center(), radius: s.radius(), area, two_sided }
                 }
                 Primitive::Triangle { mesh, triangle } => {
                     let mesh = &geometry.meshes()[mesh as usize];
                     let p = mesh.indices()[triangle as usize].map(|i| mesh.positions()[i as usize]);
-                    LightKind::Triangle { p, area }
+                    LightKind::Triangle { p, area, two_sided }
                 }
             };
             set.area_light_of[id as usize] = set.kinds.len() as u32;
@@ -381,7 +396,7 @@ mod tests {
         // of sample_li, integrated against the solid angle of each sample's area element,
         // must give the triangle's area (Monte Carlo: E[1/pdf] over samples = solid angle).
         let p = [Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 1.0)];
-        let tri = LightKind::Triangle { p, area: 0.5 };
+        let tri = LightKind::Triangle { p, area: 0.5, two_sided: true };
         let ctx = at(Vec3::ZERO);
         let mut inv_pdf = 0.0f64;
         let n = 64;

@@ -21,7 +21,7 @@ use materials::{Ior, LAMBDA_D, MaterialModel};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
-use crate::lights::{Emission, LightSampleContext};
+use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
 use crate::sampling::{Rng, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
@@ -89,6 +89,8 @@ struct PathMaterial {
     /// σ_a of the enclosed medium, when it absorbs (only a transmissive model encloses one).
     sigma_a: Option<SpecId>,
     emission: Option<SpecId>,
+    /// Whether the emission leaves both faces.
+    two_sided: bool,
     ior: Ior,
 }
 
@@ -153,6 +155,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 scattering,
                 sigma_a: m.absorption.as_ref().filter(|_| m.absorbs()).map(|a| add(a.sigma_a().clone(), Kind::SigmaA)),
                 emission: m.emission.as_ref().filter(|_| m.emits()).map(|e| add(e.clone(), Kind::Emission)),
+                two_sided: m.two_sided,
                 ior: m.ior,
             }
         };
@@ -315,7 +318,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             {
                 beta *= materials::beer_transmittance(&self.spectra.eval(sigma_a, lambda), hit.t * dir_len);
             }
-            if let Some(e) = m.emission {
+            if let Some(e) = m.emission
+                && emits_towards(m.two_sided, hit.n, wo)
+            {
                 let weight = if specular_bounce {
                     1.0
                 } else {

@@ -13,7 +13,7 @@ use materials::{hall, scattering};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor};
-use crate::lights::{Emission, LightKind, LightSampleContext};
+use crate::lights::{Emission, LightKind, LightSampleContext, emits_towards};
 use crate::render::{Ambient, Kernel, Radiance, RayCount, WhittedOptions};
 use crate::sampling::Rng;
 use crate::spectral::{Lanes, SpectrumKind};
@@ -36,6 +36,8 @@ struct LaneMaterial<const N: usize> {
     /// σ_a(λ), only when absorption is on and the medium absorbs.
     sigma_a: Option<SampledSpectrum<N>>,
     emission: Option<SampledSpectrum<N>>,
+    /// Whether the emission leaves both faces.
+    two_sided: bool,
     shininess: f32,
     /// Index of refraction at n_d's wavelength (this model does not disperse).
     eta: f32,
@@ -113,6 +115,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
                 kt,
                 sigma_a,
                 emission: m.emission.as_ref().map(|e| project(e, SpectrumKind::Emission)),
+                two_sided: m.two_sided,
                 shininess: m.shininess,
                 eta: m.ior.eval(materials::LAMBDA_D),
                 has_diffuse: kd.0.iter().any(|&v| v > 0.0),
@@ -206,7 +209,9 @@ impl<'a, const N: usize> Whitted<'a, N> {
         }
 
         let mut color = m.ambient;
-        if let Some(e) = &m.emission {
+        if let Some(e) = &m.emission
+            && emits_towards(m.two_sided, hit.n, wo)
+        {
             color += *e;
         }
 

@@ -40,6 +40,10 @@ pub struct Material {
     pub absorption: Option<Absorption>,
     /// Emitted radiance spectrum (luminance-normalised × strength), if the surface emits.
     pub emission: Option<DenselySampledSpectrum>,
+    /// Whether an emitting surface emits from both faces; otherwise only from its front, the side its
+    /// geometric normal (triangle winding, sphere outside) points to. Manifests and OBJ: both; glTF:
+    /// `doubleSided` (the specification's default is one-sided).
+    pub two_sided: bool,
     /// The physically based model: which BSDF the path tracer builds from this record.
     pub model: MaterialModel,
     /// Whether Hall's k_s and k_t of a transmissive surface are weighted per hit by the Fresnel
@@ -129,6 +133,7 @@ impl Material {
             emission: None,
             model: MaterialModel::Diffuse,
             fresnel_weighted: false,
+            two_sided: true,
         }
     }
 

@@ -124,3 +124,41 @@ fn a_file_without_lights_reads_as_light_grey() {
     let y = f64::from(image.xyz(0, 0)[1]);
     assert!((y / 0.4 - 1.0).abs() < 0.03, "Y = {y}, expected 0.8 × 0.5");
 }
+
+/// Y seen by a 1-pixel path-traced camera at `eye` looking at the origin, where an emissive quad
+/// (z = 0, front +z, luminance 2 nits) faces +z; `double_sided` as given, a white plane at z = −1.
+fn emitter_seen_from(eye: [f32; 3], double_sided: bool) -> (f64, f64) {
+    let json = format!(
+        r#"{{ "camera": {{"position": {eye:?}, "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov_deg": 0.01}},
+        "materials": {{"glow": {{"base_color": 0, "emission": "D65", "emission_strength": 2, "double_sided": {double_sided}}},
+                       "white": {{"base_color": 1, "diffuse": 1, "ks": 0}}}},
+        "objects": [
+          {{"type": "quad", "corner": [-0.1, -0.1, 0], "edge_u": [0.2, 0, 0], "edge_v": [0, 0.2, 0], "material": "glow"}},
+          {{"type": "quad", "corner": [-5, -5, -1], "edge_u": [10, 0, 0], "edge_v": [0, 10, 0], "material": "white"}}
+        ] }}"#
+    );
+    let s = scene(&json);
+    let opts = integrator::RenderOptions { spectral: SpectralMode::Bins(16), spp: 64, ..options(1, 1) }.path(|_| {});
+    let (image, stats) = render_with(&s, &opts);
+    assert_all_finite(&image, &stats);
+    // The white plane's luminance straight below the emitter (seen past it at a slant).
+    let below = scene(
+        &json
+            .replace(&format!("{eye:?}"), "[0.5, 0, 1]")
+            .replace("\"look_at\": [0, 0, 0]", "\"look_at\": [0.5, 0, -1]"),
+    );
+    let (lit, _) = render_with(&below, &opts);
+    (f64::from(image.xyz(0, 0)[1]), f64::from(lit.xyz(0, 0)[1]))
+}
+
+#[test]
+fn one_sided_emitters_show_and_light_only_their_front() {
+    let (front, _) = emitter_seen_from([0.0, 0.0, 1.0], false);
+    assert_close(front, 2.0, "front of a one-sided emitter");
+    let (back, plane_one_sided) = emitter_seen_from([0.0, 0.0, -0.5], false);
+    assert!(back < 1e-3, "no back-face emission leak: Y = {back}");
+    assert!(plane_one_sided < 1e-6, "the plane behind a one-sided emitter stays dark: {plane_one_sided}");
+    let (back_two, plane_two_sided) = emitter_seen_from([0.0, 0.0, -0.5], true);
+    assert_close(back_two, 2.0, "back of a two-sided emitter");
+    assert!(plane_two_sided > 1e-3, "a two-sided emitter lights the plane behind it: {plane_two_sided}");
+}
