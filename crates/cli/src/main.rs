@@ -21,6 +21,8 @@ struct Cli {
     command: Command,
 }
 
+// One value per process, parsed once: boxing the large `render` arguments would buy nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Render a scene (default: the paper's five spheres) to EXR and PNG.
