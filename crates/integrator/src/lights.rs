@@ -213,8 +213,8 @@ pub(crate) struct Emitters {
     area_light_of: Vec<u32>,
     /// Index of the environment, if the scene has one that gives light.
     environment: Option<usize>,
-    /// What the environment sums: environment lights in file order, then the background.
-    environment_spectra: Vec<Emission>,
+    /// What an escaping ray sees, summed: environment lights in file order, then the background.
+    le_escaped: Vec<Emission>,
 }
 
 impl Emitters {
@@ -236,7 +236,7 @@ impl Emitters {
         for (i, l) in lights.iter().enumerate() {
             let y = colorimetry::relative_luminance(&l.spectrum);
             if let LightKind::Environment = l.kind {
-                set.environment_spectra.push(Emission::Light(i));
+                set.le_escaped.push(Emission::Light(i));
                 environment_luminance += y;
                 continue;
             }
@@ -247,13 +247,13 @@ impl Emitters {
         // The background is what escaping rays see: for a physically based renderer it is part
         // of the environment and lights the scene like it.
         if let Some(b) = background {
-            set.environment_spectra.push(Emission::Background);
+            set.le_escaped.push(Emission::Background);
             environment_luminance += colorimetry::relative_luminance(b);
         }
-        if !set.environment_spectra.is_empty() && environment_luminance > 0.0 {
+        if !set.le_escaped.is_empty() && environment_luminance > 0.0 {
             set.environment = Some(set.kinds.len());
             set.kinds.push(LightKind::Environment);
-            set.emission.push(set.environment_spectra[0]);
+            set.emission.push(set.le_escaped[0]);
             power.push(LightKind::Environment.phi(environment_luminance, radius));
         }
         let count = geometry.primitive_count();
@@ -310,9 +310,11 @@ impl Emitters {
         self.kinds.iter().zip(self.emission.iter().copied())
     }
 
-    /// The spectra the environment sums (seen by escaping rays; empty without environment).
-    pub(crate) fn environment_spectra(&self) -> &[Emission] {
-        &self.environment_spectra
+    /// pbrt-v4 `Le` of the infinite lights: what a ray that escapes the scene sees is the sum of
+    /// these emissions (environment lights, then the background; empty without environment).
+    /// Area lights' `L` is their material's emission where [`emits_towards`] says it leaves.
+    pub(crate) fn le_escaped(&self) -> &[Emission] {
+        &self.le_escaped
     }
 
     /// Choose a light ∝ power with `u` and sample it with `u2` (pbrt-v4 `SampleLd`'s light
@@ -353,14 +355,14 @@ impl Emitters {
     }
 
     /// Whether light `index` is the environment (its radiance sums
-    /// [`Emitters::environment_spectra`]).
+    /// [`Emitters::le_escaped`]).
     #[inline]
     pub(crate) fn is_environment(&self, index: usize) -> bool {
         self.environment == Some(index)
     }
 
     /// Whether rays that escape see an environment that gives light (pbrt-v4 `Le` of the
-    /// infinite lights; its radiance is the sum of [`Emitters::environment_spectra`]).
+    /// infinite lights; its radiance is the sum of [`Emitters::le_escaped`]).
     #[inline]
     pub(crate) fn has_environment(&self) -> bool {
         self.environment.is_some()

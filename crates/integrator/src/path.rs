@@ -173,8 +173,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 materials.get(m as usize).and_then(|m| m.emission).expect("area lights emit by their material")
             }
         };
-        let environment_spectra: Vec<SpecId> =
-            scene.emitters.environment_spectra().iter().map(|&e| emission(e)).collect();
+        let environment_spectra: Vec<SpecId> = scene.emitters.le_escaped().iter().map(|&e| emission(e)).collect();
         let light_spectra: Vec<SpecId> = scene.emitters.iter().map(|(_, e)| emission(e)).collect();
 
         let (spectra, sensor) = match fixed {

@@ -128,7 +128,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
         let default_material = lane_material(&scene.default_material);
         // Escaping rays see the environment: environment lights and the background.
         let mut background = SampledSpectrum([0.0; N]);
-        for &e in scene.emitters.environment_spectra() {
+        for &e in scene.emitters.le_escaped() {
             background += emission(e);
         }
         Self {
