@@ -129,6 +129,9 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     environment: Option<usize>,
     environment_spectra: Vec<SpecId>,
     max_depth: u32,
+    /// Whether any material needs a rough or layered BSDF: otherwise [`PathTracer::trace`] is
+    /// instantiated with the smooth models only, so scenes without them pay nothing.
+    rough: bool,
 }
 
 impl<'a, const N: usize> PathTracer<'a, N> {
@@ -182,6 +185,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         };
         let materials: Vec<PathMaterial> = scene.materials.iter().map(&mut path_material).collect();
         let default_material = path_material(&scene.default_material);
+        let rough = materials.iter().chain([&default_material]).any(|m| {
+            !matches!(
+                m.scattering,
+                PathScattering::Diffuse { .. } | PathScattering::Mirror { .. } | PathScattering::Dielectric { .. }
+            )
+        });
 
         // Lights, with a power estimate each for the light-selection density (pbrt-v4
         // `PowerLightSampler`; `Light::Phi` of each kind), luminance standing in for power.
@@ -304,6 +313,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             environment,
             environment_spectra,
             max_depth,
+            rough,
         };
         (tracer, sensor)
     }
@@ -354,7 +364,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     }
 
     /// Radiance along a camera ray (pbrt-v4 `PathIntegrator::Li`).
-    fn trace(
+    ///
+    /// `ROUGH`: whether the scene has rough or layered materials; without them the smooth models'
+    /// code is all this instantiation contains.
+    fn trace<const ROUGH: bool>(
         &self,
         camera_ray: &Ray,
         lambda: &mut SampledWavelengths<N>,
@@ -423,6 +436,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                     Bsdf::Dielectric { eta, tint: self.spectra.eval(tint, lambda) }
                 }
+                // Never reached when !ROUGH (`rough` is false only if no material has these).
+                _ if !ROUGH => Bsdf::Lambertian { r: SampledSpectrum([0.0; N]) },
                 PathScattering::RoughDielectric { tint, alpha } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                     let distrib = TrowbridgeReitz::isotropic(alpha);
@@ -606,7 +621,11 @@ impl<const N: usize> Kernel<N> for PathTracer<'_, N> {
         count: &mut RayCount,
     ) -> Radiance<N> {
         let mut lane = None;
-        let (l, first) = self.trace(ray, lambda, sensor, &mut lane, rng, count);
+        let (l, first) = if self.rough {
+            self.trace::<true>(ray, lambda, sensor, &mut lane, rng, count)
+        } else {
+            self.trace::<false>(ray, lambda, sensor, &mut lane, rng, count)
+        };
         debug_assert!(l.is_finite(), "non-finite radiance {l:?}");
         Radiance { l, first, lane }
     }
