@@ -107,6 +107,9 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     max_depth: u32,
     /// Bounces before Russian roulette may end a path.
     rr_depth: u32,
+    /// Whether any material needs a rough or layered BSDF: otherwise [`PathTracer::trace`] is
+    /// instantiated with the smooth models only, so scenes without them pay nothing.
+    rough: bool,
 }
 
 impl<'a, const N: usize> PathTracer<'a, N> {
@@ -161,6 +164,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         };
         let materials: Vec<PathMaterial> = scene.materials.iter().map(&mut path_material).collect();
         let default_material = path_material(&scene.default_material);
+        let rough = materials.iter().chain([&default_material]).any(|m| {
+            !matches!(
+                m.scattering,
+                PathScattering::Diffuse { .. } | PathScattering::Mirror { .. } | PathScattering::Dielectric { .. }
+            )
+        });
 
         // The spectrum of each light, in the table: a light's own, the background, or the
         // emitting material's.
@@ -218,6 +227,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             environment_spectra,
             max_depth,
             rr_depth,
+            rough,
         };
         (tracer, sensor)
     }
@@ -268,7 +278,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     }
 
     /// Radiance along a camera ray (pbrt-v4 `PathIntegrator::Li`).
-    fn trace(
+    ///
+    /// `ROUGH`: whether the scene has rough or layered materials; without them the smooth models'
+    /// code is all this instantiation contains.
+    fn trace<const ROUGH: bool>(
         &self,
         camera_ray: &Ray,
         lambda: &mut SampledWavelengths<N>,
@@ -338,6 +351,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                     Bsdf::Dielectric { eta, tint: self.spectra.eval(tint, lambda) }
                 }
+                // Never reached when !ROUGH (`rough` is false only if no material has these).
+                _ if !ROUGH => Bsdf::Lambertian { r: SampledSpectrum([0.0; N]) },
                 PathScattering::RoughDielectric { tint, alpha } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                     let distrib = TrowbridgeReitz::isotropic(alpha);
@@ -445,7 +460,11 @@ impl<const N: usize> Kernel<N> for PathTracer<'_, N> {
         count: &mut RayCount,
     ) -> Radiance<N> {
         let mut lane = None;
-        let (l, first) = self.trace(ray, lambda, sensor, &mut lane, rng, count);
+        let (l, first) = if self.rough {
+            self.trace::<true>(ray, lambda, sensor, &mut lane, rng, count)
+        } else {
+            self.trace::<false>(ray, lambda, sensor, &mut lane, rng, count)
+        };
         debug_assert!(l.is_finite(), "non-finite radiance {l:?}");
         Radiance { l, first, lane }
     }
