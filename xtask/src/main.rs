@@ -8,8 +8,10 @@
 //! - `validate`: the validation suite (colorimetry, analytic renders, hard cases, speed against error, scaling).
 //! - `paper`: the paper's figures 8–11 as side-by-side renders with their backing numbers.
 //! - `exr-diff`: the largest difference between two EXR files (refactorings must move no number).
+//! - `gallery`: the third-party assets rendered with no flags: chosen integrator, camera, exposure, mean, clipping.
 
 mod exr_diff;
+mod gallery;
 mod paper;
 mod stats;
 mod upsampling;
@@ -38,6 +40,8 @@ enum Command {
     Validate(validate::ValidateArgs),
     /// The largest difference between two EXR files of the same layout.
     ExrDiff(exr_diff::ExrDiffArgs),
+    /// Render the third-party assets with no flags and tabulate luminance and clipping (skips when absent).
+    Gallery(gallery::GalleryArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -47,6 +51,7 @@ fn main() -> anyhow::Result<()> {
         Command::Paper(args) => paper::run(&args),
         Command::Validate(args) => validate::run(&args),
         Command::ExrDiff(args) => exr_diff::run(&args),
+        Command::Gallery(args) => gallery::run(&args),
     }
 }
 

@@ -8,6 +8,7 @@ use clap::{Parser, Subcommand};
 mod color;
 mod info;
 mod render;
+mod view;
 
 /// A spectral ray tracer: every ray carries a spectrum, not three RGB numbers.
 ///

@@ -26,10 +26,11 @@ pub(crate) struct RenderArgs {
     /// Image height in pixels [default: the scene's, else 480].
     #[arg(long)]
     height: Option<u32>,
-    /// Light transport: `whitted-hall` (the paper's model) or `path` (physically based
-    /// spectral path tracing).
-    #[arg(long, default_value = "whitted-hall")]
-    integrator: IntegratorKind,
+    /// Light transport: `whitted-hall` (the paper's model), `path` (physically based spectral
+    /// path tracing) or `auto` (the scene's `settings.integrator`, else path; the paper's scenes
+    /// ask for whitted-hall).
+    #[arg(long, default_value = "auto")]
+    integrator: crate::view::IntegratorChoice,
     /// Spectral sampling: `rgb`, `bins:N` (N wavelengths over 360-830 nm; bins:95 = 5 nm),
     /// `hero[:K]` (path tracer: K = 4 or 8 wavelengths drawn per sample) or `auto` (chosen from
     /// the scene's spectra).
@@ -78,6 +79,10 @@ pub(crate) struct RenderArgs {
     quiet: bool,
     #[command(flatten)]
     load: LoadArgs,
+    #[command(flatten)]
+    camera: crate::view::CameraArgs,
+    #[command(flatten)]
+    exposure: crate::view::ExposureArgs,
 }
 
 /// What a scene may cost to load (shared by `render` and `info`).
@@ -181,18 +186,22 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         other => other.into(),
     })?;
 
+    let assembly = args.camera.assembly((args.width, args.height));
     let scene = match &args.scene {
         // Scene errors name the file (and line) themselves.
-        Some(path) => RenderScene::load_with(path, &args.load.options())?,
-        None => RenderScene::default_scene().context("building the default scene")?,
+        Some(path) => RenderScene::load_with_options(path, &args.load.options(), &assembly)?,
+        None => RenderScene::from_description_with(RenderScene::default_description()?, &assembly)
+            .context("building the default scene")?,
     };
+    let (integrator_kind, integrator_note) = args.integrator.resolve(&scene);
+    let (exposure, exposure_why) = args.exposure.plan(&scene)?;
     if !args.quiet {
-        for w in &scene.warnings {
+        for w in scene.warnings.iter().chain(&integrator_note) {
             eprintln!("spectrace: note: {w}");
         }
     }
     let (scene_width, scene_height) = scene.resolution();
-    let integrator = match args.integrator {
+    let integrator = match integrator_kind {
         IntegratorKind::WhittedHall => Integrator::WhittedHall(WhittedOptions {
             max_depth: args.max_depth,
             min_weight: args.min_weight,
@@ -245,10 +254,23 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     let result = integrator::render(&scene, &options, &report, &cancel);
     bar.finish_and_clear();
-    let (image, stats) = match result {
+    let (mut image, stats) = match result {
         Err(integrator::Error::Cancelled) => cancelled(),
         other => other?,
     };
+    let ev = match exposure {
+        crate::view::ExposurePlan::Manual(ev) => ev,
+        crate::view::ExposurePlan::Auto => integrator::auto_exposure_ev(&image).unwrap_or(0.0),
+    };
+    image.set_view(integrator::View { ev, tonemap: args.exposure.tonemap() });
+    if !args.quiet && !image.view().is_identity() {
+        let how =
+            if exposure == crate::view::ExposurePlan::Auto { "auto: log-average luminance to 0.18; " } else { "" };
+        eprintln!(
+            "spectrace: note: PNG exposure {ev:+.2} EV ({how}{exposure_why}), tonemap {}; the EXR is not scaled",
+            args.exposure.tonemap()
+        );
+    }
 
     // Set before checking `cancel`, as the handler sets `cancel` before checking this: a
     // signal arriving now is seen by one side or the other (or both, which is harmless).

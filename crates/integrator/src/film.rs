@@ -528,6 +528,8 @@ pub struct Image {
     pub(crate) nonfinite: u64,
     /// Spectral radiance per pixel at fixed wavelengths, when the render kept it.
     pub(crate) spectral: Option<SpectralFilm>,
+    /// How the PNG shows it (exposure, tone curve); recorded in the EXR's header when not the identity.
+    pub(crate) view: crate::exposure::View,
 }
 
 /// Per-pixel radiance at the lanes' wavelengths (`RenderOptions::spectral_film`): what a
@@ -542,7 +544,15 @@ impl Image {
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
-        Self { width, height, xyz: vec![[0.0; 3]; n], ids: vec![ObjectId::Background; n], nonfinite: 0, spectral: None }
+        Self {
+            width,
+            height,
+            xyz: vec![[0.0; 3]; n],
+            ids: vec![ObjectId::Background; n],
+            nonfinite: 0,
+            spectral: None,
+            view: crate::exposure::View::default(),
+        }
     }
 
     #[cfg(test)]

@@ -27,7 +27,9 @@
 #![warn(missing_docs)]
 
 mod assembly;
+mod camera;
 mod error;
+mod exposure;
 mod film;
 mod lights;
 mod output;
@@ -38,8 +40,12 @@ mod spectral;
 mod summary;
 mod whitted;
 
-pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
+pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, RenderScene};
+pub use camera::{CameraOptions, UpAxis};
 pub use error::{Error, Result};
+pub use exposure::{
+    EXR_EXPOSURE_ATTRIBUTE, EXR_TONEMAP_ATTRIBUTE, MIDDLE_GREY, Tonemap, View, auto_exposure_ev, pbr_neutral,
+};
 pub use film::{Display, Film, Image, ObjectId};
 pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};
 pub use render::{
