@@ -78,9 +78,14 @@ pub(crate) fn run(args: &GalleryArgs) -> anyhow::Result<()> {
             good += 1;
         }
         let note = |key: &str| stderr.lines().find(|l| l.contains(key)).unwrap_or("").to_owned();
-        let integrator = note("note: integrator ").split(':').nth(2).unwrap_or("?").trim().to_owned();
+        let integrator = note("note: integrator ")
+            .split(':')
+            .nth(2)
+            .map_or("?", |s| s.trim().trim_start_matches("integrator "))
+            .to_owned();
         let camera = if note("three-quarter view").is_empty() { "file" } else { "3/4 default" };
-        let ev = note("PNG exposure ").split_whitespace().nth(3).unwrap_or("0").to_owned();
+        // "spectrace: note: PNG exposure +1.23 EV (…)"
+        let ev = note("PNG exposure ").split_whitespace().nth(4).unwrap_or("0").to_owned();
         table.push_str(&format!("| {name} | {integrator} | {camera} | {ev} | {mean:.1} % | {clipped_pct:.2} |\n"));
     }
     table.push_str(&format!(
