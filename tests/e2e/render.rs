@@ -243,3 +243,58 @@ fn sigterm_during_a_render_exits_130_and_writes_nothing() {
     assert_eq!(output.status.code(), Some(130), "{}", String::from_utf8_lossy(&output.stderr));
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
 }
+
+/// Issue 13: with no flags, the paper's scenes render with the paper's model and everything else
+/// with the path tracer, each saying why; a file without camera gets the three-quarter view.
+#[test]
+fn no_flags_choose_the_integrator_and_camera_and_say_why() {
+    let dir = scratch("render_auto");
+    let run = |scene: &str| {
+        let output = spectrace()
+            .current_dir(&dir)
+            .args(["render", "--width", "16", "--height", "12", "--spectral", "rgb"])
+            .arg(repo(scene))
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let paper = run("scenes/paper/four_spheres_mesh.json");
+    assert!(paper.contains("integrator whitted-hall: the scene's settings ask for it"), "{paper}");
+    let gem = run("scenes/meshes/gem.gltf");
+    assert!(gem.contains("integrator path:"), "{gem}");
+    assert!(gem.contains("camera: no camera in the file: a three-quarter view"), "{gem}");
+    // The glass torus has a camera and a KHR_lights_punctual light: its camera, auto-exposure.
+    let torus = run("scenes/gltf/glass_torus.gltf");
+    assert!(!torus.contains("three-quarter"), "{torus}");
+    assert!(torus.contains("EV (auto: log-average luminance to 0.18; the file's lights are photometric"), "{torus}");
+}
+
+#[test]
+fn info_reports_the_camera_integrator_and_exposure_a_render_uses() {
+    let info = |args: &[&str]| -> serde_json::Value {
+        let output = spectrace().args(["info"]).args(args).output().unwrap();
+        assert!(output.status.success(), "{args:?}: {}", String::from_utf8_lossy(&output.stderr));
+        serde_json::from_slice(&output.stdout).unwrap()
+    };
+    let default = info(&[]);
+    assert_eq!(default["integrator"]["name"], "whitted-hall", "{default}");
+    assert_eq!(default["exposure"]["ev"], 0.0);
+    assert_eq!(default["camera"]["source"], "the file's camera 'camera'");
+    let torus = repo("scenes/gltf/glass_torus.gltf");
+    let torus = torus.to_str().unwrap();
+    let t = info(&[torus]);
+    assert_eq!(t["integrator"]["name"], "path");
+    assert_eq!(t["exposure"]["ev"], "auto");
+    assert_eq!(t["exposure"]["photometric_lights"], true);
+    let moved = info(&[torus, "--look-from", "0,0,9", "--look-at", "0,0,0", "--fov", "25", "--exposure", "-1.5"]);
+    assert_eq!(moved["camera"]["position"], serde_json::json!([0.0, 0.0, 9.0]), "{moved}");
+    assert_eq!(moved["camera"]["vfov_deg"], 25.0);
+    assert_eq!(moved["exposure"]["ev"], -1.5);
+    let tilted = info(&[torus, "--integrator", "whitted-hall", "--tonemap", "pbr-neutral"]);
+    assert_eq!(tilted["integrator"]["name"], "whitted-hall");
+    assert_eq!(tilted["exposure"]["tonemap"], "pbr-neutral");
+    let dir = scratch("info_bad_camera");
+    refused(&dir, &["info", torus, "--camera", "nope"], 1, &["--camera nope: no such camera", "0 'camera'"]);
+    refused(&dir, &["render", torus, "--exposure", "1", "--auto-exposure"], 2, &["cannot be used with"]);
+}

@@ -10,9 +10,11 @@
 //! - `exr-diff`: the largest difference between two EXR files (refactorings must move no number).
 //! - `farm`: a render split into parts (separate processes or a Slurm job array), merged, and
 //!   compared byte for byte with the single render.
+//! - `gallery`: the third-party assets rendered with no flags: chosen integrator, camera, exposure, mean, clipping.
 
 mod exr_diff;
 mod farm;
+mod gallery;
 mod paper;
 mod stats;
 mod upsampling;
@@ -44,6 +46,8 @@ enum Command {
     /// Render in parts (`--engine local` processes or a `slurm` job array), merge, compare
     /// byte for byte with one render, and time it.
     Farm(farm::FarmArgs),
+    /// Render the third-party assets with no flags and tabulate luminance and clipping (skips when absent).
+    Gallery(gallery::GalleryArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -54,6 +58,7 @@ fn main() -> anyhow::Result<()> {
         Command::Validate(args) => validate::run(&args),
         Command::ExrDiff(args) => exr_diff::run(&args),
         Command::Farm(args) => farm::run(&args),
+        Command::Gallery(args) => gallery::run(&args),
     }
 }
 

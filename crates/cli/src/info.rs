@@ -1,39 +1,71 @@
-//! `spectrace info`: what a scene contains and what it needs.
+//! `spectrace info`: what a scene contains and what it needs, and the camera, integrator and
+//! exposure a render with the same flags would use.
 
 use std::path::PathBuf;
 
 use anyhow::Context as _;
-use integrator::{IntegratorKind, RenderScene};
+use integrator::RenderScene;
 
 /// Arguments of `spectrace info`.
 #[derive(Debug, clap::Args)]
 pub(crate) struct InfoArgs {
     /// Scene file (.json manifest, .gltf/.glb, .obj); the default scene when omitted.
     scene: Option<PathBuf>,
+    /// As `render --integrator`: the report says which model a render would use.
+    #[arg(long, default_value = "auto")]
+    integrator: crate::view::IntegratorChoice,
     #[command(flatten)]
     load: crate::render::LoadArgs,
+    #[command(flatten)]
+    camera: crate::view::CameraArgs,
+    #[command(flatten)]
+    exposure: crate::view::ExposureArgs,
 }
 
 pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
+    let assembly = args.camera.assembly((None, None));
     let (desc, scene) = match &args.scene {
         Some(path) => {
             // Loader errors name the file (and line) themselves.
             let desc = geometry::load_scene_with(path, &args.load.options())?;
-            let scene = RenderScene::from_description(desc.clone())
+            let scene = RenderScene::from_description_with(desc.clone(), &assembly)
                 .with_context(|| format!("assembling {}", path.display()))?;
             (desc, scene)
         }
         None => {
             let desc = RenderScene::default_description().context("building the default scene")?;
-            let scene = RenderScene::from_description(desc.clone()).context("assembling the default scene")?;
+            let scene =
+                RenderScene::from_description_with(desc.clone(), &assembly).context("assembling the default scene")?;
             (desc, scene)
         }
     };
+    let (kind, why) = args.integrator.resolve(&scene);
+    let (plan, exposure_why) = args.exposure.plan(&scene)?;
     let mut summary = integrator::summarize(&desc, &scene);
     if let Some(object) = summary.as_object_mut() {
         object.insert(
+            "integrator".to_owned(),
+            serde_json::json!({
+                "name": crate::view::kind_name(kind),
+                "why": why.unwrap_or_else(|| "--integrator".to_owned()),
+            }),
+        );
+        let ev = match plan {
+            crate::view::ExposurePlan::Manual(ev) => serde_json::json!(ev),
+            crate::view::ExposurePlan::Auto => serde_json::json!("auto"),
+        };
+        object.insert(
+            "exposure".to_owned(),
+            serde_json::json!({
+                "ev": ev,
+                "why": exposure_why,
+                "tonemap": args.exposure.tonemap().to_string(),
+                "photometric_lights": scene.has_photometric_lights(),
+            }),
+        );
+        object.insert(
             "spectral_auto".to_owned(),
-            serde_json::Value::String(integrator::choose_auto(&scene, IntegratorKind::WhittedHall).to_string()),
+            serde_json::Value::String(integrator::choose_auto(&scene, kind).to_string()),
         );
         object.insert("spiky_spectra".to_owned(), serde_json::Value::Bool(integrator::scene_is_spiky(&scene)));
     }

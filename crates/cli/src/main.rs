@@ -9,6 +9,7 @@ mod color;
 mod info;
 mod merge;
 mod render;
+mod view;
 
 /// A spectral ray tracer: every ray carries a spectrum, not three RGB numbers.
 ///

@@ -27,10 +27,11 @@ pub(crate) struct RenderArgs {
     /// Image height in pixels [default: the scene's, else 480].
     #[arg(long)]
     height: Option<u32>,
-    /// Light transport: `whitted-hall` (the paper's model) or `path` (physically based
-    /// spectral path tracing).
-    #[arg(long, default_value = "whitted-hall")]
-    integrator: IntegratorKind,
+    /// Light transport: `whitted-hall` (the paper's model), `path` (physically based spectral
+    /// path tracing) or `auto` (the scene's `settings.integrator`, else path; the paper's scenes
+    /// ask for whitted-hall).
+    #[arg(long, default_value = "auto")]
+    integrator: crate::view::IntegratorChoice,
     /// Spectral sampling: `rgb`, `bins:N` (N wavelengths over 360-830 nm; bins:95 = 5 nm),
     /// `hero[:K]` (path tracer: K = 4 or 8 wavelengths drawn per sample) or `auto` (chosen from
     /// the scene's spectra).
@@ -85,6 +86,10 @@ pub(crate) struct RenderArgs {
     parts: PartArgs,
     #[command(flatten)]
     load: LoadArgs,
+    #[command(flatten)]
+    camera: crate::view::CameraArgs,
+    #[command(flatten)]
+    exposure: crate::view::ExposureArgs,
 }
 
 /// Rendering a part of a render, checkpoints and resuming (docs/film-format.md).
@@ -276,18 +281,22 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         (other, ..) => other.into(),
     })?;
 
+    let assembly = args.camera.assembly((args.width, args.height));
     let scene = match &args.scene {
         // Scene errors name the file (and line) themselves.
-        Some(path) => RenderScene::load_with(path, &args.load.options())?,
-        None => RenderScene::default_scene().context("building the default scene")?,
+        Some(path) => RenderScene::load_with_options(path, &args.load.options(), &assembly)?,
+        None => RenderScene::from_description_with(RenderScene::default_description()?, &assembly)
+            .context("building the default scene")?,
     };
+    let (integrator_kind, integrator_note) = args.integrator.resolve(&scene);
+    let (exposure, exposure_why) = args.exposure.plan(&scene)?;
     if !args.quiet {
-        for w in &scene.warnings {
+        for w in scene.warnings.iter().chain(&integrator_note) {
             eprintln!("spectrace: note: {w}");
         }
     }
     let (scene_width, scene_height) = scene.resolution();
-    let integrator = match args.integrator {
+    let integrator = match integrator_kind {
         IntegratorKind::WhittedHall => Integrator::WhittedHall(WhittedOptions {
             max_depth: args.max_depth,
             min_weight: args.min_weight,
@@ -369,7 +378,20 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     for path in [&parts.film, &parts.checkpoint].into_iter().flatten() {
         header.write_film(&film, path).context("writing the film")?;
     }
-    let image = film.to_image();
+    let mut image = film.to_image();
+    let ev = match exposure {
+        crate::view::ExposurePlan::Manual(ev) => ev,
+        crate::view::ExposurePlan::Auto => integrator::auto_exposure_ev(&image).unwrap_or(0.0),
+    };
+    image.set_view(integrator::View { ev, tonemap: args.exposure.tonemap() });
+    if !args.quiet && !image.view().is_identity() {
+        let how =
+            if exposure == crate::view::ExposurePlan::Auto { "auto: log-average luminance to 0.18; " } else { "" };
+        eprintln!(
+            "spectrace: note: PNG exposure {ev:+.2} EV ({how}{exposure_why}), tonemap {}; the EXR is not scaled",
+            args.exposure.tonemap()
+        );
+    }
 
     // Set before checking `cancel`, as the handler sets `cancel` before checking this: a
     // signal arriving now is seen by one side or the other (or both, which is harmless).

@@ -395,8 +395,11 @@ pub struct SceneDescription {
     pub materials: Vec<MaterialDesc>,
     /// Light sources.
     pub lights: Vec<LightDesc>,
-    /// The camera, if the file has one.
+    /// The camera, if the file has one (the first of `cameras`).
     pub camera: Option<CameraDesc>,
+    /// Every camera the file holds, named, in file order (glTF may hold several; a manifest's one is named
+    /// `"camera"`). `camera` is the first; the layers above may choose another (`--camera N|NAME`).
+    pub cameras: Vec<(String, CameraDesc)>,
     /// Radiance seen by rays that escape the scene (spectrum, scale); not a light.
     pub background: Option<(SpectrumDesc, f32)>,
     /// Free-form render settings from the manifest (`"max_depth"`, …), interpreted by the layers above.
@@ -420,6 +423,7 @@ impl SceneDescription {
             materials: Vec::new(),
             lights: Vec::new(),
             camera: None,
+            cameras: Vec::new(),
             background: None,
             settings: serde_json::Map::new(),
             warnings: Vec::new(),

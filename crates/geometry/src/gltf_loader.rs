@@ -242,7 +242,7 @@ impl Loader<'_> {
                 self.mesh(&mesh, world, det < 0.0, &context)?;
             }
             if let Some(camera) = node.camera() {
-                self.camera(&camera, world, &context);
+                self.camera(&camera, world, &context, node.name());
             }
             if let Some(light) = node.light() {
                 self.light(&light, world);
@@ -254,12 +254,9 @@ impl Loader<'_> {
         Ok(())
     }
 
-    fn camera(&mut self, camera: &gltf::Camera<'_>, world: Mat4, context: &str) {
+    fn camera(&mut self, camera: &gltf::Camera<'_>, world: Mat4, context: &str, node_name: Option<&str>) {
         match camera.projection() {
             gltf::camera::Projection::Perspective(p) => {
-                if self.desc.camera.is_some() {
-                    return; // The first perspective camera wins.
-                }
                 let vfov_deg = p.yfov().to_degrees();
                 if !(vfov_deg > 0.0 && vfov_deg < 180.0) {
                     self.warn(format!("{context}: camera yfov {} rad is outside (0, π); ignored", p.yfov()));
@@ -273,8 +270,18 @@ impl Loader<'_> {
                 ) else {
                     return;
                 };
-                self.desc.camera =
-                    Some(CameraDesc { position, look_at: position + forward, up, vfov_deg, width: None, height: None });
+                let desc =
+                    CameraDesc { position, look_at: position + forward, up, vfov_deg, width: None, height: None };
+                // Every camera is kept, named by the camera, else its node, else its rank; the first
+                // perspective camera is the default.
+                let name = camera
+                    .name()
+                    .or(node_name)
+                    .map_or_else(|| format!("camera {}", self.desc.cameras.len()), str::to_owned);
+                if self.desc.camera.is_none() {
+                    self.desc.camera = Some(desc.clone());
+                }
+                self.desc.cameras.push((name, desc));
             }
             gltf::camera::Projection::Orthographic(_) => {
                 self.warn(format!("{context}: orthographic cameras are not supported; ignored"));
@@ -736,6 +743,25 @@ fn extras_value(extras: &gltf::json::Extras) -> Option<serde_json::Value> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 13: every perspective camera is kept with its name (`--camera N|NAME` chooses); the first is
+    /// the default; an unnamed camera takes its node's name, else its rank.
+    #[test]
+    fn every_camera_is_kept_with_its_name() {
+        let json = br#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2]}],
+            "nodes": [{"camera": 0, "translation": [0, 0, 5]}, {"camera": 1, "name": "side", "translation": [4, 0, 0]},
+                      {"camera": 2, "translation": [0, 3, 0]}],
+            "cameras": [{"type": "perspective", "name": "front", "perspective": {"yfov": 0.5, "znear": 0.1}},
+                        {"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.1}},
+                        {"type": "perspective", "perspective": {"yfov": 0.9, "znear": 0.1}}]}"#;
+        let budget = Budget::new(crate::LoadOptions::default());
+        let d = load_gltf_slice(json, None, Path::new("cams.gltf"), &budget).unwrap_or_else(|e| panic!("{e}"));
+        let names: Vec<&str> = d.cameras.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["front", "side", "camera 2"]);
+        assert_eq!(d.cameras[1].1.position, Vec3::new(4.0, 0.0, 0.0));
+        assert!((d.cameras[2].1.vfov_deg - 0.9f32.to_degrees()).abs() < 1e-4);
+        assert_eq!(d.camera.as_ref(), Some(&d.cameras[0].1));
+    }
 
     #[test]
     fn strips_and_fans_triangulate_with_consistent_winding() {

@@ -249,6 +249,7 @@ pub(crate) fn parse(
     };
 
     desc.camera = json.camera.map(|c| camera(&ctx, c)).transpose()?;
+    desc.cameras = desc.camera.iter().map(|c| ("camera".to_owned(), c.clone())).collect();
     for (i, light) in json.lights.into_iter().enumerate() {
         desc.lights.push(light_desc(&ctx, &format!("lights[{i}]"), light)?);
     }

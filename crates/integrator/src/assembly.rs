@@ -14,11 +14,20 @@ use glam::Vec3;
 use materials::bsdf::Metal;
 use materials::{Absorption, Ior, Material, MaterialModel};
 
+use crate::camera::{CameraOptions, choose_camera};
 use crate::error::{Error, Result};
 use crate::lights::{Emitters, Light, LightKind};
+use crate::render::IntegratorKind;
 
 /// Resolution used when neither the scene nor the user gives one: the paper's 640×480.
 pub const DEFAULT_RESOLUTION: (u32, u32) = (640, 480);
+
+/// What the user asks of the assembly, beyond the file (the command line's scene options).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AssemblyOptions {
+    /// Camera choice and overrides (`--camera`, `--up`, `--look-from`, `--look-at`, `--fov`).
+    pub camera: CameraOptions,
+}
 
 /// A scene ready to render: acceleration structure, materials, lights, camera, background.
 #[derive(Debug)]
@@ -31,6 +40,13 @@ pub struct RenderScene {
     /// Every light, including emissive primitives and the environment, behind one interface.
     pub(crate) emitters: Emitters,
     pub(crate) camera: CameraDesc,
+    /// Where the camera comes from (the file's, which one, the default view, overrides), for notes and `info`.
+    pub(crate) camera_source: String,
+    /// The integrator `--integrator auto` picks, and why.
+    pub(crate) auto_integrator: (IntegratorKind, String),
+    /// Whether the file's lights are photometric (glTF `KHR_lights_punctual`: candela and lux), so that the
+    /// image is in absolute units and auto-exposure is the PNG's default.
+    pub(crate) photometric_lights: bool,
     pub(crate) resolution: (u32, u32),
     pub(crate) background: Option<DenselySampledSpectrum>,
     pub(crate) settings: serde_json::Map<String, serde_json::Value>,
@@ -50,7 +66,12 @@ impl RenderScene {
 
     /// Load a scene file within the memory budget and file rules of `options`, and assemble it.
     pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Self> {
-        Self::from_description(geometry::load_scene_with(path, options)?)
+        Self::load_with_options(path, options, &AssemblyOptions::default())
+    }
+
+    /// [`RenderScene::load_with`], with the user's camera choice and overrides.
+    pub fn load_with_options(path: &Path, options: &LoadOptions, assembly: &AssemblyOptions) -> Result<Self> {
+        Self::from_description_with(geometry::load_scene_with(path, options)?, assembly)
             .map_err(|e| Error::SceneFile { path: path.to_owned(), source: Box::new(e) })
     }
 
@@ -70,6 +91,11 @@ impl RenderScene {
     /// Assemble a loaded description: spectra for every material and light, a BVH over all
     /// primitives, and defaults (camera, light) where the file has none.
     pub fn from_description(desc: SceneDescription) -> Result<Self> {
+        Self::from_description_with(desc, &AssemblyOptions::default())
+    }
+
+    /// [`RenderScene::from_description`], with the user's camera choice and overrides.
+    pub fn from_description_with(desc: SceneDescription, options: &AssemblyOptions) -> Result<Self> {
         // The one place defaults are decided: a camera framing the bounds of the description and a D65
         // light when the file has none (computed before the BVH takes the meshes).
         let bounds = desc.bounds();
@@ -80,6 +106,7 @@ impl RenderScene {
             materials: material_descs,
             lights: mut light_descs,
             camera,
+            mut cameras,
             background,
             settings,
             mut warnings,
@@ -89,17 +116,18 @@ impl RenderScene {
         warn_unused_keys(&material_descs, &mut warnings);
         let geometry = Scene::build(spheres, meshes)?;
         let (center, radius) = framing(bounds);
-        let camera = match camera {
-            Some(c) => c,
-            None => {
-                let c = default_camera(center, radius);
-                warnings.push(format!(
-                    "no camera in the scene: added one on +z looking at the centre of the bounds ({:.3}, {:.3}, {:.3}), vfov {}°",
-                    center.x, center.y, center.z, c.vfov_deg
-                ));
-                c
-            }
-        };
+        // A description built by hand may set `camera` without `cameras`.
+        if let (Some(c), true) = (camera, cameras.is_empty()) {
+            cameras.push(("camera".to_owned(), c));
+        }
+        let chosen = choose_camera(format, &cameras, bounds, &options.camera, &mut warnings)?;
+        if cameras.is_empty() || chosen.source.contains("command line") {
+            warnings.push(format!("camera: {}", chosen.source));
+        }
+        let (camera, camera_source) = (chosen.desc, chosen.source);
+        let auto_integrator = auto_integrator(&settings)?;
+        // glTF lights are KHR_lights_punctual: candela (point, spot) and lux (directional).
+        let photometric_lights = format == geometry::SceneFormat::Gltf && !light_descs.is_empty();
         let resolution = (camera.width.unwrap_or(DEFAULT_RESOLUTION.0), camera.height.unwrap_or(DEFAULT_RESOLUTION.1));
 
         let mut lights = light_descs
@@ -160,6 +188,9 @@ impl RenderScene {
             lights,
             emitters: Emitters::default(),
             camera,
+            camera_source,
+            auto_integrator,
+            photometric_lights,
             resolution,
             background,
             settings,
@@ -209,6 +240,22 @@ impl RenderScene {
         &self.materials
     }
 
+    /// The camera a render uses, and where it comes from (the file's, the default view, overrides).
+    pub fn camera_desc(&self) -> (&CameraDesc, &str) {
+        (&self.camera, &self.camera_source)
+    }
+
+    /// What `--integrator auto` renders this scene with, and why (one line for the user).
+    pub fn auto_integrator(&self) -> (IntegratorKind, &str) {
+        (self.auto_integrator.0, &self.auto_integrator.1)
+    }
+
+    /// Whether the file's lights are photometric (glTF: candela and lux), so the image is absolute and the
+    /// PNG is auto-exposed by default.
+    pub fn has_photometric_lights(&self) -> bool {
+        self.photometric_lights
+    }
+
     /// A camera for an image of the given size.
     pub(crate) fn camera(&self, width: u32, height: u32) -> Result<Camera> {
         let c = &self.camera;
@@ -222,9 +269,6 @@ impl RenderScene {
     }
 }
 
-/// Vertical field of view of the default camera, degrees (a moderate lens, as Blender's 50 mm default ≈ 39.6°).
-const DEFAULT_VFOV_DEG: f32 = 40.0;
-
 /// Centre and radius of the bounding sphere of the bounds' box; a unit box at the origin when the scene has
 /// no geometry, and at least a tiny positive radius so a single point works.
 fn framing(bounds: Option<(Vec3, Vec3)>) -> (Vec3, f32) {
@@ -232,17 +276,28 @@ fn framing(bounds: Option<(Vec3, Vec3)>) -> (Vec3, f32) {
     (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3))
 }
 
-/// The camera of a scene that has none: on +z of the centre, at the distance where the bounding sphere
-/// just fits the vertical field of view.
-fn default_camera(center: Vec3, radius: f32) -> CameraDesc {
-    let distance = radius / (0.5 * DEFAULT_VFOV_DEG.to_radians()).sin();
-    CameraDesc {
-        position: center + Vec3::new(0.0, 0.0, distance),
-        look_at: center,
-        up: Vec3::Y,
-        vfov_deg: DEFAULT_VFOV_DEG,
-        width: None,
-        height: None,
+/// What `--integrator auto` picks: the scene's `settings.integrator` when it names one (the paper's scenes ask
+/// for `whitted-hall`), else the path tracer, which handles emissive surfaces and energy-conserving glass.
+fn auto_integrator(settings: &serde_json::Map<String, serde_json::Value>) -> Result<(IntegratorKind, String)> {
+    match settings.get("integrator") {
+        None => Ok((
+            IntegratorKind::Path,
+            "path: the default for scenes whose settings do not ask for the paper's model".to_owned(),
+        )),
+        Some(serde_json::Value::String(name)) => {
+            let kind = name.parse::<IntegratorKind>().map_err(|_| Error::InvalidOption {
+                option: "settings.integrator",
+                value: name.clone(),
+                expected: "whitted-hall or path",
+            })?;
+            let label = if kind == IntegratorKind::WhittedHall { "whitted-hall" } else { "path" };
+            Ok((kind, format!("{label}: the scene's settings ask for it (\"integrator\": \"{name}\")")))
+        }
+        Some(other) => Err(Error::InvalidOption {
+            option: "settings.integrator",
+            value: other.to_string(),
+            expected: "the string \"whitted-hall\" or \"path\"",
+        }),
     }
 }
 

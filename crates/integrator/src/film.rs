@@ -551,6 +551,8 @@ pub struct Image {
     pub(crate) spectral: Option<SpectralFilm>,
     /// Per-pixel variance of the mean luminance and sample counts, for a variance image.
     pub(crate) sample_stats: Option<SampleStats>,
+    /// How the PNG shows it (exposure, tone curve); recorded in the EXR's header when not the identity.
+    pub(crate) view: crate::exposure::View,
 }
 
 /// What [`Image::set_sample_statistics`] keeps of a film.
@@ -580,6 +582,7 @@ impl Image {
             nonfinite: 0,
             spectral: None,
             sample_stats: None,
+            view: crate::exposure::View::default(),
         }
     }
 

@@ -28,7 +28,9 @@
 
 mod assembly;
 mod auto;
+mod camera;
 mod error;
+mod exposure;
 mod film;
 mod film_file;
 mod lights;
@@ -42,9 +44,13 @@ mod spectral;
 mod summary;
 mod whitted;
 
-pub use assembly::{DEFAULT_RESOLUTION, RenderScene};
+pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, RenderScene};
 pub use auto::choose_auto;
+pub use camera::{CameraOptions, UpAxis};
 pub use error::{Error, Result};
+pub use exposure::{
+    EXR_EXPOSURE_ATTRIBUTE, EXR_TONEMAP_ATTRIBUTE, MIDDLE_GREY, Tonemap, View, auto_exposure_ev, pbr_neutral,
+};
 pub use film::{Display, Film, Image, ObjectId};
 pub use film_file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Merger, merge_parts};
 pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};

@@ -140,6 +140,17 @@ impl Image {
             Text::from("colorSpace"),
             AttributeValue::Text(Text::from(format!("linear {}", space.name()).as_str())),
         );
+        // The pixels stay absolute; the header says how the PNG beside them was exposed (only when it
+        // was: an EV 0 clamp view writes the same file as before).
+        if !self.view.is_identity() {
+            attributes
+                .other
+                .insert(Text::from(crate::exposure::EXR_EXPOSURE_ATTRIBUTE), AttributeValue::F32(self.view.ev));
+            attributes.other.insert(
+                Text::from(crate::exposure::EXR_TONEMAP_ATTRIBUTE),
+                AttributeValue::Text(Text::from(self.view.tonemap.to_string().as_str())),
+            );
+        }
         let layer = Layer::new(
             (self.width as usize, self.height as usize),
             LayerAttributes::named("rgb"),
@@ -178,7 +189,7 @@ impl Image {
 
     fn encode_png<W: Write>(&self, display: Display, w: &mut W) -> std::result::Result<(), String> {
         use image::ImageEncoder as _;
-        let bytes = self.to_rgb8(display);
+        let bytes = self.to_rgb8_view(display, &self.view);
         image::codecs::png::PngEncoder::new(w)
             .write_image(&bytes, self.width, self.height, image::ExtendedColorType::Rgb8)
             .map_err(|e| e.to_string())

@@ -62,7 +62,7 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
         "meshes": desc.meshes.len(),
         "materials": materials,
         "lights": render_scene.light_descs.iter().map(light_json).collect::<Vec<_>>(),
-        "camera": camera_json(&render_scene.camera),
+        "camera": camera_json(&render_scene.camera, &render_scene.camera_source, &desc.cameras),
         "background": desc.background.as_ref().map(|(s, i)| json!({"spectrum": s.label(), "intensity": i})),
         "bounds": {"min": lo.to_array(), "max": hi.to_array()},
         "bvh": {
@@ -141,8 +141,10 @@ fn light_json(l: &LightDesc) -> Value {
     v
 }
 
-fn camera_json(c: &CameraDesc) -> Value {
+fn camera_json(c: &CameraDesc, source: &str, file_cameras: &[(String, CameraDesc)]) -> Value {
     json!({
+        "source": source,
+        "file_cameras": file_cameras.iter().map(|(name, _)| name.as_str()).collect::<Vec<_>>(),
         "position": c.position.to_array(),
         "look_at": c.look_at.to_array(),
         "up": c.up.to_array(),

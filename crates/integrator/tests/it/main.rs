@@ -1,6 +1,7 @@
 //! Integration tests of the integrator: analytic answers and hard cases, rendered at tiny
 //! resolutions.
 
+mod defaults;
 mod film;
 mod hard_cases;
 mod paper_model;
