@@ -45,7 +45,7 @@ pub use data::{Cmf, Illuminant, KNOWN_ILLUMINANTS, Observer, blackbody, colorche
 pub use error::{Error, Num, Result};
 pub use lab::{Lab, delta_e_2000};
 pub use luminance::{luminance_normalized, relative_luminance, relative_xyz, y_sum};
-pub use rgb::{Rgb, RgbColorSpace, bradford, quantize_u8, srgb_decode, srgb_encode};
+pub use rgb::{Rgb, RgbColorSpace, bradford, quantize_u8, srgb_decode, srgb_encode, srgb_encode_u8};
 pub use spectrum::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, MIN_STEP_NM, SampledSpectrum, SampledWavelengths};
 pub use xyz::{Integration, Xyz, emission_to_xyz, reflectance_to_xyz};
 

@@ -13,7 +13,7 @@ use glam::Vec3;
 use materials::{Absorption, Ior, Material};
 
 use crate::error::{Error, Result};
-use crate::light::{Light, LightKind};
+use crate::lights::{Emitters, Light, LightKind};
 
 /// Resolution used when neither the scene nor the user gives one: the paper's 640×480.
 pub const DEFAULT_RESOLUTION: (u32, u32) = (640, 480);
@@ -26,6 +26,8 @@ pub struct RenderScene {
     /// Material of primitives that name none: a mid-grey Lambertian.
     pub(crate) default_material: Material,
     pub(crate) lights: Vec<Light>,
+    /// Every light, including emissive primitives and the environment, behind one interface.
+    pub(crate) emitters: Emitters,
     pub(crate) camera: CameraDesc,
     pub(crate) resolution: (u32, u32),
     pub(crate) background: Option<DenselySampledSpectrum>,
@@ -127,11 +129,12 @@ impl RenderScene {
             None => None,
         };
 
-        Ok(Self {
+        let mut scene = Self {
             geometry,
             materials,
             default_material: Material::diffuse("default grey", DenselySampledSpectrum::constant(0.5)),
             lights,
+            emitters: Emitters::default(),
             camera,
             resolution,
             background,
@@ -139,7 +142,23 @@ impl RenderScene {
             light_descs,
             warnings,
             source_hash,
-        })
+        };
+        scene.emitters = Emitters::new(
+            &scene.lights,
+            scene.background.as_ref(),
+            &scene.geometry,
+            |id| scene.primitive_material(id),
+            |m| scene.materials.get(m as usize).filter(|m| m.emits()).and_then(|m| m.emission.as_ref()),
+        );
+        Ok(scene)
+    }
+
+    /// The material index of a primitive (spheres first, then triangles), `None` if it has none.
+    pub(crate) fn primitive_material(&self, id: u32) -> Option<u32> {
+        match self.geometry.primitive(id) {
+            geometry::Primitive::Sphere { index } => self.geometry.spheres().get(index as usize)?.material(),
+            geometry::Primitive::Triangle { mesh, .. } => self.geometry.meshes().get(mesh as usize)?.material(),
+        }
     }
 
     /// Digest (XXH64) of the bytes of the scene file and every file it refers to; film files

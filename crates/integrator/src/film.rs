@@ -645,10 +645,7 @@ impl Image {
 
     /// 8-bit display-encoded RGB (sRGB transfer curve, clipped to [0, 1]).
     pub fn to_rgb8(&self, display: Display) -> Vec<u8> {
-        self.to_linear_rgb(display)
-            .iter()
-            .flat_map(|p| p.map(|c| colorimetry::quantize_u8(colorimetry::srgb_encode(f64::from(c)))))
-            .collect()
+        self.to_linear_rgb(display).iter().flat_map(|p| p.map(colorimetry::srgb_encode_u8)).collect()
     }
 }
 

@@ -30,7 +30,7 @@ mod assembly;
 mod error;
 mod film;
 mod film_file;
-mod light;
+mod lights;
 mod output;
 mod path;
 mod render;

@@ -12,17 +12,16 @@
 //! `docs/path-tracer.md` documents the model and its choices.
 
 use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
-use geometry::{Hit, Primitive, Ray, spawn_ray, spawn_ray_to};
-use glam::{Vec2, Vec3};
+use geometry::{Hit, Ray, spawn_ray, spawn_ray_to};
+use glam::Vec3;
 use materials::bsdf::{Bsdf, Frame};
-use materials::sampling::{cosine_hemisphere, uniform_sphere};
-use materials::{Ior, Scattering};
+use materials::{Ior, LAMBDA_D, Scattering};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
-use crate::light::{Light, LightKind};
+use crate::lights::{Emission, LightSampleContext};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
-use crate::sampling::{Rng, power_heuristic, uniform_triangle};
+use crate::sampling::{Rng, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
@@ -32,10 +31,6 @@ const DEFAULT_MAX_DEPTH: u32 = 64;
 /// Russian roulette starts after this many bounces, so short paths (direct and first indirect
 /// light) are never cut (pbrt-v4 starts at depth 1; a few more keep low-order noise down).
 const RR_START_DEPTH: u32 = 3;
-
-/// Index of refraction used where a path cannot split by wavelength (RGB lanes): the sodium
-/// D line, where glass catalogues quote n_d (as the paper's model does).
-const LAMBDA_D: f32 = 589.0;
 
 /// Index into the render's spectrum table.
 type SpecId = u32;
@@ -77,37 +72,15 @@ struct PathMaterial {
     ior: Ior,
 }
 
-#[derive(Debug, Clone)]
-enum PathLightKind {
-    /// Point, spot or directional: reached only by light sampling.
-    Delta(Light),
-    /// The uniform environment (environment lights plus the background).
-    Environment,
-    /// An emissive sphere or triangle, sampled uniformly by area.
-    Area { primitive: u32, area: f32 },
-}
-
-#[derive(Debug, Clone)]
-struct PathLight {
-    kind: PathLightKind,
-    spectrum: SpecId,
-}
-
 /// Everything a path-traced render needs, precomputed.
 pub(crate) struct PathTracer<'a, const N: usize> {
     scene: &'a RenderScene,
     spectra: Spectra<N>,
     materials: Vec<PathMaterial>,
     default_material: PathMaterial,
-    lights: Vec<PathLight>,
-    /// Probability of picking each light (∝ its estimated power).
-    light_pmf: Vec<f32>,
-    /// Running sum of `light_pmf`.
-    light_cdf: Vec<f32>,
-    /// For each primitive, its index in `lights` if it emits.
-    area_light_of: Vec<u32>,
-    /// Index of the environment in `lights`, and its spectra (summed).
-    environment: Option<usize>,
+    /// The emission of each light of `scene.emitters`, in its order.
+    light_spectra: Vec<SpecId>,
+    /// The spectra the environment sums.
     environment_spectra: Vec<SpecId>,
     max_depth: u32,
 }
@@ -141,84 +114,20 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let materials: Vec<PathMaterial> = scene.materials.iter().map(&mut path_material).collect();
         let default_material = path_material(&scene.default_material);
 
-        // Lights, with a power estimate each for the light-selection density (pbrt-v4
-        // `PowerLightSampler`; `Light::Phi` of each kind), luminance standing in for power.
-        let (lo, hi) = scene.geometry.bounds();
-        let radius = if scene.geometry.primitive_count() == 0 { 1.0 } else { ((hi - lo).length() * 0.5).max(1e-6) };
-        let mut lights = Vec::new();
-        let mut power = Vec::new();
-        let mut environment_spectra = Vec::new();
-        let mut environment_luminance = 0.0f64;
-        for l in &scene.lights {
-            let y = colorimetry::relative_luminance(&l.spectrum);
-            if let LightKind::Environment = l.kind {
-                environment_spectra.push(add(l.spectrum.clone(), Kind::Emission));
-                environment_luminance += y;
-                continue;
+        // The spectrum of each light, in the table: a light's own, the background, or the
+        // emitting material's.
+        let mut emission = |e: Emission| match e {
+            Emission::Light(i) => add(scene.lights[i].spectrum.clone(), Kind::Emission),
+            Emission::Background => {
+                add(scene.background.clone().expect("the environment sums a background"), Kind::Emission)
             }
-            let pi = std::f64::consts::PI;
-            let phi = match l.kind {
-                LightKind::Point { .. } => 4.0 * pi * y,
-                LightKind::Spot { cos_inner, cos_outer, .. } => {
-                    2.0 * pi * y * (1.0 - 0.5 * f64::from(cos_inner + cos_outer)).max(1e-6)
-                }
-                LightKind::Directional { .. } => pi * f64::from(radius * radius) * y,
-                LightKind::Environment => 0.0,
-            };
-            lights.push(PathLight {
-                kind: PathLightKind::Delta(l.clone()),
-                spectrum: add(l.spectrum.clone(), Kind::Emission),
-            });
-            power.push(phi);
-        }
-        // The background is what escaping rays see: for a physically based renderer it is part
-        // of the environment and lights the scene like it.
-        if let Some(b) = &scene.background {
-            environment_spectra.push(add(b.clone(), Kind::Emission));
-            environment_luminance += colorimetry::relative_luminance(b);
-        }
-        let environment = (!environment_spectra.is_empty() && environment_luminance > 0.0).then(|| {
-            lights.push(PathLight { kind: PathLightKind::Environment, spectrum: environment_spectra[0] });
-            // pbrt-v4 UniformInfiniteLight::Phi = 4π · π r² · L.
-            let pi = std::f64::consts::PI;
-            power.push(4.0 * pi * pi * f64::from(radius * radius) * environment_luminance);
-            lights.len() - 1
-        });
-        let count = scene.geometry.primitive_count();
-        let mut area_light_of = vec![u32::MAX; count];
-        for id in 0..count as u32 {
-            let material = match scene.geometry.primitive(id) {
-                Primitive::Sphere { index } => scene.geometry.spheres().get(index as usize).and_then(|s| s.material()),
-                Primitive::Triangle { mesh, .. } => {
-                    scene.geometry.meshes().get(mesh as usize).and_then(|m| m.material())
-                }
-            };
-            let m = material.and_then(|i| materials.get(i as usize)).unwrap_or(&default_material);
-            let Some(e) = m.emission else { continue };
-            let area = scene.geometry.primitive_area(id);
-            if !(area > 0.0) {
-                continue;
+            Emission::Material(m) => {
+                materials.get(m as usize).and_then(|m| m.emission).expect("area lights emit by their material")
             }
-            // Two-sided emitter: Φ = 2 π A L.
-            let y = colorimetry::relative_luminance(&table[e as usize].0);
-            area_light_of[id as usize] = lights.len() as u32;
-            lights.push(PathLight { kind: PathLightKind::Area { primitive: id, area }, spectrum: e });
-            power.push(2.0 * std::f64::consts::PI * f64::from(area) * y);
-        }
-        let total: f64 = power.iter().sum();
-        let light_pmf: Vec<f32> = if total > 0.0 {
-            power.iter().map(|p| (p / total) as f32).collect()
-        } else {
-            vec![1.0 / lights.len().max(1) as f32; lights.len()]
         };
-        let mut acc = 0.0f32;
-        let light_cdf = light_pmf
-            .iter()
-            .map(|p| {
-                acc += p;
-                acc
-            })
-            .collect();
+        let environment_spectra: Vec<SpecId> =
+            scene.emitters.environment_spectra().iter().map(|&e| emission(e)).collect();
+        let light_spectra: Vec<SpecId> = scene.emitters.iter().map(|(_, e)| emission(e)).collect();
 
         let (spectra, sensor) = match fixed {
             Some(lanes) => {
@@ -236,10 +145,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 let sensor = match options.wavelength_pdf {
                     WavelengthPdf::Visible => Sensor::Visible,
                     WavelengthPdf::Illuminant => {
-                        let emitters: Vec<&DenselySampledSpectrum> = lights
+                        let emitters: Vec<&DenselySampledSpectrum> = light_spectra
                             .iter()
-                            .map(|l| &table[l.spectrum as usize].0)
-                            .chain(environment_spectra.iter().skip(1).map(|&id| &table[id as usize].0))
+                            .chain(environment_spectra.iter().skip(1))
+                            .map(|&id| &table[id as usize].0)
                             .collect();
                         Sensor::Tabulated(WavelengthTable::illuminant(&emitters))
                     }
@@ -250,19 +159,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let max_depth = options
             .max_depth
             .unwrap_or_else(|| scene.setting_f64("max_depth").map_or(DEFAULT_MAX_DEPTH, |d| d.max(0.0) as u32));
-        let tracer = Self {
-            scene,
-            spectra,
-            materials,
-            default_material,
-            lights,
-            light_pmf,
-            light_cdf,
-            area_light_of,
-            environment,
-            environment_spectra,
-            max_depth,
-        };
+        let tracer =
+            Self { scene, spectra, materials, default_material, light_spectra, environment_spectra, max_depth };
         (tracer, sensor)
     }
 
@@ -334,15 +232,14 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         loop {
             count.rays += 1;
             let Some(hit) = self.scene.geometry.intersect(&ray, f32::INFINITY) else {
-                if let Some(env) = self.environment {
+                let emitters = &self.scene.emitters;
+                if emitters.has_environment() {
                     let le = self.environment_radiance(lambda);
                     let weight = if specular_bounce {
                         1.0
                     } else {
-                        let light_pdf = self.light_pmf[env]
-                            * prev_ns.dot(ray.dir.normalize()).max(0.0)
-                            * std::f32::consts::FRAC_1_PI;
-                        power_heuristic(prev_pdf, light_pdf)
+                        let ctx = LightSampleContext { p: ray.origin, ns: prev_ns };
+                        power_heuristic(prev_pdf, emitters.pdf_li_escaped(&ctx, ray.dir.normalize()))
                     };
                     radiance += beta * le * weight;
                 }
@@ -366,7 +263,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 let weight = if specular_bounce {
                     1.0
                 } else {
-                    let light_pdf = self.area_light_pdf(&hit, wo, hit.t * dir_len);
+                    let light_pdf = self.scene.emitters.pdf_li_hit(hit.primitive, hit.n, wo, hit.t * dir_len);
                     power_heuristic(prev_pdf, light_pdf)
                 };
                 radiance += beta * self.spectra.eval(e, lambda) * weight;
@@ -383,7 +280,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 }
             };
             let frame = Frame { n: hit.n, ns: hit.ns };
-            if !bsdf.is_specular() && !self.lights.is_empty() {
+            if !bsdf.is_specular() && !self.scene.emitters.is_empty() {
                 radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, rng, count);
             }
             let Some(s) = bsdf.sample_f(&frame, wo, rng.uniform(), rng.uniform2()) else { break };
@@ -410,42 +307,6 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         (radiance, first)
     }
 
-    /// Density per steradian with which light sampling would have chosen the emitter `hit`
-    /// seen along `-wo` from `distance` away.
-    #[inline]
-    fn area_light_pdf(&self, hit: &Hit, wo: Vec3, distance: f32) -> f32 {
-        let Some(&index) = self.area_light_of.get(hit.primitive as usize) else { return 0.0 };
-        let Some(PathLight { kind: PathLightKind::Area { area, .. }, .. }) = self.lights.get(index as usize) else {
-            return 0.0;
-        };
-        let cos_light = hit.n.dot(wo).abs();
-        if cos_light <= 0.0 {
-            return 0.0;
-        }
-        self.light_pmf[index as usize] * distance * distance / (area * cos_light)
-    }
-
-    /// A point on an emissive primitive, uniformly by area, and the normal there.
-    fn sample_area(&self, primitive: u32, u: Vec2) -> Option<(Vec3, Vec3)> {
-        let g = &self.scene.geometry;
-        match g.primitive(primitive) {
-            Primitive::Sphere { index } => {
-                let s = g.spheres().get(index as usize)?;
-                let n = uniform_sphere(u);
-                Some((s.center() + s.radius() * n, n))
-            }
-            Primitive::Triangle { mesh, triangle } => {
-                let mesh = g.meshes().get(mesh as usize)?;
-                let [i0, i1, i2] = *mesh.indices().get(triangle as usize)?;
-                let p = mesh.positions();
-                let (p0, p1, p2) = (p[i0 as usize], p[i1 as usize], p[i2 as usize]);
-                let (b0, b1) = uniform_triangle(u);
-                let q = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
-                Some((q, (p1 - p0).cross(p2 - p0).normalize_or_zero()))
-            }
-        }
-    }
-
     /// Next-event estimation: one light chosen by power, one point or direction on it, a
     /// shadow ray, MIS-weighted against BSDF sampling for lights that BSDF sampling can hit.
     #[allow(clippy::too_many_arguments)]
@@ -462,70 +323,30 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let black = SampledSpectrum([0.0; N]);
         let u = rng.uniform();
         let u2 = rng.uniform2();
-        let index = self.light_cdf.partition_point(|&c| c <= u).min(self.lights.len() - 1);
-        let pmf = self.light_pmf[index];
-        if pmf <= 0.0 {
+        let ctx = LightSampleContext { p: hit.p, ns: frame.facing(wo).1 };
+        let Some((light, ls)) = self.scene.emitters.sample_li(&ctx, u, u2) else { return black };
+        let f = bsdf.f_cos(frame, wo, ls.wi);
+        if f.is_black() {
             return black;
         }
-        let light = &self.lights[index];
-        match &light.kind {
-            PathLightKind::Delta(l) => {
-                let Some(ls) = l.sample_from(hit.p) else { return black };
-                let f = bsdf.f_cos(frame, wo, ls.wi);
-                if f.is_black() {
-                    return black;
-                }
-                count.rays += 1;
-                let (shadow, t_max) = if ls.distance.is_finite() {
-                    spawn_ray_to(hit, ls.position)
-                } else {
-                    (spawn_ray(hit, ls.wi), f32::INFINITY)
-                };
-                if self.scene.geometry.occluded(&shadow, t_max) {
-                    return black;
-                }
-                f * self.spectra.eval(light.spectrum, lambda) * (ls.falloff / pmf)
-            }
-            PathLightKind::Environment => {
-                let ns = frame.facing(wo).1;
-                let wi = cosine_hemisphere(ns, u2);
-                let light_pdf = pmf * ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI;
-                let f = bsdf.f_cos(frame, wo, wi);
-                if f.is_black() || light_pdf <= 0.0 {
-                    return black;
-                }
-                count.rays += 1;
-                if self.scene.geometry.occluded(&spawn_ray(hit, wi), f32::INFINITY) {
-                    return black;
-                }
-                let weight = power_heuristic(light_pdf, bsdf.pdf(frame, wo, wi));
-                f * self.environment_radiance(lambda) * (weight / light_pdf)
-            }
-            PathLightKind::Area { primitive, area } => {
-                let Some((q, n_light)) = self.sample_area(*primitive, u2) else { return black };
-                let d = q - hit.p;
-                let distance2 = d.length_squared();
-                if !(distance2 > 0.0) {
-                    return black;
-                }
-                let wi = d / distance2.sqrt();
-                let cos_light = n_light.dot(wi).abs();
-                if cos_light <= 1e-7 {
-                    return black;
-                }
-                let light_pdf = pmf * distance2 / (area * cos_light);
-                let f = bsdf.f_cos(frame, wo, wi);
-                if f.is_black() || !light_pdf.is_finite() {
-                    return black;
-                }
-                count.rays += 1;
-                let (shadow, t_max) = spawn_ray_to(hit, q);
-                if self.scene.geometry.occluded(&shadow, t_max) {
-                    return black;
-                }
-                let weight = power_heuristic(light_pdf, bsdf.pdf(frame, wo, wi));
-                f * self.spectra.eval(light.spectrum, lambda) * (weight / light_pdf)
-            }
+        count.rays += 1;
+        let (shadow, t_max) = match ls.target {
+            Some(q) => spawn_ray_to(hit, q),
+            None => (spawn_ray(hit, ls.wi), f32::INFINITY),
+        };
+        if self.scene.geometry.occluded(&shadow, t_max) {
+            return black;
+        }
+        let le = if self.scene.emitters.is_environment(light) {
+            self.environment_radiance(lambda)
+        } else {
+            self.spectra.eval(self.light_spectra[light], lambda)
+        };
+        if ls.delta {
+            f * le * (ls.scale / ls.pdf)
+        } else {
+            let weight = power_heuristic(ls.pdf, bsdf.pdf(frame, wo, ls.wi));
+            f * le * (weight / ls.pdf)
         }
     }
 }

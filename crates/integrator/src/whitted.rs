@@ -8,12 +8,12 @@
 
 use colorimetry::{SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Ray, spawn_ray, spawn_ray_to};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use materials::{hall, scattering};
 
 use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor};
-use crate::light::{Light, LightKind};
+use crate::lights::{Emission, LightKind, LightSampleContext};
 use crate::render::{Ambient, Kernel, Radiance, RayCount, WhittedOptions};
 use crate::sampling::Rng;
 use crate::spectral::{Lanes, SpectrumKind};
@@ -37,16 +37,17 @@ struct LaneMaterial<const N: usize> {
     sigma_a: Option<SampledSpectrum<N>>,
     emission: Option<SampledSpectrum<N>>,
     shininess: f32,
-    /// Index of refraction (at 589 nm: this model does not disperse).
+    /// Index of refraction at n_d's wavelength (this model does not disperse).
     eta: f32,
     has_diffuse: bool,
     has_specular: bool,
     transmissive: bool,
 }
 
+/// A point, spot or directional light with its emission on the lanes.
 #[derive(Debug, Clone)]
 struct LaneLight<const N: usize> {
-    light: Light,
+    kind: LightKind,
     spectrum: SampledSpectrum<N>,
 }
 
@@ -70,12 +71,26 @@ impl<'a, const N: usize> Whitted<'a, N> {
         // S̄(λ), what the ambient terms are a fraction of: the light arriving at the middle of
         // the scene (point and spot lights with their fall-off there, directional lights as
         // they are; the environment is already seen through the background).
+        // Emissive surfaces light the scene only through reflected rays in this model.
+        let emission = |e: Emission| match e {
+            Emission::Light(i) => project(&scene.lights[i].spectrum, SpectrumKind::Emission),
+            Emission::Background => {
+                scene.background.as_ref().map_or(SampledSpectrum([0.0; N]), |b| project(b, SpectrumKind::Emission))
+            }
+            Emission::Material(_) => unreachable!("only point, spot and directional lights are projected"),
+        };
+        let lights: Vec<LaneLight<N>> = scene
+            .emitters
+            .iter()
+            .filter(|(kind, _)| kind.is_delta())
+            .map(|(kind, e)| LaneLight { kind: *kind, spectrum: emission(e) })
+            .collect();
         let (lo, hi) = scene.geometry.bounds();
-        let center = (lo + hi) * 0.5;
+        let center = LightSampleContext { p: (lo + hi) * 0.5, ns: Vec3::Y };
         let mut light_sum = SampledSpectrum([0.0; N]);
-        for l in &scene.lights {
-            if let Some(sample) = l.sample_from(center) {
-                light_sum += project(&l.spectrum, SpectrumKind::Emission) * sample.falloff;
+        for l in &lights {
+            if let Some(sample) = l.kind.sample_li(&center, Vec2::ZERO, 1.0) {
+                light_sum += l.spectrum * sample.scale;
             }
         }
         let ambient = ambient_spectrum(scene, lanes, options.ambient, light_sum);
@@ -97,7 +112,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
                 sigma_a,
                 emission: m.emission.as_ref().map(|e| project(e, SpectrumKind::Emission)),
                 shininess: m.shininess,
-                eta: m.ior.eval(589.0),
+                eta: m.ior.eval(materials::LAMBDA_D),
                 has_diffuse: kd.0.iter().any(|&v| v > 0.0),
                 has_specular: ks.0.iter().any(|&v| v > 0.0),
                 transmissive: kt.0.iter().any(|&v| v > 0.0),
@@ -105,19 +120,10 @@ impl<'a, const N: usize> Whitted<'a, N> {
         };
         let materials = scene.materials.iter().map(lane_material).collect();
         let default_material = lane_material(&scene.default_material);
-        let lights = scene
-            .lights
-            .iter()
-            .filter(|l| !matches!(l.kind, LightKind::Environment))
-            .map(|l| LaneLight { light: l.clone(), spectrum: project(&l.spectrum, SpectrumKind::Emission) })
-            .collect();
-        // Escaping rays see the background, or a uniform environment light.
-        let mut background = match &scene.background {
-            Some(b) => project(b, SpectrumKind::Emission),
-            None => SampledSpectrum([0.0; N]),
-        };
-        for l in scene.lights.iter().filter(|l| matches!(l.kind, LightKind::Environment)) {
-            background += project(&l.spectrum, SpectrumKind::Emission);
+        // Escaping rays see the environment: environment lights and the background.
+        let mut background = SampledSpectrum([0.0; N]);
+        for &e in scene.emitters.environment_spectra() {
+            background += emission(e);
         }
         Self {
             scene,
@@ -203,10 +209,10 @@ impl<'a, const N: usize> Whitted<'a, N> {
 
         // Eqs. 6–7: local illumination from each light, with (filtered) shadow rays.
         for l in &self.lights {
-            let Some(ls) = l.light.sample_from(hit.p) else { continue };
+            let Some(ls) = l.kind.sample_li(&LightSampleContext { p: hit.p, ns }, Vec2::ZERO, 1.0) else { continue };
             let same_side = ng.dot(ls.wi) > 0.0;
             if same_side && (m.has_diffuse || m.has_specular) {
-                let Some(visibility) = self.shadow(hit, ls.position, ls.wi, ls.distance, inside, count) else {
+                let Some(visibility) = self.shadow(hit, ls.target, ls.wi, inside, count) else {
                     continue;
                 };
                 let mut term = SampledSpectrum([0.0; N]);
@@ -216,7 +222,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
                 if m.has_specular {
                     term += m.ks * hall::specular_weight(ns, wo, ls.wi, m.shininess);
                 }
-                color += term * l.spectrum * visibility * ls.falloff;
+                color += term * l.spectrum * visibility * ls.scale;
             } else if !same_side && m.transmissive {
                 // Light behind a transparent surface: Hall's transmitted highlight.
                 let (eta_v, eta_l) = if entering { (1.0, m.eta) } else { (m.eta, 1.0) };
@@ -225,10 +231,10 @@ impl<'a, const N: usize> Whitted<'a, N> {
                     // The shadow ray crosses this surface: it travels inside the object when
                     // the viewer is outside, and outside when the viewer is inside.
                     let start = if entering { Some(m) } else { None };
-                    let Some(visibility) = self.shadow(hit, ls.position, ls.wi, ls.distance, start, count) else {
+                    let Some(visibility) = self.shadow(hit, ls.target, ls.wi, start, count) else {
                         continue;
                     };
-                    color += m.kt * l.spectrum * visibility * (w * ls.falloff);
+                    color += m.kt * l.spectrum * visibility * (w * ls.scale);
                 }
             }
         }
@@ -276,15 +282,16 @@ impl<'a, const N: usize> Whitted<'a, N> {
     fn shadow(
         &self,
         hit: &Hit,
-        light_position: Vec3,
+        target: Option<Vec3>,
         wi: Vec3,
-        distance: f32,
         start: Option<&LaneMaterial<N>>,
         count: &mut RayCount,
     ) -> Option<SampledSpectrum<N>> {
         count.rays += 1;
-        let (ray, t_max) =
-            if distance.is_finite() { spawn_ray_to(hit, light_position) } else { (spawn_ray(hit, wi), f32::INFINITY) };
+        let (ray, t_max) = match target {
+            Some(q) => spawn_ray_to(hit, q),
+            None => (spawn_ray(hit, wi), f32::INFINITY),
+        };
         let start = start.filter(|m| m.sigma_a.is_some());
         if start.is_none() && !self.scene.geometry.occluded(&ray, t_max) {
             return Some(SampledSpectrum([1.0; N]));
@@ -384,7 +391,7 @@ fn ambient_spectrum<const N: usize>(
 pub(crate) fn material_area_shares(scene: &RenderScene) -> Vec<f32> {
     let mut area = vec![0.0f64; scene.materials.len()];
     for id in 0..scene.geometry.primitive_count() as u32 {
-        if let Some(m) = primitive_material(scene, id)
+        if let Some(m) = scene.primitive_material(id)
             && let Some(a) = area.get_mut(m as usize)
         {
             *a += f64::from(scene.geometry.primitive_area(id));
@@ -392,11 +399,4 @@ pub(crate) fn material_area_shares(scene: &RenderScene) -> Vec<f32> {
     }
     let total: f64 = area.iter().sum();
     area.iter().map(|&a| if total > 0.0 { (a / total) as f32 } else { 0.0 }).collect()
-}
-
-fn primitive_material(scene: &RenderScene, id: u32) -> Option<u32> {
-    match scene.geometry.primitive(id) {
-        geometry::Primitive::Sphere { index } => scene.geometry.spheres().get(index as usize)?.material(),
-        geometry::Primitive::Triangle { mesh, .. } => scene.geometry.meshes().get(mesh as usize)?.material(),
-    }
 }

@@ -6,8 +6,9 @@
 
 use crate::error::{Error, Result};
 
-/// Fraunhofer d line (helium), where catalogues quote n_d (nm).
-const LAMBDA_D: f32 = 587.56;
+/// Fraunhofer d line (helium, 587.5618 nm), where glass catalogues quote n_d (nm). Also the one
+/// wavelength at which a model that cannot disperse (Hall's, RGB lanes) takes the index.
+pub const LAMBDA_D: f32 = 587.56;
 /// Fraunhofer F line (hydrogen), used in the Abbe number (nm).
 const LAMBDA_F: f32 = 486.13;
 /// Fraunhofer C line (hydrogen), used in the Abbe number (nm).

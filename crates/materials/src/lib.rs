@@ -37,7 +37,7 @@ mod spectra;
 
 pub use absorption::{Absorption, beer_transmittance};
 pub use error::{Error, Result};
-pub use ior::Ior;
+pub use ior::{Ior, LAMBDA_D};
 pub use material::{Material, Scattering};
 pub use spectra::{
     KNOWN_SPECTRUM_NAMES, csv_spectrum, illuminant_from_rgb, is_flat, luminance_normalized, named_spectrum,

@@ -1,0 +1,424 @@
+//! Every light of a scene behind one interface (pbrt-v4 `Light`: `SampleLi`, `PDF_Li`, `L`/`Le`,
+//! `Phi`, and `PowerLightSampler`): point, spot and directional lights, the uniform
+//! environment (environment lights and the background, which escaping rays see), and emissive
+//! spheres and triangles.
+//!
+//! The set is built once, at assembly ([`Emitters::new`]); both integrators read it. It knows
+//! where light comes from and with what density it is sampled; *which spectrum* a light emits
+//! is named by an [`Emission`], which each integrator evaluates in its own spectral
+//! representation (fixed lanes or hero wavelengths). Adding a light kind means a variant of
+//! [`LightKind`] here (its `sample_li`, `pdf_li`, `phi`) and its description in the loader.
+
+use colorimetry::DenselySampledSpectrum;
+use geometry::{Primitive, Scene};
+use glam::{Vec2, Vec3};
+use materials::sampling::{cosine_hemisphere, uniform_sphere};
+
+use crate::sampling::uniform_triangle;
+
+/// The shape of a light.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum LightKind {
+    /// A point light (the paper's D65 source).
+    Point { position: Vec3 },
+    /// A spot light with a smooth fall-off between the inner and outer cone.
+    Spot { position: Vec3, direction: Vec3, cos_inner: f32, cos_outer: f32 },
+    /// A distant light; `direction` is the way the light travels.
+    Directional { direction: Vec3 },
+    /// A uniform environment, seen by escaping rays and illuminating from every direction.
+    Environment,
+    /// An emissive triangle, sampled uniformly by area; emits from both sides.
+    Triangle { p: [Vec3; 3], area: f32 },
+    /// An emissive sphere, sampled uniformly by area; emits from both sides.
+    Sphere { center: Vec3, radius: f32, area: f32 },
+}
+
+/// A light as the scene file describes it, with its emission spectrum (luminance-normalised ×
+/// intensity). Area lights are not described this way: they are emissive materials.
+#[derive(Debug, Clone)]
+pub(crate) struct Light {
+    pub(crate) kind: LightKind,
+    pub(crate) spectrum: DenselySampledSpectrum,
+}
+
+/// Which spectrum a light emits, for the integrator to evaluate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Emission {
+    /// `RenderScene::lights[i].spectrum`.
+    Light(usize),
+    /// `RenderScene::background`.
+    Background,
+    /// The emission of `RenderScene::materials[i]`.
+    Material(u32),
+}
+
+/// The shading point a light is sampled from.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LightSampleContext {
+    pub(crate) p: Vec3,
+    /// The shading normal on the side of the outgoing direction (the environment is sampled
+    /// around it).
+    pub(crate) ns: Vec3,
+}
+
+/// Light arriving at a shading point from a sampled light.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LiSample {
+    /// Unit direction from the point towards the light.
+    pub(crate) wi: Vec3,
+    /// The point the shadow ray ends at; `None` for lights at infinity (shadow ray to ∞).
+    pub(crate) target: Option<Vec3>,
+    /// Density of this sample: per steradian times the probability of choosing the light;
+    /// for delta lights only that probability.
+    pub(crate) pdf: f32,
+    /// The light's emission is multiplied by this (inverse-square and cone fall-off of delta
+    /// lights; 1 otherwise).
+    pub(crate) scale: f32,
+    /// A point, spot or directional light: no other strategy can find it, so no MIS.
+    pub(crate) delta: bool,
+}
+
+impl Light {
+    pub(crate) fn new(kind: LightKind, spectrum: DenselySampledSpectrum) -> Self {
+        Self { kind, spectrum }
+    }
+}
+
+impl LightKind {
+    /// Whether the light is a point, spot or directional light.
+    pub(crate) fn is_delta(&self) -> bool {
+        matches!(self, Self::Point { .. } | Self::Spot { .. } | Self::Directional { .. })
+    }
+
+    /// Sample incident light at `ctx`: direction, shadow-ray target, density (`pmf`, the
+    /// probability this light was chosen, folded in), and the emission's scale. `None` when the
+    /// light sends nothing towards the point.
+    #[inline]
+    pub(crate) fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, pmf: f32) -> Option<LiSample> {
+        let delta = self.is_delta();
+        let sample = |wi, target, pdf, scale| LiSample { wi, target, pdf, scale, delta };
+        match *self {
+            Self::Point { position } => {
+                let (wi, falloff) = towards_point(ctx.p, position)?;
+                Some(sample(wi, Some(position), pmf, falloff))
+            }
+            Self::Spot { position, direction, cos_inner, cos_outer } => {
+                let (wi, falloff) = towards_point(ctx.p, position)?;
+                let cone = smoothstep(cos_outer, cos_inner, (-wi).dot(direction));
+                (cone > 0.0).then(|| sample(wi, Some(position), pmf, falloff * cone))
+            }
+            Self::Directional { direction } => Some(sample(-direction, None, pmf, 1.0)),
+            Self::Environment => {
+                let wi = cosine_hemisphere(ctx.ns, u);
+                let pdf = pmf * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI;
+                (pdf > 0.0).then(|| sample(wi, None, pdf, 1.0))
+            }
+            Self::Triangle { area, .. } | Self::Sphere { area, .. } => {
+                let (q, n_light) = self.sample_area(u);
+                let d = q - ctx.p;
+                let distance2 = d.length_squared();
+                if !(distance2 > 0.0) {
+                    return None;
+                }
+                let wi = d / distance2.sqrt();
+                let cos_light = n_light.dot(wi).abs();
+                if cos_light <= 1e-7 {
+                    return None;
+                }
+                // Uniform by area, converted to solid angle: d² / (A |cos θ_light|).
+                let pdf = pmf * distance2 / (area * cos_light);
+                pdf.is_finite().then(|| sample(wi, Some(q), pdf, 1.0))
+            }
+        }
+    }
+
+    /// A point on an area light, uniformly by area, and the surface normal there.
+    fn sample_area(&self, u: Vec2) -> (Vec3, Vec3) {
+        match *self {
+            Self::Sphere { center, radius, .. } => {
+                let n = uniform_sphere(u);
+                (center + radius * n, n)
+            }
+            Self::Triangle { p: [p0, p1, p2], .. } => {
+                let (b0, b1) = uniform_triangle(u);
+                let q = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
+                (q, (p1 - p0).cross(p2 - p0).normalize_or_zero())
+            }
+            _ => unreachable!("only area lights are sampled by area"),
+        }
+    }
+
+    /// Power Φ of the light for luminance `y` of its emission (pbrt-v4 `Light::Phi`, luminance
+    /// standing in for the spectrum); lights at infinity cover a disc of the scene's bounding
+    /// `radius`.
+    fn phi(&self, y: f64, radius: f32) -> f64 {
+        let pi = std::f64::consts::PI;
+        let r2 = f64::from(radius * radius);
+        match *self {
+            Self::Point { .. } => 4.0 * pi * y,
+            Self::Spot { cos_inner, cos_outer, .. } => {
+                2.0 * pi * y * (1.0 - 0.5 * f64::from(cos_inner + cos_outer)).max(1e-6)
+            }
+            Self::Directional { .. } => pi * r2 * y,
+            // pbrt-v4 UniformInfiniteLight::Phi = 4π · π r² · L.
+            Self::Environment => 4.0 * pi * pi * r2 * y,
+            // Two-sided emitter: Φ = 2 π A L.
+            Self::Triangle { area, .. } | Self::Sphere { area, .. } => 2.0 * pi * f64::from(area) * y,
+        }
+    }
+}
+
+/// The unit direction from `p` to a point light at `position`, and the inverse-square fall-off
+/// (a light of intensity I gives irradiance I / d² at normal incidence).
+#[inline]
+fn towards_point(p: Vec3, position: Vec3) -> Option<(Vec3, f32)> {
+    let d = position - p;
+    let distance = d.length();
+    (distance > 0.0 && distance.is_finite()).then(|| (d / distance, 1.0 / (distance * distance)))
+}
+
+/// pbrt-v4's `SmoothStep`: 0 below `a`, 1 above `b`, a cubic in between.
+fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+    if a == b {
+        return if x < a { 0.0 } else { 1.0 };
+    }
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Every light of a scene in sampling order (the file's point, spot and directional lights,
+/// then the environment, then emissive primitives), each chosen with probability ∝ its power.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Emitters {
+    kinds: Vec<LightKind>,
+    emission: Vec<Emission>,
+    /// Probability of choosing each light, and its running sum.
+    pmf: Vec<f32>,
+    cdf: Vec<f32>,
+    /// For each primitive, its index in the set if it is an area light (`u32::MAX` if not).
+    area_light_of: Vec<u32>,
+    /// Index of the environment, if the scene has one that gives light.
+    environment: Option<usize>,
+    /// What the environment sums: environment lights in file order, then the background.
+    environment_spectra: Vec<Emission>,
+}
+
+impl Emitters {
+    /// The lights of an assembled scene: `lights` from the file, the `background`, and every
+    /// primitive of positive area whose material (`emission_of`, by material index) emits.
+    pub(crate) fn new<'a>(
+        lights: &[Light],
+        background: Option<&DenselySampledSpectrum>,
+        geometry: &Scene,
+        primitive_material: impl Fn(u32) -> Option<u32>,
+        emission_of: impl Fn(u32) -> Option<&'a DenselySampledSpectrum>,
+    ) -> Self {
+        let (lo, hi) = geometry.bounds();
+        let radius = if geometry.primitive_count() == 0 { 1.0 } else { ((hi - lo).length() * 0.5).max(1e-6) };
+        let mut set = Self::default();
+        let mut power = Vec::new();
+        let mut environment_luminance = 0.0f64;
+        for (i, l) in lights.iter().enumerate() {
+            let y = colorimetry::relative_luminance(&l.spectrum);
+            if let LightKind::Environment = l.kind {
+                set.environment_spectra.push(Emission::Light(i));
+                environment_luminance += y;
+                continue;
+            }
+            set.kinds.push(l.kind);
+            set.emission.push(Emission::Light(i));
+            power.push(l.kind.phi(y, radius));
+        }
+        // The background is what escaping rays see: for a physically based renderer it is part
+        // of the environment and lights the scene like it.
+        if let Some(b) = background {
+            set.environment_spectra.push(Emission::Background);
+            environment_luminance += colorimetry::relative_luminance(b);
+        }
+        if !set.environment_spectra.is_empty() && environment_luminance > 0.0 {
+            set.environment = Some(set.kinds.len());
+            set.kinds.push(LightKind::Environment);
+            set.emission.push(set.environment_spectra[0]);
+            power.push(LightKind::Environment.phi(environment_luminance, radius));
+        }
+        let count = geometry.primitive_count();
+        set.area_light_of = vec![u32::MAX; count];
+        for id in 0..count as u32 {
+            let Some(material) = primitive_material(id) else { continue };
+            let Some(e) = emission_of(material) else { continue };
+            let area = geometry.primitive_area(id);
+            if !(area > 0.0) {
+                continue;
+            }
+            let kind = match geometry.primitive(id) {
+                Primitive::Sphere { index } => {
+                    let s = &geometry.spheres()[index as usize];
+                    LightKind::Sphere { center: s.center(), radius: s.radius(), area }
+                }
+                Primitive::Triangle { mesh, triangle } => {
+                    let mesh = &geometry.meshes()[mesh as usize];
+                    let p = mesh.indices()[triangle as usize].map(|i| mesh.positions()[i as usize]);
+                    LightKind::Triangle { p, area }
+                }
+            };
+            set.area_light_of[id as usize] = set.kinds.len() as u32;
+            set.kinds.push(kind);
+            set.emission.push(Emission::Material(material));
+            power.push(kind.phi(colorimetry::relative_luminance(e), radius));
+        }
+        // pbrt-v4 `PowerLightSampler`; uniform if no light has power.
+        let total: f64 = power.iter().sum();
+        set.pmf = if total > 0.0 {
+            power.iter().map(|p| (p / total) as f32).collect()
+        } else {
+            vec![1.0 / set.kinds.len().max(1) as f32; set.kinds.len()]
+        };
+        let mut acc = 0.0f32;
+        set.cdf = set
+            .pmf
+            .iter()
+            .map(|p| {
+                acc += p;
+                acc
+            })
+            .collect();
+        set
+    }
+
+    /// Whether the scene has no light at all.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.kinds.is_empty()
+    }
+
+    /// The lights in sampling order, with what each emits.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (&LightKind, Emission)> {
+        self.kinds.iter().zip(self.emission.iter().copied())
+    }
+
+    /// The spectra the environment sums (seen by escaping rays; empty without environment).
+    pub(crate) fn environment_spectra(&self) -> &[Emission] {
+        &self.environment_spectra
+    }
+
+    /// Choose a light ∝ power with `u` and sample it with `u2` (pbrt-v4 `SampleLd`'s light
+    /// part): the light's index (for its emission: [`Emitters::iter`] order) and the sample. `None` if the
+    /// chosen light sends nothing towards `ctx`.
+    #[inline]
+    pub(crate) fn sample_li(&self, ctx: &LightSampleContext, u: f32, u2: Vec2) -> Option<(usize, LiSample)> {
+        let light = self.cdf.partition_point(|&c| c <= u).min(self.kinds.len().checked_sub(1)?);
+        let pmf = self.pmf[light];
+        if pmf <= 0.0 {
+            return None;
+        }
+        Some((light, self.kinds[light].sample_li(ctx, u2, pmf)?))
+    }
+
+    /// The density with which [`Emitters::sample_li`] would have sampled the direction of a ray
+    /// that left `ctx` and escaped the scene (`wi` unit); 0 without environment.
+    #[inline]
+    pub(crate) fn pdf_li_escaped(&self, ctx: &LightSampleContext, wi: Vec3) -> f32 {
+        self.environment.map_or(0.0, |env| self.pmf[env] * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI)
+    }
+
+    /// The density with which [`Emitters::sample_li`] would have sampled the point where a ray
+    /// hit `primitive` after `distance`, arriving against normal `n` along `-wo`; 0 if the
+    /// primitive is no area light.
+    #[inline]
+    pub(crate) fn pdf_li_hit(&self, primitive: u32, n: Vec3, wo: Vec3, distance: f32) -> f32 {
+        let Some(&index) = self.area_light_of.get(primitive as usize) else { return 0.0 };
+        let Some(LightKind::Triangle { area, .. } | LightKind::Sphere { area, .. }) = self.kinds.get(index as usize)
+        else {
+            return 0.0;
+        };
+        let cos_light = n.dot(wo).abs();
+        if cos_light <= 0.0 {
+            return 0.0;
+        }
+        self.pmf[index as usize] * distance * distance / (area * cos_light)
+    }
+
+    /// Whether light `index` is the environment (its radiance sums
+    /// [`Emitters::environment_spectra`]).
+    #[inline]
+    pub(crate) fn is_environment(&self, index: usize) -> bool {
+        self.environment == Some(index)
+    }
+
+    /// Whether rays that escape see an environment that gives light (pbrt-v4 `Le` of the
+    /// infinite lights; its radiance is the sum of [`Emitters::environment_spectra`]).
+    #[inline]
+    pub(crate) fn has_environment(&self) -> bool {
+        self.environment.is_some()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(p: Vec3) -> LightSampleContext {
+        LightSampleContext { p, ns: Vec3::Y }
+    }
+
+    #[test]
+    fn spot_falloff_is_one_inside_and_zero_outside() {
+        let spot = LightKind::Spot {
+            position: Vec3::ZERO,
+            direction: Vec3::NEG_Y,
+            cos_inner: 20f32.to_radians().cos(),
+            cos_outer: 30f32.to_radians().cos(),
+        };
+        let scale = |p| spot.sample_li(&at(p), Vec2::ZERO, 1.0).map(|s| s.scale);
+        assert_eq!(scale(Vec3::new(0.0, -1.0, 0.0)), Some(1.0));
+        // Inverse square: twice as far, a quarter of the light.
+        assert_eq!(scale(Vec3::new(0.0, -2.0, 0.0)), Some(0.25));
+        assert_eq!(scale(Vec3::new(1.0, -1.0, 0.0)), None, "45° is outside the 30° cone");
+    }
+
+    #[test]
+    fn area_light_density_integrates_to_one_over_the_triangle() {
+        // A unit right triangle at height 1 above the origin, facing down: the solid-angle pdf
+        // of sample_li, integrated against the solid angle of each sample's area element,
+        // must give the triangle's area (Monte Carlo: E[1/pdf] over samples = solid angle).
+        let p = [Vec3::new(0.0, 1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 1.0)];
+        let tri = LightKind::Triangle { p, area: 0.5 };
+        let ctx = at(Vec3::ZERO);
+        let mut inv_pdf = 0.0f64;
+        let n = 64;
+        for i in 0..n {
+            for j in 0..n {
+                let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let s = tri.sample_li(&ctx, u, 1.0).unwrap();
+                assert!(s.wi.y > 0.0 && s.pdf > 0.0 && !s.delta);
+                inv_pdf += 1.0 / f64::from(s.pdf);
+            }
+        }
+        let solid_angle = inv_pdf / f64::from(n * n);
+        // Solid angle of that triangle seen from the origin (Van Oosterom & Strackee 1983).
+        let [a, b, c] = p.map(|v| v.as_dvec3());
+        let num = a.dot(b.cross(c)).abs();
+        let den = a.length() * b.length() * c.length()
+            + a.dot(b) * c.length()
+            + a.dot(c) * b.length()
+            + b.dot(c) * a.length();
+        let exact = 2.0 * num.atan2(den);
+        assert!((solid_angle - exact).abs() < 2e-3 * exact, "{solid_angle} vs {exact}");
+    }
+
+    #[test]
+    fn lights_are_chosen_in_proportion_to_power() {
+        let d65 = || DenselySampledSpectrum::constant(1.0);
+        let lights = [
+            Light::new(LightKind::Point { position: Vec3::ONE }, d65().scaled(1.0)),
+            Light::new(LightKind::Point { position: Vec3::ONE }, d65().scaled(3.0)),
+        ];
+        let geometry = Scene::build(Vec::new(), Vec::new()).unwrap();
+        let set = Emitters::new(&lights, None, &geometry, |_| None, |_| None);
+        assert_eq!(set.pmf, vec![0.25, 0.75]);
+        assert!(!set.has_environment());
+        let ctx = at(Vec3::ZERO);
+        assert_eq!(set.sample_li(&ctx, 0.2, Vec2::ZERO).map(|(i, s)| (i, s.pdf)), Some((0, 0.25)));
+        assert_eq!(set.sample_li(&ctx, 0.3, Vec2::ZERO).map(|(i, s)| (i, s.pdf)), Some((1, 0.75)));
+        assert!(set.sample_li(&ctx, 0.9, Vec2::ZERO).unwrap().1.delta);
+    }
+}
