@@ -58,7 +58,12 @@ impl View {
 
     /// Display values in [0, 1] of one linear RGB pixel (non-finite and negative channels become 0).
     pub fn apply(&self, rgb: [f32; 3]) -> [f32; 3] {
-        let scale = self.ev.exp2();
+        self.apply_scaled(rgb, self.ev.exp2())
+    }
+
+    /// [`View::apply`] with the exposure's scale 2^EV computed once by the caller.
+    #[inline]
+    fn apply_scaled(&self, rgb: [f32; 3], scale: f32) -> [f32; 3] {
         let exposed = rgb.map(|c| if c.is_finite() { (c * scale).max(0.0) } else { 0.0 });
         match self.tonemap {
             Tonemap::Clamp => exposed.map(|c| c.min(1.0)),
@@ -135,7 +140,11 @@ impl Image {
         if view.is_identity() {
             return self.to_rgb8(display);
         }
-        self.to_linear_rgb(display).iter().flat_map(|p| view.apply(*p).map(colorimetry::srgb_encode_u8)).collect()
+        let scale = view.ev.exp2();
+        self.to_linear_rgb(display)
+            .iter()
+            .flat_map(|p| view.apply_scaled(*p, scale).map(colorimetry::srgb_encode_u8))
+            .collect()
     }
 }
 

@@ -54,15 +54,6 @@ impl<const N: usize> Spectra<N> {
     }
 }
 
-/// What a spectrum means, for the RGB projection.
-#[derive(Clone, Copy, PartialEq)]
-enum Kind {
-    Reflectance,
-    Emission,
-    /// An absorption coefficient: in RGB it goes through the colour of e^{−σ_a} (one unit).
-    SigmaA,
-}
-
 /// A material's BSDF with its spectra in the render's table: the [`MaterialModel`] baked.
 #[derive(Debug, Clone, Copy)]
 enum PathScattering {
@@ -116,8 +107,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// The tracer for `scene` and the film's sensor: `fixed` lanes (`rgb`, `bins:N`), or hero
     /// wavelengths (`None`) drawn from `options.wavelength_pdf`.
     pub(crate) fn new(scene: &'a RenderScene, fixed: Option<Lanes<N>>, options: &PathOptions) -> (Self, Sensor<N>) {
-        let mut table: Vec<(DenselySampledSpectrum, Kind)> = Vec::new();
-        let mut add = |s: DenselySampledSpectrum, kind: Kind| -> SpecId {
+        let mut table: Vec<(DenselySampledSpectrum, SpectrumKind)> = Vec::new();
+        let mut add = |s: DenselySampledSpectrum, kind: SpectrumKind| -> SpecId {
             table.push((s, kind));
             (table.len() - 1) as SpecId
         };
@@ -125,13 +116,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let mut path_material = |m: &materials::Material| -> PathMaterial {
             let scattering = match m.model {
                 MaterialModel::Diffuse => {
-                    PathScattering::Diffuse { r: add(clamp01(&m.diffuse, m.kd), Kind::Reflectance) }
+                    PathScattering::Diffuse { r: add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance) }
                 }
                 MaterialModel::Mirror => {
-                    PathScattering::Mirror { r: add(clamp01(&m.specular, m.ks), Kind::Reflectance) }
+                    PathScattering::Mirror { r: add(clamp01(&m.specular, m.ks), SpectrumKind::Reflectance) }
                 }
                 MaterialModel::Dielectric { roughness } => {
-                    let tint = add(clamp01(&m.transmittance, m.kt), Kind::Reflectance);
+                    let tint = add(clamp01(&m.transmittance, m.kt), SpectrumKind::Reflectance);
                     if roughness > 0.0 {
                         PathScattering::RoughDielectric { tint, alpha: roughness * roughness }
                     } else {
@@ -139,16 +130,16 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     }
                 }
                 MaterialModel::ThinDielectric => PathScattering::ThinDielectric {
-                    tint: add(clamp01(&m.transmittance, m.kt), Kind::Reflectance),
+                    tint: add(clamp01(&m.transmittance, m.kt), SpectrumKind::Reflectance),
                     eta: m.ior.eval(LAMBDA_D),
                 },
                 MaterialModel::Conductor { metal, roughness } => PathScattering::Conductor {
                     metal,
-                    r: add(clamp01(&m.specular, m.ks), Kind::Reflectance),
+                    r: add(clamp01(&m.specular, m.ks), SpectrumKind::Reflectance),
                     alpha: roughness * roughness,
                 },
                 MaterialModel::GltfMetalRough { metallic, roughness } => PathScattering::GltfMetalRough {
-                    base: add(clamp01(&m.diffuse, m.kd), Kind::Reflectance),
+                    base: add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance),
                     metallic,
                     roughness,
                     ior: m.ior.eval(LAMBDA_D),
@@ -156,8 +147,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             };
             PathMaterial {
                 scattering,
-                sigma_a: m.absorption.as_ref().filter(|_| m.absorbs()).map(|a| add(a.sigma_a().clone(), Kind::SigmaA)),
-                emission: m.emission.as_ref().filter(|_| m.emits()).map(|e| add(e.clone(), Kind::Emission)),
+                sigma_a: m
+                    .absorption
+                    .as_ref()
+                    .filter(|_| m.absorbs())
+                    .map(|a| add(a.sigma_a().clone(), SpectrumKind::SigmaA)),
+                emission: m.emission.as_ref().filter(|_| m.emits()).map(|e| add(e.clone(), SpectrumKind::Emission)),
                 two_sided: m.two_sided,
                 ior: m.ior,
             }
@@ -174,9 +169,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         // The spectrum of each light, in the table: a light's own, the background, or the
         // emitting material's.
         let mut emission = |e: Emission| match e {
-            Emission::Light(i) => add(scene.lights[i].spectrum.clone(), Kind::Emission),
+            Emission::Light(i) => add(scene.lights[i].spectrum.clone(), SpectrumKind::Emission),
             Emission::Background => {
-                add(scene.background.clone().expect("the environment sums a background"), Kind::Emission)
+                add(scene.background.clone().expect("the environment sums a background"), SpectrumKind::Emission)
             }
             Emission::Material(m) => {
                 materials.get(m as usize).and_then(|m| m.emission).expect("area lights emit by their material")
@@ -187,14 +182,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
 
         let (spectra, sensor) = match fixed {
             Some(lanes) => {
-                let projected = table
-                    .iter()
-                    .map(|(s, kind)| match kind {
-                        Kind::Reflectance => SampledSpectrum(lanes.project(s, SpectrumKind::Reflectance)),
-                        Kind::Emission => SampledSpectrum(lanes.project(s, SpectrumKind::Emission)),
-                        Kind::SigmaA => SampledSpectrum(lanes.project_sigma_a(s)),
-                    })
-                    .collect();
+                let projected = table.iter().map(|(s, kind)| SampledSpectrum(lanes.project(s, *kind))).collect();
                 (Spectra::Fixed(projected), Sensor::Fixed(lanes))
             }
             None => {

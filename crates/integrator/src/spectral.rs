@@ -83,6 +83,9 @@ pub(crate) enum SpectrumKind {
     Reflectance,
     /// Emitted radiance: RGB is its own colour, luminance preserved.
     Emission,
+    /// An absorption coefficient σ_a(λ) per unit length: sampled at wavelengths; in RGB it goes
+    /// through the colour of its transmittance ([`Lanes::project`]).
+    SigmaA,
 }
 
 /// A fixed set of lanes: wavelengths (or RGB channels) and the weights that turn lane values
@@ -176,6 +179,9 @@ impl<const N: usize> Lanes<N> {
 
     /// A spectrum as lane values.
     pub(crate) fn project(&self, s: &DenselySampledSpectrum, kind: SpectrumKind) -> [f32; N] {
+        if kind == SpectrumKind::SigmaA && self.rgb {
+            return self.project_sigma_a(s);
+        }
         let mut out = [0.0f32; N];
         if self.rgb {
             let rgb = spectrum_to_rgb(s, kind);
@@ -190,14 +196,10 @@ impl<const N: usize> Lanes<N> {
 }
 
 impl<const N: usize> Lanes<N> {
-    /// An absorption coefficient σ_a(λ) as lane values. With wavelength lanes it is sampled;
-    /// with RGB lanes it goes through the RGB colour of the transmittance e^{−σ_a L} over a
+    /// An absorption coefficient σ_a(λ) as RGB lane values: it goes through the RGB colour of the transmittance e^{−σ_a L} over a
     /// length L at which the medium is neither clear nor black (σ_max L = 1), so the
     /// exponential neither underflows nor rounds to 1 whatever the scene's units.
-    pub(crate) fn project_sigma_a(&self, sigma_a: &DenselySampledSpectrum) -> [f32; N] {
-        if !self.rgb {
-            return self.project(sigma_a, SpectrumKind::Emission);
-        }
+    fn project_sigma_a(&self, sigma_a: &DenselySampledSpectrum) -> [f32; N] {
         let max = sigma_a.max_value();
         if !(max > 0.0) {
             return [0.0; N];
@@ -218,7 +220,8 @@ pub(crate) fn spectrum_to_rgb(s: &DenselySampledSpectrum, kind: SpectrumKind) ->
             let xyz = colorimetry::reflectance_to_xyz(s, &d65, observer, &integration);
             Xyz { x: xyz.x / 100.0, y: xyz.y / 100.0, z: xyz.z / 100.0 }
         }
-        SpectrumKind::Emission => colorimetry::relative_xyz(s),
+        // σ_a never gets here (`Lanes::project` takes it through its transmittance's colour).
+        SpectrumKind::Emission | SpectrumKind::SigmaA => colorimetry::relative_xyz(s),
     };
     let rgb = RgbColorSpace::srgb().xyz_to_rgb(xyz);
     [rgb.r as f32, rgb.g as f32, rgb.b as f32]

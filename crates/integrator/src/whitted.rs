@@ -105,7 +105,9 @@ impl<'a, const N: usize> Whitted<'a, N> {
             let kt =
                 if m.is_transmissive() { project(&m.transmittance, refl) * m.kt } else { SampledSpectrum([0.0; N]) };
             let sigma_a = match (&m.absorption, options.absorption) {
-                (Some(a), true) if m.absorbs() => Some(SampledSpectrum(lanes.project_sigma_a(a.sigma_a()))),
+                (Some(a), true) if m.absorbs() => {
+                    Some(SampledSpectrum(lanes.project(a.sigma_a(), SpectrumKind::SigmaA)))
+                }
                 _ => None,
             };
             LaneMaterial {
