@@ -119,10 +119,17 @@ pub fn pbr_neutral(c: [f32; 3]) -> [f32; 3] {
     shifted.map(|v| (v * (p_n / p) * g + p_n * (1.0 - g)).clamp(0.0, 1.0))
 }
 
-/// Name of the EXR header attribute (float) recording the exposure its PNG used, in stops.
-pub const EXR_EXPOSURE_ATTRIBUTE: &str = "displayExposureEV";
-/// Name of the EXR header attribute (text) recording the PNG's tone curve.
-pub const EXR_TONEMAP_ATTRIBUTE: &str = "displayTonemap";
+/// Name of the EXR layer attribute (text) recording how its PNG was shown: `exposure <EV> EV; tonemap
+/// <name>`. One attribute, not two: the `exr` crate keeps custom attributes in a `HashMap` and writes
+/// them in its random iteration order, so two would make the file's bytes differ from run to run.
+pub const EXR_VIEW_ATTRIBUTE: &str = "displayView";
+
+impl View {
+    /// The text of [`EXR_VIEW_ATTRIBUTE`].
+    pub fn exr_text(&self) -> String {
+        format!("exposure {:+} EV; tonemap {}", self.ev, self.tonemap)
+    }
+}
 
 impl Image {
     /// Set how the PNG shows this image (the EXR's pixels stay as rendered; its header records `view`).

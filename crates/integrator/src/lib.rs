@@ -48,9 +48,7 @@ pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, RenderScene};
 pub use auto::choose_auto;
 pub use camera::{CameraOptions, UpAxis};
 pub use error::{Error, Result};
-pub use exposure::{
-    EXR_EXPOSURE_ATTRIBUTE, EXR_TONEMAP_ATTRIBUTE, MIDDLE_GREY, Tonemap, View, auto_exposure_ev, pbr_neutral,
-};
+pub use exposure::{EXR_VIEW_ATTRIBUTE, MIDDLE_GREY, Tonemap, View, auto_exposure_ev, pbr_neutral};
 pub use film::{Display, Film, Image, ObjectId};
 pub use film_file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Merger, merge_parts};
 pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};

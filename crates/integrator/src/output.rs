@@ -142,18 +142,16 @@ impl Image {
         );
         // The pixels stay absolute; the header says how the PNG beside them was exposed (only when it
         // was: an EV 0 clamp view writes the same file as before).
+        let mut layer_attributes = LayerAttributes::named("rgb");
         if !self.view.is_identity() {
-            attributes
-                .other
-                .insert(Text::from(crate::exposure::EXR_EXPOSURE_ATTRIBUTE), AttributeValue::F32(self.view.ev));
-            attributes.other.insert(
-                Text::from(crate::exposure::EXR_TONEMAP_ATTRIBUTE),
-                AttributeValue::Text(Text::from(self.view.tonemap.to_string().as_str())),
+            layer_attributes.other.insert(
+                Text::from(crate::exposure::EXR_VIEW_ATTRIBUTE),
+                AttributeValue::Text(Text::from(self.view.exr_text().as_str())),
             );
         }
         let layer = Layer::new(
             (self.width as usize, self.height as usize),
-            LayerAttributes::named("rgb"),
+            layer_attributes,
             Encoding::SMALL_LOSSLESS,
             channels,
         );
