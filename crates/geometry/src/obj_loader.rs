@@ -340,7 +340,7 @@ fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, Has
     let err = |line: usize, message: String| Error::ObjSyntax { path: path.to_path_buf(), line, message };
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
-        let trimmed = raw.trim();
+        let trimmed = strip_trailing_comment(raw.trim());
         let mut words = trimmed.split_whitespace();
         let Some(key) = words.next() else { continue };
         let rest: Vec<&str> = words.collect();
@@ -436,6 +436,16 @@ fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, Has
     Ok((out, side, warnings))
 }
 
+/// A statement without a trailing comment: from a `#` that follows whitespace to the end of the line
+/// (`Ka 0.63 0.065 0.05 # Red`, as McGuire's Cornell box writes). A `#` inside a word (a file name)
+/// is kept.
+fn strip_trailing_comment(line: &str) -> &str {
+    match line.char_indices().find(|&(i, c)| c == '#' && line[..i].ends_with(char::is_whitespace)) {
+        Some((i, _)) => line[..i].trim_end(),
+        None => line,
+    }
+}
+
 fn parse_floats(words: &[&str]) -> std::result::Result<Vec<f32>, String> {
     words
         .iter()
@@ -500,6 +510,17 @@ mod tests {
     fn one_component_colour_is_expanded() {
         let t = sanitize_mtl_text("newmtl a\nKd 0.5\n", Path::new("t.mtl")).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(t, "newmtl a\nKd 0.5 0.5 0.5\n");
+    }
+
+    #[test]
+    fn trailing_comments_are_not_values() {
+        let t = sanitize_mtl_text(
+            "newmtl red # the left wall\nKa 0.63 0.065 0.05 # Red\nKd 0.5\t# grey\n",
+            Path::new("t.mtl"),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(t, "newmtl red\nKa 0.63 0.065 0.05\nKd 0.5 0.5 0.5\n");
+        assert_eq!(strip_trailing_comment("map_Kd wall#2.png"), "map_Kd wall#2.png");
     }
 
     #[test]
