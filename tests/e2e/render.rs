@@ -78,6 +78,19 @@ fn render_of_a_scene_file_with_options() {
 }
 
 #[test]
+fn a_path_tracer_flag_given_to_the_paper_model_is_named_not_dropped() {
+    let dir = scratch("rr_depth_whitted");
+    let output = spectrace()
+        .args(["render", "-q", "--width", "8", "--height", "6", "--rr-depth", "5", "-o"])
+        .arg(dir.join("w.exr"))
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("--rr-depth is ignored by whitted-hall"), "{stderr}");
+}
+
+#[test]
 fn bad_input_is_a_clear_error_and_writes_nothing() {
     let dir = scratch("render_errors");
     let out = dir.join("x.exr");

@@ -296,6 +296,10 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
     }
     let (scene_width, scene_height) = scene.resolution();
+    if integrator_kind == IntegratorKind::WhittedHall && args.rr_depth.is_some() {
+        // The paper's model has no Russian roulette: say so rather than drop the flag silently.
+        eprintln!("spectrace: warning: --rr-depth is ignored by whitted-hall (it has no Russian roulette)");
+    }
     let integrator = match integrator_kind {
         IntegratorKind::WhittedHall => Integrator::WhittedHall(WhittedOptions {
             max_depth: args.max_depth,

@@ -38,7 +38,8 @@ pub struct Material {
     pub ior: Ior,
     /// Absorption of the enclosed medium (Bouguer–Beer), if any.
     pub absorption: Option<Absorption>,
-    /// Emitted radiance spectrum (luminance-normalised × strength), if the surface emits.
+    /// Emitted radiance spectrum, if the surface emits: luminance-normalised × strength (nits), or as
+    /// written × strength for an absolute (`"normalize": false`) spectrum.
     pub emission: Option<DenselySampledSpectrum>,
     /// Whether an emitting surface emits from both faces; otherwise only from its front, the side its
     /// geometric normal (triangle winding, sphere outside) points to. Manifests and OBJ: both; glTF:
