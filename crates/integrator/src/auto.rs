@@ -86,7 +86,11 @@ fn auto_bins(scene: &RenderScene) -> Option<usize> {
     // (lit surface spectrum, its light's 1 nm XYZ, its own 1 nm XYZ).
     let cases: Vec<_> = lights
         .iter()
-        .flat_map(|l| surfaces.iter().map(move |r| (xyz(l), r.product(l))))
+        .flat_map(|l| {
+            // The light's own XYZ once, not once per surface it lights.
+            let light_xyz = xyz(l);
+            surfaces.iter().map(move |r| (light_xyz, r.product(l)))
+        })
         .map(|(light_xyz, lit)| {
             let color = xyz(&lit);
             (lit, light_xyz, color)
