@@ -12,6 +12,7 @@
 //! once, by the integrator's scene assembly. The file formats are documented in `docs/scene-format.md`.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use glam::Vec3;
 
@@ -117,6 +118,96 @@ pub enum AbsorptionDesc {
     },
 }
 
+/// An image a scene file refers to, as bytes still encoded (PNG, JPEG, …): read and charged to
+/// the load budget by the loader, decoded by the integrator's assembly (which knows colour).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageDesc {
+    /// What to call it in messages: the resolved file path, or `images[3] (buffer view)`.
+    pub label: String,
+    /// The MIME type the file states (`image/png`, `image/jpeg`), if any; the bytes decide.
+    pub mime: Option<String>,
+    /// The encoded bytes (shared: several textures may use one image).
+    pub bytes: Arc<[u8]>,
+}
+
+/// How texture coordinates outside [0, 1] are mapped (glTF sampler `wrapS`/`wrapT`; OBJ `-clamp`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WrapMode {
+    /// Tile (glTF's default, OpenGL `REPEAT`).
+    #[default]
+    Repeat,
+    /// Tile with every other copy mirrored (`MIRRORED_REPEAT`).
+    MirroredRepeat,
+    /// Clamp to the edge texels (`CLAMP_TO_EDGE`).
+    ClampToEdge,
+}
+
+/// `KHR_texture_transform` (or OBJ `-o`/`-s`): uv' = T(offset) · R(rotation) · S(scale) · uv.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureTransform {
+    /// Translation in uv units.
+    pub offset: [f32; 2],
+    /// Rotation in radians, counter-clockwise in uv space (glTF's sign convention).
+    pub rotation: f32,
+    /// Scale per axis.
+    pub scale: [f32; 2],
+}
+
+/// A texture a material refers to: an image of [`SceneDescription::images`], how it is sampled and
+/// which texture coordinates address it, as the file wrote them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureDesc {
+    /// Index into [`SceneDescription::images`].
+    pub image: usize,
+    /// The mesh's texture-coordinate set (glTF `texCoord`, after `KHR_texture_transform`'s override).
+    pub tex_coord: u32,
+    /// Wrap along u and v.
+    pub wrap: [WrapMode; 2],
+    /// Magnification filter is `NEAREST` (glTF sampler `magFilter` 9728): no bilinear blend.
+    pub nearest: bool,
+    /// The uv transform, if the file gives one.
+    pub transform: Option<TextureTransform>,
+    /// glTF `normalTexture.scale` (normal maps) or `occlusionTexture.strength`; 1 elsewhere.
+    pub scale: f32,
+}
+
+/// How a material's alpha (base colour A × texture A) is used (glTF `alphaMode`; OBJ `d`/`map_d`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha is ignored (glTF's default).
+    Opaque,
+    /// Cut-out: the surface is absent where alpha < cutoff (glTF `alphaCutoff`, default 0.5).
+    Mask(f32),
+    /// Partial coverage: alpha is the fraction of light the surface stops.
+    Blend,
+}
+
+/// The textures of a material, by role (glTF 2.0 §3.9 names; MTL `map_*` statements).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MaterialTextures {
+    /// Base colour (sRGB, RGBA: A is alpha): glTF `baseColorTexture`, MTL `map_Kd`.
+    pub base_color: Option<TextureDesc>,
+    /// Linear; B = metalness, G = roughness: glTF `metallicRoughnessTexture`.
+    pub metallic_roughness: Option<TextureDesc>,
+    /// Tangent-space normal map (linear, RGB → [−1, 1]³): glTF `normalTexture`, MTL `norm`.
+    pub normal: Option<TextureDesc>,
+    /// Emissive colour (sRGB): glTF `emissiveTexture`, MTL `map_Ke`.
+    pub emissive: Option<TextureDesc>,
+    /// Coverage alone (the R channel, or luminance): MTL `map_d`.
+    pub alpha: Option<TextureDesc>,
+}
+
+impl MaterialTextures {
+    /// Whether any role has a texture.
+    pub fn any(&self) -> bool {
+        self.base_color.is_some()
+            || self.metallic_roughness.is_some()
+            || self.normal.is_some()
+            || self.emissive.is_some()
+            || self.alpha.is_some()
+    }
+}
+
 /// The file format a material was read from. Its fields mean what that format says (a glTF roughness, an MTL
 /// `Ns`, a manifest `ks`), and the defaults for unwritten fields depend on it, so the layers above need it
 /// to interpret the material.
@@ -180,6 +271,12 @@ pub struct MaterialDesc {
     pub dissolve: Option<f32>,
     /// MTL `illum` (illumination model number, 0–10).
     pub illum: Option<u8>,
+    /// Textures by role, each multiplying its factor (glTF) or replacing its colour (MTL).
+    pub textures: MaterialTextures,
+    /// glTF `alphaMode` (with `alphaCutoff`); `None` where the file says nothing.
+    pub alpha_mode: Option<AlphaMode>,
+    /// glTF `baseColorFactor`'s alpha.
+    pub alpha: Option<f32>,
     /// Raw glTF material `extras`, unknown manifest keys, or MTL statements this loader does not read, passed
     /// up untouched (spectral overrides go here).
     pub extras: Option<serde_json::Value>,
@@ -211,6 +308,9 @@ impl MaterialDesc {
             double_sided: None,
             dissolve: None,
             illum: None,
+            textures: MaterialTextures::default(),
+            alpha_mode: None,
+            alpha: None,
             extras: None,
         }
     }
@@ -393,6 +493,8 @@ pub struct SceneDescription {
     pub meshes: Vec<Mesh>,
     /// Materials, indexed by the shapes' material indices.
     pub materials: Vec<MaterialDesc>,
+    /// Images the materials' textures use, each read once.
+    pub images: Vec<ImageDesc>,
     /// Light sources.
     pub lights: Vec<LightDesc>,
     /// The camera, if the file has one (the first of `cameras`).
@@ -421,6 +523,7 @@ impl SceneDescription {
             spheres: Vec::new(),
             meshes: Vec::new(),
             materials: Vec::new(),
+            images: Vec::new(),
             lights: Vec::new(),
             camera: None,
             cameras: Vec::new(),

@@ -3,21 +3,22 @@
 //! The `gltf` crate parses and validates the JSON; everything that touches the binary data is ours, with
 //! checked arithmetic, because `gltf`'s accessor iterators trust the file (an accessor with `count = 0`
 //! underflows, a stride of 0 divides by zero, and a bad percent-encoded URI panics). Buffers are read here
-//! too, so a missing buffer file is reported with its URI, and images are never decoded (textures are
-//! ignored with a warning).
+//! too, so a missing buffer file is reported with its URI. Images are read (from files, data URIs or buffer
+//! views) but not decoded: decoding, colour and sampling are the integrator's.
 //!
 //! The node hierarchy is flattened: each mesh primitive becomes a world-space [`Mesh`].
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
+use std::sync::Arc;
 
 use glam::{Mat4, Vec2, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
 use crate::desc::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
-    SceneDescription, SceneFormat, SpectrumDesc,
+    AbsorptionDesc, AlphaMode, CameraDesc, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc,
+    MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc, TextureDesc, TextureTransform, WrapMode,
 };
 use crate::error::{Error, Result};
 use crate::limits::{BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
@@ -32,6 +33,9 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_materials_emissive_strength",
     "KHR_materials_dispersion",
+    // Read in full (offset, rotation, scale, texCoord); Blender marks it required whenever a Mapping
+    // node is used.
+    "KHR_texture_transform",
 ];
 
 /// Bytes charged per accessor component read: the f64 staging value and the f32 it becomes.
@@ -98,7 +102,9 @@ pub(crate) fn load_gltf_slice(
     let buffers = load_buffers(&document, base, blob, path, budget)?;
     let mut loader = Loader {
         path,
+        base,
         buffers: &buffers,
+        images: HashMap::new(),
         budget,
         desc: SceneDescription::empty(SceneFormat::Gltf),
         default_material: None,
@@ -190,7 +196,11 @@ fn percent_decode(s: &str) -> Option<String> {
 
 struct Loader<'a> {
     path: &'a Path,
+    /// Folder external images resolve against (`None`: loaded from memory).
+    base: Option<&'a Path>,
     buffers: &'a [Vec<u8>],
+    /// glTF image index → index in `desc.images`: each image is read once however many textures use it.
+    images: HashMap<usize, usize>,
     budget: &'a Budget,
     desc: SceneDescription,
     /// Index of the glTF default material, added on first use by a primitive without a material.
@@ -397,17 +407,134 @@ impl Loader<'_> {
         }
         m.extras = extras_value(material.extras());
 
-        let textures = [
-            pbr.base_color_texture().is_some(),
-            pbr.metallic_roughness_texture().is_some(),
-            material.normal_texture().is_some(),
-            material.occlusion_texture().is_some(),
-            material.emissive_texture().is_some(),
-        ];
-        if textures.iter().any(|t| *t) {
-            self.warn(format!("material '{name}': textures are ignored (factors only)"));
+        let context = format!("material '{name}'");
+        m.textures.base_color = pbr
+            .base_color_texture()
+            .and_then(|t| self.texture(&t.texture(), t.tex_coord(), transform(&t), 1.0, &context));
+        m.textures.metallic_roughness = pbr
+            .metallic_roughness_texture()
+            .and_then(|t| self.texture(&t.texture(), t.tex_coord(), transform(&t), 1.0, &context));
+        m.textures.normal = material.normal_texture().and_then(|t| {
+            let transform = t.extensions().and_then(|e| e.get("KHR_texture_transform")).and_then(transform_value);
+            self.texture(&t.texture(), t.tex_coord(), transform, t.scale(), &context)
+        });
+        m.textures.emissive = material
+            .emissive_texture()
+            .and_then(|t| self.texture(&t.texture(), t.tex_coord(), transform(&t), 1.0, &context));
+        if material.occlusion_texture().is_some() {
+            // Ambient occlusion is baked shadowing; a path tracer computes the real thing.
+            self.warn(format!("{context}: occlusion texture ignored (the path tracer computes occlusion)"));
+        }
+        m.alpha = Some(pbr.base_color_factor()[3]);
+        m.alpha_mode = Some(match material.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask(material.alpha_cutoff().unwrap_or(0.5)),
+            gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        });
+        for (extension, what) in [
+            ("KHR_materials_clearcoat", "clearcoat"),
+            ("KHR_materials_sheen", "sheen"),
+            ("KHR_materials_specular", "specular"),
+            ("KHR_materials_anisotropy", "anisotropy"),
+            ("KHR_materials_iridescence", "iridescence"),
+            ("KHR_materials_diffuse_transmission", "diffuse transmission"),
+        ] {
+            if material.extension_value(extension).is_some() {
+                self.warn(format!("{context}: {extension} ({what}) is not rendered yet; ignored"));
+            }
         }
         m
+    }
+
+    /// The texture `texture` addressed by `tex_coord` (before the transform's override), its image read
+    /// once; `None` with a warning when the image cannot be read (the factor alone is used then).
+    fn texture(
+        &mut self,
+        texture: &gltf::Texture<'_>,
+        tex_coord: u32,
+        transform: Option<(TextureTransform, Option<u32>)>,
+        scale: f32,
+        context: &str,
+    ) -> Option<TextureDesc> {
+        let image = texture.source();
+        let image = match self.images.get(&image.index()) {
+            Some(&i) => i,
+            None => match self.read_image(&image) {
+                Ok(desc) => {
+                    self.desc.images.push(desc);
+                    self.images.insert(image.index(), self.desc.images.len() - 1);
+                    self.desc.images.len() - 1
+                }
+                Err(e) => {
+                    self.warn(format!("{context}: texture {} not used: {e}", texture.index()));
+                    return None;
+                }
+            },
+        };
+        let sampler = texture.sampler();
+        let wrap = |w: gltf::texture::WrappingMode| match w {
+            gltf::texture::WrappingMode::Repeat => WrapMode::Repeat,
+            gltf::texture::WrappingMode::MirroredRepeat => WrapMode::MirroredRepeat,
+            gltf::texture::WrappingMode::ClampToEdge => WrapMode::ClampToEdge,
+        };
+        Some(TextureDesc {
+            image,
+            tex_coord: transform.and_then(|(_, set)| set).unwrap_or(tex_coord),
+            wrap: [wrap(sampler.wrap_s()), wrap(sampler.wrap_t())],
+            nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+            transform: transform.map(|(t, _)| t),
+            scale: if scale.is_finite() { scale } else { 1.0 },
+        })
+    }
+
+    /// The encoded bytes of `image`: a buffer view, a data URI, or a file beside the glTF (charged to the
+    /// budget and hashed into the scene's digest, like buffers).
+    fn read_image(&self, image: &gltf::Image<'_>) -> Result<ImageDesc> {
+        let index = image.index();
+        match image.source() {
+            gltf::image::Source::View { view, mime_type } => {
+                let bytes = self.view_bytes(&view, &format!("images[{index}]"))?;
+                self.budget.charge(self.path, || format!("images[{index}] bytes"), bytes.len() as u64)?;
+                Ok(ImageDesc {
+                    label: format!("images[{index}] (buffer view {})", view.index()),
+                    mime: Some(mime_type.to_owned()),
+                    bytes: Arc::from(bytes),
+                })
+            }
+            gltf::image::Source::Uri { uri, mime_type } if uri.starts_with("data:") => {
+                self.budget.charge(self.path, || format!("images[{index}] data URI"), uri.len() as u64)?;
+                let source = gltf::buffer::Source::Uri(uri);
+                let bytes = guard_panic(self.path, "gltf", || {
+                    gltf::buffer::Data::from_source(source, None)
+                        .map_err(|cause| Error::Gltf { path: self.path.to_path_buf(), cause })
+                })?
+                .0;
+                Ok(ImageDesc {
+                    label: format!("images[{index}] (data URI)"),
+                    mime: mime_type.map(str::to_owned),
+                    bytes: Arc::from(bytes),
+                })
+            }
+            gltf::image::Source::Uri { uri, mime_type } => {
+                let err = |message: String| self.data_err(&format!("images[{index}]"), message);
+                let relative = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")).unwrap_or(uri);
+                if relative.contains(':') && !uri.starts_with("file:") {
+                    return Err(err(format!("unsupported URI scheme in `{uri}`")));
+                }
+                let decoded =
+                    percent_decode(relative).ok_or_else(|| err(format!("malformed percent-encoding in `{uri}`")))?;
+                let Some(base) = self.base else {
+                    return Err(err(format!("external image `{uri}` in a glTF loaded from memory")));
+                };
+                let file = self.budget.resolve(self.path, base, &decoded)?;
+                let bytes = self.budget.read(self.path, &file)?;
+                Ok(ImageDesc {
+                    label: file.display().to_string(),
+                    mime: mime_type.map(str::to_owned),
+                    bytes: Arc::from(bytes),
+                })
+            }
+        }
     }
 
     fn default_material(&mut self) -> u32 {
@@ -506,28 +633,69 @@ impl Loader<'_> {
                 }
                 None => None,
             };
-            let uvs = match primitive.get(&Semantic::TexCoords(0)) {
+            let material = match primitive.material().index() {
+                // Material indices were validated by `gltf` against the materials array.
+                Some(i) => i as u32,
+                None => self.default_material(),
+            };
+            // A mesh holds one UV set: the one its material's textures address.
+            let textures = &self.desc.materials[material as usize].textures;
+            let sets: Vec<u32> =
+                [&textures.base_color, &textures.metallic_roughness, &textures.normal, &textures.emissive]
+                    .into_iter()
+                    .flatten()
+                    .map(|t| t.tex_coord)
+                    .collect();
+            let set = sets.first().copied().unwrap_or(0);
+            let wants_tangents = textures.normal.is_some();
+            if sets.iter().any(|&s| s != set) {
+                self.warn(format!(
+                    "{context}: the material's textures use several TEXCOORD sets {sets:?}; all are read with TEXCOORD_{set}"
+                ));
+            }
+            let uvs = match primitive.get(&Semantic::TexCoords(set)) {
                 Some(acc) => {
-                    let uv = self.read_vec2(&acc, &format!("{context} TEXCOORD_0"))?;
+                    let uv = self.read_vec2(&acc, &format!("{context} TEXCOORD_{set}"))?;
                     if uv.len() != vertex_count || !uv.iter().all(|v| v.is_finite()) {
                         self.warn(format!(
-                            "{context}: TEXCOORD_0 count differs from POSITION or is not finite; UVs dropped"
+                            "{context}: TEXCOORD_{set} count differs from POSITION or is not finite; UVs dropped"
                         ));
                         None
                     } else {
                         Some(uv)
                     }
                 }
+                None => {
+                    if !sets.is_empty() {
+                        self.warn(format!("{context}: the material is textured but TEXCOORD_{set} is missing; textures read at uv (0, 0)"));
+                    }
+                    None
+                }
+            };
+            let tangents = match primitive.get(&Semantic::Tangents).filter(|_| wants_tangents) {
+                Some(acc) => {
+                    let t = self.read_vec4(&acc, &format!("{context} TANGENT"))?;
+                    if t.len() != vertex_count || !t.iter().all(|v| v.is_finite()) {
+                        self.warn(format!(
+                            "{context}: TANGENT count differs from POSITION or is not finite; tangents from UVs used"
+                        ));
+                        None
+                    } else {
+                        Some(t)
+                    }
+                }
                 None => None,
             };
-            let material = match primitive.material().index() {
-                // Material indices were validated by `gltf` against the materials array.
-                Some(i) => i as u32,
-                None => self.default_material(),
-            };
-            let local = Mesh::new(positions, normals, uvs, triangles, Some(material)).map_err(|e| {
-                Error::InvalidGeometry { path: self.path.to_path_buf(), context: context.clone(), cause: Box::new(e) }
-            })?;
+            let local = Mesh::new(positions, normals, uvs, triangles, Some(material))
+                .and_then(|m| match tangents {
+                    Some(t) => m.with_tangents(t),
+                    None => Ok(m),
+                })
+                .map_err(|e| Error::InvalidGeometry {
+                    path: self.path.to_path_buf(),
+                    context: context.clone(),
+                    cause: Box::new(e),
+                })?;
             let mesh = if world == Mat4::IDENTITY { local } else { local.transformed(world) };
             check_coordinates(mesh.positions(), self.path, &context)?;
             self.desc.meshes.push(mesh);
@@ -561,6 +729,19 @@ impl Loader<'_> {
         }
         let v = self.read_accessor(acc, context)?;
         Ok(v.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect())
+    }
+
+    fn read_vec4(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<glam::Vec4>> {
+        if acc.dimensions() != Dimensions::Vec4 || acc.data_type() != DataType::F32 {
+            return Err(self.data_err(
+                context,
+                format!("must be VEC4 of FLOAT, found {:?} of {:?}", acc.dimensions(), acc.data_type()),
+            ));
+        }
+        // The tangents are not in the vertex charge (most meshes have none).
+        self.budget.charge(self.path, || format!("{context} ({} tangents)", acc.count()), acc.count() as u64 * 16)?;
+        let v = self.read_accessor(acc, context)?;
+        Ok(v.chunks_exact(4).map(|c| glam::Vec4::new(c[0], c[1], c[2], c[3])).collect())
     }
 
     fn read_indices(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<u32>> {
@@ -736,6 +917,27 @@ fn triangulate(mode: Mode, list: &[u32]) -> Vec<[u32; 3]> {
 }
 
 /// The raw `extras` JSON, if any and valid.
+/// `KHR_texture_transform` of a texture reference, with its `texCoord` override.
+fn transform(info: &gltf::texture::Info<'_>) -> Option<(TextureTransform, Option<u32>)> {
+    info.texture_transform()
+        .map(|t| (TextureTransform { offset: t.offset(), rotation: t.rotation(), scale: t.scale() }, t.tex_coord()))
+}
+
+/// `KHR_texture_transform` from its JSON (normal textures expose only the raw extension map); glTF's
+/// defaults where a member is missing or malformed.
+fn transform_value(value: &serde_json::Value) -> Option<(TextureTransform, Option<u32>)> {
+    let pair = |key: &str, default: [f32; 2]| {
+        value
+            .get(key)
+            .and_then(|v| v.as_array())
+            .and_then(|a| Some([a.first()?.as_f64()? as f32, a.get(1)?.as_f64()? as f32]))
+            .unwrap_or(default)
+    };
+    let rotation = value.get("rotation").and_then(serde_json::Value::as_f64).unwrap_or(0.0) as f32;
+    let set = value.get("texCoord").and_then(serde_json::Value::as_u64).and_then(|s| u32::try_from(s).ok());
+    Some((TextureTransform { offset: pair("offset", [0.0, 0.0]), rotation, scale: pair("scale", [1.0, 1.0]) }, set))
+}
+
 fn extras_value(extras: &gltf::json::Extras) -> Option<serde_json::Value> {
     extras.as_ref().and_then(|raw| serde_json::from_str(raw.get()).ok())
 }

@@ -161,7 +161,19 @@ fn include_file(desc: &mut SceneDescription, include: Include, budget: &Budget) 
         desc.meshes.push(if mirrored { reverse_winding(&mesh, &path)? } else { mesh });
     }
     if use_file_materials {
-        desc.materials.extend(sub.materials);
+        // The file's images follow the manifest's, so its textures' image indices shift too.
+        let image_offset = desc.images.len();
+        for mut m in sub.materials {
+            let t = &mut m.textures;
+            for texture in [&mut t.base_color, &mut t.metallic_roughness, &mut t.normal, &mut t.emissive, &mut t.alpha]
+                .into_iter()
+                .flatten()
+            {
+                texture.image += image_offset;
+            }
+            desc.materials.push(m);
+        }
+        desc.images.extend(sub.images);
     }
     for light in sub.lights {
         desc.lights.push(transform_light(light, matrix));
@@ -175,14 +187,7 @@ fn include_file(desc: &mut SceneDescription, include: Include, budget: &Budget) 
 
 fn reverse_winding(mesh: &Mesh, path: &Path) -> Result<Mesh> {
     let indices = mesh.indices().iter().map(|[a, b, c]| [*a, *c, *b]).collect();
-    Mesh::new(
-        mesh.positions().to_vec(),
-        mesh.normals().map(<[Vec3]>::to_vec),
-        mesh.uvs().map(<[glam::Vec2]>::to_vec),
-        indices,
-        mesh.material(),
-    )
-    .map_err(|e| Error::InvalidGeometry {
+    mesh.with_indices(indices).map_err(|e| Error::InvalidGeometry {
         path: path.to_path_buf(),
         context: "mirrored mesh".to_owned(),
         cause: Box::new(e),

@@ -5,16 +5,24 @@
 //! face indices like `f 1/-99999999999999`. So both files are pre-scanned here, line by line, with
 //! errors that name the file and line: OBJ vertex and face lines are checked, and the MTL text is rewritten
 //! into a canonical form (`Kd 0.5` → `Kd 0.5 0.5 0.5`, spectral and `xyz` colours and `Tf` taken out and
-//! kept aside, texture maps dropped with a warning) before `tobj` sees it.
+//! kept aside, texture maps (`map_Kd`, `map_d`, `norm`, `map_Ke` with `-s`/`-o`/`-clamp`) taken out and read
+//! here) before `tobj` sees it.
+//!
+//! OBJ texture coordinates have v up from the image's bottom edge; meshes hold glTF's convention (v down from
+//! the top edge), so v is flipped on load.
 
 use std::cell::RefCell;
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use glam::{Vec2, Vec3};
 use serde_json::{Map, Value};
 
-use crate::desc::{IorDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc};
+use crate::desc::{
+    ImageDesc, IorDesc, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc, TextureDesc,
+    TextureTransform, WrapMode,
+};
 use crate::error::{Error, Result};
 use crate::limits::{
     BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, MAX_SPECTRUM_FILE_BYTES, check_coordinates, guard_panic,
@@ -109,8 +117,40 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
     let side = side.into_inner();
     // A missing MTL file was reported as a warning above.
     let materials: Vec<tobj::Material> = materials.unwrap_or_default();
+    // Images by resolved path: each read once however many materials use it.
+    let mut images: HashMap<PathBuf, usize> = HashMap::new();
     for m in &materials {
-        desc.materials.push(material(m, side.get(&m.name), path, &mut desc.warnings));
+        let mut d = material(m, side.get(&m.name), path, &mut desc.warnings);
+        for (key, file, mut texture) in side.get(&m.name).map(|s| s.textures.clone()).unwrap_or_default() {
+            let image = match images.get(&file) {
+                Some(&i) => i,
+                None => match budget.read(path, &file) {
+                    Ok(bytes) => {
+                        desc.images.push(ImageDesc {
+                            label: file.display().to_string(),
+                            mime: None,
+                            bytes: Arc::from(bytes),
+                        });
+                        images.insert(file.clone(), desc.images.len() - 1);
+                        desc.images.len() - 1
+                    }
+                    Err(e @ (Error::OverBudget { .. } | Error::AbsolutePath { .. })) => return Err(e),
+                    Err(e) => {
+                        desc.warnings.push(format!("{}: material '{}': `{key}` not used: {e}", path.display(), m.name));
+                        continue;
+                    }
+                },
+            };
+            texture.image = image;
+            let slot = match key.as_str() {
+                "map_Kd" => &mut d.textures.base_color,
+                "map_d" => &mut d.textures.alpha,
+                "norm" => &mut d.textures.normal,
+                _ => &mut d.textures.emissive,
+            };
+            *slot = Some(texture);
+        }
+        desc.materials.push(d);
     }
 
     for model in models {
@@ -136,7 +176,8 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
             ));
             None
         };
-        let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect();
+        // v flipped: OBJ's origin is the image's bottom-left corner, the meshes' (glTF's) its top-left.
+        let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(|c| Vec2::new(c[0], 1.0 - c[1])).collect();
         let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
         // Material ids index tobj's list, which we copied in order; ids past its end (missing MTL) mean none.
         let material = mesh.material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
@@ -327,6 +368,87 @@ struct SideInfo {
     spectral: HashMap<String, SpectrumDesc>,
     /// Raw data for the layers above (spectral file references that are not CSV, `xyz` colours, `Tr`).
     extras: Map<String, Value>,
+    /// Texture statements: the key (`map_Kd`, …), the resolved image file and how it is sampled
+    /// (`TextureDesc::image` is filled when the image is read).
+    textures: Vec<(String, PathBuf, TextureDesc)>,
+}
+
+/// A texture statement's options and file: `-s u v w` (scale), `-o u v w` (offset), `-clamp on|off`, `-bm
+/// mult` (normal/bump strength); the others are skipped with their arguments and named in `ignored`. The
+/// file name is the rest of the line (it may contain spaces).
+fn texture_statement<'a>(
+    args: &[&'a str],
+    ignored: &mut Vec<&'a str>,
+) -> std::result::Result<(String, TextureDesc), String> {
+    let mut texture = TextureDesc {
+        image: 0,
+        tex_coord: 0,
+        wrap: [WrapMode::Repeat; 2],
+        nearest: false,
+        transform: None,
+        scale: 1.0,
+    };
+    let mut transform = TextureTransform { offset: [0.0, 0.0], rotation: 0.0, scale: [1.0, 1.0] };
+    let mut i = 0;
+    // Option → number of numeric arguments it takes (up to), per the MTL specification.
+    while i < args.len() && args[i].starts_with('-') && args[i].len() > 1 {
+        let option = args[i];
+        let numbers = |from: usize, max: usize| -> Vec<f32> {
+            args[from..].iter().take(max).map_while(|w| w.parse::<f32>().ok().filter(|v| v.is_finite())).collect()
+        };
+        match option {
+            "-s" | "-o" => {
+                let v = numbers(i + 1, 3);
+                if v.is_empty() {
+                    return Err(format!("`{option}` needs numbers"));
+                }
+                let (u, w) = (v[0], v.get(1).copied().unwrap_or(if option == "-s" { 1.0 } else { 0.0 }));
+                if option == "-s" {
+                    transform.scale = [u, w];
+                } else {
+                    transform.offset = [u, w];
+                }
+                i += 1 + v.len();
+            }
+            "-clamp" => {
+                let on = args.get(i + 1).is_some_and(|w| *w == "on");
+                texture.wrap = [if on { WrapMode::ClampToEdge } else { WrapMode::Repeat }; 2];
+                i += 2;
+            }
+            "-bm" => {
+                let v = numbers(i + 1, 1);
+                texture.scale = v.first().copied().ok_or("`-bm` needs a number")?;
+                i += 2;
+            }
+            "-blendu" | "-blendv" | "-cc" | "-imfchan" | "-type" => {
+                ignored.push(option);
+                i += 2;
+            }
+            "-boost" | "-texres" => {
+                ignored.push(option);
+                i += 2;
+            }
+            "-mm" => {
+                ignored.push(option);
+                i += 3;
+            }
+            "-t" => {
+                ignored.push(option);
+                i += 1 + numbers(i + 1, 3).len();
+            }
+            _ => {
+                return Err(format!("unknown texture option `{option}`"));
+            }
+        }
+    }
+    let file = args.get(i..).unwrap_or_default().join(" ");
+    if file.is_empty() {
+        return Err("no image file named".into());
+    }
+    if transform.scale != [1.0, 1.0] || transform.offset != [0.0, 0.0] {
+        texture.transform = Some(transform);
+    }
+    Ok((file, texture))
 }
 
 /// Rewrites MTL text into lines tobj parses without panicking; returns the text, per-material side info and
@@ -422,8 +544,26 @@ fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, Has
                 Some(n) if n <= 10 => out.push_str(&format!("illum {n}\n")),
                 _ => warnings.push(format!("{}:{line_no}: `illum` needs an integer 0–10; ignored", path.display())),
             },
+            "map_Kd" | "map_d" | "norm" | "map_Ke" => {
+                let mut ignored = Vec::new();
+                let (file, texture) =
+                    texture_statement(&rest, &mut ignored).map_err(|m| err(line_no, format!("`{key}`: {m}")))?;
+                if !ignored.is_empty() {
+                    warnings.push(format!(
+                        "{}:{line_no}: material '{name}': `{key}` options {ignored:?} ignored",
+                        path.display()
+                    ));
+                }
+                let file = budget.resolve(path, &folder, &file)?;
+                info.textures.push((key.to_owned(), file, texture));
+            }
             k if k.starts_with("map_") || k == "bump" || k == "disp" || k == "decal" || k == "refl" => {
-                warnings.push(format!("{}:{line_no}: material '{name}': texture `{k}` ignored", path.display()));
+                let what = if matches!(k, "bump" | "map_Bump" | "map_bump") {
+                    " (height-field bump maps are not rendered; `norm` normal maps are)"
+                } else {
+                    ""
+                };
+                warnings.push(format!("{}:{line_no}: material '{name}': texture `{k}` ignored{what}", path.display()));
             }
             other => {
                 // Unknown statements go to extras as text; tobj never sees them.

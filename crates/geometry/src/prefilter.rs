@@ -70,13 +70,7 @@ pub(crate) fn remove_unhittable(meshes: Vec<Mesh>) -> (Vec<Mesh>, Removed) {
             out.push(mesh);
         } else if !keep.is_empty() {
             // Same vertices and attributes, fewer triangles: cannot fail (indices were valid before).
-            if let Ok(m) = Mesh::new(
-                mesh.positions().to_vec(),
-                mesh.normals().map(<[Vec3]>::to_vec),
-                mesh.uvs().map(<[glam::Vec2]>::to_vec),
-                keep,
-                mesh.material(),
-            ) {
+            if let Ok(m) = mesh.with_indices(keep) {
                 out.push(m);
             }
         }

@@ -1,6 +1,6 @@
 //! The primitives: triangle meshes and analytic spheres, validated on construction.
 
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 use crate::error::{Error, Result};
 
@@ -11,6 +11,8 @@ pub struct Mesh {
     positions: Vec<Vec3>,
     normals: Option<Vec<Vec3>>,
     uvs: Option<Vec<Vec2>>,
+    /// Per-vertex tangents (xyz) and bitangent sign (w), as glTF's `TANGENT` gives them.
+    tangents: Option<Vec<Vec4>>,
     indices: Vec<[u32; 3]>,
     material: Option<u32>,
 }
@@ -52,7 +54,20 @@ impl Mesh {
                 positions.len()
             )));
         }
-        Ok(Self { positions, normals, uvs, indices, material })
+        Ok(Self { positions, normals, uvs, tangents: None, indices, material })
+    }
+
+    /// The mesh with per-vertex tangents (xyz, and the bitangent sign in w: glTF `TANGENT`);
+    /// rejects a count differing from the positions' or a non-finite value.
+    pub fn with_tangents(mut self, tangents: Vec<Vec4>) -> Result<Self> {
+        if tangents.len() != self.positions.len() {
+            return Err(Error::Invalid(format!("{} tangents for {} positions", tangents.len(), self.positions.len())));
+        }
+        if let Some(i) = tangents.iter().position(|v| !v.is_finite()) {
+            return Err(Error::Invalid(format!("vertex {i} tangent {:?} is not finite", tangents[i])));
+        }
+        self.tangents = Some(tangents);
+        Ok(self)
     }
 
     /// Vertex positions.
@@ -66,6 +81,20 @@ impl Mesh {
     /// Vertex texture coordinates, if the mesh has them.
     pub fn uvs(&self) -> Option<&[Vec2]> {
         self.uvs.as_deref()
+    }
+    /// The same vertices and attributes with other triangles (fewer, or the winding reversed);
+    /// rejects indices out of range.
+    pub fn with_indices(&self, indices: Vec<[u32; 3]>) -> Result<Self> {
+        let mut m = Self::new(self.positions.clone(), None, None, indices, self.material)?;
+        m.normals.clone_from(&self.normals);
+        m.uvs.clone_from(&self.uvs);
+        m.tangents.clone_from(&self.tangents);
+        Ok(m)
+    }
+
+    /// Vertex tangents with the bitangent sign in w, if the mesh has them.
+    pub fn tangents(&self) -> Option<&[Vec4]> {
+        self.tangents.as_deref()
     }
     /// Triangles as vertex indices.
     pub fn indices(&self) -> &[[u32; 3]] {
@@ -84,7 +113,8 @@ impl Mesh {
         self.indices.len()
     }
 
-    /// The mesh transformed by `m`: positions by `m`, normals by its inverse transpose. The
+    /// The mesh transformed by `m`: positions and tangents by `m`, normals by its inverse
+    /// transpose, the bitangent sign flipped by a mirroring `m` (cross products change sign). The
     /// winding is kept as it is: a caller applying a mirroring transform (negative
     /// determinant) decides whether to reverse it (the loaders do, as glTF requires).
     pub fn transformed(&self, m: Mat4) -> Self {
@@ -92,7 +122,19 @@ impl Mesh {
         let positions = self.positions.iter().map(|&p| m.transform_point3(p)).collect();
         let normals =
             self.normals.as_ref().map(|n| n.iter().map(|&v| (normal_matrix * v).normalize_or_zero()).collect());
-        Self { positions, normals, uvs: self.uvs.clone(), indices: self.indices.clone(), material: self.material }
+        let linear = Mat3::from_mat4(m);
+        let sign = linear.determinant().signum();
+        let tangents = self.tangents.as_ref().map(|t| {
+            t.iter().map(|&v| (linear * v.truncate()).normalize_or_zero().extend(v.w.signum() * sign)).collect()
+        });
+        Self {
+            positions,
+            normals,
+            uvs: self.uvs.clone(),
+            tangents,
+            indices: self.indices.clone(),
+            material: self.material,
+        }
     }
 }
 

@@ -18,6 +18,7 @@ use crate::camera::{CameraOptions, choose_camera};
 use crate::error::{Error, Result};
 use crate::lights::{Emitters, Light, LightKind};
 use crate::render::IntegratorKind;
+use crate::texture::{MaterialTextures, load_material_textures};
 
 /// Resolution used when neither the scene nor the user gives one: the paper's 640×480.
 pub const DEFAULT_RESOLUTION: (u32, u32) = (640, 480);
@@ -34,6 +35,10 @@ pub struct AssemblyOptions {
 pub struct RenderScene {
     pub(crate) geometry: Scene,
     pub(crate) materials: Vec<Material>,
+    /// The textures of each material, in its order (`None`: untextured); empty when no material has any.
+    pub(crate) textures: Vec<Option<MaterialTextures>>,
+    /// Whether some material has a cut-out or blended alpha: shadow rays then look through it.
+    pub(crate) alpha_cutouts: bool,
     /// Material of primitives that name none: a mid-grey Lambertian.
     pub(crate) default_material: Material,
     pub(crate) lights: Vec<Light>,
@@ -103,7 +108,8 @@ impl RenderScene {
             format,
             spheres,
             meshes,
-            materials: material_descs,
+            materials: mut material_descs,
+            images,
             lights: mut light_descs,
             camera,
             mut cameras,
@@ -112,6 +118,21 @@ impl RenderScene {
             mut warnings,
             source_hash,
         } = desc;
+        let started = std::time::Instant::now();
+        let mut textures = load_material_textures(&images, &mut material_descs, &mut warnings);
+        if textures.iter().all(Option::is_none) {
+            textures.clear();
+        } else {
+            let bytes: usize = textures.iter().flatten().map(MaterialTextures::bytes).sum();
+            warnings.push(format!(
+                "textures: {} images, {:.1} MiB of texel data, decoded and fitted to spectra in {:.2} s; rendered by the path integrator (whitted-hall uses the factors)",
+                images.len(),
+                bytes as f64 / (1024.0 * 1024.0),
+                started.elapsed().as_secs_f64()
+            ));
+        }
+        drop(images);
+        let alpha_cutouts = textures.iter().flatten().any(MaterialTextures::has_alpha);
         let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
         warn_unused_keys(&material_descs, &mut warnings);
         let geometry = Scene::build(spheres, meshes)?;
@@ -184,6 +205,8 @@ impl RenderScene {
         let mut scene = Self {
             geometry,
             materials,
+            textures,
+            alpha_cutouts,
             default_material: Material::diffuse("default grey", DenselySampledSpectrum::constant(0.5)),
             lights,
             emitters: Emitters::default(),

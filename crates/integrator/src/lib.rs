@@ -42,6 +42,7 @@ mod render;
 mod sampling;
 mod spectral;
 mod summary;
+mod texture;
 mod whitted;
 
 pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, RenderScene};

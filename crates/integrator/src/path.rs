@@ -25,6 +25,7 @@ use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
 use crate::sampling::{Rng, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
+use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, surface_tangent};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
 /// that Russian roulette, not the limit, ends almost every path.
@@ -225,6 +226,42 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         index.and_then(|i| self.materials.get(i as usize)).unwrap_or(&self.default_material)
     }
 
+    /// The textures of material `index`, if it has any (`scene.textures` is empty for untextured scenes,
+    /// so they pay one bounds check per hit).
+    #[inline]
+    fn textures(&self, index: Option<u32>) -> Option<&MaterialTextures> {
+        self.scene.textures.get(index? as usize)?.as_ref()
+    }
+
+    /// Whether light passes between `hit` and the light sample (`target`, or direction `wi` to
+    /// infinity), as a fraction: 0 or 1 through opaque surfaces; cut-outs (MASK) pass where
+    /// alpha is below the cutoff and blended surfaces (BLEND) pass 1 − alpha, their expected
+    /// transmission (no random choice, so shadow rays add no noise there).
+    fn visibility(&self, hit: &Hit, target: Option<Vec3>, wi: Vec3, count: &mut RayCount) -> f32 {
+        let spawn = |from: &Hit| match target {
+            Some(q) => spawn_ray_to(from, q),
+            None => (spawn_ray(from, wi), f32::INFINITY),
+        };
+        if !self.scene.alpha_cutouts {
+            let (shadow, t_max) = spawn(hit);
+            return if self.scene.geometry.occluded(&shadow, t_max) { 0.0 } else { 1.0 };
+        }
+        let mut visible = 1.0f32;
+        let mut from = *hit;
+        for _ in 0..MAX_ALPHA_SKIPS {
+            let (shadow, t_max) = spawn(&from);
+            let Some(blocker) = self.scene.geometry.intersect(&shadow, t_max) else { return visible };
+            let coverage = self.textures(blocker.material).map_or(1.0, |t| t.coverage(blocker.uv));
+            visible *= 1.0 - coverage;
+            if visible <= 0.0 {
+                return 0.0;
+            }
+            count.rays += 1;
+            from = blocker;
+        }
+        0.0
+    }
+
     #[inline]
     fn environment_radiance(&self, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
         let mut l = SampledSpectrum([0.0; N]);
@@ -288,6 +325,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let mut prev_ns = Vec3::Z;
         let mut first = ObjectId::Background;
         let mut depth = 0u32;
+        // Distance travelled through cut-outs since the last vertex, and how many were passed.
+        let mut skipped = 0.0f32;
+        let mut skips = 0u32;
         loop {
             count.rays += 1;
             let Some(hit) = self.scene.geometry.intersect(&ray, f32::INFINITY) else {
@@ -304,11 +344,27 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 }
                 break;
             };
+            let textures = self.textures(hit.material);
+            // A cut-out (or, with probability 1 − alpha, a blended surface) is not there: go on
+            // through it in the same direction, the path's vertex unchanged.
+            if let Some(t) = textures.filter(|t| t.has_alpha())
+                && skips < MAX_ALPHA_SKIPS
+            {
+                let coverage = t.coverage(hit.uv);
+                if coverage <= 0.0 || (coverage < 1.0 && rng.uniform() >= coverage) {
+                    skipped += hit.t * ray.dir.length();
+                    skips += 1;
+                    ray = spawn_ray(&hit, ray.dir);
+                    continue;
+                }
+            }
             if depth == 0 {
                 first = ObjectId::Material(hit.material);
             }
             let m = self.material(hit.material);
             let dir_len = ray.dir.length();
+            // The length of the segment from the previous vertex, through any cut-outs.
+            let segment = hit.t * dir_len + skipped;
             let wo = -ray.dir / dir_len;
             // Beer–Lambert over the segment just travelled inside a dielectric: the ray leaves
             // through this surface (this also covers a camera inside glass).
@@ -316,7 +372,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 && hit.n.dot(wo) < 0.0
                 && let Some(sigma_a) = m.sigma_a
             {
-                beta *= materials::beer_transmittance(&self.spectra.eval(sigma_a, lambda), hit.t * dir_len);
+                beta *= materials::beer_transmittance(&self.spectra.eval(sigma_a, lambda), segment);
             }
             if let Some(e) = m.emission
                 && emits_towards(m.two_sided, hit.n, wo)
@@ -324,7 +380,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 let weight = if specular_bounce {
                     1.0
                 } else {
-                    let light_pdf = self.scene.emitters.pdf_li_hit(hit.primitive, hit.n, wo, hit.t * dir_len);
+                    let light_pdf = self.scene.emitters.pdf_li_hit(hit.primitive, hit.n, wo, segment);
                     power_heuristic(prev_pdf, light_pdf)
                 };
                 radiance += beta * self.spectra.eval(e, lambda) * weight;
@@ -332,8 +388,15 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             if depth >= self.max_depth || beta.is_black() {
                 break;
             }
+            skipped = 0.0;
+            // A texture's base colour replaces the material's (it already includes the factor).
+            let rgb_lanes = matches!(sensor, Sensor::Fixed(lanes) if lanes.rgb);
+            let base = |id: SpecId, lambda: &SampledWavelengths<N>| match textures.and_then(|t| t.base_color.as_ref()) {
+                Some(t) => t.eval(hit.uv, lambda, rgb_lanes).0,
+                None => self.spectra.eval(id, lambda),
+            };
             let bsdf = match m.scattering {
-                PathScattering::Diffuse { r } => Bsdf::Lambertian { r: self.spectra.eval(r, lambda) },
+                PathScattering::Diffuse { r } => Bsdf::Lambertian { r: base(r, lambda) },
                 PathScattering::Mirror { r } => Bsdf::Mirror { r: self.spectra.eval(r, lambda) },
                 PathScattering::Dielectric { tint } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
@@ -359,11 +422,22 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         _ => ConductorBxdf::from_reflectance(self.spectra.eval(r, lambda), distrib, true),
                     })
                 }
-                PathScattering::GltfMetalRough { base, metallic, roughness, ior } => Bsdf::GltfMetalRough(
-                    GltfMetalRoughBxdf::energy_conserving(self.spectra.eval(base, lambda), metallic, roughness, ior),
-                ),
+                PathScattering::GltfMetalRough { base: id, metallic, roughness, ior } => {
+                    let (metallic, roughness) =
+                        textures.map_or((metallic, roughness), |t| t.metallic_roughness(hit.uv, metallic, roughness));
+                    Bsdf::GltfMetalRough(GltfMetalRoughBxdf::energy_conserving(
+                        base(id, lambda),
+                        metallic,
+                        roughness,
+                        ior,
+                    ))
+                }
             };
-            let frame = Frame { n: hit.n, ns: hit.ns };
+            let ns = match textures.filter(|t| t.has_normal_map()) {
+                Some(t) => t.shading_normal(hit.uv, hit.ns, surface_tangent(&self.scene.geometry, &hit), hit.n),
+                None => hit.ns,
+            };
+            let frame = Frame { n: hit.n, ns };
             if !bsdf.is_specular() && !self.scene.emitters.is_empty() {
                 radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, rng, count);
             }
@@ -414,11 +488,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             return black;
         }
         count.rays += 1;
-        let (shadow, t_max) = match ls.target {
-            Some(q) => spawn_ray_to(hit, q),
-            None => (spawn_ray(hit, ls.wi), f32::INFINITY),
-        };
-        if self.scene.geometry.occluded(&shadow, t_max) {
+        let visible = self.visibility(hit, ls.target, ls.wi, count);
+        if visible == 0.0 {
             return black;
         }
         let le = if self.scene.emitters.is_environment(light) {
@@ -427,10 +498,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             self.spectra.eval(self.light_spectra[light], lambda)
         };
         if ls.delta {
-            f * le * (ls.scale / ls.pdf)
+            f * le * (visible * ls.scale / ls.pdf)
         } else {
             let weight = power_heuristic(ls.pdf, bsdf.pdf(frame, wo, ls.wi));
-            f * le * (weight / ls.pdf)
+            f * le * (visible * weight / ls.pdf)
         }
     }
 }

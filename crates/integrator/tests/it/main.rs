@@ -8,6 +8,7 @@ mod paper_model;
 mod path;
 mod prism;
 mod spectral_film;
+mod textures;
 mod units;
 
 use std::path::Path;

@@ -1,0 +1,595 @@
+//! Image textures: decoded once at assembly, looked up per hit.
+//!
+//! A colour texture (base colour) becomes spectra at load time: each distinct RGBA texel of
+//! the image, multiplied by the material's factor in linear RGB, is fitted once to a
+//! Jakob–Hanika sigmoid ([`RgbSigmoid::refined`], ΔE00 below 0.001 round trip under D65) and
+//! the image keeps a palette index per texel. A hit then reads up to four indices (bilinear)
+//! and evaluates four sigmoids at the path's wavelengths: the blend of the texels' spectra,
+//! which is the reflectance of a surface covered by the texels in those proportions.
+//! Data textures (metallic–roughness, normal maps, coverage) keep their linear bytes.
+//!
+//! Addressing follows glTF 2.0: uv (0, 0) is the image's top-left corner, texel centres at
+//! half-integers, `KHR_texture_transform` applied before wrapping (`docs/scene-format.md`).
+
+use std::collections::HashMap;
+use std::io::Cursor;
+
+use colorimetry::{RgbSigmoid, SampledSpectrum, SampledWavelengths, srgb_decode};
+use geometry::{AlphaMode, ImageDesc, MaterialDesc, TextureDesc, WrapMode};
+use glam::{Vec2, Vec3, Vec4};
+use rayon::prelude::*;
+
+/// Largest image side decoded (pixels): 16 K, the largest texture GPUs address; beyond it a
+/// file is more likely a memory bomb than a texture.
+const MAX_IMAGE_SIDE: u32 = 16_384;
+
+/// Bytes the decoder may allocate for one image: an RGBA 16-bit 16 K² image is 2 GiB, so an
+/// 8-bit one fits and a hostile header cannot ask for more.
+const MAX_DECODE_BYTES: u64 = 1 << 30;
+
+/// Images passed through a surface before a path stops treating further cut-outs as holes:
+/// stacked foliage cards rarely exceed a few dozen, and a bound keeps a pathological file
+/// from looping.
+pub(crate) const MAX_ALPHA_SKIPS: u32 = 256;
+
+/// An image decoded to 8-bit RGBA as stored (sRGB-encoded or linear, as its role says).
+#[derive(Debug)]
+struct Image8 {
+    width: u32,
+    height: u32,
+    texels: Vec<[u8; 4]>,
+}
+
+/// Decodes `image` (PNG or JPEG, chosen by content) with bounded dimensions and allocation; 16-bit
+/// channels are reduced to 8 bits (a warning names the image).
+fn decode(image: &ImageDesc, warnings: &mut Vec<String>) -> Result<Image8, String> {
+    let mut reader =
+        image::ImageReader::new(Cursor::new(&image.bytes[..])).with_guessed_format().map_err(|e| e.to_string())?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_IMAGE_SIDE);
+    limits.max_image_height = Some(MAX_IMAGE_SIDE);
+    limits.max_alloc = Some(MAX_DECODE_BYTES);
+    reader.limits(limits);
+    let decoded = reader.decode().map_err(|e| e.to_string())?;
+    if decoded.color().bytes_per_pixel() > decoded.color().channel_count() {
+        warnings.push(format!("{}: {:?} texels read at 8 bits per channel", image.label, decoded.color()));
+    }
+    let rgba = decoded.to_rgba8();
+    let (width, height) = rgba.dimensions();
+    let texels = rgba.pixels().map(|p| p.0).collect();
+    Ok(Image8 { width, height, texels })
+}
+
+/// Where a texture is read: its size, wrap modes, filter and uv transform.
+#[derive(Debug, Clone, Copy)]
+struct Sampler {
+    width: u32,
+    height: u32,
+    wrap: [WrapMode; 2],
+    nearest: bool,
+    /// Rows of the 2×3 affine map uv → uv' (`KHR_texture_transform`), identity when absent.
+    transform: [[f32; 3]; 2],
+}
+
+impl Sampler {
+    fn new(desc: &TextureDesc, width: u32, height: u32) -> Self {
+        let transform = match desc.transform {
+            // glTF: T · R · S with R = [[cos, sin], [−sin, cos]] acting on (u, v).
+            Some(t) => {
+                let (s, c) = t.rotation.sin_cos();
+                [[c * t.scale[0], s * t.scale[1], t.offset[0]], [-s * t.scale[0], c * t.scale[1], t.offset[1]]]
+            }
+            None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        };
+        Self { width, height, wrap: desc.wrap, nearest: desc.nearest, transform }
+    }
+
+    /// The texels under `uv` and their weights (bilinear; nearest puts all weight on one).
+    #[inline]
+    fn footprint(&self, uv: Vec2) -> [(usize, f32); 4] {
+        let [r0, r1] = self.transform;
+        let u = r0[0] * uv.x + r0[1] * uv.y + r0[2];
+        let v = r1[0] * uv.x + r1[1] * uv.y + r1[2];
+        // A non-finite coordinate (overflowing transform) reads the first texel.
+        let (u, v) = if u.is_finite() && v.is_finite() { (u, v) } else { (0.0, 0.0) };
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = f64::from(u) * w as f64 - 0.5;
+        let y = f64::from(v) * h as f64 - 0.5;
+        if self.nearest {
+            // The texel containing (u, v): floor(u w) = floor(x + ½).
+            let (i, j) = ((x + 0.5).floor() as i64, (y + 0.5).floor() as i64);
+            let i = wrap(i, w, self.wrap[0]) + wrap(j, h, self.wrap[1]) * w as usize;
+            return [(i, 1.0), (i, 0.0), (i, 0.0), (i, 0.0)];
+        }
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let (xa, xb) = (wrap(x0, w, self.wrap[0]), wrap(x0 + 1, w, self.wrap[0]));
+        let (ya, yb) = (wrap(y0, h, self.wrap[1]) * w as usize, wrap(y0 + 1, h, self.wrap[1]) * w as usize);
+        [(xa + ya, (1.0 - fx) * (1.0 - fy)), (xb + ya, fx * (1.0 - fy)), (xa + yb, (1.0 - fx) * fy), (xb + yb, fx * fy)]
+    }
+}
+
+/// Texel index `i` of a row or column of `n` texels under `mode`.
+#[inline]
+fn wrap(i: i64, n: i64, mode: WrapMode) -> usize {
+    (match mode {
+        WrapMode::Repeat => i.rem_euclid(n),
+        WrapMode::ClampToEdge => i.clamp(0, n - 1),
+        WrapMode::MirroredRepeat => {
+            let m = i.rem_euclid(2 * n);
+            if m >= n { 2 * n - 1 - m } else { m }
+        }
+    }) as usize
+}
+
+/// One distinct colour of a colour texture, times the material's factor.
+#[derive(Debug, Clone, Copy)]
+struct PaletteEntry {
+    sigmoid: RgbSigmoid,
+    /// Linear sRGB (the value RGB lanes carry).
+    rgb: [f32; 3],
+    alpha: f32,
+}
+
+/// A colour texture as spectra: a palette of fitted sigmoids and an index per texel.
+#[derive(Debug)]
+pub(crate) struct ColorTexture {
+    sampler: Sampler,
+    index: Vec<u32>,
+    palette: Vec<PaletteEntry>,
+}
+
+impl ColorTexture {
+    /// From an sRGB-encoded image; `factor` (linear RGBA) multiplies every texel before the fit.
+    fn new(image: &Image8, desc: &TextureDesc, factor: [f32; 4]) -> Self {
+        let mut ids: HashMap<[u8; 4], u32> = HashMap::new();
+        let mut distinct: Vec<[u8; 4]> = Vec::new();
+        let index = image
+            .texels
+            .iter()
+            .map(|t| {
+                *ids.entry(*t).or_insert_with(|| {
+                    distinct.push(*t);
+                    (distinct.len() - 1) as u32
+                })
+            })
+            .collect();
+        let palette = distinct
+            .par_iter()
+            .map(|t| {
+                let c = |i: usize| (srgb_decode(f64::from(t[i]) / 255.0) as f32 * factor[i]).clamp(0.0, 1.0);
+                let rgb = [c(0), c(1), c(2)];
+                PaletteEntry {
+                    sigmoid: RgbSigmoid::refined(rgb),
+                    rgb,
+                    alpha: (f32::from(t[3]) / 255.0 * factor[3]).clamp(0.0, 1.0),
+                }
+            })
+            .collect();
+        Self { sampler: Sampler::new(desc, image.width, image.height), index, palette }
+    }
+
+    /// The reflectance at `uv` at the path's wavelengths (linear RGB on RGB lanes), and the alpha.
+    #[inline]
+    pub(crate) fn eval<const N: usize>(
+        &self,
+        uv: Vec2,
+        lambda: &SampledWavelengths<N>,
+        rgb_lanes: bool,
+    ) -> (SampledSpectrum<N>, f32) {
+        let mut r = SampledSpectrum([0.0; N]);
+        let mut alpha = 0.0;
+        for (i, w) in self.sampler.footprint(uv) {
+            if w == 0.0 {
+                continue;
+            }
+            let e = &self.palette[self.index[i] as usize];
+            if rgb_lanes {
+                for c in 0..3.min(N) {
+                    r.0[c] += w * e.rgb[c];
+                }
+            } else {
+                r += e.sigmoid.sample(lambda) * w;
+            }
+            alpha += w * e.alpha;
+        }
+        (r, alpha)
+    }
+
+    /// Only the alpha at `uv` (shadow rays and cut-outs need no spectrum).
+    #[inline]
+    fn alpha(&self, uv: Vec2) -> f32 {
+        self.sampler.footprint(uv).iter().map(|&(i, w)| w * self.palette[self.index[i] as usize].alpha).sum()
+    }
+
+    /// Bytes held: 4 per texel and the palette.
+    fn bytes(&self) -> usize {
+        self.index.len() * 4 + self.palette.len() * std::mem::size_of::<PaletteEntry>()
+    }
+}
+
+/// A texture of linear values in [0, 1] per channel.
+#[derive(Debug)]
+pub(crate) struct DataTexture {
+    sampler: Sampler,
+    texels: Vec<[u8; 4]>,
+    /// glTF `normalTexture.scale` (1 for other roles).
+    scale: f32,
+}
+
+impl DataTexture {
+    fn new(image: Image8, desc: &TextureDesc) -> Self {
+        Self { sampler: Sampler::new(desc, image.width, image.height), texels: image.texels, scale: desc.scale }
+    }
+
+    /// The four channels at `uv`, each in [0, 1].
+    #[inline]
+    fn eval(&self, uv: Vec2) -> Vec4 {
+        let mut out = Vec4::ZERO;
+        for (i, w) in self.sampler.footprint(uv) {
+            out += Vec4::from_array(self.texels[i].map(f32::from)) * w;
+        }
+        out / 255.0
+    }
+}
+
+/// Every texture a material uses, and how its alpha is applied.
+#[derive(Debug)]
+pub(crate) struct MaterialTextures {
+    /// Base colour × `baseColorFactor` (MTL `map_Kd` replaces `Kd`).
+    pub(crate) base_color: Option<ColorTexture>,
+    /// B = metalness, G = roughness (multiplying the factors).
+    metallic_roughness: Option<DataTexture>,
+    /// Tangent-space normal map.
+    normal: Option<DataTexture>,
+    /// MTL `map_d`: coverage from the R channel.
+    coverage: Option<DataTexture>,
+    /// How alpha is used; `Opaque` skips every alpha lookup.
+    alpha_mode: AlphaMode,
+    /// The material's alpha factor where no texture gives alpha.
+    alpha_factor: f32,
+}
+
+impl MaterialTextures {
+    /// Whether the surface can let light through uncovered (cut-out or blended).
+    pub(crate) fn has_alpha(&self) -> bool {
+        !matches!(self.alpha_mode, AlphaMode::Opaque)
+    }
+
+    /// The probability that a ray meets the surface at `uv` (1 for opaque materials), before the
+    /// base colour is looked up: MASK is 0 or 1 by the cutoff, BLEND the alpha itself.
+    #[inline]
+    pub(crate) fn coverage(&self, uv: Vec2) -> f32 {
+        let alpha = match (&self.coverage, &self.base_color) {
+            (Some(t), _) => t.eval(uv).x * self.alpha_factor,
+            (None, Some(t)) => t.alpha(uv),
+            (None, None) => self.alpha_factor,
+        };
+        match self.alpha_mode {
+            AlphaMode::Opaque => 1.0,
+            AlphaMode::Mask(cutoff) => {
+                if alpha >= cutoff {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            AlphaMode::Blend => alpha.clamp(0.0, 1.0),
+        }
+    }
+
+    /// (metallic, roughness) at `uv` from the factors.
+    #[inline]
+    pub(crate) fn metallic_roughness(&self, uv: Vec2, metallic: f32, roughness: f32) -> (f32, f32) {
+        match &self.metallic_roughness {
+            Some(t) => {
+                let v = t.eval(uv);
+                (metallic * v.z, roughness * v.y)
+            }
+            None => (metallic, roughness),
+        }
+    }
+
+    /// The shading normal with the normal map applied, given the interpolated normal `ns`, the
+    /// tangent (xyz) with the bitangent sign (w), and the geometric normal `n`; `ns` itself when
+    /// there is no map or the mapped normal would face away from `n`.
+    #[inline]
+    pub(crate) fn shading_normal(&self, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
+        let (Some(map), Some(tangent)) = (&self.normal, tangent) else { return ns };
+        // Gram–Schmidt: the interpolated tangent is not exactly orthogonal to `ns`.
+        let Some(t) = (tangent.truncate() - ns * ns.dot(tangent.truncate())).try_normalize() else { return ns };
+        let b = ns.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 };
+        let c = map.eval(uv);
+        let local = Vec3::new((2.0 * c.x - 1.0) * map.scale, (2.0 * c.y - 1.0) * map.scale, 2.0 * c.z - 1.0);
+        match (t * local.x + b * local.y + ns * local.z).try_normalize() {
+            Some(mapped) if mapped.dot(n) > 1e-4 => mapped,
+            _ => ns,
+        }
+    }
+
+    /// Whether a normal map is present (the tangent frame is needed only then).
+    pub(crate) fn has_normal_map(&self) -> bool {
+        self.normal.is_some()
+    }
+
+    /// Bytes of texel data held (for `info`).
+    pub(crate) fn bytes(&self) -> usize {
+        self.base_color.as_ref().map_or(0, ColorTexture::bytes)
+            + [&self.metallic_roughness, &self.normal, &self.coverage]
+                .into_iter()
+                .flatten()
+                .map(|t| t.texels.len() * 4)
+                .sum::<usize>()
+    }
+}
+
+/// The textures of each material (`None` where a material has none), decoded from `images`. An
+/// image that cannot be decoded is named in a warning and the material keeps its factor. An
+/// emissive texture is reduced to its mean colour (written into `desc.emission`): emission that
+/// varies over a surface would need the light sampler to know it.
+pub(crate) fn load_material_textures(
+    images: &[ImageDesc],
+    materials: &mut [MaterialDesc],
+    warnings: &mut Vec<String>,
+) -> Vec<Option<MaterialTextures>> {
+    let mut decoded: HashMap<usize, Option<std::sync::Arc<Image8>>> = HashMap::new();
+    let mut image = |index: usize, warnings: &mut Vec<String>| -> Option<std::sync::Arc<Image8>> {
+        decoded
+            .entry(index)
+            .or_insert_with(|| {
+                let desc = images.get(index)?;
+                match decode(desc, warnings) {
+                    Ok(img) if img.width > 0 && img.height > 0 => Some(std::sync::Arc::new(img)),
+                    Ok(_) => {
+                        warnings.push(format!("{}: empty image; the material's factor is used", desc.label));
+                        None
+                    }
+                    Err(e) => {
+                        warnings.push(format!("{}: cannot decode ({e}); the material's factor is used", desc.label));
+                        None
+                    }
+                }
+            })
+            .clone()
+    };
+    materials
+        .iter_mut()
+        .map(|m| {
+            let alpha_mode = match (m.alpha_mode, m.textures.alpha.is_some()) {
+                (Some(mode), _) => mode,
+                // MTL `map_d`: coverage, cut out at one half (as viewers treat leaf cards).
+                (None, true) => AlphaMode::Mask(0.5),
+                (None, false) => AlphaMode::Opaque,
+            };
+            if !m.textures.any() && matches!(alpha_mode, AlphaMode::Opaque) {
+                return None;
+            }
+            let textures = m.textures.clone();
+            if let Some(t) = &textures.emissive
+                && let Some(img) = image(t.image, warnings)
+            {
+                let mean = mean_linear_rgb(&img);
+                let factor = match &m.emission {
+                    Some(geometry::SpectrumDesc::Rgb(c)) => *c,
+                    _ => [1.0; 3],
+                };
+                m.emission = Some(geometry::SpectrumDesc::Rgb([0, 1, 2].map(|i| factor[i] * mean[i])));
+                warnings.push(format!(
+                    "material '{}': emissive texture rendered as its mean colour ({:.3}, {:.3}, {:.3}) × factor",
+                    m.name, mean[0], mean[1], mean[2]
+                ));
+            }
+            let factor_rgb = match (&m.base_color, m.format) {
+                // MTL: `map_Kd` replaces `Kd` (as Blender's importer does; exporters write Kd 0.8 beside it).
+                (_, geometry::MaterialFormat::Mtl) => [1.0; 3],
+                (Some(geometry::SpectrumDesc::Rgb(c)), _) => *c,
+                _ => [1.0; 3],
+            };
+            let alpha_factor = m.alpha.unwrap_or(1.0);
+            let base_color = textures.base_color.as_ref().and_then(|t| {
+                let img = image(t.image, warnings)?;
+                Some(ColorTexture::new(&img, t, [factor_rgb[0], factor_rgb[1], factor_rgb[2], alpha_factor]))
+            });
+            let mut data = |t: &Option<TextureDesc>, warnings: &mut Vec<String>| {
+                let t = t.as_ref()?;
+                let img = image(t.image, warnings)?;
+                Some(DataTexture::new(Image8 { width: img.width, height: img.height, texels: img.texels.clone() }, t))
+            };
+            let metallic_roughness = data(&textures.metallic_roughness, warnings);
+            let normal = data(&textures.normal, warnings);
+            let coverage = data(&textures.alpha, warnings);
+            let set = MaterialTextures { base_color, metallic_roughness, normal, coverage, alpha_mode, alpha_factor };
+            let used = set.base_color.is_some()
+                || set.metallic_roughness.is_some()
+                || set.normal.is_some()
+                || set.coverage.is_some()
+                || set.has_alpha();
+            used.then_some(set)
+        })
+        .collect()
+}
+
+/// The tangent at a triangle hit, with the sign of the bitangent that points "up" the image (glTF:
+/// +Y of a normal map, towards decreasing v) in w: the mesh's `TANGENT` interpolated, else the
+/// triangle's ∂p/∂u from its UVs (the per-face frame MikkTSpace starts from; it differs from
+/// MikkTSpace's per-vertex averaging only across faces). `None` for spheres or without UVs.
+pub(crate) fn surface_tangent(scene: &geometry::Scene, hit: &geometry::Hit) -> Option<Vec4> {
+    let geometry::Primitive::Triangle { mesh, triangle } = scene.primitive(hit.primitive) else { return None };
+    let mesh = scene.meshes().get(mesh as usize)?;
+    let tri = mesh.indices().get(triangle as usize)?.map(|i| i as usize);
+    let p = mesh.positions();
+    let (p0, p1, p2) = (p[tri[0]], p[tri[1]], p[tri[2]]);
+    if let Some(tangents) = mesh.tangents() {
+        // Barycentrics of the hit point (the hit record keeps the UVs, not these).
+        let (e0, e1, e2) = (p1 - p0, p2 - p0, hit.p - p0);
+        let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
+        let (d20, d21) = (e2.dot(e0), e2.dot(e1));
+        let denom = d00 * d11 - d01 * d01;
+        if denom == 0.0 {
+            return None;
+        }
+        let b1 = (d11 * d20 - d01 * d21) / denom;
+        let b2 = (d00 * d21 - d01 * d20) / denom;
+        let b0 = 1.0 - b1 - b2;
+        let t = tangents[tri[0]] * b0 + tangents[tri[1]] * b1 + tangents[tri[2]] * b2;
+        return Some(t.truncate().extend(tangents[tri[0]].w));
+    }
+    let uv = mesh.uvs()?;
+    let (d1, d2) = (uv[tri[1]] - uv[tri[0]], uv[tri[2]] - uv[tri[0]]);
+    let det = d1.x * d2.y - d2.x * d1.y;
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let dpdu = (e1 * d2.y - e2 * d1.y) / det;
+    let dpdv = (e2 * d1.x - e1 * d2.x) / det;
+    // Image up is −∂p/∂v in glTF's uv (v grows down the image).
+    let sign = if hit.ns.cross(dpdu).dot(-dpdv) < 0.0 { -1.0 } else { 1.0 };
+    dpdu.is_finite().then(|| dpdu.extend(sign))
+}
+
+/// The mean linear sRGB of an sRGB-encoded image.
+fn mean_linear_rgb(image: &Image8) -> [f32; 3] {
+    let mut sum = [0.0f64; 3];
+    for t in &image.texels {
+        for c in 0..3 {
+            sum[c] += srgb_decode(f64::from(t[c]) / 255.0);
+        }
+    }
+    let n = image.texels.len().max(1) as f64;
+    sum.map(|s| (s / n) as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sampler(w: u32, h: u32, wrap: WrapMode) -> Sampler {
+        let desc = TextureDesc { image: 0, tex_coord: 0, wrap: [wrap; 2], nearest: false, transform: None, scale: 1.0 };
+        Sampler::new(&desc, w, h)
+    }
+
+    /// The spectrum a colour texture gives at a texel centre, sampled on the 1 nm grid.
+    fn texel_spectrum(texture: &ColorTexture, uv: Vec2) -> colorimetry::DenselySampledSpectrum {
+        let mut values = Vec::new();
+        for chunk in 0..30 {
+            let lambdas: [f32; 16] = std::array::from_fn(|i| (360 + chunk * 16 + i).min(830) as f32);
+            let (s, _) = texture.eval(uv, &SampledWavelengths::from_parts(lambdas, [1.0; 16]), false);
+            values.extend(s.0.iter().map(|&v| f64::from(v)));
+        }
+        values.truncate(471);
+        colorimetry::DenselySampledSpectrum::new(360.0, 1.0, values).expect("1 nm grid")
+    }
+
+    fn delta_e00_under_d65(rgb: [f64; 3], reflectance: &colorimetry::DenselySampledSpectrum) -> f64 {
+        use colorimetry::{Illuminant, Integration, Lab, Observer, Rgb, RgbColorSpace, Xyz, delta_e_2000};
+        let srgb = RgbColorSpace::srgb();
+        let white = srgb.rgb_to_xyz(Rgb { r: 1.0, g: 1.0, b: 1.0 });
+        let d65 = Illuminant::D65.spectrum().expect("D65");
+        let xyz = colorimetry::reflectance_to_xyz(reflectance, &d65, Observer::Cie1931, &Integration::Step(1.0));
+        let xyz = Xyz { x: xyz.x / 100.0, y: xyz.y / 100.0, z: xyz.z / 100.0 };
+        let target = srgb.rgb_to_xyz(Rgb { r: rgb[0], g: rgb[1], b: rgb[2] });
+        delta_e_2000(Lab::from_xyz(target, white), Lab::from_xyz(xyz, white))
+    }
+
+    #[test]
+    fn texel_lookup_round_trips_under_d65_within_0_01() {
+        // sRGB-encoded texels across the gamut, saturated ones included; one image, 8×2.
+        let texels: Vec<[u8; 4]> = [
+            [255, 0, 0],
+            [0, 255, 0],
+            [0, 0, 255],
+            [255, 255, 255],
+            [128, 128, 128],
+            [200, 150, 30],
+            [10, 60, 200],
+            [250, 240, 5],
+            [1, 1, 1],
+            [90, 200, 180],
+            [180, 40, 120],
+            [230, 230, 250],
+            [60, 30, 10],
+            [0, 128, 255],
+            [255, 128, 0],
+            [35, 35, 36],
+        ]
+        .iter()
+        .map(|c| [c[0], c[1], c[2], 255])
+        .collect();
+        let image = Image8 { width: 8, height: 2, texels: texels.clone() };
+        let desc = TextureDesc {
+            image: 0,
+            tex_coord: 0,
+            wrap: [WrapMode::Repeat; 2],
+            nearest: false,
+            transform: None,
+            scale: 1.0,
+        };
+        let texture = ColorTexture::new(&image, &desc, [1.0; 4]);
+        let mut worst: f64 = 0.0;
+        for (i, t) in texels.iter().enumerate() {
+            let uv = Vec2::new(((i % 8) as f32 + 0.5) / 8.0, ((i / 8) as f32 + 0.5) / 2.0);
+            let rgb = [0, 1, 2].map(|c| srgb_decode(f64::from(t[c]) / 255.0));
+            worst = worst.max(delta_e00_under_d65(rgb, &texel_spectrum(&texture, uv)));
+        }
+        assert!(worst < 0.01, "worst ΔE00 {worst}");
+        // The factor multiplies in linear RGB before the fit: half of white is linear 0.5 grey.
+        let half = ColorTexture::new(&image, &desc, [0.5, 0.5, 0.5, 1.0]);
+        let uv = Vec2::new(3.5 / 8.0, 0.25);
+        assert!(delta_e00_under_d65([0.5; 3], &texel_spectrum(&half, uv)) < 0.01);
+        // And a wrong decode (treating the bytes as linear) is far off: the test can fail.
+        let grey = Vec2::new(4.5 / 8.0, 0.25);
+        assert!(delta_e00_under_d65([128.0 / 255.0; 3], &texel_spectrum(&texture, grey)) > 5.0);
+    }
+
+    #[test]
+    fn wrap_modes_follow_opengl() {
+        assert_eq!([-1, 0, 3, 4, 5].map(|i| wrap(i, 4, WrapMode::Repeat)), [3, 0, 3, 0, 1]);
+        assert_eq!([-1, 0, 3, 4, 9].map(|i| wrap(i, 4, WrapMode::ClampToEdge)), [0, 0, 3, 3, 3]);
+        // Mirrored: … 1 0 | 0 1 2 3 | 3 2 1 0 | 0 …
+        assert_eq!([-2, -1, 0, 3, 4, 7, 8].map(|i| wrap(i, 4, WrapMode::MirroredRepeat)), [1, 0, 0, 3, 3, 0, 0]);
+    }
+
+    #[test]
+    fn bilinear_weights_sum_to_one_and_hit_texel_centres() {
+        let s = sampler(4, 2, WrapMode::Repeat);
+        // The centre of texel (1, 0) is uv ((1 + ½)/4, ½/2): all weight there.
+        let f = s.footprint(Vec2::new(1.5 / 4.0, 0.25));
+        assert_eq!(f[0], (1, 1.0));
+        assert!(f[1..].iter().all(|&(_, w)| w == 0.0));
+        // Halfway between texels (1, 1) and (2, 1): half each.
+        let f = s.footprint(Vec2::new(0.5, 0.75));
+        let total: f32 = f.iter().map(|p| p.1).sum();
+        assert!((total - 1.0).abs() < 1e-6);
+        assert_eq!((f[0].0, f[1].0), (5, 6));
+        assert!((f[0].1 - 0.5).abs() < 1e-6 && (f[1].1 - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn texture_transform_moves_texels_as_the_extension_says() {
+        // KHR_texture_transform example: offset (0.5, 0) shifts uv 0.1 to 0.6.
+        let mut desc = TextureDesc {
+            image: 0,
+            tex_coord: 0,
+            wrap: [WrapMode::ClampToEdge; 2],
+            nearest: true,
+            transform: Some(geometry::TextureTransform { offset: [0.5, 0.0], rotation: 0.0, scale: [1.0, 1.0] }),
+            scale: 1.0,
+        };
+        let s = Sampler::new(&desc, 10, 1);
+        assert_eq!(s.footprint(Vec2::new(0.1, 0.5))[0].0, 6);
+        // Rotation by +90°: (u, v) → (v, −u): uv (0, 0.35) reads u' = 0.35 → texel 3 (v' = 0 clamps).
+        desc.transform = Some(geometry::TextureTransform {
+            offset: [0.0, 0.0],
+            rotation: std::f32::consts::FRAC_PI_2,
+            scale: [1.0, 1.0],
+        });
+        let s = Sampler::new(&desc, 10, 1);
+        assert_eq!(s.footprint(Vec2::new(0.0, 0.35))[0].0, 3);
+        // Scale 2 along u: uv 0.3 reads 0.6 → texel 6 (nearest of 5.5 rounds to 6).
+        desc.transform = Some(geometry::TextureTransform { offset: [0.0, 0.0], rotation: 0.0, scale: [2.0, 1.0] });
+        let s = Sampler::new(&desc, 10, 1);
+        assert_eq!(s.footprint(Vec2::new(0.3, 0.5))[0].0, 6);
+    }
+}
