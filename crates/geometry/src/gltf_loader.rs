@@ -36,6 +36,9 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     // Read in full (offset, rotation, scale, texCoord); Blender marks it required whenever a Mapping
     // node is used.
     "KHR_texture_transform",
+    // Archived, but still written by older exporters (Blender test files require it): converted to
+    // metallic-roughness with a warning (see `Loader::material`).
+    "KHR_materials_pbrSpecularGlossiness",
 ];
 
 /// Bytes charged per accessor component read: the f64 staging value and the f32 it becomes.
@@ -110,7 +113,7 @@ pub(crate) fn load_gltf_slice(
         default_material: None,
     };
     for material in document.materials() {
-        let m = loader.material(&material);
+        let m = loader.material(&material, &document);
         loader.desc.materials.push(m);
     }
     loader.traverse(&document)?;
@@ -349,7 +352,7 @@ impl Loader<'_> {
         }
     }
 
-    fn material(&mut self, material: &gltf::Material<'_>) -> MaterialDesc {
+    fn material(&mut self, material: &gltf::Material<'_>, document: &gltf::Document) -> MaterialDesc {
         let index = material.index().unwrap_or(0);
         let name = material.name().map(str::to_owned).unwrap_or_else(|| format!("material{index}"));
         let pbr = material.pbr_metallic_roughness();
@@ -426,6 +429,34 @@ impl Loader<'_> {
             self.warn(format!("{context}: occlusion texture ignored (the path tracer computes occlusion)"));
         }
         m.alpha = Some(pbr.base_color_factor()[3]);
+        if let Some(sg) = material.extension_value("KHR_materials_pbrSpecularGlossiness") {
+            // The archived specular-glossiness model, converted as glTF's own migration notes suggest
+            // for a dielectric: diffuse → base colour, roughness = 1 − glossiness, metallic 0. The
+            // specular colour and the specular-glossiness texture are not converted (warned).
+            let number = |v: &serde_json::Value| v.as_f64().filter(|x| x.is_finite()).map(|x| x as f32);
+            let diffuse: Vec<f32> = sg
+                .get("diffuseFactor")
+                .and_then(|v| v.as_array())
+                .map(|a| a.iter().filter_map(number).collect())
+                .unwrap_or_default();
+            let [r, g, b, a] = match diffuse[..] {
+                [r, g, b, a] => [r, g, b, a],
+                _ => [1.0; 4],
+            };
+            m.base_color = Some(SpectrumDesc::Rgb([r, g, b]));
+            m.alpha = Some(a);
+            m.metallic = Some(0.0);
+            m.roughness = Some(1.0 - sg.get("glossinessFactor").and_then(number).unwrap_or(1.0).clamp(0.0, 1.0));
+            let texture = sg.get("diffuseTexture").and_then(|t| {
+                let index = usize::try_from(t.get("index")?.as_u64()?).ok()?;
+                let set = t.get("texCoord").and_then(serde_json::Value::as_u64).unwrap_or(0) as u32;
+                Some((document.textures().nth(index)?, set))
+            });
+            m.textures.base_color = texture.and_then(|(t, set)| self.texture(&t, set, None, 1.0, &context));
+            self.warn(format!(
+                "{context}: KHR_materials_pbrSpecularGlossiness converted to metallic-roughness (diffuse → base colour, roughness = 1 − glossiness, metallic 0; specular colour and specularGlossinessTexture ignored)"
+            ));
+        }
         m.alpha_mode = Some(match material.alpha_mode() {
             gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
             gltf::material::AlphaMode::Mask => AlphaMode::Mask(material.alpha_cutoff().unwrap_or(0.5)),
@@ -948,6 +979,44 @@ mod tests {
 
     /// Issue 13: every perspective camera is kept with its name (`--camera N|NAME` chooses); the first is
     /// the default; an unnamed camera takes its node's name, else its rank.
+    #[test]
+    fn textures_are_transcribed_with_sampler_transform_and_alpha() {
+        // A 1×1 PNG in a data URI would need an encoder here; the loader reads but never decodes, so
+        // any bytes do: "AAEC" is base64 for [0, 1, 2].
+        let json = br#"{"asset": {"version": "2.0"}, "extensionsUsed": ["KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness"],
+            "extensionsRequired": ["KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness"],
+            "images": [{"uri": "data:image/png;base64,AAEC"}],
+            "samplers": [{"magFilter": 9728, "wrapS": 33071, "wrapT": 33648}],
+            "textures": [{"source": 0, "sampler": 0}],
+            "materials": [
+              {"name": "a", "alphaMode": "MASK", "alphaCutoff": 0.3,
+               "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.5], "baseColorTexture": {"index": 0, "texCoord": 1,
+                 "extensions": {"KHR_texture_transform": {"offset": [0.25, 0], "rotation": 0.5, "scale": [2, 3], "texCoord": 0}}}},
+               "normalTexture": {"index": 0, "scale": 0.7}},
+              {"name": "sg", "extensions": {"KHR_materials_pbrSpecularGlossiness": {"diffuseFactor": [0.2, 0.4, 0.6, 0.9], "glossinessFactor": 0.75, "diffuseTexture": {"index": 0}}}}]}"#;
+        let budget = Budget::new(crate::LoadOptions::default());
+        let d = load_gltf_slice(json, None, Path::new("t.gltf"), &budget).unwrap_or_else(|e| panic!("{e}"));
+        // One image however many textures use it, bytes as decoded from the URI (`gltf` pads decoded
+        // data to four bytes, which image decoders ignore).
+        assert_eq!(d.images.len(), 1);
+        assert_eq!(&d.images[0].bytes[..3], &[0, 1, 2]);
+        let a = &d.materials[0];
+        let base = a.textures.base_color.as_ref().expect("base colour texture");
+        assert_eq!(base.tex_coord, 0, "the transform's texCoord overrides the texture's");
+        assert_eq!(base.wrap, [WrapMode::ClampToEdge, WrapMode::MirroredRepeat]);
+        assert!(base.nearest);
+        assert_eq!(base.transform, Some(TextureTransform { offset: [0.25, 0.0], rotation: 0.5, scale: [2.0, 3.0] }));
+        assert_eq!(a.textures.normal.as_ref().map(|t| t.scale), Some(0.7));
+        assert_eq!(a.alpha_mode, Some(AlphaMode::Mask(0.3)));
+        assert_eq!(a.alpha, Some(0.5));
+        // Specular-glossiness: diffuse → base colour, roughness = 1 − glossiness, metallic 0, and a warning.
+        let sg = &d.materials[1];
+        assert_eq!(sg.base_color, Some(SpectrumDesc::Rgb([0.2, 0.4, 0.6])));
+        assert_eq!((sg.roughness, sg.metallic, sg.alpha), (Some(0.25), Some(0.0), Some(0.9)));
+        assert_eq!(sg.textures.base_color.as_ref().map(|t| t.image), Some(0));
+        assert!(d.warnings.iter().any(|w| w.contains("material 'sg': KHR_materials_pbrSpecularGlossiness converted")));
+    }
+
     #[test]
     fn every_camera_is_kept_with_its_name() {
         let json = br#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1, 2]}],
