@@ -679,6 +679,9 @@ impl Loader<'_> {
                     .collect();
             let set = sets.first().copied().unwrap_or(0);
             let wants_tangents = textures.normal.is_some();
+            if primitive.get(&Semantic::Colors(0)).is_some() {
+                self.warn(format!("{context}: COLOR_0 vertex colours are not rendered yet; ignored"));
+            }
             if sets.iter().any(|&s| s != set) {
                 self.warn(format!(
                     "{context}: the material's textures use several TEXCOORD sets {sets:?}; all are read with TEXCOORD_{set}"

@@ -42,6 +42,7 @@ mod render;
 mod sampling;
 mod spectral;
 mod summary;
+mod surface;
 mod texture;
 mod whitted;
 

@@ -25,7 +25,8 @@ use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
 use crate::sampling::{Rng, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
-use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, surface_tangent};
+use crate::surface::surface_tangent;
+use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
 /// that Russian roulette, not the limit, ends almost every path.

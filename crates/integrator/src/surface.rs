@@ -1,0 +1,49 @@
+//! Per-hit surface data the hit record does not carry, read back from the mesh only where a
+//! material needs it: tangents for normal maps.
+
+use geometry::{Hit, Primitive, Scene};
+use glam::{Vec3, Vec4};
+
+/// Barycentrics of `p` (on the triangle's plane up to rounding) in the triangle `v`; `None`
+/// for a degenerate triangle.
+fn barycentrics(p: Vec3, v: [Vec3; 3]) -> Option<[f32; 3]> {
+    let (e0, e1, e2) = (v[1] - v[0], v[2] - v[0], p - v[0]);
+    let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
+    let (d20, d21) = (e2.dot(e0), e2.dot(e1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom == 0.0 || !denom.is_finite() {
+        return None;
+    }
+    let b1 = (d11 * d20 - d01 * d21) / denom;
+    let b2 = (d00 * d21 - d01 * d20) / denom;
+    Some([1.0 - b1 - b2, b1, b2])
+}
+
+/// The tangent at a triangle hit, with the sign of the bitangent that points "up" the image (glTF:
+/// +Y of a normal map, towards decreasing v) in w: the mesh's `TANGENT` interpolated, else the
+/// triangle's ∂p/∂u from its UVs (the per-face frame MikkTSpace starts from; it differs from
+/// MikkTSpace's per-vertex averaging only across faces). `None` for spheres or without UVs.
+pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
+    let Primitive::Triangle { mesh, triangle } = scene.primitive(hit.primitive) else { return None };
+    let mesh = scene.meshes().get(mesh as usize)?;
+    let tri = mesh.indices().get(triangle as usize)?.map(|i| i as usize);
+    let p = mesh.positions();
+    let (p0, p1, p2) = (p[tri[0]], p[tri[1]], p[tri[2]]);
+    if let Some(tangents) = mesh.tangents() {
+        let [b0, b1, b2] = barycentrics(hit.p, [p0, p1, p2])?;
+        let t = tangents[tri[0]] * b0 + tangents[tri[1]] * b1 + tangents[tri[2]] * b2;
+        return Some(t.truncate().extend(tangents[tri[0]].w));
+    }
+    let uv = mesh.uvs()?;
+    let (d1, d2) = (uv[tri[1]] - uv[tri[0]], uv[tri[2]] - uv[tri[0]]);
+    let det = d1.x * d2.y - d2.x * d1.y;
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let (e1, e2) = (p1 - p0, p2 - p0);
+    let dpdu = (e1 * d2.y - e2 * d1.y) / det;
+    let dpdv = (e2 * d1.x - e1 * d2.x) / det;
+    // Image up is −∂p/∂v in glTF's uv (v grows down the image).
+    let sign = if hit.ns.cross(dpdu).dot(-dpdv) < 0.0 { -1.0 } else { 1.0 };
+    dpdu.is_finite().then(|| dpdu.extend(sign))
+}
