@@ -50,8 +50,8 @@ mod manifest;
 mod obj_loader;
 mod prefilter;
 pub use desc::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
-    SceneDescription, SceneFormat, SpectrumDesc,
+    AbsorptionDesc, CameraDesc, EnvironmentMapDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc,
+    MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc,
 };
 pub use hash::xxh64;
 pub use limits::{DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};

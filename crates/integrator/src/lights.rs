@@ -1,7 +1,8 @@
 //! Every light of a scene behind one interface (pbrt-v4 `Light`: `SampleLi`, `PDF_Li`, `L`/`Le`,
 //! `Phi`, and `PowerLightSampler`): point, spot and directional lights, the uniform
 //! environment (environment lights and the background, which escaping rays see), and emissive
-//! spheres and triangles.
+//! spheres and triangles; an environment may carry an image ([`EnvironmentMap`]), sampled by its
+//! luminance.
 //!
 //! The set is built once, at assembly ([`Emitters::new`]); both integrators read it. It knows
 //! where light comes from and with what density it is sampled; *which spectrum* a light emits
@@ -9,11 +10,14 @@
 //! representation (fixed lanes or hero wavelengths). Adding a light kind means a variant of
 //! [`LightKind`] here (its `sample_li`, `pdf_li`, `phi`) and its description in the loader.
 
+use std::sync::Arc;
+
 use colorimetry::DenselySampledSpectrum;
 use geometry::{Primitive, Scene};
 use glam::{Vec2, Vec3};
 use materials::sampling::{cosine_hemisphere, uniform_sphere};
 
+use crate::envmap::EnvironmentMap;
 use crate::sampling::uniform_triangle;
 
 /// The shape of a light.
@@ -39,7 +43,11 @@ pub(crate) enum LightKind {
 #[derive(Debug, Clone)]
 pub(crate) struct Light {
     pub(crate) kind: LightKind,
+    /// For an environment map, the spectrum of its mean radiance (what its power, the scene's
+    /// white and the spectral choices are computed from); its radiance is the map's.
     pub(crate) spectrum: DenselySampledSpectrum,
+    /// The image of an environment light, if it has one.
+    pub(crate) map: Option<Arc<EnvironmentMap>>,
 }
 
 /// Which spectrum a light emits, for the integrator to evaluate.
@@ -81,7 +89,13 @@ pub(crate) struct LiSample {
 
 impl Light {
     pub(crate) fn new(kind: LightKind, spectrum: DenselySampledSpectrum) -> Self {
-        Self { kind, spectrum }
+        Self { kind, spectrum, map: None }
+    }
+
+    /// An environment light whose radiance is `map`'s.
+    pub(crate) fn environment_map(map: EnvironmentMap) -> materials::Result<Self> {
+        let spectrum = materials::illuminant_from_rgb(map.mean_rgb().map(|c| c as f32))?;
+        Ok(Self { kind: LightKind::Environment, spectrum, map: Some(Arc::new(map)) })
     }
 }
 
@@ -213,8 +227,14 @@ pub(crate) struct Emitters {
     area_light_of: Vec<u32>,
     /// Index of the environment, if the scene has one that gives light.
     environment: Option<usize>,
-    /// What an escaping ray sees, summed: environment lights in file order, then the background.
+    /// What an escaping ray sees, summed: uniform environment lights in file order, then the
+    /// background (and the map, if there is one).
     le_escaped: Vec<Emission>,
+    /// The environment's image, if it has one (at most one per scene: assembly checks).
+    map: Option<Arc<EnvironmentMap>>,
+    /// Probability that the environment is sampled by its map rather than cosine-weighted: the map's
+    /// share of the environment's mean luminance (a defensive mixture when uniform parts remain).
+    map_probability: f32,
 }
 
 impl Emitters {
@@ -233,10 +253,18 @@ impl Emitters {
         let mut set = Self::default();
         let mut power = Vec::new();
         let mut environment_luminance = 0.0f64;
+        let (mut map_emission, mut map_luminance) = (None, 0.0f64);
         for (i, l) in lights.iter().enumerate() {
             let y = colorimetry::relative_luminance(&l.spectrum);
             if let LightKind::Environment = l.kind {
-                set.le_escaped.push(Emission::Light(i));
+                match &l.map {
+                    Some(map) => {
+                        set.map = Some(Arc::clone(map));
+                        map_emission = Some(Emission::Light(i));
+                        map_luminance += y;
+                    }
+                    None => set.le_escaped.push(Emission::Light(i)),
+                }
                 environment_luminance += y;
                 continue;
             }
@@ -250,11 +278,15 @@ impl Emitters {
             set.le_escaped.push(Emission::Background);
             environment_luminance += colorimetry::relative_luminance(b);
         }
-        if !set.le_escaped.is_empty() && environment_luminance > 0.0 {
+        let first_escaped = set.le_escaped.first().copied().or(map_emission);
+        if let Some(first) = first_escaped
+            && environment_luminance > 0.0
+        {
             set.environment = Some(set.kinds.len());
             set.kinds.push(LightKind::Environment);
-            set.emission.push(set.le_escaped[0]);
+            set.emission.push(first);
             power.push(LightKind::Environment.phi(environment_luminance, radius));
+            set.map_probability = (map_luminance / environment_luminance) as f32;
         }
         let count = geometry.primitive_count();
         set.area_light_of = vec![u32::MAX; count];
@@ -327,14 +359,60 @@ impl Emitters {
         if pmf <= 0.0 {
             return None;
         }
+        if let Some(map) = self.map.as_deref()
+            && self.environment == Some(light)
+        {
+            return Some((light, self.sample_environment_map(map, ctx, u2, pmf)?));
+        }
         Some((light, self.kinds[light].sample_li(ctx, u2, pmf)?))
+    }
+
+    /// The environment with a map: the map's luminance × solid angle with probability
+    /// `map_probability`, else cosine-weighted about the normal (for its uniform parts); the density
+    /// is the mixture's (one-sample MIS, balance heuristic, between the two strategies).
+    #[inline]
+    fn sample_environment_map(
+        &self,
+        map: &EnvironmentMap,
+        ctx: &LightSampleContext,
+        u: Vec2,
+        pmf: f32,
+    ) -> Option<LiSample> {
+        let p = self.map_probability;
+        let wi = if p >= 1.0 {
+            map.sample(u)?.0
+        } else if u.x < p {
+            map.sample(Vec2::new(u.x / p, u.y))?.0
+        } else {
+            cosine_hemisphere(ctx.ns, Vec2::new(((u.x - p) / (1.0 - p)).min(1.0 - f32::EPSILON / 2.0), u.y))
+        };
+        let pdf = pmf * self.environment_map_pdf(map, ctx, wi);
+        (pdf > 0.0 && pdf.is_finite()).then_some(LiSample { wi, target: None, pdf, scale: 1.0, delta: false })
+    }
+
+    /// The density per steradian of [`Emitters::sample_environment_map`], without the light's pmf.
+    #[inline]
+    fn environment_map_pdf(&self, map: &EnvironmentMap, ctx: &LightSampleContext, wi: Vec3) -> f32 {
+        let p = self.map_probability;
+        let map_pdf = map.pdf(wi);
+        if p >= 1.0 { map_pdf } else { p * map_pdf + (1.0 - p) * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI }
+    }
+
+    /// The environment's image, if it has one: escaping rays see its radiance in addition to the
+    /// sum of [`Emitters::le_escaped`].
+    #[inline]
+    pub(crate) fn environment_map(&self) -> Option<&EnvironmentMap> {
+        self.map.as_deref()
     }
 
     /// The density with which [`Emitters::sample_li`] would have sampled the direction of a ray
     /// that left `ctx` and escaped the scene (`wi` unit); 0 without environment.
     #[inline]
     pub(crate) fn pdf_li_escaped(&self, ctx: &LightSampleContext, wi: Vec3) -> f32 {
-        self.environment.map_or(0.0, |env| self.pmf[env] * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI)
+        match (self.environment, self.map.as_deref()) {
+            (Some(env), Some(map)) => self.pmf[env] * self.environment_map_pdf(map, ctx, wi),
+            (env, _) => env.map_or(0.0, |env| self.pmf[env] * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI),
+        }
     }
 
     /// The density with which [`Emitters::sample_li`] would have sampled the point where a ray

@@ -93,8 +93,10 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     default_material: PathMaterial,
     /// The emission of each light of `scene.emitters`, in its order.
     light_spectra: Vec<SpecId>,
-    /// The spectra the environment sums.
+    /// The spectra the uniform environment sums (an environment map adds its radiance per direction).
     environment_spectra: Vec<SpecId>,
+    /// Whether the lanes are RGB channels (an environment map then gives its texels' RGB).
+    rgb_lanes: bool,
     max_depth: u32,
     /// Bounces before Russian roulette may end a path.
     rr_depth: u32,
@@ -179,6 +181,17 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         };
         let environment_spectra: Vec<SpecId> = scene.emitters.le_escaped().iter().map(|&e| emission(e)).collect();
         let light_spectra: Vec<SpecId> = scene.emitters.iter().map(|(_, e)| emission(e)).collect();
+        // An environment map beside uniform environments: its mean spectrum is not among the lights' (the
+        // environment's entry is the first uniform one), but the wavelength density should follow it too.
+        let map_mean: Option<SpecId> = match (scene.emitters.environment_map(), environment_spectra.is_empty()) {
+            (Some(_), false) => scene
+                .lights
+                .iter()
+                .position(|l| l.map.is_some())
+                .map(|i| add(scene.lights[i].spectrum.clone(), SpectrumKind::Emission)),
+            _ => None,
+        };
+        let rgb_lanes = fixed.as_ref().is_some_and(|lanes| lanes.rgb);
 
         let (spectra, sensor) = match fixed {
             Some(lanes) => {
@@ -192,6 +205,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         let emitters: Vec<&DenselySampledSpectrum> = light_spectra
                             .iter()
                             .chain(environment_spectra.iter().skip(1))
+                            .chain(map_mean.iter())
                             .map(|&id| &table[id as usize].0)
                             .collect();
                         Sensor::Tabulated(WavelengthTable::illuminant(&emitters))
@@ -213,6 +227,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             default_material,
             light_spectra,
             environment_spectra,
+            rgb_lanes,
             max_depth,
             rr_depth,
             rough,
@@ -225,11 +240,15 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         index.and_then(|i| self.materials.get(i as usize)).unwrap_or(&self.default_material)
     }
 
+    /// Radiance of the environment arriving from direction `wi` (unit, pointing away from the scene).
     #[inline]
-    fn environment_radiance(&self, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    fn environment_radiance(&self, wi: Vec3, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
         let mut l = SampledSpectrum([0.0; N]);
         for &id in &self.environment_spectra {
             l += self.spectra.eval(id, lambda);
+        }
+        if let Some(map) = self.scene.emitters.environment_map() {
+            l += map.eval(wi, lambda, self.rgb_lanes);
         }
         l
     }
@@ -293,12 +312,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let Some(hit) = self.scene.geometry.intersect(&ray, f32::INFINITY) else {
                 let emitters = &self.scene.emitters;
                 if emitters.has_environment() {
-                    let le = self.environment_radiance(lambda);
+                    let wi = ray.dir.normalize();
+                    let le = self.environment_radiance(wi, lambda);
                     let weight = if specular_bounce {
                         1.0
                     } else {
                         let ctx = LightSampleContext { p: ray.origin, ns: prev_ns };
-                        power_heuristic(prev_pdf, emitters.pdf_li_escaped(&ctx, ray.dir.normalize()))
+                        power_heuristic(prev_pdf, emitters.pdf_li_escaped(&ctx, wi))
                     };
                     radiance += beta * le * weight;
                 }
@@ -422,7 +442,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             return black;
         }
         let le = if self.scene.emitters.is_environment(light) {
-            self.environment_radiance(lambda)
+            self.environment_radiance(ls.wi, lambda)
         } else {
             self.spectra.eval(self.light_spectra[light], lambda)
         };
