@@ -327,3 +327,6 @@ fn decode_exr(bytes: &[u8]) -> std::result::Result<(usize, usize, Vec<[f32; 3]>)
     check_size(size.width(), size.height())?;
     Ok((size.width(), size.height(), image.layer_data.channel_data.pixels.1))
 }
+
+#[cfg(test)]
+mod tests;

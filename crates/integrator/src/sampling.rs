@@ -164,12 +164,6 @@ impl PiecewiseConstant1D {
         self.integral
     }
 
-    /// Number of pieces.
-    #[cfg(test)]
-    pub(crate) fn len(&self) -> usize {
-        self.func.len()
-    }
-
     /// The density at piece `i` (1 everywhere for a zero function).
     #[inline]
     pub(crate) fn pdf_of(&self, i: usize) -> f32 {
@@ -209,12 +203,6 @@ impl PiecewiseConstant2D {
         Self { rows, marginal }
     }
 
-    /// ∫∫ f over the unit square.
-    #[cfg(test)]
-    pub(crate) fn integral(&self) -> f64 {
-        self.marginal.integral()
-    }
-
     /// A point (u, v) ∈ [0, 1)² for `u`, its density, and its cell (column, row).
     #[inline]
     pub(crate) fn sample(&self, u: Vec2) -> (Vec2, f32, (usize, usize)) {
@@ -227,11 +215,5 @@ impl PiecewiseConstant2D {
     #[inline]
     pub(crate) fn pdf_of(&self, column: usize, row: usize) -> f32 {
         self.marginal.pdf_of(row) * self.rows[row].pdf_of(column)
-    }
-
-    /// Columns and rows.
-    #[cfg(test)]
-    pub(crate) fn size(&self) -> (usize, usize) {
-        (self.rows[0].len(), self.marginal.len())
     }
 }
