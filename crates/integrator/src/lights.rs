@@ -500,6 +500,126 @@ mod tests {
         assert!((solid_angle - exact).abs() < 2e-3 * exact, "{solid_angle} vs {exact}");
     }
 
+    /// A `width` × `height` map, black but for `bright` (column, row) at luminance `value` (grey RGB), over a
+    /// sky of `sky` nits.
+    fn spot_map(width: usize, height: usize, bright: (usize, usize), value: f32, sky: f32) -> EnvironmentMap {
+        let mut rgb = vec![[sky; 3]; width * height];
+        rgb[bright.1 * width + bright.0] = [value; 3];
+        EnvironmentMap::from_rgb(std::path::Path::new("<test>"), width, height, rgb, 1.0, 0.0).unwrap().0
+    }
+
+    /// ∫ cos θ dω over the texel (column, row) of a `width` × `height` map, for a normal +Y:
+    /// Δφ (sin² θ₁ − sin² θ₀) / 2 (the texel above the horizon).
+    fn texel_cosine_solid_angle(width: usize, height: usize, row: usize) -> f64 {
+        let pi = std::f64::consts::PI;
+        let (t0, t1) = (pi * row as f64 / height as f64, pi * (row + 1) as f64 / height as f64);
+        2.0 * pi / width as f64 * (t1.sin().powi(2) - t0.sin().powi(2)) / 2.0
+    }
+
+    fn emitters_with(lights: &[Light]) -> Emitters {
+        let geometry = Scene::build(Vec::new(), Vec::new()).unwrap();
+        Emitters::new(lights, None, &geometry, |_| None, |_| None)
+    }
+
+    /// Monte Carlo irradiance at a point facing +Y with `n` light samples: Σ L cos / pdf / n, L the
+    /// luminance of the map (plus `uniform` nits) in the sampled direction.
+    fn irradiance(set: &Emitters, uniform: f32, n: u64, seed: u64) -> f64 {
+        let map = set.environment_map().unwrap();
+        let ctx = at(Vec3::ZERO);
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let mut rng = crate::sampling::Rng::new(seed, 0, i);
+            let Some((_, s)) = set.sample_li(&ctx, rng.uniform(), rng.uniform2()) else { continue };
+            let l = map.luminance(s.wi) + uniform;
+            sum += f64::from(l * s.wi.y.max(0.0) / s.pdf);
+        }
+        sum / n as f64
+    }
+
+    #[test]
+    fn environment_map_samples_have_the_density_escaped_rays_are_weighted_by() {
+        let with_map = Light::environment_map(spot_map(32, 16, (5, 4), 50.0, 0.2)).unwrap();
+        let uniform = Light::new(LightKind::Environment, DenselySampledSpectrum::constant(0.5));
+        for lights in [vec![with_map.clone()], vec![with_map, uniform]] {
+            let set = emitters_with(&lights);
+            assert!(set.has_environment() && set.environment_map().is_some());
+            let ctx = at(Vec3::ZERO);
+            let mut seen = 0;
+            for i in 0..4000 {
+                let mut rng = crate::sampling::Rng::new(3, 0, i);
+                let Some((light, s)) = set.sample_li(&ctx, rng.uniform(), rng.uniform2()) else { continue };
+                assert!(set.is_environment(light) && !s.delta && s.target.is_none());
+                let pdf = set.pdf_li_escaped(&ctx, s.wi);
+                assert!((s.pdf / pdf - 1.0).abs() < 1e-4, "{} lights: {} vs {pdf}", lights.len(), s.pdf);
+                seen += 1;
+            }
+            assert!(seen > 3900, "{seen}");
+        }
+    }
+
+    #[test]
+    fn one_bright_texel_gives_its_analytic_irradiance() {
+        let (width, height, bright) = (64, 32, (12, 10));
+        let exact = 1000.0 * texel_cosine_solid_angle(width, height, bright.1);
+        for uniform in [0.0f32, 0.3] {
+            let mut lights = vec![Light::environment_map(spot_map(width, height, bright, 1000.0, 0.0)).unwrap()];
+            if uniform > 0.0 {
+                lights.push(Light::new(LightKind::Environment, DenselySampledSpectrum::constant(f64::from(uniform))));
+            }
+            let set = emitters_with(&lights);
+            let want = exact + std::f64::consts::PI * f64::from(uniform);
+            let n = 100_000;
+            let got = irradiance(&set, uniform, n, 11);
+            // Map-only: the estimator L cos / pdf over one texel varies only with cos θ sin θ across it, a
+            // relative spread below 10 %, so 1e5 samples put the mean within 1e-3. With a uniform part the
+            // cosine strategy's samples that hit the texel carry large weights: 2 %.
+            let tolerance = if uniform > 0.0 { 2e-2 } else { 1e-3 };
+            assert!((got / want - 1.0).abs() < tolerance, "uniform {uniform}: E = {got}, analytic {want}");
+        }
+    }
+
+    /// Importance sampling against cosine-weighted and uniform sampling on a sun-like map (a sky of 1 nit, a
+    /// sun one texel of 1.4° × 1.4° at 2·10⁵ nits, 34° above the horizon: 95 % of the irradiance): relative
+    /// MSE of the irradiance at 16 samples per estimate.
+    #[test]
+    fn importance_sampling_a_sun_lowers_the_error_by_orders_of_magnitude() {
+        let (width, height, sun) = (256, 128, (40, 40));
+        let exact = (2e5 - 1.0) * texel_cosine_solid_angle(width, height, sun.1) + std::f64::consts::PI * 1.0;
+        let set = emitters_with(&[Light::environment_map(spot_map(width, height, sun, 2e5, 1.0)).unwrap()]);
+        let map = set.environment_map().unwrap();
+        let ctx = at(Vec3::ZERO);
+        let (samples, trials) = (16u64, 2000u64);
+        let mut mse = [0.0f64; 3];
+        for t in 0..trials {
+            let mut sums = [0.0f64; 3];
+            for i in 0..samples {
+                let mut rng = crate::sampling::Rng::new(t, 1, i);
+                let (u, u2) = (rng.uniform(), rng.uniform2());
+                if let Some((_, s)) = set.sample_li(&ctx, u, u2) {
+                    sums[0] += f64::from(map.luminance(s.wi) * s.wi.y.max(0.0) / s.pdf);
+                }
+                let wi = cosine_hemisphere(Vec3::Y, u2);
+                if wi.y > 0.0 {
+                    sums[1] += f64::from(map.luminance(wi)) * std::f64::consts::PI;
+                }
+                let wi = uniform_sphere(u2);
+                sums[2] += f64::from(map.luminance(wi) * wi.y.max(0.0)) * 4.0 * std::f64::consts::PI;
+            }
+            for (m, s) in mse.iter_mut().zip(sums) {
+                *m += (s / samples as f64 / exact - 1.0).powi(2) / trials as f64;
+            }
+        }
+        eprintln!(
+            "sun-like map, {samples} samples, {trials} trials: relative MSE importance {:.3e}, cosine {:.3e} ({:.0}×), uniform {:.3e} ({:.0}×)",
+            mse[0],
+            mse[1],
+            mse[1] / mse[0],
+            mse[2],
+            mse[2] / mse[0]
+        );
+        assert!(mse[1] > 100.0 * mse[0] && mse[2] > 100.0 * mse[0], "{mse:?}");
+    }
+
     #[test]
     fn lights_are_chosen_in_proportion_to_power() {
         let d65 = || DenselySampledSpectrum::constant(1.0);

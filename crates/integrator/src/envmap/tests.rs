@@ -43,7 +43,8 @@ fn orientation_is_mitsubas_with_y_up() {
     let mut rgb = vec![[0.0f32; 3]; width * height];
     rgb[2 * width + 4] = [1.0; 3];
     for (rotation, towards) in [(0.0, Vec3::Z), (90.0, Vec3::X), (-90.0, Vec3::NEG_X)] {
-        let (map, _) = EnvironmentMap::from_rgb(Path::new("<test>"), width, height, rgb.clone(), 3.0, rotation).unwrap();
+        let (map, _) =
+            EnvironmentMap::from_rgb(Path::new("<test>"), width, height, rgb.clone(), 3.0, rotation).unwrap();
         // Just inside the texel's corner (it spans u ∈ [½, ⅝), v ∈ [½, ¾)).
         let (d, _) = EnvironmentMap::uv_to_direction(Vec2::new(0.51, 0.51));
         let bright = map.to_world(d);
