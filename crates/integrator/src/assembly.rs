@@ -186,7 +186,7 @@ impl RenderScene {
                     let map = EnvironmentMap::load(&m.path, intensity.value, m.rotation_deg, &mut warnings)?;
                     // Films record the scene's digest: the map's bytes are part of the scene.
                     source_hash = geometry::xxh64(&map.digest().to_le_bytes(), source_hash);
-                    Light::environment_map(map).map_err(|source| Error::Light { index, source })?
+                    Light::environment_map(map)
                 }
                 _ => light_from_desc(l).map_err(|source| Error::Light { index, source })?,
             });

@@ -93,9 +93,13 @@ impl Light {
     }
 
     /// An environment light whose radiance is `map`'s.
-    pub(crate) fn environment_map(map: EnvironmentMap) -> materials::Result<Self> {
-        let spectrum = materials::illuminant_from_rgb(map.mean_rgb().map(|c| c as f32))?;
-        Ok(Self { kind: LightKind::Environment, spectrum, map: Some(Arc::new(map)) })
+    pub(crate) fn environment_map(map: EnvironmentMap) -> Self {
+        // The texels' own RGB → spectrum (sigmoid × D65), so a constant map's mean is its texels' spectrum.
+        let mean = map.mean_rgb().map(|c| c as f32);
+        let table = colorimetry::RgbToSpectrumTable::srgb();
+        let spectrum = colorimetry::Spectrum::RgbIlluminant(colorimetry::RgbIlluminantSpectrum::from_rgb(table, mean))
+            .to_densely_sampled();
+        Self { kind: LightKind::Environment, spectrum, map: Some(Arc::new(map)) }
     }
 }
 
@@ -538,7 +542,7 @@ mod tests {
 
     #[test]
     fn environment_map_samples_have_the_density_escaped_rays_are_weighted_by() {
-        let with_map = Light::environment_map(spot_map(32, 16, (5, 4), 50.0, 0.2)).unwrap();
+        let with_map = Light::environment_map(spot_map(32, 16, (5, 4), 50.0, 0.2));
         let uniform = Light::new(LightKind::Environment, DenselySampledSpectrum::constant(0.5));
         for lights in [vec![with_map.clone()], vec![with_map, uniform]] {
             let set = emitters_with(&lights);
@@ -562,7 +566,7 @@ mod tests {
         let (width, height, bright) = (64, 32, (12, 10));
         let exact = 1000.0 * texel_cosine_solid_angle(width, height, bright.1);
         for uniform in [0.0f32, 0.3] {
-            let mut lights = vec![Light::environment_map(spot_map(width, height, bright, 1000.0, 0.0)).unwrap()];
+            let mut lights = vec![Light::environment_map(spot_map(width, height, bright, 1000.0, 0.0))];
             if uniform > 0.0 {
                 lights.push(Light::new(LightKind::Environment, DenselySampledSpectrum::constant(f64::from(uniform))));
             }
@@ -585,7 +589,7 @@ mod tests {
     fn importance_sampling_a_sun_lowers_the_error_by_orders_of_magnitude() {
         let (width, height, sun) = (256, 128, (40, 40));
         let exact = (2e5 - 1.0) * texel_cosine_solid_angle(width, height, sun.1) + std::f64::consts::PI * 1.0;
-        let set = emitters_with(&[Light::environment_map(spot_map(width, height, sun, 2e5, 1.0)).unwrap()]);
+        let set = emitters_with(&[Light::environment_map(spot_map(width, height, sun, 2e5, 1.0))]);
         let map = set.environment_map().unwrap();
         let ctx = at(Vec3::ZERO);
         let (samples, trials) = (16u64, 2000u64);
