@@ -373,8 +373,9 @@ impl Emitters {
 
     /// The environment with a map: the map's luminance × solid angle with probability
     /// `map_probability`, else cosine-weighted about the normal (for its uniform parts); the density
-    /// is the mixture's (one-sample MIS, balance heuristic, between the two strategies).
-    #[inline]
+    /// is the mixture's (one-sample MIS, balance heuristic, between the two strategies). Out of line: scenes
+    /// without a map keep the light-sampling code they had.
+    #[inline(never)]
     fn sample_environment_map(
         &self,
         map: &EnvironmentMap,
@@ -395,7 +396,7 @@ impl Emitters {
     }
 
     /// The density per steradian of [`Emitters::sample_environment_map`], without the light's pmf.
-    #[inline]
+    #[inline(never)]
     fn environment_map_pdf(&self, map: &EnvironmentMap, ctx: &LightSampleContext, wi: Vec3) -> f32 {
         let p = self.map_probability;
         let map_pdf = map.pdf(wi);

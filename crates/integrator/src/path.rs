@@ -20,6 +20,7 @@ use materials::bsdf::{
 use materials::{Ior, LAMBDA_D, MaterialModel};
 
 use crate::assembly::RenderScene;
+use crate::envmap::EnvironmentMap;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
 use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
@@ -240,17 +241,22 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         index.and_then(|i| self.materials.get(i as usize)).unwrap_or(&self.default_material)
     }
 
-    /// Radiance of the environment arriving from direction `wi` (unit, pointing away from the scene).
+    /// Radiance of the uniform environment (its spectra summed); an environment map adds
+    /// [`PathTracer::map_radiance`].
     #[inline]
-    fn environment_radiance(&self, wi: Vec3, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    fn environment_radiance(&self, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
         let mut l = SampledSpectrum([0.0; N]);
         for &id in &self.environment_spectra {
             l += self.spectra.eval(id, lambda);
         }
-        if let Some(map) = self.scene.emitters.environment_map() {
-            l += map.eval(wi, lambda, self.rgb_lanes);
-        }
         l
+    }
+
+    /// An environment map's radiance from `wi` (unit, pointing away from the scene): out of line, and
+    /// added by the callers, so that the trace loop of scenes without a map is the one they had.
+    #[inline(never)]
+    fn map_radiance(&self, map: &EnvironmentMap, wi: Vec3, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+        map.eval(wi, lambda, self.rgb_lanes)
     }
 
     /// Index of refraction for this path, splitting it by wavelength at the first dispersive
@@ -312,13 +318,15 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let Some(hit) = self.scene.geometry.intersect(&ray, f32::INFINITY) else {
                 let emitters = &self.scene.emitters;
                 if emitters.has_environment() {
-                    let wi = ray.dir.normalize();
-                    let le = self.environment_radiance(wi, lambda);
+                    let mut le = self.environment_radiance(lambda);
+                    if let Some(map) = emitters.environment_map() {
+                        le += self.map_radiance(map, ray.dir.normalize(), lambda);
+                    }
                     let weight = if specular_bounce {
                         1.0
                     } else {
                         let ctx = LightSampleContext { p: ray.origin, ns: prev_ns };
-                        power_heuristic(prev_pdf, emitters.pdf_li_escaped(&ctx, wi))
+                        power_heuristic(prev_pdf, emitters.pdf_li_escaped(&ctx, ray.dir.normalize()))
                     };
                     radiance += beta * le * weight;
                 }
@@ -442,7 +450,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             return black;
         }
         let le = if self.scene.emitters.is_environment(light) {
-            self.environment_radiance(ls.wi, lambda)
+            let mut le = self.environment_radiance(lambda);
+            if let Some(map) = self.scene.emitters.environment_map() {
+                le += self.map_radiance(map, ls.wi, lambda);
+            }
+            le
         } else {
             self.spectra.eval(self.light_spectra[light], lambda)
         };
