@@ -414,10 +414,10 @@ impl Emitters {
     /// that left `ctx` and escaped the scene (`wi` unit); 0 without environment.
     #[inline]
     pub(crate) fn pdf_li_escaped(&self, ctx: &LightSampleContext, wi: Vec3) -> f32 {
-        match (self.environment, self.map.as_deref()) {
-            (Some(env), Some(map)) => self.pmf[env] * self.environment_map_pdf(map, ctx, wi),
-            (env, _) => env.map_or(0.0, |env| self.pmf[env] * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI),
+        if let (Some(env), Some(map)) = (self.environment, self.map.as_deref()) {
+            return self.pmf[env] * self.environment_map_pdf(map, ctx, wi);
         }
+        self.environment.map_or(0.0, |env| self.pmf[env] * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI)
     }
 
     /// The density with which [`Emitters::sample_li`] would have sampled the point where a ray

@@ -242,8 +242,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     }
 
     /// Radiance of the uniform environment (its spectra summed); an environment map adds
-    /// [`PathTracer::map_radiance`].
-    #[inline]
+    /// [`PathTracer::map_radiance`]. Always inlined, as it was before the trace loop had map instances
+    /// (measured: out of line it cost the white furnace 2–3 % more instructions).
+    #[inline(always)]
     fn environment_radiance(&self, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
         let mut l = SampledSpectrum([0.0; N]);
         for &id in &self.environment_spectra {
