@@ -311,3 +311,29 @@ fn info_reports_the_camera_integrator_and_exposure_a_render_uses() {
     refused(&dir, &["info", torus, "--camera", "nope"], 1, &["--camera nope: no such camera", "0 'camera'"]);
     refused(&dir, &["render", torus, "--exposure", "1", "--auto-exposure"], 2, &["cannot be used with"]);
 }
+
+/// `--env`: an OBJ without lights is lit by the map (not the default lights) and the image is written;
+/// a map that is not there, or `--env-intensity` without `--env`, is refused before anything is written.
+#[test]
+fn env_option_lights_a_file_with_a_map_and_bad_maps_are_refused() {
+    let dir = scratch("render_env");
+    std::fs::write(dir.join("tri.obj"), "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let sky: Vec<image::Rgb<f32>> = (0..8).map(|i| image::Rgb([0.5 + i as f32 * 0.125; 3])).collect();
+    let file = std::io::BufWriter::new(std::fs::File::create(dir.join("sky.hdr")).unwrap());
+    image::codecs::hdr::HdrEncoder::new(file).encode(&sky, 4, 2).unwrap();
+    let output = spectrace()
+        .current_dir(&dir)
+        .args(["render", "tri.obj", "--env", "sky.hdr", "--env-intensity", "2", "--width", "16", "--height", "12"])
+        .args(["--spp", "2", "-o", "out.exr"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("--env") && stderr.contains("sky.hdr"), "{stderr}");
+    assert!(!stderr.contains("no light in the file"), "{stderr}");
+    assert!(dir.join("out.exr").is_file() && dir.join("out.png").is_file());
+    refused(&dir, &["render", "tri.obj", "--env", "nowhere.hdr", "-o", "x.exr"], 1, &["nowhere.hdr"]);
+    refused(&dir, &["render", "tri.obj", "--env-intensity", "2", "-o", "x.exr"], 2, &["--env"]);
+    std::fs::write(dir.join("broken.exr"), b"v/1\x01 not really").unwrap();
+    refused(&dir, &["render", "tri.obj", "--env", "broken.exr", "-o", "x.exr"], 1, &["broken.exr"]);
+}

@@ -19,11 +19,14 @@ pub(crate) struct InfoArgs {
     #[command(flatten)]
     camera: crate::view::CameraArgs,
     #[command(flatten)]
+    env: crate::view::EnvArgs,
+    #[command(flatten)]
     exposure: crate::view::ExposureArgs,
 }
 
 pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
-    let assembly = args.camera.assembly((None, None));
+    let mut assembly = args.camera.assembly((None, None));
+    assembly.environment = args.env.option()?;
     let (desc, scene) = match &args.scene {
         Some(path) => {
             // Loader errors name the file (and line) themselves.

@@ -89,6 +89,8 @@ pub(crate) struct RenderArgs {
     #[command(flatten)]
     camera: crate::view::CameraArgs,
     #[command(flatten)]
+    env: crate::view::EnvArgs,
+    #[command(flatten)]
     exposure: crate::view::ExposureArgs,
 }
 
@@ -281,7 +283,8 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         (other, ..) => other.into(),
     })?;
 
-    let assembly = args.camera.assembly((args.width, args.height));
+    let mut assembly = args.camera.assembly((args.width, args.height));
+    assembly.environment = args.env.option()?;
     let scene = match &args.scene {
         // Scene errors name the file (and line) themselves.
         Some(path) => RenderScene::load_with_options(path, &args.load.options(), &assembly)?,

@@ -4,7 +4,7 @@
 use std::str::FromStr;
 
 use glam::Vec3;
-use integrator::{AssemblyOptions, CameraOptions, IntegratorKind, RenderScene, Tonemap, UpAxis};
+use integrator::{AssemblyOptions, CameraOptions, EnvironmentOption, IntegratorKind, RenderScene, Tonemap, UpAxis};
 
 /// `--integrator`: a model, or `auto` (the scene's `settings.integrator`, else the path tracer).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,7 +77,40 @@ impl CameraArgs {
                 vfov_deg: self.fov,
                 aspect,
             },
+            environment: None,
         }
+    }
+}
+
+/// Image-based lighting from the command line.
+#[derive(Debug, Clone, clap::Args)]
+pub(crate) struct EnvArgs {
+    /// Light the scene with an equirectangular environment map (Radiance .hdr or OpenEXR .exr; +Y up,
+    /// docs/scene-format.md "Environment maps"): it replaces the file's environment and background,
+    /// and a glTF/OBJ file's default lights.
+    #[arg(long, value_name = "FILE")]
+    env: Option<std::path::PathBuf>,
+    /// Factor on the map's texels, whose luminance is then in nits [default: 1].
+    #[arg(long, value_name = "X", requires = "env")]
+    env_intensity: Option<f32>,
+    /// Rotation of the map about +Y in degrees, counter-clockwise seen from above [default: 0].
+    #[arg(long, value_name = "DEG", requires = "env", allow_hyphen_values = true)]
+    env_rotation: Option<f32>,
+}
+
+impl EnvArgs {
+    /// The assembly's environment option.
+    pub(crate) fn option(&self) -> anyhow::Result<Option<EnvironmentOption>> {
+        let Some(path) = &self.env else { return Ok(None) };
+        let intensity = self.env_intensity.unwrap_or(1.0);
+        if !(intensity.is_finite() && intensity >= 0.0) {
+            anyhow::bail!("--env-intensity {intensity}: must be finite and ≥ 0");
+        }
+        let rotation_deg = self.env_rotation.unwrap_or(0.0);
+        if !rotation_deg.is_finite() {
+            anyhow::bail!("--env-rotation {rotation_deg}: must be finite");
+        }
+        Ok(Some(EnvironmentOption { path: path.clone(), intensity, rotation_deg }))
     }
 }
 

@@ -423,13 +423,25 @@ pub enum LightDesc {
         /// Illuminance on a surface facing the light (lux, W/m²).
         intensity: LightAmount,
     },
-    /// Uniform environment illuminating the scene from all directions.
+    /// Environment illuminating the scene from all directions: uniform, or an image (`map`).
     Environment {
-        /// Emission spectrum.
+        /// Emission spectrum (uniform environment; a map's texels give its colour instead).
         spectrum: SpectrumDesc,
-        /// Luminance (nits) or radiance (W/(m² sr)).
+        /// Luminance (nits) or radiance (W/(m² sr)); for a map, the factor its texels are multiplied by.
         intensity: LightAmount,
+        /// An equirectangular image giving the radiance per direction, if any.
+        map: Option<EnvironmentMapDesc>,
     },
+}
+
+/// An equirectangular (latitude–longitude) environment image, as a scene file names it: decoded by the
+/// integrator (`docs/scene-format.md`, "Environment maps").
+#[derive(Clone, Debug, PartialEq)]
+pub struct EnvironmentMapDesc {
+    /// The image file (Radiance `.hdr` or OpenEXR `.exr`), resolved against the scene file's folder.
+    pub path: PathBuf,
+    /// Rotation of the map about the world's +Y axis, degrees (counter-clockwise seen from above).
+    pub rotation_deg: f32,
 }
 
 impl LightDesc {

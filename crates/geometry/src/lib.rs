@@ -50,9 +50,9 @@ mod manifest;
 mod obj_loader;
 mod prefilter;
 pub use desc::{
-    AbsorptionDesc, AlphaMode, CameraDesc, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc,
-    MaterialFormat, MaterialTextures, SceneDescription, SceneFormat, SpectrumDesc, TextureDesc, TextureTransform,
-    WrapMode,
+    AbsorptionDesc, AlphaMode, CameraDesc, EnvironmentMapDesc, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit,
+    MaterialDesc, MaterialFormat, MaterialTextures, SceneDescription, SceneFormat, SpectrumDesc, TextureDesc,
+    TextureTransform, WrapMode,
 };
 pub use hash::xxh64;
 pub use limits::{DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};

@@ -12,8 +12,8 @@ use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use crate::desc::{
-    CameraDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, SceneDescription, SceneFormat,
-    SpectrumDesc,
+    CameraDesc, EnvironmentMapDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, SceneDescription,
+    SceneFormat, SpectrumDesc,
 };
 use crate::error::{Error, Result};
 use crate::forms::{Ctx, absorption, ior, number, spectrum};
@@ -94,11 +94,14 @@ enum LightJson {
         unit: Option<String>,
     },
     Environment {
-        #[serde(default = "default_light_spectrum")]
-        spectrum: Value,
+        /// The uniform environment's spectrum (D65 when absent); excludes `map`.
+        spectrum: Option<Value>,
         #[serde(default = "one")]
         intensity: f32,
         unit: Option<String>,
+        /// An equirectangular image (`.hdr`, `.exr`) relative to the manifest.
+        map: Option<String>,
+        rotation_deg: Option<f32>,
     },
 }
 
@@ -377,10 +380,44 @@ fn light_desc(ctx: &Ctx<'_>, context: &str, light: LightJson) -> Result<LightDes
             spectrum: spec(&spectrum)?,
             intensity: intensity(ctx, context, i, unit.as_deref(), &[LightUnit::Lux, LightUnit::Watt])?,
         },
-        LightJson::Environment { spectrum, intensity: i, unit } => LightDesc::Environment {
-            spectrum: spec(&spectrum)?,
-            intensity: intensity(ctx, context, i, unit.as_deref(), &[LightUnit::Nit, LightUnit::Watt])?,
-        },
+        LightJson::Environment { spectrum, intensity: i, unit, map: None, rotation_deg } => {
+            if rotation_deg.is_some() {
+                return Err(ctx.err(format!("{context}.rotation_deg"), "rotates a `map`; this environment has none"));
+            }
+            LightDesc::Environment {
+                spectrum: spec(&spectrum.unwrap_or_else(default_light_spectrum))?,
+                intensity: intensity(ctx, context, i, unit.as_deref(), &[LightUnit::Nit, LightUnit::Watt])?,
+                map: None,
+            }
+        }
+        LightJson::Environment { spectrum, intensity: i, unit, map: Some(file), rotation_deg } => {
+            if spectrum.is_some() {
+                return Err(ctx.err(
+                    format!("{context}.spectrum"),
+                    "an environment with a `map` takes its colour from the map's texels (remove `spectrum`)",
+                ));
+            }
+            let extension = Path::new(&file).extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            if !matches!(extension.as_deref(), Some("hdr" | "exr")) {
+                return Err(ctx.err(
+                    format!("{context}.map"),
+                    format!("`{file}`: environment maps must be Radiance .hdr or OpenEXR .exr files"),
+                ));
+            }
+            let path = ctx.budget.resolve(Path::new(ctx.origin), ctx.base_dir, &file)?;
+            ctx.budget.check_file(Path::new(ctx.origin), &path, u64::MAX)?;
+            let rotation_deg = rotation_deg.unwrap_or(0.0);
+            if !rotation_deg.is_finite() {
+                return Err(ctx.err(format!("{context}.rotation_deg"), format!("{rotation_deg} must be finite")));
+            }
+            LightDesc::Environment {
+                // The texels give the colour; the spectrum is unused (see `LightDesc::Environment`).
+                spectrum: SpectrumDesc::Named("D65".into()),
+                // A map's texels are luminances (nits): `intensity` multiplies them.
+                intensity: intensity(ctx, context, i, unit.as_deref(), &[LightUnit::Nit])?,
+                map: Some(EnvironmentMapDesc { path, rotation_deg }),
+            }
+        }
     })
 }
 

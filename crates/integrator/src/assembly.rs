@@ -3,18 +3,19 @@
 //! mesh and a spectrum.
 
 use std::f64::consts::PI;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use colorimetry::DenselySampledSpectrum;
 use geometry::{
-    AbsorptionDesc, Camera, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, LoadOptions, MaterialDesc,
-    MaterialFormat, Scene, SceneDescription, SceneFormat, SpectrumDesc,
+    AbsorptionDesc, Camera, CameraDesc, EnvironmentMapDesc, IorDesc, LightAmount, LightDesc, LightUnit, LoadOptions,
+    MaterialDesc, MaterialFormat, Scene, SceneDescription, SceneFormat, SpectrumDesc,
 };
 use glam::Vec3;
 use materials::bsdf::Metal;
 use materials::{Absorption, Ior, Material, MaterialModel};
 
 use crate::camera::{CameraOptions, choose_camera};
+use crate::envmap::EnvironmentMap;
 use crate::error::{Error, Result};
 use crate::lights::{Emitters, Light, LightKind};
 use crate::render::IntegratorKind;
@@ -28,6 +29,20 @@ pub const DEFAULT_RESOLUTION: (u32, u32) = (640, 480);
 pub struct AssemblyOptions {
     /// Camera choice and overrides (`--camera`, `--up`, `--look-from`, `--look-at`, `--fov`).
     pub camera: CameraOptions,
+    /// An environment map that lights the scene instead of the file's environment and background
+    /// (`--env FILE --env-intensity X`); a glTF or OBJ file then gets no default lights.
+    pub environment: Option<EnvironmentOption>,
+}
+
+/// `--env FILE [--env-intensity X]`: the scene is lit by this equirectangular map.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnvironmentOption {
+    /// The map (`.hdr` or `.exr`).
+    pub path: PathBuf,
+    /// Factor on the texels (whose luminance is then in nits).
+    pub intensity: f32,
+    /// Rotation about +Y, degrees.
+    pub rotation_deg: f32,
 }
 
 /// A scene ready to render: acceleration structure, materials, lights, camera, background.
@@ -116,7 +131,7 @@ impl RenderScene {
             background,
             settings,
             mut warnings,
-            source_hash,
+            mut source_hash,
         } = desc;
         let started = std::time::Instant::now();
         let mut textures = load_material_textures(&images, &mut material_descs, &mut warnings);
@@ -133,6 +148,7 @@ impl RenderScene {
         }
         drop(images);
         let alpha_cutouts = textures.iter().flatten().any(MaterialTextures::has_alpha);
+        let mut background = background;
         let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
         warn_unused_keys(&material_descs, &mut warnings);
         let geometry = Scene::build(spheres, meshes)?;
@@ -151,11 +167,51 @@ impl RenderScene {
         let photometric_lights = format == geometry::SceneFormat::Gltf && !light_descs.is_empty();
         let resolution = (camera.width.unwrap_or(DEFAULT_RESOLUTION.0), camera.height.unwrap_or(DEFAULT_RESOLUTION.1));
 
-        let mut lights = light_descs
-            .iter()
-            .enumerate()
-            .map(|(index, l)| light_from_desc(l).map_err(|source| Error::Light { index, source }))
-            .collect::<Result<Vec<_>>>()?;
+        if let Some(env) = &options.environment {
+            // The map replaces what escaping rays would have seen: the file's environments and background.
+            let replaced = light_descs.iter().filter(|l| matches!(l, LightDesc::Environment { .. })).count();
+            light_descs.retain(|l| !matches!(l, LightDesc::Environment { .. }));
+            let had_background = background.take().is_some();
+            warnings.push(format!(
+                "--env: the scene is lit by the environment map {} × {}{}",
+                env.path.display(),
+                env.intensity,
+                match (replaced, had_background) {
+                    (0, false) => String::new(),
+                    (n, b) => format!(
+                        " (replacing the file's {n} environment light(s){})",
+                        if b { " and its background" } else { "" }
+                    ),
+                }
+            ));
+            light_descs.push(LightDesc::Environment {
+                spectrum: SpectrumDesc::Named("D65".into()),
+                intensity: LightAmount { value: env.intensity, unit: LightUnit::Nit },
+                map: Some(EnvironmentMapDesc { path: env.path.clone(), rotation_deg: env.rotation_deg }),
+            });
+        }
+        let mut lights = Vec::with_capacity(light_descs.len());
+        let mut map_seen: Option<usize> = None;
+        for (index, l) in light_descs.iter().enumerate() {
+            lights.push(match l {
+                LightDesc::Environment { intensity, map: Some(m), .. } => {
+                    if let Some(first) = map_seen {
+                        return Err(Error::EnvironmentMap {
+                            path: m.path.clone(),
+                            reason: format!(
+                                "light {index}: a scene has at most one environment map (light {first} is one)"
+                            ),
+                        });
+                    }
+                    map_seen = Some(index);
+                    let map = EnvironmentMap::load(&m.path, intensity.value, m.rotation_deg, &mut warnings)?;
+                    // Films record the scene's digest: the map's bytes are part of the scene.
+                    source_hash = geometry::xxh64(&map.digest().to_le_bytes(), source_hash);
+                    Light::environment_map(map)
+                }
+                _ => light_from_desc(l).map_err(|source| Error::Light { index, source })?,
+            });
+        }
         let emissive = materials.iter().any(Material::emits);
         let unlit = lights.is_empty() && background.is_none();
         if unlit && matches!(format, SceneFormat::Gltf | SceneFormat::Obj) {
@@ -364,6 +420,7 @@ fn default_lights(camera: &CameraDesc, emissive: bool) -> Vec<LightDesc> {
     let env = |nits: f32| LightDesc::Environment {
         spectrum: SpectrumDesc::Named("D65".into()),
         intensity: LightAmount { value: nits, unit: LightUnit::Nit },
+        map: None,
     };
     if emissive {
         return vec![env(DIM_ENVIRONMENT_NITS)];
@@ -695,7 +752,8 @@ fn light_from_desc(desc: &LightDesc) -> materials::Result<Light> {
             LightKind::Directional { direction: direction.normalize_or(Vec3::NEG_Y) },
             light_spectrum(spectrum, *intensity, 1.0)?,
         ),
-        LightDesc::Environment { spectrum, intensity } => {
+        // A map's radiance is its texels' (`EnvironmentMap::load`); this is the uniform one.
+        LightDesc::Environment { spectrum, intensity, .. } => {
             Light::new(LightKind::Environment, light_spectrum(spectrum, *intensity, 1.0)?)
         }
     })

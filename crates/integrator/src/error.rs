@@ -36,6 +36,14 @@ pub enum Error {
         #[source]
         source: materials::Error,
     },
+    /// An environment map that cannot be read, decoded or used.
+    #[error("environment map {}: {reason}", path.display())]
+    EnvironmentMap {
+        /// The image file.
+        path: PathBuf,
+        /// What was wrong.
+        reason: String,
+    },
     /// A spectrum used elsewhere (background, ambient) is invalid.
     #[error("{what}")]
     Spectrum {

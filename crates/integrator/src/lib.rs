@@ -29,6 +29,7 @@
 mod assembly;
 mod auto;
 mod camera;
+mod envmap;
 mod error;
 mod exposure;
 mod film;
@@ -46,7 +47,7 @@ mod surface;
 mod texture;
 mod whitted;
 
-pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, RenderScene};
+pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, EnvironmentOption, RenderScene};
 pub use auto::choose_auto;
 pub use camera::{CameraOptions, UpAxis};
 pub use error::{Error, Result};

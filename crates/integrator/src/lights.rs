@@ -1,7 +1,8 @@
 //! Every light of a scene behind one interface (pbrt-v4 `Light`: `SampleLi`, `PDF_Li`, `L`/`Le`,
 //! `Phi`, and `PowerLightSampler`): point, spot and directional lights, the uniform
 //! environment (environment lights and the background, which escaping rays see), and emissive
-//! spheres and triangles.
+//! spheres and triangles; an environment may carry an image ([`EnvironmentMap`]), sampled by its
+//! luminance.
 //!
 //! The set is built once, at assembly ([`Emitters::new`]); both integrators read it. It knows
 //! where light comes from and with what density it is sampled; *which spectrum* a light emits
@@ -9,11 +10,14 @@
 //! representation (fixed lanes or hero wavelengths). Adding a light kind means a variant of
 //! [`LightKind`] here (its `sample_li`, `pdf_li`, `phi`) and its description in the loader.
 
+use std::sync::Arc;
+
 use colorimetry::DenselySampledSpectrum;
 use geometry::{Primitive, Scene};
 use glam::{Vec2, Vec3};
 use materials::sampling::{cosine_hemisphere, uniform_sphere};
 
+use crate::envmap::EnvironmentMap;
 use crate::sampling::uniform_triangle;
 
 /// The shape of a light.
@@ -39,7 +43,11 @@ pub(crate) enum LightKind {
 #[derive(Debug, Clone)]
 pub(crate) struct Light {
     pub(crate) kind: LightKind,
+    /// For an environment map, the spectrum of its mean radiance (what its power, the scene's
+    /// white and the spectral choices are computed from); its radiance is the map's.
     pub(crate) spectrum: DenselySampledSpectrum,
+    /// The image of an environment light, if it has one.
+    pub(crate) map: Option<Arc<EnvironmentMap>>,
 }
 
 /// Which spectrum a light emits, for the integrator to evaluate.
@@ -81,7 +89,17 @@ pub(crate) struct LiSample {
 
 impl Light {
     pub(crate) fn new(kind: LightKind, spectrum: DenselySampledSpectrum) -> Self {
-        Self { kind, spectrum }
+        Self { kind, spectrum, map: None }
+    }
+
+    /// An environment light whose radiance is `map`'s.
+    pub(crate) fn environment_map(map: EnvironmentMap) -> Self {
+        // The texels' own RGB → spectrum (sigmoid × D65), so a constant map's mean is its texels' spectrum.
+        let mean = map.mean_rgb().map(|c| c as f32);
+        let table = colorimetry::RgbToSpectrumTable::srgb();
+        let spectrum = colorimetry::Spectrum::RgbIlluminant(colorimetry::RgbIlluminantSpectrum::from_rgb(table, mean))
+            .to_densely_sampled();
+        Self { kind: LightKind::Environment, spectrum, map: Some(Arc::new(map)) }
     }
 }
 
@@ -213,8 +231,14 @@ pub(crate) struct Emitters {
     area_light_of: Vec<u32>,
     /// Index of the environment, if the scene has one that gives light.
     environment: Option<usize>,
-    /// What an escaping ray sees, summed: environment lights in file order, then the background.
+    /// What an escaping ray sees, summed: uniform environment lights in file order, then the
+    /// background (and the map, if there is one).
     le_escaped: Vec<Emission>,
+    /// The environment's image, if it has one (at most one per scene: assembly checks).
+    map: Option<Arc<EnvironmentMap>>,
+    /// Probability that the environment is sampled by its map rather than cosine-weighted: the map's
+    /// share of the environment's mean luminance (a defensive mixture when uniform parts remain).
+    map_probability: f32,
 }
 
 impl Emitters {
@@ -233,10 +257,18 @@ impl Emitters {
         let mut set = Self::default();
         let mut power = Vec::new();
         let mut environment_luminance = 0.0f64;
+        let (mut map_emission, mut map_luminance) = (None, 0.0f64);
         for (i, l) in lights.iter().enumerate() {
             let y = colorimetry::relative_luminance(&l.spectrum);
             if let LightKind::Environment = l.kind {
-                set.le_escaped.push(Emission::Light(i));
+                match &l.map {
+                    Some(map) => {
+                        set.map = Some(Arc::clone(map));
+                        map_emission = Some(Emission::Light(i));
+                        map_luminance += y;
+                    }
+                    None => set.le_escaped.push(Emission::Light(i)),
+                }
                 environment_luminance += y;
                 continue;
             }
@@ -250,11 +282,15 @@ impl Emitters {
             set.le_escaped.push(Emission::Background);
             environment_luminance += colorimetry::relative_luminance(b);
         }
-        if !set.le_escaped.is_empty() && environment_luminance > 0.0 {
+        let first_escaped = set.le_escaped.first().copied().or(map_emission);
+        if let Some(first) = first_escaped
+            && environment_luminance > 0.0
+        {
             set.environment = Some(set.kinds.len());
             set.kinds.push(LightKind::Environment);
-            set.emission.push(set.le_escaped[0]);
+            set.emission.push(first);
             power.push(LightKind::Environment.phi(environment_luminance, radius));
+            set.map_probability = (map_luminance / environment_luminance) as f32;
         }
         let count = geometry.primitive_count();
         set.area_light_of = vec![u32::MAX; count];
@@ -327,13 +363,60 @@ impl Emitters {
         if pmf <= 0.0 {
             return None;
         }
+        if let Some(map) = self.map.as_deref()
+            && self.environment == Some(light)
+        {
+            return Some((light, self.sample_environment_map(map, ctx, u2, pmf)?));
+        }
         Some((light, self.kinds[light].sample_li(ctx, u2, pmf)?))
+    }
+
+    /// The environment with a map: the map's luminance × solid angle with probability
+    /// `map_probability`, else cosine-weighted about the normal (for its uniform parts); the density
+    /// is the mixture's (one-sample MIS, balance heuristic, between the two strategies). Out of line: scenes
+    /// without a map keep the light-sampling code they had.
+    #[inline(never)]
+    fn sample_environment_map(
+        &self,
+        map: &EnvironmentMap,
+        ctx: &LightSampleContext,
+        u: Vec2,
+        pmf: f32,
+    ) -> Option<LiSample> {
+        let p = self.map_probability;
+        let wi = if p >= 1.0 {
+            map.sample(u)?.0
+        } else if u.x < p {
+            map.sample(Vec2::new(u.x / p, u.y))?.0
+        } else {
+            cosine_hemisphere(ctx.ns, Vec2::new(((u.x - p) / (1.0 - p)).min(1.0 - f32::EPSILON / 2.0), u.y))
+        };
+        let pdf = pmf * self.environment_map_pdf(map, ctx, wi);
+        (pdf > 0.0 && pdf.is_finite()).then_some(LiSample { wi, target: None, pdf, scale: 1.0, delta: false })
+    }
+
+    /// The density per steradian of [`Emitters::sample_environment_map`], without the light's pmf.
+    #[inline(never)]
+    fn environment_map_pdf(&self, map: &EnvironmentMap, ctx: &LightSampleContext, wi: Vec3) -> f32 {
+        let p = self.map_probability;
+        let map_pdf = map.pdf(wi);
+        if p >= 1.0 { map_pdf } else { p * map_pdf + (1.0 - p) * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI }
+    }
+
+    /// The environment's image, if it has one: escaping rays see its radiance in addition to the
+    /// sum of [`Emitters::le_escaped`].
+    #[inline]
+    pub(crate) fn environment_map(&self) -> Option<&EnvironmentMap> {
+        self.map.as_deref()
     }
 
     /// The density with which [`Emitters::sample_li`] would have sampled the direction of a ray
     /// that left `ctx` and escaped the scene (`wi` unit); 0 without environment.
     #[inline]
     pub(crate) fn pdf_li_escaped(&self, ctx: &LightSampleContext, wi: Vec3) -> f32 {
+        if let (Some(env), Some(map)) = (self.environment, self.map.as_deref()) {
+            return self.pmf[env] * self.environment_map_pdf(map, ctx, wi);
+        }
         self.environment.map_or(0.0, |env| self.pmf[env] * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI)
     }
 
@@ -420,6 +503,126 @@ mod tests {
             + b.dot(c) * a.length();
         let exact = 2.0 * num.atan2(den);
         assert!((solid_angle - exact).abs() < 2e-3 * exact, "{solid_angle} vs {exact}");
+    }
+
+    /// A `width` × `height` map, black but for `bright` (column, row) at luminance `value` (grey RGB), over a
+    /// sky of `sky` nits.
+    fn spot_map(width: usize, height: usize, bright: (usize, usize), value: f32, sky: f32) -> EnvironmentMap {
+        let mut rgb = vec![[sky; 3]; width * height];
+        rgb[bright.1 * width + bright.0] = [value; 3];
+        EnvironmentMap::from_rgb(std::path::Path::new("<test>"), width, height, rgb, 1.0, 0.0).unwrap().0
+    }
+
+    /// ∫ cos θ dω over the texel (column, row) of a `width` × `height` map, for a normal +Y:
+    /// Δφ (sin² θ₁ − sin² θ₀) / 2 (the texel above the horizon).
+    fn texel_cosine_solid_angle(width: usize, height: usize, row: usize) -> f64 {
+        let pi = std::f64::consts::PI;
+        let (t0, t1) = (pi * row as f64 / height as f64, pi * (row + 1) as f64 / height as f64);
+        2.0 * pi / width as f64 * (t1.sin().powi(2) - t0.sin().powi(2)) / 2.0
+    }
+
+    fn emitters_with(lights: &[Light]) -> Emitters {
+        let geometry = Scene::build(Vec::new(), Vec::new()).unwrap();
+        Emitters::new(lights, None, &geometry, |_| None, |_| None)
+    }
+
+    /// Monte Carlo irradiance at a point facing +Y with `n` light samples: Σ L cos / pdf / n, L the
+    /// luminance of the map (plus `uniform` nits) in the sampled direction.
+    fn irradiance(set: &Emitters, uniform: f32, n: u64, seed: u64) -> f64 {
+        let map = set.environment_map().unwrap();
+        let ctx = at(Vec3::ZERO);
+        let mut sum = 0.0f64;
+        for i in 0..n {
+            let mut rng = crate::sampling::Rng::new(seed, 0, i);
+            let Some((_, s)) = set.sample_li(&ctx, rng.uniform(), rng.uniform2()) else { continue };
+            let l = map.luminance(s.wi) + uniform;
+            sum += f64::from(l * s.wi.y.max(0.0) / s.pdf);
+        }
+        sum / n as f64
+    }
+
+    #[test]
+    fn environment_map_samples_have_the_density_escaped_rays_are_weighted_by() {
+        let with_map = Light::environment_map(spot_map(32, 16, (5, 4), 50.0, 0.2));
+        let uniform = Light::new(LightKind::Environment, DenselySampledSpectrum::constant(0.5));
+        for lights in [vec![with_map.clone()], vec![with_map, uniform]] {
+            let set = emitters_with(&lights);
+            assert!(set.has_environment() && set.environment_map().is_some());
+            let ctx = at(Vec3::ZERO);
+            let mut seen = 0;
+            for i in 0..4000 {
+                let mut rng = crate::sampling::Rng::new(3, 0, i);
+                let Some((light, s)) = set.sample_li(&ctx, rng.uniform(), rng.uniform2()) else { continue };
+                assert!(set.is_environment(light) && !s.delta && s.target.is_none());
+                let pdf = set.pdf_li_escaped(&ctx, s.wi);
+                assert!((s.pdf / pdf - 1.0).abs() < 1e-4, "{} lights: {} vs {pdf}", lights.len(), s.pdf);
+                seen += 1;
+            }
+            assert!(seen > 3900, "{seen}");
+        }
+    }
+
+    #[test]
+    fn one_bright_texel_gives_its_analytic_irradiance() {
+        let (width, height, bright) = (64, 32, (12, 10));
+        let exact = 1000.0 * texel_cosine_solid_angle(width, height, bright.1);
+        for uniform in [0.0f32, 0.3] {
+            let mut lights = vec![Light::environment_map(spot_map(width, height, bright, 1000.0, 0.0))];
+            if uniform > 0.0 {
+                lights.push(Light::new(LightKind::Environment, DenselySampledSpectrum::constant(f64::from(uniform))));
+            }
+            let set = emitters_with(&lights);
+            let want = exact + std::f64::consts::PI * f64::from(uniform);
+            let n = 100_000;
+            let got = irradiance(&set, uniform, n, 11);
+            // Map-only: the estimator L cos / pdf over one texel varies only with cos θ sin θ across it, a
+            // relative spread below 10 %, so 1e5 samples put the mean within 1e-3. With a uniform part the
+            // cosine strategy's samples that hit the texel carry large weights: 2 %.
+            let tolerance = if uniform > 0.0 { 2e-2 } else { 1e-3 };
+            assert!((got / want - 1.0).abs() < tolerance, "uniform {uniform}: E = {got}, analytic {want}");
+        }
+    }
+
+    /// Importance sampling against cosine-weighted and uniform sampling on a sun-like map (a sky of 1 nit, a
+    /// sun one texel of 1.4° × 1.4° at 2·10⁵ nits, 34° above the horizon: 95 % of the irradiance): relative
+    /// MSE of the irradiance at 16 samples per estimate.
+    #[test]
+    fn importance_sampling_a_sun_lowers_the_error_by_orders_of_magnitude() {
+        let (width, height, sun) = (256, 128, (40, 40));
+        let exact = (2e5 - 1.0) * texel_cosine_solid_angle(width, height, sun.1) + std::f64::consts::PI * 1.0;
+        let set = emitters_with(&[Light::environment_map(spot_map(width, height, sun, 2e5, 1.0))]);
+        let map = set.environment_map().unwrap();
+        let ctx = at(Vec3::ZERO);
+        let (samples, trials) = (16u64, 2000u64);
+        let mut mse = [0.0f64; 3];
+        for t in 0..trials {
+            let mut sums = [0.0f64; 3];
+            for i in 0..samples {
+                let mut rng = crate::sampling::Rng::new(t, 1, i);
+                let (u, u2) = (rng.uniform(), rng.uniform2());
+                if let Some((_, s)) = set.sample_li(&ctx, u, u2) {
+                    sums[0] += f64::from(map.luminance(s.wi) * s.wi.y.max(0.0) / s.pdf);
+                }
+                let wi = cosine_hemisphere(Vec3::Y, u2);
+                if wi.y > 0.0 {
+                    sums[1] += f64::from(map.luminance(wi)) * std::f64::consts::PI;
+                }
+                let wi = uniform_sphere(u2);
+                sums[2] += f64::from(map.luminance(wi) * wi.y.max(0.0)) * 4.0 * std::f64::consts::PI;
+            }
+            for (m, s) in mse.iter_mut().zip(sums) {
+                *m += (s / samples as f64 / exact - 1.0).powi(2) / trials as f64;
+            }
+        }
+        eprintln!(
+            "sun-like map, {samples} samples, {trials} trials: relative MSE importance {:.3e}, cosine {:.3e} ({:.0}×), uniform {:.3e} ({:.0}×)",
+            mse[0],
+            mse[1],
+            mse[1] / mse[0],
+            mse[2],
+            mse[2] / mse[0]
+        );
+        assert!(mse[1] > 100.0 * mse[0] && mse[2] > 100.0 * mse[0], "{mse:?}");
     }
 
     #[test]

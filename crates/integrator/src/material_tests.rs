@@ -231,6 +231,7 @@ fn whitted_gltf_glass_does_not_gain_energy_in_a_uniform_environment() {
     d.lights.push(LightDesc::Environment {
         spectrum: SpectrumDesc::Named("D65".into()),
         intensity: geometry::LightAmount { value: 1.0, unit: geometry::LightUnit::Nit },
+        map: None,
     });
     let eye = Vec3::new(0.0, 0.0, 10.0);
     d.camera =

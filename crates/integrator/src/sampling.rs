@@ -123,3 +123,97 @@ mod tests {
         assert!((sum / f64::from(n) - 0.5).abs() < 5.0 * se);
     }
 }
+
+/// A piecewise-constant density on [0, 1) with `n` equal pieces ∝ a non-negative function
+/// (pbrt-v4 `PiecewiseConstant1D`; PBRT 3rd ed. §13.3.1): sampled by inverting its CDF.
+/// A function that is zero everywhere is sampled uniformly (pbrt-v4 does the same).
+#[derive(Debug, Clone)]
+pub(crate) struct PiecewiseConstant1D {
+    func: Vec<f32>,
+    /// `cdf[i]`: the probability of the pieces before `i`; `cdf[n]` = 1.
+    cdf: Vec<f32>,
+    /// ∫₀¹ f = Σ f_i / n.
+    integral: f64,
+}
+
+impl PiecewiseConstant1D {
+    /// The density ∝ `func` (at least one piece; negative or NaN values count as 0).
+    pub(crate) fn new(func: &[f32]) -> Self {
+        assert!(!func.is_empty(), "a distribution needs at least one piece");
+        let func: Vec<f32> = func.iter().map(|&f| if f > 0.0 && f.is_finite() { f } else { 0.0 }).collect();
+        let n = func.len();
+        // Sums in f64: a row of thousands of texels would lose the small ones in f32.
+        let mut running = Vec::with_capacity(n + 1);
+        let mut acc = 0.0f64;
+        running.push(0.0);
+        for &f in &func {
+            acc += f64::from(f);
+            running.push(acc);
+        }
+        let integral = acc / n as f64;
+        let cdf = if acc > 0.0 {
+            running.iter().map(|&c| (c / acc) as f32).collect()
+        } else {
+            (0..=n).map(|i| i as f32 / n as f32).collect()
+        };
+        Self { func, cdf, integral }
+    }
+
+    /// ∫₀¹ f.
+    pub(crate) fn integral(&self) -> f64 {
+        self.integral
+    }
+
+    /// The density at piece `i` (1 everywhere for a zero function).
+    #[inline]
+    pub(crate) fn pdf_of(&self, i: usize) -> f32 {
+        if self.integral > 0.0 { (f64::from(self.func[i]) / self.integral) as f32 } else { 1.0 }
+    }
+
+    /// A point x ∈ [0, 1) for `u` ∈ [0, 1), its density and its piece.
+    #[inline]
+    pub(crate) fn sample(&self, u: f32) -> (f32, f32, usize) {
+        let n = self.func.len();
+        // The last piece whose CDF start is ≤ u (pieces of zero probability are never chosen: their
+        // start equals the next one's).
+        let i = self.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(n - 1);
+        let width = self.cdf[i + 1] - self.cdf[i];
+        let du = if width > 0.0 { ((u - self.cdf[i]) / width).clamp(0.0, 1.0) } else { 0.5 };
+        // Strictly below 1, so the piece of x is i.
+        let x = ((i as f32 + du) / n as f32).min(1.0 - f32::EPSILON / 2.0);
+        (x, self.pdf_of(i), i)
+    }
+}
+
+/// A piecewise-constant density on [0, 1)² over a `width` × `height` grid, rows first (pbrt-v4
+/// `PiecewiseConstant2D`; PBRT 3rd ed. §13.6.7): a marginal density over rows, then a conditional
+/// one within the chosen row.
+#[derive(Debug, Clone)]
+pub(crate) struct PiecewiseConstant2D {
+    rows: Vec<PiecewiseConstant1D>,
+    marginal: PiecewiseConstant1D,
+}
+
+impl PiecewiseConstant2D {
+    /// The density ∝ `func`, `width` values per row, `height` rows (row 0 at v = 0).
+    pub(crate) fn new(func: &[f32], width: usize, height: usize) -> Self {
+        assert!(width > 0 && height > 0 && func.len() == width * height, "a {width}×{height} grid");
+        let rows: Vec<PiecewiseConstant1D> = func.chunks_exact(width).map(PiecewiseConstant1D::new).collect();
+        let marginal = PiecewiseConstant1D::new(&rows.iter().map(|r| r.integral() as f32).collect::<Vec<_>>());
+        Self { rows, marginal }
+    }
+
+    /// A point (u, v) ∈ [0, 1)² for `u`, its density, and its cell (column, row).
+    #[inline]
+    pub(crate) fn sample(&self, u: Vec2) -> (Vec2, f32, (usize, usize)) {
+        let (v, pdf_row, row) = self.marginal.sample(u.y);
+        let (x, pdf_column, column) = self.rows[row].sample(u.x);
+        (Vec2::new(x, v), pdf_row * pdf_column, (column, row))
+    }
+
+    /// The density of cell (`column`, `row`).
+    #[inline]
+    pub(crate) fn pdf_of(&self, column: usize, row: usize) -> f32 {
+        self.marginal.pdf_of(row) * self.rows[row].pdf_of(column)
+    }
+}

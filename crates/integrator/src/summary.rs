@@ -132,9 +132,13 @@ fn light_json(l: &LightDesc) -> Value {
                 obj.insert("intensity".into(), json!(intensity.value));
                 obj.insert("unit".into(), json!(intensity.unit.name()));
             }
-            LightDesc::Environment { intensity, .. } => {
+            LightDesc::Environment { intensity, map, .. } => {
                 obj.insert("intensity".into(), json!(intensity.value));
                 obj.insert("unit".into(), json!(intensity.unit.name()));
+                if let Some(m) = map {
+                    obj.insert("map".into(), json!(m.path.display().to_string()));
+                    obj.insert("rotation_deg".into(), json!(m.rotation_deg));
+                }
             }
         }
     }

@@ -64,6 +64,9 @@ pub(crate) struct Whitted<'a, const N: usize> {
     background: SampledSpectrum<N>,
     max_depth: u32,
     min_weight: f32,
+    /// The lanes' wavelengths and whether they are RGB, for an environment map's texels.
+    map_lambda: SampledWavelengths<N>,
+    map_rgb: bool,
 }
 
 impl<'a, const N: usize> Whitted<'a, N> {
@@ -141,6 +144,8 @@ impl<'a, const N: usize> Whitted<'a, N> {
             background,
             max_depth: options.max_depth.unwrap_or_else(|| scene.setting_f64("max_depth").map_or(20, |d| d as u32)),
             min_weight: options.min_weight,
+            map_lambda: lanes.wavelengths,
+            map_rgb: lanes.rgb,
         }
     }
 
@@ -173,7 +178,13 @@ impl<'a, const N: usize> Whitted<'a, N> {
     ) -> (SampledSpectrum<N>, ObjectId) {
         count.rays += 1;
         let Some(hit) = self.scene.geometry.intersect(ray, f32::INFINITY) else {
-            return (self.background, ObjectId::Background);
+            // An environment map is seen by escaping rays (camera, mirror and refracted rays), as the
+            // uniform environment is; in the paper's model it lights nothing else.
+            let mut background = self.background;
+            if let Some(map) = self.scene.emitters.environment_map() {
+                background += map.eval(ray.dir.normalize(), &self.map_lambda, self.map_rgb);
+            }
+            return (background, ObjectId::Background);
         };
         let id = ObjectId::Material(hit.material);
         // The medium this segment crossed: the object whose surface it leaves through (this

@@ -51,6 +51,7 @@ fn a_file_camera_is_kept_and_overrides_apply_to_it() {
     assert!(scene.has_photometric_lights());
     let options = AssemblyOptions {
         camera: CameraOptions { look_from: Some(Vec3::new(3.0, 0.0, 0.0)), vfov_deg: Some(20.0), ..Default::default() },
+        ..Default::default()
     };
     let moved = RenderScene::load_with_options(&torus, &geometry::LoadOptions::default(), &options).unwrap();
     let (camera, source) = moved.camera_desc();

@@ -2,6 +2,7 @@
 //! resolutions.
 
 mod defaults;
+mod envmap;
 mod film;
 mod hard_cases;
 mod paper_model;

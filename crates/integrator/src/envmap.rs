@@ -1,0 +1,332 @@
+//! Image-based environment light: an equirectangular (latitude–longitude) map decoded from a
+//! Radiance `.hdr` or OpenEXR `.exr` file, each texel an RGB illuminant spectrum, importance
+//! sampled by a piecewise-constant density ∝ luminance × sin θ (PBRT 3rd ed. §14.2.4; pbrt-v4
+//! `ImageInfiniteLight`, which uses the equal-area octahedral mapping instead).
+//!
+//! Orientation (Mitsuba 3's `envmap` convention, +Y up): texture coordinates (u, v) ∈ [0, 1)², u
+//! along a row from the left edge, v down the rows from the top, map to the direction
+//! φ = 2π u, θ = π v, d = (sin φ sin θ, cos θ, −cos φ sin θ): the top row is +Y (θ = 0), the bottom
+//! row −Y, and along the horizon's row the left edge (u = 0) looks towards −Z, u = ¼ towards +X,
+//! the centre (u = ½) towards +Z and u = ¾ towards −X. `rotation_deg` turns the map about +Y
+//! (counter-clockwise seen from above: +Z turns towards +X). Lookups are nearest-texel, so the
+//! radiance is exactly the piecewise-constant function the density is built from.
+//!
+//! Texels are linear Rec. 709 / sRGB primaries (the files' usual space); their luminance
+//! Y = 0.2126 R + 0.7152 G + 0.0722 B, times the light's `intensity`, is in nits. Each becomes
+//! `colorimetry::RgbIlluminantSpectrum` (sigmoid × D65, pbrt-v4 `RGBIlluminantSpectrum`) once, at
+//! load; in `rgb` lanes the texel's RGB is used directly.
+
+use std::f32::consts::PI;
+use std::fmt;
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+
+use colorimetry::{RgbIlluminantSpectrum, RgbToSpectrumTable, SampledSpectrum, SampledWavelengths};
+use glam::{Vec2, Vec3};
+
+use crate::error::{Error, Result};
+use crate::sampling::PiecewiseConstant2D;
+
+/// Most texels a map may have: 8192 × 4096 (an "8k" HDRI), about 1 GB once each texel carries its
+/// spectrum and density. Larger files are refused before their pixels are decoded.
+pub(crate) const MAX_TEXELS: usize = 8192 * 4096;
+
+/// One texel: its RGB (× intensity) and the illuminant spectrum of that RGB.
+#[derive(Clone, Copy)]
+struct Texel {
+    rgb: [f32; 3],
+    spectrum: RgbIlluminantSpectrum,
+}
+
+/// An equirectangular environment map, ready to evaluate and sample (see the module docs).
+pub(crate) struct EnvironmentMap {
+    path: PathBuf,
+    width: usize,
+    height: usize,
+    texels: Vec<Texel>,
+    distribution: PiecewiseConstant2D,
+    /// sin and cos of the rotation about +Y.
+    rotation: (f32, f32),
+    /// Mean RGB over the sphere (each texel weighted by its solid angle), × intensity.
+    mean_rgb: [f64; 3],
+    /// XXH64 of the file's bytes (0 for a map built in memory).
+    digest: u64,
+}
+
+impl fmt::Debug for EnvironmentMap {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("EnvironmentMap")
+            .field("path", &self.path)
+            .field("size", &(self.width, self.height))
+            .field("mean_rgb", &self.mean_rgb)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Rec. 709 luminance of linear sRGB (IEC 61966-2-1; the coefficients `materials::illuminant_from_rgb`
+/// uses).
+#[inline]
+fn luminance(rgb: [f32; 3]) -> f32 {
+    0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
+}
+
+impl EnvironmentMap {
+    /// Decodes `path` (`.hdr` or `.exr`), multiplies its texels by `intensity` and turns it by
+    /// `rotation_deg` about +Y. Texels that are NaN, infinite or negative become 0 with a warning in
+    /// `warnings`; a file that cannot be read or decoded is an error naming it.
+    pub(crate) fn load(path: &Path, intensity: f32, rotation_deg: f32, warnings: &mut Vec<String>) -> Result<Self> {
+        let fail = |reason: String| Error::EnvironmentMap { path: path.to_owned(), reason };
+        let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+        let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        let (width, height, rgb) = match extension.as_deref() {
+            Some("hdr") => decode_hdr(&bytes).map_err(fail)?,
+            Some("exr") => decode_exr(&bytes).map_err(fail)?,
+            _ => return Err(fail("not a Radiance .hdr or OpenEXR .exr file (by its extension)".to_owned())),
+        };
+        let (mut map, bad) = Self::from_rgb(path, width, height, rgb, intensity, rotation_deg)?;
+        map.digest = geometry::xxh64(&bytes, 0);
+        if bad > 0 {
+            warnings.push(format!(
+                "{}: {bad} of {} texels were NaN, infinite or negative and were set to 0",
+                path.display(),
+                width * height
+            ));
+        }
+        Ok(map)
+    }
+
+    /// A map from `width` × `height` linear sRGB texels, rows from the top; also returns how many
+    /// texels were NaN, infinite or negative (and set to 0).
+    pub(crate) fn from_rgb(
+        path: &Path,
+        width: usize,
+        height: usize,
+        rgb: Vec<[f32; 3]>,
+        intensity: f32,
+        rotation_deg: f32,
+    ) -> Result<(Self, usize)> {
+        let fail = |reason: String| Error::EnvironmentMap { path: path.to_owned(), reason };
+        if width == 0 || height == 0 || rgb.len() != width * height {
+            return Err(fail(format!("{width}×{height} image with {} texels", rgb.len())));
+        }
+        if !(intensity.is_finite() && intensity >= 0.0) {
+            return Err(fail(format!("intensity {intensity} must be finite and ≥ 0")));
+        }
+        let table = RgbToSpectrumTable::srgb();
+        let mut bad = 0usize;
+        let texels: Vec<Texel> = rgb
+            .into_iter()
+            .map(|c| {
+                let c = if c.iter().all(|v| v.is_finite() && *v >= 0.0) {
+                    c
+                } else {
+                    bad += 1;
+                    [0.0; 3]
+                };
+                // A finite texel times a finite intensity can still overflow f32.
+                let scaled = c.map(|v| v * intensity);
+                let scaled = if scaled.iter().all(|v| v.is_finite()) { scaled } else { [f32::MAX / 4.0; 3] };
+                Texel { rgb: scaled, spectrum: RgbIlluminantSpectrum::from_rgb(table, scaled) }
+            })
+            .collect();
+        // Density ∝ luminance × sin θ at the row's centre (the Jacobian of the lat-long mapping);
+        // the mean weighs each texel by its exact solid angle, Δφ (cos θ₀ − cos θ₁).
+        let mut func = Vec::with_capacity(width * height);
+        let mut mean = [0.0f64; 3];
+        let mut total_solid_angle = 0.0f64;
+        for row in 0..height {
+            let sin_theta = (PI * (row as f32 + 0.5) / height as f32).sin();
+            let (t0, t1) = (
+                std::f64::consts::PI * row as f64 / height as f64,
+                std::f64::consts::PI * (row + 1) as f64 / height as f64,
+            );
+            let solid_angle = 2.0 * std::f64::consts::PI / width as f64 * (t0.cos() - t1.cos());
+            for t in &texels[row * width..(row + 1) * width] {
+                func.push(luminance(t.rgb).max(0.0) * sin_theta);
+                for (m, &c) in mean.iter_mut().zip(&t.rgb) {
+                    *m += f64::from(c) * solid_angle;
+                }
+                total_solid_angle += solid_angle;
+            }
+        }
+        let mean_rgb = mean.map(|m| m / total_solid_angle);
+        let distribution = PiecewiseConstant2D::new(&func, width, height);
+        let angle = rotation_deg.to_radians();
+        let map = Self {
+            path: path.to_owned(),
+            width,
+            height,
+            texels,
+            distribution,
+            rotation: angle.sin_cos(),
+            mean_rgb,
+            digest: 0,
+        };
+        Ok((map, bad))
+    }
+
+    /// XXH64 of the file's bytes.
+    pub(crate) fn digest(&self) -> u64 {
+        self.digest
+    }
+
+    /// Width and height in texels.
+    #[cfg(test)]
+    pub(crate) fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// Mean linear sRGB radiance over the sphere (solid-angle weighted, × intensity): its luminance is
+    /// the map's mean luminance in nits, what its power and the scene's white are computed from.
+    pub(crate) fn mean_rgb(&self) -> [f64; 3] {
+        self.mean_rgb
+    }
+
+    /// A world direction in the map's frame (the rotation undone).
+    #[inline]
+    fn to_local(&self, w: Vec3) -> Vec3 {
+        let (s, c) = self.rotation;
+        // Rotation about +Y by −α: x' = c x − s z, z' = s x + c z.
+        Vec3::new(c * w.x - s * w.z, w.y, s * w.x + c * w.z)
+    }
+
+    /// A direction of the map's frame in the world (rotated by α about +Y).
+    #[inline]
+    fn to_world(&self, d: Vec3) -> Vec3 {
+        let (s, c) = self.rotation;
+        Vec3::new(c * d.x + s * d.z, d.y, -s * d.x + c * d.z)
+    }
+
+    /// Texture coordinates of a unit direction of the map's frame.
+    #[inline]
+    pub(crate) fn direction_to_uv(d: Vec3) -> Vec2 {
+        let mut u = d.x.atan2(-d.z) * (0.5 / PI);
+        if u < 0.0 {
+            u += 1.0;
+        }
+        Vec2::new(u, d.y.clamp(-1.0, 1.0).acos() / PI)
+    }
+
+    /// The unit direction of texture coordinates (u, v), and sin θ.
+    #[inline]
+    pub(crate) fn uv_to_direction(uv: Vec2) -> (Vec3, f32) {
+        let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
+        let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
+        (Vec3::new(sin_phi * sin_theta, cos_theta, -cos_phi * sin_theta), sin_theta)
+    }
+
+    /// The texel (column, row) of texture coordinates.
+    #[inline]
+    fn texel_of(&self, uv: Vec2) -> (usize, usize) {
+        let column = ((uv.x * self.width as f32) as usize).min(self.width - 1);
+        let row = ((uv.y * self.height as f32) as usize).min(self.height - 1);
+        (column, row)
+    }
+
+    #[inline]
+    fn texel(&self, w: Vec3) -> &Texel {
+        let (column, row) = self.texel_of(Self::direction_to_uv(self.to_local(w)));
+        &self.texels[row * self.width + column]
+    }
+
+    /// Radiance arriving from world direction `w` (unit; pointing away from the scene, i.e. the way
+    /// an escaping ray travels) at wavelengths `lambda`, or as RGB lanes when `rgb`.
+    #[inline]
+    pub(crate) fn eval<const N: usize>(
+        &self,
+        w: Vec3,
+        lambda: &SampledWavelengths<N>,
+        rgb: bool,
+    ) -> SampledSpectrum<N> {
+        let t = self.texel(w);
+        if rgb {
+            let mut out = [0.0f32; N];
+            out[..3].copy_from_slice(&t.rgb);
+            SampledSpectrum(out)
+        } else {
+            t.spectrum.sample(lambda)
+        }
+    }
+
+    /// Luminance (nits) arriving from world direction `w`.
+    #[cfg(test)]
+    pub(crate) fn luminance(&self, w: Vec3) -> f32 {
+        luminance(self.texel(w).rgb)
+    }
+
+    /// A world direction sampled ∝ luminance × solid angle, and its density per steradian; `None` at
+    /// the poles (sin θ = 0, density undefined).
+    #[inline]
+    pub(crate) fn sample(&self, u: Vec2) -> Option<(Vec3, f32)> {
+        let (uv, pdf_uv, _) = self.distribution.sample(u);
+        let (d, sin_theta) = Self::uv_to_direction(uv);
+        if !(sin_theta > 0.0) || !(pdf_uv > 0.0) {
+            return None;
+        }
+        // dω = sin θ dθ dφ = 2π² sin θ du dv.
+        let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
+        pdf.is_finite().then(|| (self.to_world(d), pdf))
+    }
+
+    /// The density per steradian with which [`EnvironmentMap::sample`] picks world direction `w` (unit).
+    #[inline]
+    pub(crate) fn pdf(&self, w: Vec3) -> f32 {
+        let d = self.to_local(w);
+        let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
+        if !(sin_theta > 0.0) {
+            return 0.0;
+        }
+        let (column, row) = self.texel_of(Self::direction_to_uv(d));
+        self.distribution.pdf_of(column, row) / (2.0 * PI * PI * sin_theta)
+    }
+}
+
+/// Checks a decoded size against [`MAX_TEXELS`].
+fn check_size(width: usize, height: usize) -> std::result::Result<(), String> {
+    if width == 0 || height == 0 {
+        return Err(format!("empty image ({width}×{height})"));
+    }
+    if width.saturating_mul(height) > MAX_TEXELS {
+        return Err(format!("{width}×{height} texels exceed the limit of {MAX_TEXELS} (8192×4096)"));
+    }
+    Ok(())
+}
+
+/// A Radiance RGBE file as linear RGB rows from the top.
+fn decode_hdr(bytes: &[u8]) -> std::result::Result<(usize, usize, Vec<[f32; 3]>), String> {
+    use image::ImageDecoder;
+    let decoder = image::codecs::hdr::HdrDecoder::new(Cursor::new(bytes)).map_err(|e| e.to_string())?;
+    let (w, h) = decoder.dimensions();
+    let (width, height) = (w as usize, h as usize);
+    check_size(width, height)?;
+    let image = image::DynamicImage::from_decoder(decoder).map_err(|e| e.to_string())?.into_rgb32f();
+    Ok((width, height, image.pixels().map(|p| p.0).collect()))
+}
+
+/// The first RGB(A) layer of an OpenEXR file, at its largest resolution, as linear RGB rows from the
+/// top (alpha ignored; the header's size is checked before the pixels are read).
+fn decode_exr(bytes: &[u8]) -> std::result::Result<(usize, usize, Vec<[f32; 3]>), String> {
+    use exr::prelude::*;
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| e.to_string())?;
+    let Some(header) = meta.headers.first() else { return Err("no layer".to_owned()) };
+    check_size(header.layer_size.width(), header.layer_size.height())?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |size, _| (size.width(), vec![[0.0f32; 3]; size.width() * size.height()]),
+            |(width, pixels): &mut (usize, Vec<[f32; 3]>), position, (r, g, b, _): (f32, f32, f32, f32)| {
+                pixels[position.y() * *width + position.x()] = [r, g, b];
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| e.to_string())?;
+    let size = image.layer_data.size;
+    check_size(size.width(), size.height())?;
+    Ok((size.width(), size.height(), image.layer_data.channel_data.pixels.1))
+}
+
+#[cfg(test)]
+mod tests;
