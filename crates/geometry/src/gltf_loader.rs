@@ -56,8 +56,16 @@ pub(crate) fn load_gltf_slice(
     let gltf_err = |cause| Error::Gltf { path: path.to_path_buf(), cause };
     // The JSON document (tree of values) costs a few times its text; charge twice the file.
     budget.charge(path, || "the glTF JSON document".to_owned(), 2 * bytes.len() as u64)?;
-    let gltf::Gltf { document, blob } =
-        guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err))?;
+    let parsed = guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err));
+    let gltf::Gltf { document, blob } = match parsed {
+        // glTF 2.0 makes `scene.nodes` optional (an empty scene is valid), but `gltf-json` 1.4.1 requires the
+        // key: add `"nodes": []` to such scenes and parse again, so the file reads as the empty scene it is.
+        Err(e) if e.to_string().contains("missing field `nodes`") => {
+            let patched = with_scene_nodes(bytes).ok_or(e)?;
+            guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(&patched).map_err(gltf_err))?
+        }
+        other => other?,
+    };
 
     // Required extensions first, with our own list: `gltf`'s validation would reject
     // KHR_materials_volume and KHR_materials_dispersion, which we do read, with a vaguer message.
@@ -109,6 +117,26 @@ pub(crate) fn load_gltf_slice(
     }
     loader.traverse(&document)?;
     Ok(loader.desc)
+}
+
+/// The file with `"nodes": []` added to every scene that has no `nodes` key (JSON or GLB); `None` if its
+/// JSON cannot be read as an object with a `scenes` array.
+fn with_scene_nodes(bytes: &[u8]) -> Option<Vec<u8>> {
+    let patch = |json: &[u8]| -> Option<Vec<u8>> {
+        let mut value: serde_json::Value = serde_json::from_slice(json).ok()?;
+        for scene in value.get_mut("scenes")?.as_array_mut()? {
+            scene.as_object_mut()?.entry("nodes").or_insert_with(|| serde_json::json!([]));
+        }
+        serde_json::to_vec(&value).ok()
+    };
+    if !bytes.starts_with(b"glTF") {
+        return patch(bytes);
+    }
+    let glb = gltf::Glb::from_slice(bytes).ok()?;
+    // `to_vec` writes the header and chunk lengths (and the padding) from the chunks themselves.
+    let json = patch(&glb.json)?;
+    let glb = gltf::Glb { header: glb.header, json: json.into(), bin: glb.bin };
+    glb.to_vec().ok()
 }
 
 fn load_buffers(
@@ -215,6 +243,14 @@ impl Loader<'_> {
                 document.nodes().filter(|n| !children.contains(&n.index())).collect()
             }
         };
+        if roots.is_empty() {
+            // Valid glTF (a scene may list no nodes, a file may have none), but there is nothing to render:
+            // said here, so that the no-geometry error names the reason.
+            self.warn(match document.default_scene().or_else(|| document.scenes().next()) {
+                Some(scene) => format!("scene {} has no nodes (an empty scene)", scene.index()),
+                None => "the file has no nodes and no scene".to_owned(),
+            });
+        }
         let mut visited = HashSet::new();
         let mut stack: Vec<(gltf::Node<'_>, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {

@@ -739,3 +739,37 @@ fn the_source_digest_covers_referenced_files_but_not_where_the_scene_lies() {
     assert_ne!(digest(&b), original, "the included mesh is part of the digest");
     assert_ne!(scene("reference/cornell_box.json").source_hash, original);
 }
+
+/// Issue 12: a glTF file with no nodes, or whose scene lists none (the `nodes` key is optional in glTF 2.0),
+/// is valid: "nothing to render" naming the file and the reason, not a parse error (the scene without a
+/// `nodes` key was "missing field `nodes`" before). Also in a GLB container.
+#[test]
+fn gltf_without_nodes_is_nothing_to_render_not_a_parse_error() {
+    let dir = temp_dir("empty-gltf");
+    let cases: [(&str, &[u8], &str); 4] = [
+        ("no_nodes.gltf", br#"{"asset": {"version": "2.0"}}"#, "no nodes and no scene"),
+        ("scene_without_nodes.gltf", br#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{}]}"#, "scene 0 has no nodes"),
+        ("empty_list.gltf", br#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": []}]}"#, "scene 0 has no nodes"),
+        (
+            "empty_node.gltf",
+            br#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": [0]}], "nodes": [{"name": "empty"}]}"#,
+            "",
+        ),
+    ];
+    for (name, json, why) in cases {
+        let (e, msg) = error_message(&write(&dir, name, json));
+        assert!(matches!(e, Error::NoGeometry { .. }), "{name}: {e:?}");
+        assert!(msg.contains("nothing to render") && msg.contains(name) && msg.contains(why), "{msg}");
+    }
+    // The same scene in a GLB (JSON chunk padded to 4 bytes, no BIN chunk).
+    let mut json = br#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"name": "s"}]}"#.to_vec();
+    json.resize(json.len().next_multiple_of(4), b' ');
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend((12 + 8 + json.len() as u32).to_le_bytes());
+    glb.extend((json.len() as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(&json);
+    let (e, msg) = error_message(&write(&dir, "empty.glb", &glb));
+    assert!(matches!(e, Error::NoGeometry { .. }) && msg.contains("scene 0 has no nodes"), "{msg}");
+}
