@@ -354,7 +354,24 @@ impl LightDesc {
     }
 }
 
-/// A pinhole camera as written in a scene file.
+/// How a camera projects the scene onto its image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// A pinhole: rays from the eye, spread by the camera's `vfov_deg`.
+    Perspective,
+    /// Parallel rays along the view direction from a rectangle through the eye, `2·xmag` wide and
+    /// `2·ymag` high in scene units (glTF 2.0 `camera.orthographic`; both finite and > 0). The renderer
+    /// keeps `ymag` and widens or narrows the rectangle to the image's aspect, as `vfov_deg` for a
+    /// pinhole; `xmag / ymag` is the camera's aspect ratio.
+    Orthographic {
+        /// Half the width of the viewed rectangle.
+        xmag: f32,
+        /// Half the height of the viewed rectangle.
+        ymag: f32,
+    },
+}
+
+/// A camera as written in a scene file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraDesc {
     /// Eye position.
@@ -363,8 +380,13 @@ pub struct CameraDesc {
     pub look_at: Vec3,
     /// Up vector (need not be unit or orthogonal to the view direction, must not be parallel to it).
     pub up: Vec3,
-    /// Vertical field of view in degrees, in (0, 180).
+    /// Vertical field of view in degrees, in (0, 180) (perspective projection only).
     pub vfov_deg: f32,
+    /// Perspective or orthographic.
+    pub projection: Projection,
+    /// Width / height the camera was made for (glTF `aspectRatio`, an orthographic camera's `xmag / ymag`),
+    /// finite and > 0, if the file says: it sets the default image height from the default width.
+    pub aspect_ratio: Option<f32>,
     /// Image width in pixels, if the file fixes it.
     pub width: Option<u32>,
     /// Image height in pixels, if the file fixes it.

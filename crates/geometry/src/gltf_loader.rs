@@ -17,7 +17,7 @@ use gltf::mesh::{Mode, Semantic};
 
 use crate::desc::{
     AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
-    SceneDescription, SceneFormat, SpectrumDesc,
+    Projection, SceneDescription, SceneFormat, SpectrumDesc,
 };
 use crate::error::{Error, Result};
 use crate::limits::{BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
@@ -291,38 +291,66 @@ impl Loader<'_> {
     }
 
     fn camera(&mut self, camera: &gltf::Camera<'_>, world: Mat4, context: &str, node_name: Option<&str>) {
-        match camera.projection() {
+        let (projection, vfov_deg, aspect_ratio) = match camera.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let vfov_deg = p.yfov().to_degrees();
                 if !(vfov_deg > 0.0 && vfov_deg < 180.0) {
                     self.warn(format!("{context}: camera yfov {} rad is outside (0, π); ignored", p.yfov()));
                     return;
                 }
-                // glTF cameras look down their local −Z with +Y up (glTF 2.0 §3.10.1).
-                let position = world.transform_point3(Vec3::ZERO);
-                let (Some(forward), Some(up)) = (
-                    world.transform_vector3(Vec3::NEG_Z).try_normalize(),
-                    world.transform_vector3(Vec3::Y).try_normalize(),
-                ) else {
-                    return;
-                };
-                let desc =
-                    CameraDesc { position, look_at: position + forward, up, vfov_deg, width: None, height: None };
-                // Every camera is kept, named by the camera, else its node, else its rank; the first
-                // perspective camera is the default.
-                let name = camera
-                    .name()
-                    .or(node_name)
-                    .map_or_else(|| format!("camera {}", self.desc.cameras.len()), str::to_owned);
-                if self.desc.camera.is_none() {
-                    self.desc.camera = Some(desc.clone());
+                let aspect = p.aspect_ratio();
+                if aspect.is_some_and(|a| !(a.is_finite() && a > 0.0)) {
+                    self.warn(format!("{context}: camera aspectRatio {aspect:?} is not finite and > 0; ignored"));
                 }
-                self.desc.cameras.push((name, desc));
+                (Projection::Perspective, vfov_deg, aspect.filter(|a| a.is_finite() && *a > 0.0))
             }
-            gltf::camera::Projection::Orthographic(_) => {
-                self.warn(format!("{context}: orthographic cameras are not supported; ignored"));
+            gltf::camera::Projection::Orthographic(o) => {
+                // glTF 2.0 §5.13: xmag and ymag must not be zero and should not be negative; the sign
+                // would mirror the image, so a negative value is refused rather than guessed at.
+                let (xmag, ymag) = (o.xmag(), o.ymag());
+                if !(xmag.is_finite() && xmag > 0.0 && ymag.is_finite() && ymag > 0.0) {
+                    self.warn(format!(
+                        "{context}: orthographic camera xmag {xmag}, ymag {ymag}: both must be finite and > 0; ignored"
+                    ));
+                    return;
+                }
+                // vfov_deg is not used by an orthographic camera; it holds a valid value all the same.
+                (Projection::Orthographic { xmag, ymag }, 40.0, Some(xmag / ymag))
             }
+        };
+        // glTF cameras look down their local −Z with +Y up (glTF 2.0 §3.10.1).
+        let position = world.transform_point3(Vec3::ZERO);
+        let (Some(forward), Some(up)) = (
+            world.transform_vector3(Vec3::NEG_Z).try_normalize(),
+            world.transform_vector3(Vec3::Y).try_normalize(),
+        ) else {
+            return;
+        };
+        // A scaled node scales an orthographic view (the rectangle is in the camera's local units).
+        let projection = match projection {
+            Projection::Orthographic { xmag, ymag } => Projection::Orthographic {
+                xmag: xmag * world.transform_vector3(Vec3::X).length(),
+                ymag: ymag * world.transform_vector3(Vec3::Y).length(),
+            },
+            p => p,
+        };
+        let desc = CameraDesc {
+            position,
+            look_at: position + forward,
+            up,
+            vfov_deg,
+            projection,
+            aspect_ratio,
+            width: None,
+            height: None,
+        };
+        // Every camera is kept, named by the camera, else its node, else its rank; the first is the default.
+        let name =
+            camera.name().or(node_name).map_or_else(|| format!("camera {}", self.desc.cameras.len()), str::to_owned);
+        if self.desc.camera.is_none() {
+            self.desc.camera = Some(desc.clone());
         }
+        self.desc.cameras.push((name, desc));
     }
 
     fn light(&mut self, light: &gltf::khr_lights_punctual::Light<'_>, world: Mat4) {

@@ -51,7 +51,7 @@ mod obj_loader;
 mod prefilter;
 pub use desc::{
     AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
-    SceneDescription, SceneFormat, SpectrumDesc,
+    Projection, SceneDescription, SceneFormat, SpectrumDesc,
 };
 pub use hash::xxh64;
 pub use limits::{DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};

@@ -149,6 +149,11 @@ fn camera_json(c: &CameraDesc, source: &str, file_cameras: &[(String, CameraDesc
         "look_at": c.look_at.to_array(),
         "up": c.up.to_array(),
         "vfov_deg": c.vfov_deg,
+        "projection": match c.projection {
+            geometry::Projection::Perspective => json!("perspective"),
+            geometry::Projection::Orthographic { xmag, ymag } => json!({"orthographic": {"xmag": xmag, "ymag": ymag}}),
+        },
+        "aspect_ratio": c.aspect_ratio,
         "width": c.width,
         "height": c.height,
     })
