@@ -34,6 +34,22 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_dispersion",
 ];
 
+/// Extensions a file may require that we degrade gracefully: the file loads, with a warning (see
+/// [`extension_notes`]). Animations are ignored, so a file whose animations need `KHR_animation_pointer`
+/// still has a rest pose; `KHR_materials_variants` keeps each primitive's default material.
+const DEGRADED_EXTENSIONS: &[&str] = &["KHR_materials_variants", "KHR_animation_pointer"];
+
+/// Extensions whose data we do not decode, with the way forward for the user. glTF Transform decodes Draco
+/// and meshopt when it reads a file and writes plain buffers (its maintainer: "decompression happens by
+/// default when loading a file", donmccurdy/glTF-Transform#150), and `ktxdecompress` turns KTX2 textures
+/// into PNG. A file that requires one of them loads only if nothing it needs is missing (see
+/// [`extension_notes`]).
+const UNDECODED_EXTENSIONS: &[(&str, &str)] = &[
+    ("KHR_draco_mesh_compression", "decompress the file first, e.g. `gltf-transform cp IN OUT`"),
+    ("EXT_meshopt_compression", "decompress the file first, e.g. `gltf-transform cp IN OUT`"),
+    ("KHR_texture_basisu", "convert them to PNG first, e.g. `gltf-transform ktxdecompress IN OUT`"),
+];
+
 /// Bytes charged per accessor component read: the f64 staging value and the f32 it becomes.
 const BYTES_PER_COMPONENT: u64 = 12;
 
@@ -57,26 +73,38 @@ pub(crate) fn load_gltf_slice(
     // The JSON document (tree of values) costs a few times its text; charge twice the file.
     budget.charge(path, || "the glTF JSON document".to_owned(), 2 * bytes.len() as u64)?;
     let parsed = guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err));
+    let mut dropped_animations = 0;
     let gltf::Gltf { document, blob } = match parsed {
-        // glTF 2.0 makes `scene.nodes` optional (an empty scene is valid), but `gltf-json` 1.4.1 requires the
-        // key: add `"nodes": []` to such scenes and parse again, so the file reads as the empty scene it is.
-        Err(e) if e.to_string().contains("missing field `nodes`") => {
-            let patched = with_scene_nodes(bytes).ok_or(e)?;
-            guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(&patched).map_err(gltf_err))?
+        // `gltf-json` 1.4.1 refuses what glTF 2.0 allows or what we ignore anyway: a scene without the
+        // optional `nodes` key (an empty scene), and animation channels without a `node` (a
+        // `KHR_animation_pointer` target). Patch those and parse again; if that fails too, the first error
+        // stands.
+        Err(e) => {
+            let (patched, animations) = match patch_json(bytes) {
+                Some(p) => p,
+                None => return Err(e),
+            };
+            dropped_animations = animations;
+            guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(&patched).map_err(gltf_err))
+                .map_err(|_| e)?
         }
-        other => other?,
+        Ok(gltf) => gltf,
     };
 
     // Required extensions first, with our own list: `gltf`'s validation would reject
     // KHR_materials_volume and KHR_materials_dispersion, which we do read, with a vaguer message.
     let mut root = document.into_json();
-    if let Some(ext) = root.extensions_required.iter().find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str())) {
+    let known = |e: &str| {
+        SUPPORTED_EXTENSIONS.contains(&e) || DEGRADED_EXTENSIONS.contains(&e) || UNDECODED_EXTENSIONS.iter().any(|u| u.0 == e)
+    };
+    if let Some(ext) = root.extensions_required.iter().find(|e| !known(e)) {
         return Err(Error::UnsupportedExtension {
             path: path.to_path_buf(),
             extension: ext.clone(),
             supported: SUPPORTED_EXTENSIONS.join(", "),
         });
     }
+    let notes = extension_notes(&mut root, dropped_animations, path)?;
     root.extensions_required.clear();
     // `gltf-json`'s validation indexes `accessors` with the POSITION attribute before checking the index
     // (gltf-json 1.4.1 src/mesh.rs:151, found by the fuzz test): check it first.
@@ -111,6 +139,9 @@ pub(crate) fn load_gltf_slice(
         desc: SceneDescription::empty(SceneFormat::Gltf),
         default_material: None,
     };
+    for note in notes {
+        loader.warn(note);
+    }
     for material in document.materials() {
         let m = loader.material(&material);
         loader.desc.materials.push(m);
@@ -119,24 +150,137 @@ pub(crate) fn load_gltf_slice(
     Ok(loader.desc)
 }
 
-/// The file with `"nodes": []` added to every scene that has no `nodes` key (JSON or GLB); `None` if its
-/// JSON cannot be read as an object with a `scenes` array.
-fn with_scene_nodes(bytes: &[u8]) -> Option<Vec<u8>> {
-    let patch = |json: &[u8]| -> Option<Vec<u8>> {
+/// The file with `"nodes": []` added to every scene that has no `nodes` key and without its animations
+/// (JSON or GLB), and the number of animations removed; `None` if its JSON cannot be read as an object.
+fn patch_json(bytes: &[u8]) -> Option<(Vec<u8>, usize)> {
+    let patch = |json: &[u8]| -> Option<(Vec<u8>, usize)> {
         let mut value: serde_json::Value = serde_json::from_slice(json).ok()?;
-        for scene in value.get_mut("scenes")?.as_array_mut()? {
+        let root = value.as_object_mut()?;
+        for scene in root.get_mut("scenes").and_then(|s| s.as_array_mut()).into_iter().flatten() {
             scene.as_object_mut()?.entry("nodes").or_insert_with(|| serde_json::json!([]));
         }
-        serde_json::to_vec(&value).ok()
+        let animations = root.remove("animations").and_then(|a| a.as_array().map(Vec::len)).unwrap_or(0);
+        Some((serde_json::to_vec(&value).ok()?, animations))
     };
     if !bytes.starts_with(b"glTF") {
         return patch(bytes);
     }
     let glb = gltf::Glb::from_slice(bytes).ok()?;
     // `to_vec` writes the header and chunk lengths (and the padding) from the chunks themselves.
-    let json = patch(&glb.json)?;
+    let (json, animations) = patch(&glb.json)?;
     let glb = gltf::Glb { header: glb.header, json: json.into(), bin: glb.bin };
-    glb.to_vec().ok()
+    Some((glb.to_vec().ok()?, animations))
+}
+
+/// What the file uses that we do not render, as one warning per extension or feature, checked on the JSON
+/// before `gltf`'s validation (which would refuse some of it with a vaguer message):
+/// - Draco (`KHR_draco_mesh_compression`): primitives whose uncompressed fallback accessors are present
+///   load from them (warning); a primitive without them (the file then requires the extension) is an
+///   error naming the extension and the way forward.
+/// - meshopt (`EXT_meshopt_compression`): buffer views whose uncompressed fallback buffer has data load
+///   from it (warning); a fallback buffer without data (no URI) is an error, likewise.
+/// - KTX2 (`KHR_texture_basisu`): a warning; a texture with only a KTX2 image points at it, so that the
+///   file validates (it is not decoded).
+/// - `KHR_materials_variants`: each primitive's default material; the variants are named in a warning.
+/// - Animations (including `KHR_animation_pointer` ones): removed, one warning (the rest pose is drawn).
+fn extension_notes(root: &mut gltf::json::Root, dropped_animations: usize, path: &Path) -> Result<Vec<String>> {
+    let way = |name: &str| UNDECODED_EXTENSIONS.iter().find(|u| u.0 == name).map_or("", |u| u.1);
+    let mut notes = Vec::new();
+
+    const DRACO: &str = "KHR_draco_mesh_compression";
+    let mut draco = 0;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if !primitive.extensions.as_ref().is_some_and(|e| e.others.contains_key(DRACO)) {
+                continue;
+            }
+            draco += 1;
+            let accessors = primitive.attributes.values().chain(primitive.indices.iter());
+            let missing = accessors.into_iter().any(|a| {
+                root.accessors.get(a.value()).is_some_and(|acc| acc.buffer_view.is_none() && acc.sparse.is_none())
+            });
+            if missing {
+                return Err(Error::GltfData {
+                    path: path.to_path_buf(),
+                    context: format!("meshes[{m}] primitive {p}"),
+                    message: format!("{DRACO}: the geometry is only Draco-compressed, which is not decoded; {}", way(DRACO)),
+                });
+            }
+        }
+    }
+    if draco > 0 {
+        notes.push(format!("{DRACO}: {draco} primitive(s) also hold Draco data, not decoded; their uncompressed fallback is used"));
+    }
+
+    const MESHOPT: &str = "EXT_meshopt_compression";
+    let fallback_without_data = |b: &gltf::json::Buffer| {
+        b.uri.is_none() && b.extensions.as_ref().is_some_and(|e| e.others.contains_key(MESHOPT))
+    };
+    let mut meshopt = 0;
+    for (v, view) in root.buffer_views.iter().enumerate() {
+        if !view.extensions.as_ref().is_some_and(|e| e.others.contains_key(MESHOPT)) {
+            continue;
+        }
+        meshopt += 1;
+        if root.buffers.get(view.buffer.value()).is_some_and(fallback_without_data) {
+            return Err(Error::GltfData {
+                path: path.to_path_buf(),
+                context: format!("bufferViews[{v}]"),
+                message: format!("{MESHOPT}: the data is only meshopt-compressed, which is not decoded; {}", way(MESHOPT)),
+            });
+        }
+    }
+    if meshopt > 0 || root.buffers.iter().any(fallback_without_data) {
+        notes.push(format!("{MESHOPT}: {meshopt} buffer view(s) also hold meshopt data, not decoded; their uncompressed fallback is used"));
+    }
+
+    const BASISU: &str = "KHR_texture_basisu";
+    let (mut ktx2, mut only_ktx2) = (0, 0);
+    for texture in &mut root.textures {
+        let Some(ext) = texture.extensions.as_ref().and_then(|e| e.others.get(BASISU)) else { continue };
+        ktx2 += 1;
+        let source = ext.get("source").and_then(serde_json::Value::as_u64).and_then(|i| u32::try_from(i).ok());
+        if texture.source.value() == u32::MAX as usize {
+            only_ktx2 += 1;
+            if let Some(i) = source.filter(|i| (*i as usize) < root.images.len()) {
+                texture.source = gltf::json::Index::new(i);
+            }
+        }
+    }
+    if ktx2 > 0 {
+        notes.push(format!(
+            "{BASISU}: {ktx2} texture(s) in KTX2, not decoded ({only_ktx2} without a PNG/JPEG fallback, so missing); {}",
+            way(BASISU)
+        ));
+    }
+
+    const VARIANTS: &str = "KHR_materials_variants";
+    let variants = root
+        .extensions
+        .as_ref()
+        .and_then(|e| e.others.get(VARIANTS))
+        .and_then(|v| v.get("variants"))
+        .and_then(serde_json::Value::as_array)
+        .map(|list| list.iter().map(|v| v.get("name").and_then(serde_json::Value::as_str).unwrap_or("?")).collect::<Vec<_>>());
+    let mapped = root.meshes.iter().flat_map(|m| &m.primitives).any(|p| {
+        p.extensions.as_ref().is_some_and(|e| e.others.contains_key(VARIANTS))
+    });
+    if variants.is_some() || mapped {
+        let names = variants.map(|v| v.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")).unwrap_or_default();
+        notes.push(format!("{VARIANTS}: variants {names} ignored; each primitive's default material is used"));
+    }
+
+    let animations = root.animations.len() + dropped_animations;
+    if animations > 0 {
+        let pointer = if root.extensions_used.iter().any(|e| e == "KHR_animation_pointer") {
+            " (with KHR_animation_pointer)"
+        } else {
+            ""
+        };
+        notes.push(format!("{animations} animation(s){pointer} ignored: the still rest pose is rendered"));
+        root.animations.clear();
+    }
+    Ok(notes)
 }
 
 fn load_buffers(

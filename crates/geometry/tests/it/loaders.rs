@@ -380,11 +380,19 @@ fn gltf_unsupported_required_extension_is_named() {
     let doc = triangle_gltf(
         Some(&uri),
         36,
-        json!({"extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]}),
+        json!({"extensionsUsed": ["EXT_lights_image_based"], "extensionsRequired": ["EXT_lights_image_based"]}),
     );
     let (e, msg) = error_message(&write_gltf(&dir, "d.gltf", &doc));
     assert!(matches!(e, Error::UnsupportedExtension { .. }), "{e:?}");
-    assert!(msg.contains("KHR_draco_mesh_compression"), "{msg}");
+    assert!(msg.contains("EXT_lights_image_based"), "{msg}");
+    // Draco required but used by no primitive: nothing is missing, so the file loads (issue 12; see
+    // `compressed_data_variants_and_animations_get_one_line_each`).
+    let doc = triangle_gltf(
+        Some(&uri),
+        36,
+        json!({"extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"]}),
+    );
+    assert!(load_scene(&write_gltf(&dir, "draco_unused.gltf", &doc)).is_ok());
 }
 
 #[test]
@@ -772,4 +780,96 @@ fn gltf_without_nodes_is_nothing_to_render_not_a_parse_error() {
     glb.extend(&json);
     let (e, msg) = error_message(&write(&dir, "empty.glb", &glb));
     assert!(matches!(e, Error::NoGeometry { .. }) && msg.contains("scene 0 has no nodes"), "{msg}");
+}
+
+/// Issue 12: Draco, meshopt and KTX2 get one line naming the extension and a way forward: an error when
+/// the geometry exists only compressed, a warning when an uncompressed fallback is there; variants keep
+/// the default material and animations (also `KHR_animation_pointer` ones, which `gltf-json` could not
+/// parse: "missing field `node`") are ignored, each with one warning, required or not. Before: Draco and
+/// meshopt named only "unsupported glTF extension", the used-only meshopt file failed with "refers to the
+/// GLB binary chunk", variants and animations were silent, and the pointer animation was a parse error.
+#[test]
+fn compressed_data_variants_and_animations_get_one_line_each() {
+    let dir = temp_dir("gltf-extensions");
+    let uri = data_uri(&f32_bytes(&[TRIANGLE.as_slice(), &[0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]].concat()));
+    let base = || triangle_gltf(Some(&uri), 68, json!({}));
+    let draco_ext = json!({"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}});
+
+    // Draco required, POSITION only compressed: an error with the way forward.
+    let mut d = base();
+    d["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
+    d["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+    d["accessors"][0].as_object_mut().unwrap().remove("bufferView");
+    d["meshes"][0]["primitives"][0]["extensions"] = draco_ext.clone();
+    let (_, msg) = error_message(&write_gltf(&dir, "draco.gltf", &d));
+    assert!(msg.contains("KHR_draco_mesh_compression") && msg.contains("gltf-transform cp"), "{msg}");
+    // Draco used with the uncompressed fallback: loads, one warning.
+    let mut d = base();
+    d["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
+    d["meshes"][0]["primitives"][0]["extensions"] = draco_ext;
+    let desc = load_scene(&write_gltf(&dir, "draco_fallback.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(desc.meshes[0].triangle_count(), 1);
+    assert_eq!(desc.warnings.iter().filter(|w| w.contains("KHR_draco_mesh_compression")).count(), 1, "{:?}", desc.warnings);
+
+    // meshopt required, its fallback buffer without data: an error; with data: a warning.
+    let mut d = base();
+    d["extensionsUsed"] = json!(["EXT_meshopt_compression"]);
+    d["extensionsRequired"] = json!(["EXT_meshopt_compression"]);
+    let meshopt = json!({"EXT_meshopt_compression": {"buffer": 1, "byteLength": 36, "byteStride": 12, "count": 3, "mode": "ATTRIBUTES"}});
+    d["buffers"] = json!([{"byteLength": 36, "extensions": {"EXT_meshopt_compression": {"fallback": true}}}, d["buffers"][0]]);
+    d["bufferViews"][0]["extensions"] = meshopt.clone();
+    let (_, msg) = error_message(&write_gltf(&dir, "meshopt.gltf", &d));
+    assert!(msg.contains("EXT_meshopt_compression") && msg.contains("bufferViews[0]") && msg.contains("gltf-transform cp"), "{msg}");
+    let mut d = base();
+    d["extensionsUsed"] = json!(["EXT_meshopt_compression"]);
+    d["bufferViews"][0]["extensions"] = meshopt;
+    let desc = load_scene(&write_gltf(&dir, "meshopt_fallback.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(desc.meshes[0].triangle_count(), 1);
+    assert!(desc.warnings.iter().any(|w| w.contains("EXT_meshopt_compression")), "{:?}", desc.warnings);
+
+    // KTX2 only (required): loads (textures are not geometry), the warning names the tool.
+    let mut d = base();
+    d["extensionsUsed"] = json!(["KHR_texture_basisu"]);
+    d["extensionsRequired"] = json!(["KHR_texture_basisu"]);
+    d["images"] = json!([{"uri": "t.ktx2", "mimeType": "image/ktx2"}]);
+    d["textures"] = json!([{"extensions": {"KHR_texture_basisu": {"source": 0}}}]);
+    d["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
+    d["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let desc = load_scene(&write_gltf(&dir, "ktx2.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
+    let ktx = desc.warnings.iter().find(|w| w.contains("KHR_texture_basisu")).unwrap_or_else(|| panic!("{:?}", desc.warnings));
+    assert!(ktx.contains("1 without a PNG/JPEG fallback") && ktx.contains("ktxdecompress"), "{ktx}");
+
+    // Variants, required: the default material (red), the variants named.
+    let mut d = base();
+    d["extensionsUsed"] = json!(["KHR_materials_variants"]);
+    d["extensionsRequired"] = json!(["KHR_materials_variants"]);
+    d["materials"] = json!([{"name": "red", "pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1]}},
+                            {"name": "blue", "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 1, 1]}}]);
+    d["extensions"] = json!({"KHR_materials_variants": {"variants": [{"name": "day"}, {"name": "night"}]}});
+    d["meshes"][0]["primitives"][0]["material"] = json!(0);
+    d["meshes"][0]["primitives"][0]["extensions"] = json!({"KHR_materials_variants": {"mappings": [{"material": 1, "variants": [1]}]}});
+    let desc = load_scene(&write_gltf(&dir, "variants.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(desc.meshes[0].material(), Some(0));
+    assert!(desc.warnings.iter().any(|w| w.contains("variants 'day', 'night' ignored")), "{:?}", desc.warnings);
+
+    // Animations: a TRS one and a KHR_animation_pointer one (required); the rest pose, one warning each file.
+    let mut d = base();
+    d["bufferViews"] = json!([{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 8},
+                              {"buffer": 0, "byteOffset": 44, "byteLength": 24}]);
+    d["accessors"] = json!([d["accessors"][0], {"bufferView": 1, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0], "max": [1]},
+                            {"bufferView": 2, "componentType": 5126, "count": 2, "type": "VEC3"}]);
+    d["animations"] = json!([{"samplers": [{"input": 1, "output": 2}], "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}]}]);
+    let desc = load_scene(&write_gltf(&dir, "anim.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(desc.meshes[0].positions()[1], Vec3::X, "rest pose");
+    assert_eq!(desc.warnings.iter().filter(|w| w.contains("1 animation(s) ignored")).count(), 1, "{:?}", desc.warnings);
+    d["extensionsUsed"] = json!(["KHR_animation_pointer"]);
+    d["extensionsRequired"] = json!(["KHR_animation_pointer"]);
+    d["animations"][0]["channels"][0]["target"] =
+        json!({"path": "pointer", "extensions": {"KHR_animation_pointer": {"pointer": "/nodes/0/translation"}}});
+    let desc = load_scene(&write_gltf(&dir, "pointer.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
+    assert!(desc.warnings.iter().any(|w| w.contains("with KHR_animation_pointer) ignored")), "{:?}", desc.warnings);
+    // An unknown required extension is still refused, naming it.
+    d["extensionsRequired"] = json!(["EXT_unknown"]);
+    let (_, msg) = error_message(&write_gltf(&dir, "unknown.gltf", &d));
+    assert!(msg.contains("EXT_unknown"), "{msg}");
 }
