@@ -34,7 +34,7 @@ pub use bvh::{BvhStats, Primitive, Scene};
 pub use camera::Camera;
 pub use error::{Error, Result};
 pub use ray::{Hit, Ray, spawn_ray, spawn_ray_to};
-pub use shapes::{Mesh, Sphere};
+pub use shapes::{Instances, Mesh, Sphere};
 pub use simd::SimdLevel;
 
 // --- loaders, layered without cycles: `desc` (plain types) and `limits` (budget, file and coordinate
