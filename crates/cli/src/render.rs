@@ -167,6 +167,7 @@ impl LoadArgs {
         geometry::LoadOptions {
             max_memory: self.max_memory.unwrap_or(geometry::DEFAULT_MAX_MEMORY),
             allow_absolute_paths: self.allow_absolute_paths,
+            ..geometry::LoadOptions::default()
         }
     }
 }

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 
 use glam::Vec3;
 
-use crate::shapes::{Mesh, Sphere};
+use crate::shapes::{Instances, Mesh, Sphere};
 
 /// A spectrum as written in a scene file, not yet interpreted.
 #[derive(Clone, Debug, PartialEq)]
@@ -413,6 +413,9 @@ pub struct SceneDescription {
     pub spheres: Vec<Sphere>,
     /// World-space triangle meshes; material indices point into `materials`.
     pub meshes: Vec<Mesh>,
+    /// Meshes placed several times, kept once in object space with a transform per placement (see
+    /// [`crate::LoadOptions::flatten_triangles`]); material indices point into `materials`.
+    pub instances: Vec<Instances>,
     /// Materials, indexed by the shapes' material indices.
     pub materials: Vec<MaterialDesc>,
     /// Light sources.
@@ -442,6 +445,7 @@ impl SceneDescription {
             format,
             spheres: Vec::new(),
             meshes: Vec::new(),
+            instances: Vec::new(),
             materials: Vec::new(),
             lights: Vec::new(),
             camera: None,
@@ -453,7 +457,8 @@ impl SceneDescription {
         }
     }
 
-    /// Axis-aligned bounds of all spheres and mesh vertices, `None` when the scene has no geometry.
+    /// Axis-aligned bounds of all spheres, mesh vertices and placed instances, `None` when the scene has no
+    /// geometry.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -466,6 +471,10 @@ impl SceneDescription {
                 lo = lo.min(*p);
                 hi = hi.max(*p);
             }
+        }
+        for (a, b) in self.instances.iter().filter_map(Instances::bounds) {
+            lo = lo.min(a);
+            hi = hi.max(b);
         }
         (lo.x <= hi.x).then_some((lo, hi))
     }

@@ -16,12 +16,12 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
 use crate::desc::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
-    Projection, SceneDescription, SceneFormat, SpectrumDesc,
+    AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, Projection,
+    SceneDescription, SceneFormat, SpectrumDesc,
 };
 use crate::error::{Error, Result};
-use crate::limits::{BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
-use crate::shapes::Mesh;
+use crate::limits::{BYTES_PER_INSTANCE, BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
+use crate::shapes::{Instances, Mesh};
 
 /// Extensions whose data we read; a file that *requires* anything else is refused.
 /// `KHR_materials_dispersion` is read from the raw extension map (the `gltf` crate has no typed accessor).
@@ -32,6 +32,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_materials_emissive_strength",
     "KHR_materials_dispersion",
+    "EXT_mesh_gpu_instancing",
 ];
 
 /// Extensions a file may require that we degrade gracefully: the file loads, with a warning (see
@@ -95,7 +96,9 @@ pub(crate) fn load_gltf_slice(
     // KHR_materials_volume and KHR_materials_dispersion, which we do read, with a vaguer message.
     let mut root = document.into_json();
     let known = |e: &str| {
-        SUPPORTED_EXTENSIONS.contains(&e) || DEGRADED_EXTENSIONS.contains(&e) || UNDECODED_EXTENSIONS.iter().any(|u| u.0 == e)
+        SUPPORTED_EXTENSIONS.contains(&e)
+            || DEGRADED_EXTENSIONS.contains(&e)
+            || UNDECODED_EXTENSIONS.iter().any(|u| u.0 == e)
     };
     if let Some(ext) = root.extensions_required.iter().find(|e| !known(e)) {
         return Err(Error::UnsupportedExtension {
@@ -203,13 +206,18 @@ fn extension_notes(root: &mut gltf::json::Root, dropped_animations: usize, path:
                 return Err(Error::GltfData {
                     path: path.to_path_buf(),
                     context: format!("meshes[{m}] primitive {p}"),
-                    message: format!("{DRACO}: the geometry is only Draco-compressed, which is not decoded; {}", way(DRACO)),
+                    message: format!(
+                        "{DRACO}: the geometry is only Draco-compressed, which is not decoded; {}",
+                        way(DRACO)
+                    ),
                 });
             }
         }
     }
     if draco > 0 {
-        notes.push(format!("{DRACO}: {draco} primitive(s) also hold Draco data, not decoded; their uncompressed fallback is used"));
+        notes.push(format!(
+            "{DRACO}: {draco} primitive(s) also hold Draco data, not decoded; their uncompressed fallback is used"
+        ));
     }
 
     const MESHOPT: &str = "EXT_meshopt_compression";
@@ -226,7 +234,10 @@ fn extension_notes(root: &mut gltf::json::Root, dropped_animations: usize, path:
             return Err(Error::GltfData {
                 path: path.to_path_buf(),
                 context: format!("bufferViews[{v}]"),
-                message: format!("{MESHOPT}: the data is only meshopt-compressed, which is not decoded; {}", way(MESHOPT)),
+                message: format!(
+                    "{MESHOPT}: the data is only meshopt-compressed, which is not decoded; {}",
+                    way(MESHOPT)
+                ),
             });
         }
     }
@@ -261,12 +272,17 @@ fn extension_notes(root: &mut gltf::json::Root, dropped_animations: usize, path:
         .and_then(|e| e.others.get(VARIANTS))
         .and_then(|v| v.get("variants"))
         .and_then(serde_json::Value::as_array)
-        .map(|list| list.iter().map(|v| v.get("name").and_then(serde_json::Value::as_str).unwrap_or("?")).collect::<Vec<_>>());
-    let mapped = root.meshes.iter().flat_map(|m| &m.primitives).any(|p| {
-        p.extensions.as_ref().is_some_and(|e| e.others.contains_key(VARIANTS))
-    });
+        .map(|list| {
+            list.iter().map(|v| v.get("name").and_then(serde_json::Value::as_str).unwrap_or("?")).collect::<Vec<_>>()
+        });
+    let mapped = root
+        .meshes
+        .iter()
+        .flat_map(|m| &m.primitives)
+        .any(|p| p.extensions.as_ref().is_some_and(|e| e.others.contains_key(VARIANTS)));
     if variants.is_some() || mapped {
-        let names = variants.map(|v| v.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")).unwrap_or_default();
+        let names =
+            variants.map(|v| v.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")).unwrap_or_default();
         notes.push(format!("{VARIANTS}: variants {names} ignored; each primitive's default material is used"));
     }
 
@@ -396,6 +412,8 @@ impl Loader<'_> {
             });
         }
         let mut visited = HashSet::new();
+        // Every placement of a mesh, in traversal order: (mesh, world transform, node context).
+        let mut placements: Vec<(gltf::Mesh<'_>, Mat4, String)> = Vec::new();
         let mut stack: Vec<(gltf::Node<'_>, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {
             if !visited.insert(node.index()) {
@@ -419,7 +437,18 @@ impl Loader<'_> {
                 if node.skin().is_some() || mesh.weights().is_some() {
                     self.warn(format!("{context}: skinning and morph targets are ignored (rest pose used)"));
                 }
-                self.mesh(&mesh, world, det < 0.0, &context)?;
+                match node.extension_value("EXT_mesh_gpu_instancing") {
+                    Some(ext) => {
+                        for local in self.gpu_instances(document, ext, &context)? {
+                            let m = world * local;
+                            let det = m.determinant();
+                            if m.is_finite() && det.is_finite() && det != 0.0 {
+                                placements.push((mesh.clone(), m, context.clone()));
+                            }
+                        }
+                    }
+                    None => placements.push((mesh, world, context.clone())),
+                }
             }
             if let Some(camera) = node.camera() {
                 self.camera(&camera, world, &context, node.name());
@@ -431,7 +460,137 @@ impl Loader<'_> {
                 stack.push((child, world));
             }
         }
+        self.place_meshes(placements)
+    }
+
+    /// World-space copies of each mesh placed once (in traversal order, as always), or placed several
+    /// times while the copies add few triangles ([`crate::LoadOptions::flatten_triangles`]) or its
+    /// material emits (a light: each triangle must be a light source); else the mesh is read once in
+    /// object space and placed by its transforms ([`Instances`], a two-level BVH above).
+    fn place_meshes(&mut self, placements: Vec<(gltf::Mesh<'_>, Mat4, String)>) -> Result<()> {
+        let mut count = std::collections::HashMap::<usize, u64>::new();
+        for (mesh, ..) in &placements {
+            *count.entry(mesh.index()).or_default() += 1;
+        }
+        let limit = self.budget.options.flatten_triangles;
+        let mut instanced = std::collections::HashMap::<usize, usize>::new();
+        for (mesh, world, context) in placements {
+            let n = count[&mesh.index()];
+            let copies_add = (n - 1).saturating_mul(triangle_estimate(&mesh));
+            if n == 1 || copies_add <= limit || self.emits(&mesh) {
+                self.mesh(&mesh, world, world.determinant() < 0.0, &context)?;
+                continue;
+            }
+            self.budget.charge(
+                self.path,
+                || format!("{context}: an instance of meshes[{}]", mesh.index()),
+                BYTES_PER_INSTANCE,
+            )?;
+            let group = match instanced.get(&mesh.index()) {
+                Some(&g) => g,
+                None => {
+                    // The object-space meshes, read once: the primitives as `mesh` would push them.
+                    let before = self.desc.meshes.len();
+                    self.mesh(&mesh, Mat4::IDENTITY, false, &format!("{context} (instanced {n}×)"))?;
+                    let meshes = self.desc.meshes.split_off(before);
+                    self.desc.instances.push(Instances::new(meshes, Vec::new())?);
+                    instanced.insert(mesh.index(), self.desc.instances.len() - 1);
+                    self.desc.instances.len() - 1
+                }
+            };
+            self.desc.instances[group].push_transform(world)?;
+        }
+        for (&mesh, &group) in &instanced {
+            if let Some((lo, hi)) = self.desc.instances[group].bounds() {
+                check_coordinates(
+                    &[lo, hi],
+                    self.path,
+                    &format!("meshes[{mesh}] (instanced; its placements' bounds)"),
+                )?;
+            }
+        }
+        if !instanced.is_empty() {
+            let placed: u64 = instanced.keys().map(|k| count[k]).sum();
+            self.warn(format!(
+                "{} mesh(es) placed {placed} times in all are instanced (kept once, placed by transforms)",
+                instanced.len()
+            ));
+        }
         Ok(())
+    }
+
+    /// Whether any primitive of `mesh` has an emissive material (read before the traversal).
+    fn emits(&self, mesh: &gltf::Mesh<'_>) -> bool {
+        mesh.primitives().any(|p| {
+            p.material().index().and_then(|i| self.desc.materials.get(i)).is_some_and(|m| m.emission.is_some())
+        })
+    }
+
+    /// The local transforms of `EXT_mesh_gpu_instancing`: TRANSLATION, ROTATION (unit quaternion, float or
+    /// normalized integers) and SCALE accessors of equal count, each optional (identity), applied as
+    /// T·R·S in the node's space.
+    fn gpu_instances(
+        &mut self,
+        document: &gltf::Document,
+        ext: &serde_json::Value,
+        context: &str,
+    ) -> Result<Vec<Mat4>> {
+        let context = format!("{context} EXT_mesh_gpu_instancing");
+        let attributes = ext.get("attributes").and_then(serde_json::Value::as_object);
+        let accessor = |name: &str| -> Result<Option<gltf::Accessor<'_>>> {
+            let Some(v) = attributes.and_then(|a| a.get(name)) else { return Ok(None) };
+            let index =
+                v.as_u64().ok_or_else(|| self.data_err(&context, format!("{name} is not an accessor index")))?;
+            document
+                .accessors()
+                .nth(index as usize)
+                .map(Some)
+                .ok_or_else(|| self.data_err(&context, format!("{name}: accessor {index} does not exist")))
+        };
+        let (t, r, s) = (accessor("TRANSLATION")?, accessor("ROTATION")?, accessor("SCALE")?);
+        let read = |acc: &gltf::Accessor<'_>, name: &str, dims: Dimensions| -> Result<Vec<f32>> {
+            if acc.dimensions() != dims {
+                return Err(self.data_err(&context, format!("{name} must be {dims:?}, found {:?}", acc.dimensions())));
+            }
+            self.read_accessor(acc, &format!("{context} {name}"))
+        };
+        let translations = t.as_ref().map(|a| read(a, "TRANSLATION", Dimensions::Vec3)).transpose()?;
+        let rotations = r.as_ref().map(|a| read(a, "ROTATION", Dimensions::Vec4)).transpose()?;
+        let scales = s.as_ref().map(|a| read(a, "SCALE", Dimensions::Vec3)).transpose()?;
+        let counts: Vec<usize> = [(&translations, 3), (&rotations, 4), (&scales, 3)]
+            .iter()
+            .filter_map(|(v, k)| v.as_ref().map(|v| v.len() / k))
+            .collect();
+        let Some(&count) = counts.first() else {
+            self.warn(format!("{context}: no TRANSLATION, ROTATION or SCALE; the node's mesh is placed once"));
+            return Ok(vec![Mat4::IDENTITY]);
+        };
+        if counts.iter().any(|c| *c != count) {
+            return Err(self.data_err(&context, format!("attribute counts differ: {counts:?}")));
+        }
+        let mut out = Vec::with_capacity(count);
+        let mut skipped = 0;
+        for i in 0..count {
+            let tr = translations.as_ref().map_or(Vec3::ZERO, |v| Vec3::from_slice(&v[3 * i..]));
+            let sc = scales.as_ref().map_or(Vec3::ONE, |v| Vec3::from_slice(&v[3 * i..]));
+            let q = rotations.as_ref().map_or(glam::Quat::IDENTITY, |v| glam::Quat::from_slice(&v[4 * i..]));
+            let Some(q) = (q.is_finite() && q.length_squared() > 0.0).then(|| q.normalize()) else {
+                skipped += 1;
+                continue;
+            };
+            let m = Mat4::from_scale_rotation_translation(sc, q, tr);
+            if m.is_finite() && m.determinant() != 0.0 {
+                out.push(m);
+            } else {
+                skipped += 1;
+            }
+        }
+        if skipped > 0 {
+            self.warn(format!(
+                "{context}: {skipped} of {count} instances have a singular or non-finite transform; skipped"
+            ));
+        }
+        Ok(out)
     }
 
     fn camera(&mut self, camera: &gltf::Camera<'_>, world: Mat4, context: &str, node_name: Option<&str>) {
@@ -464,10 +623,9 @@ impl Loader<'_> {
         };
         // glTF cameras look down their local −Z with +Y up (glTF 2.0 §3.10.1).
         let position = world.transform_point3(Vec3::ZERO);
-        let (Some(forward), Some(up)) = (
-            world.transform_vector3(Vec3::NEG_Z).try_normalize(),
-            world.transform_vector3(Vec3::Y).try_normalize(),
-        ) else {
+        let (Some(forward), Some(up)) =
+            (world.transform_vector3(Vec3::NEG_Z).try_normalize(), world.transform_vector3(Vec3::Y).try_normalize())
+        else {
             return;
         };
         // A scaled node scales an orthographic view (the rectangle is in the camera's local units).
@@ -892,6 +1050,21 @@ impl Loader<'_> {
             )
         })
     }
+}
+
+/// Triangles of a mesh's triangle primitives, from the accessor counts (before anything is read).
+fn triangle_estimate(mesh: &gltf::Mesh<'_>) -> u64 {
+    mesh.primitives()
+        .map(|p| {
+            let vertices = p.get(&Semantic::Positions).map_or(0, |a| a.count() as u64);
+            let listed = p.indices().map_or(vertices, |a| a.count() as u64);
+            match p.mode() {
+                Mode::Triangles => listed / 3,
+                Mode::TriangleStrip | Mode::TriangleFan => listed.saturating_sub(2),
+                _ => 0,
+            }
+        })
+        .sum()
 }
 
 /// Reads `count` elements of `components` values each; `None` when any byte lies outside `bytes`.

@@ -50,9 +50,9 @@ mod manifest;
 mod obj_loader;
 mod prefilter;
 pub use desc::{
-    AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
-    Projection, SceneDescription, SceneFormat, SpectrumDesc,
+    AbsorptionDesc, CameraDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, Projection,
+    SceneDescription, SceneFormat, SpectrumDesc,
 };
 pub use hash::xxh64;
-pub use limits::{DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};
+pub use limits::{DEFAULT_FLATTEN_TRIANGLES, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};
 pub use load::{load_scene, load_scene_with, parse_manifest, parse_manifest_with};

@@ -331,10 +331,16 @@ fn camera(ctx: &Ctx<'_>, c: CameraJson) -> Result<CameraDesc> {
             return Err(ctx.err(key, "must be > 0"));
         }
     }
-    Ok(CameraDesc { position, look_at, up, vfov_deg: c.vfov_deg,
+    Ok(CameraDesc {
+        position,
+        look_at,
+        up,
+        vfov_deg: c.vfov_deg,
         projection: Projection::Perspective,
         aspect_ratio: None,
-        width: c.width, height: c.height })
+        width: c.width,
+        height: c.height,
+    })
 }
 
 /// A light's `intensity` and `unit`: `allowed` units for its kind, the first being the default.

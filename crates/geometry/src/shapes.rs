@@ -151,6 +151,15 @@ impl Instances {
         }
         Ok(Self { meshes, transforms })
     }
+    /// Add a placement (finite, non-singular).
+    pub fn push_transform(&mut self, m: Mat4) -> Result<()> {
+        let det = m.determinant();
+        if !(m.is_finite() && det.is_finite() && det != 0.0) {
+            return Err(Error::Invalid("instance transform is singular or not finite".to_owned()));
+        }
+        self.transforms.push(m);
+        Ok(())
+    }
     /// The object-space meshes.
     pub fn meshes(&self) -> &[Mesh] {
         &self.meshes
@@ -158,6 +167,9 @@ impl Instances {
     /// Replace the meshes (e.g. after removing unhittable triangles).
     pub fn set_meshes(&mut self, meshes: Vec<Mesh>) {
         self.meshes = meshes;
+    }
+    pub(crate) fn take_meshes(&mut self) -> Vec<Mesh> {
+        std::mem::take(&mut self.meshes)
     }
     /// Object-to-world transforms, one per placement.
     pub fn transforms(&self) -> &[Mat4] {

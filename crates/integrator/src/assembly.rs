@@ -103,6 +103,7 @@ impl RenderScene {
             format,
             spheres,
             meshes,
+            instances,
             materials: material_descs,
             lights: mut light_descs,
             camera,
@@ -114,7 +115,7 @@ impl RenderScene {
         } = desc;
         let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
         warn_unused_keys(&material_descs, &mut warnings);
-        let geometry = Scene::build(spheres, meshes)?;
+        let geometry = Scene::build_with_instances(spheres, meshes, instances)?;
         let (center, radius) = framing(bounds);
         // A description built by hand may set `camera` without `cameras`.
         if let (Some(c), true) = (camera, cameras.is_empty()) {

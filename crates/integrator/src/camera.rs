@@ -224,7 +224,10 @@ pub(crate) fn default_camera(lo: Vec3, hi: Vec3, up_axis: UpAxis, vfov_deg: f32,
     }
     // A point (or empty) scene: a small positive distance so the camera is not at the target.
     let distance = distance.max(1e-3 * (1.0 + center.length()));
-    CameraDesc { position: center + distance * back, look_at: center, up,
+    CameraDesc {
+        position: center + distance * back,
+        look_at: center,
+        up,
         vfov_deg,
         projection: Projection::Perspective,
         aspect_ratio: None,

@@ -23,7 +23,12 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
     let (lo, hi) = scene.bounds();
     // Only materials some primitive uses count towards `needs` (a file may define unused ones).
     let mut used = vec![false; desc.materials.len()];
-    let used_ids = desc.spheres.iter().map(|s| s.material()).chain(desc.meshes.iter().map(|m| m.material()));
+    let used_ids = desc
+        .spheres
+        .iter()
+        .map(|s| s.material())
+        .chain(desc.meshes.iter().map(|m| m.material()))
+        .chain(desc.instances.iter().flat_map(|i| i.meshes().iter().map(|m| m.material())));
     for id in used_ids.flatten() {
         if let Some(u) = used.get_mut(id as usize) {
             *u = true;
@@ -60,6 +65,11 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
         "triangles": scene.triangle_count(),
         "spheres": scene.sphere_count(),
         "meshes": desc.meshes.len(),
+        "instances": {
+            "meshes": desc.instances.len(),
+            "placements": scene.instance_count(),
+            "triangles": scene.instanced_triangle_count(),
+        },
         "materials": materials,
         "lights": render_scene.light_descs.iter().map(light_json).collect::<Vec<_>>(),
         "camera": camera_json(&render_scene.camera, &render_scene.camera_source, &desc.cameras),

@@ -756,7 +756,11 @@ fn gltf_without_nodes_is_nothing_to_render_not_a_parse_error() {
     let dir = temp_dir("empty-gltf");
     let cases: [(&str, &[u8], &str); 4] = [
         ("no_nodes.gltf", br#"{"asset": {"version": "2.0"}}"#, "no nodes and no scene"),
-        ("scene_without_nodes.gltf", br#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{}]}"#, "scene 0 has no nodes"),
+        (
+            "scene_without_nodes.gltf",
+            br#"{"asset": {"version": "2.0"}, "scene": 0, "scenes": [{}]}"#,
+            "scene 0 has no nodes",
+        ),
         ("empty_list.gltf", br#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": []}]}"#, "scene 0 has no nodes"),
         (
             "empty_node.gltf",
@@ -809,17 +813,26 @@ fn compressed_data_variants_and_animations_get_one_line_each() {
     d["meshes"][0]["primitives"][0]["extensions"] = draco_ext;
     let desc = load_scene(&write_gltf(&dir, "draco_fallback.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(desc.meshes[0].triangle_count(), 1);
-    assert_eq!(desc.warnings.iter().filter(|w| w.contains("KHR_draco_mesh_compression")).count(), 1, "{:?}", desc.warnings);
+    assert_eq!(
+        desc.warnings.iter().filter(|w| w.contains("KHR_draco_mesh_compression")).count(),
+        1,
+        "{:?}",
+        desc.warnings
+    );
 
     // meshopt required, its fallback buffer without data: an error; with data: a warning.
     let mut d = base();
     d["extensionsUsed"] = json!(["EXT_meshopt_compression"]);
     d["extensionsRequired"] = json!(["EXT_meshopt_compression"]);
     let meshopt = json!({"EXT_meshopt_compression": {"buffer": 1, "byteLength": 36, "byteStride": 12, "count": 3, "mode": "ATTRIBUTES"}});
-    d["buffers"] = json!([{"byteLength": 36, "extensions": {"EXT_meshopt_compression": {"fallback": true}}}, d["buffers"][0]]);
+    d["buffers"] =
+        json!([{"byteLength": 36, "extensions": {"EXT_meshopt_compression": {"fallback": true}}}, d["buffers"][0]]);
     d["bufferViews"][0]["extensions"] = meshopt.clone();
     let (_, msg) = error_message(&write_gltf(&dir, "meshopt.gltf", &d));
-    assert!(msg.contains("EXT_meshopt_compression") && msg.contains("bufferViews[0]") && msg.contains("gltf-transform cp"), "{msg}");
+    assert!(
+        msg.contains("EXT_meshopt_compression") && msg.contains("bufferViews[0]") && msg.contains("gltf-transform cp"),
+        "{msg}"
+    );
     let mut d = base();
     d["extensionsUsed"] = json!(["EXT_meshopt_compression"]);
     d["bufferViews"][0]["extensions"] = meshopt;
@@ -836,7 +849,11 @@ fn compressed_data_variants_and_animations_get_one_line_each() {
     d["materials"] = json!([{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}]);
     d["meshes"][0]["primitives"][0]["material"] = json!(0);
     let desc = load_scene(&write_gltf(&dir, "ktx2.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
-    let ktx = desc.warnings.iter().find(|w| w.contains("KHR_texture_basisu")).unwrap_or_else(|| panic!("{:?}", desc.warnings));
+    let ktx = desc
+        .warnings
+        .iter()
+        .find(|w| w.contains("KHR_texture_basisu"))
+        .unwrap_or_else(|| panic!("{:?}", desc.warnings));
     assert!(ktx.contains("1 without a PNG/JPEG fallback") && ktx.contains("ktxdecompress"), "{ktx}");
 
     // Variants, required: the default material (red), the variants named.
@@ -847,7 +864,8 @@ fn compressed_data_variants_and_animations_get_one_line_each() {
                             {"name": "blue", "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 1, 1]}}]);
     d["extensions"] = json!({"KHR_materials_variants": {"variants": [{"name": "day"}, {"name": "night"}]}});
     d["meshes"][0]["primitives"][0]["material"] = json!(0);
-    d["meshes"][0]["primitives"][0]["extensions"] = json!({"KHR_materials_variants": {"mappings": [{"material": 1, "variants": [1]}]}});
+    d["meshes"][0]["primitives"][0]["extensions"] =
+        json!({"KHR_materials_variants": {"mappings": [{"material": 1, "variants": [1]}]}});
     let desc = load_scene(&write_gltf(&dir, "variants.gltf", &d)).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(desc.meshes[0].material(), Some(0));
     assert!(desc.warnings.iter().any(|w| w.contains("variants 'day', 'night' ignored")), "{:?}", desc.warnings);
@@ -872,4 +890,57 @@ fn compressed_data_variants_and_animations_get_one_line_each() {
     d["extensionsRequired"] = json!(["EXT_unknown"]);
     let (_, msg) = error_message(&write_gltf(&dir, "unknown.gltf", &d));
     assert!(msg.contains("EXT_unknown"), "{msg}");
+}
+
+/// A glTF of one triangle mesh placed by `EXT_mesh_gpu_instancing` on node 0 (translations (0,0,0),
+/// (2,0,0), (0,3,0); scale 2 on the second) and referenced again by node 1 (translated by z = −1).
+fn instanced_triangle_gltf() -> serde_json::Value {
+    let translations = [0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0, 0.0];
+    let scales = [1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 1.0, 1.0, 1.0];
+    let bytes = f32_bytes(&[TRIANGLE.as_slice(), &translations, &scales].concat());
+    let uri = data_uri(&bytes);
+    let mut d = triangle_gltf(Some(&uri), bytes.len(), json!({}));
+    d["extensionsUsed"] = json!(["EXT_mesh_gpu_instancing"]);
+    d["extensionsRequired"] = json!(["EXT_mesh_gpu_instancing"]);
+    d["scenes"] = json!([{"nodes": [0, 1]}]);
+    d["nodes"] = json!([
+        {"mesh": 0, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 1, "SCALE": 2}}}},
+        {"mesh": 0, "translation": [0, 0, -1]}
+    ]);
+    d["bufferViews"] = json!([{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36},
+                              {"buffer": 0, "byteOffset": 72, "byteLength": 36}]);
+    d["accessors"] = json!([d["accessors"][0], {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC3"},
+                            {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC3"}]);
+    d
+}
+
+/// Issue 12: `EXT_mesh_gpu_instancing` places the node's mesh once per instance (it was drawn once, at the
+/// node, silently); with repeated node references a mesh placed 4 times is copied into world space while
+/// the copies are small, and kept once with 4 transforms (two-level BVH) beyond `flatten_triangles`.
+#[test]
+fn gpu_instancing_and_repeated_meshes_place_every_instance() {
+    let dir = temp_dir("instancing");
+    let path = write_gltf(&dir, "instanced.gltf", &instanced_triangle_gltf());
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(d.instances.is_empty());
+    let second_vertex: Vec<Vec3> = d.meshes.iter().map(|m| m.positions()[1]).collect();
+    // Instance i at T·S: vertex (1, 0, 0) → (1, 0, 0), (2 + 2, 0, 0), (1, 3, 0); node 1: (1, 0, −1).
+    assert_eq!(second_vertex, [Vec3::X, Vec3::new(4.0, 0.0, 0.0), Vec3::new(1.0, 3.0, 0.0), Vec3::new(1.0, 0.0, -1.0)]);
+
+    let options = LoadOptions { flatten_triangles: 0, ..LoadOptions::default() };
+    let d = load_scene_with(&path, &options).unwrap_or_else(|e| panic!("{e}"));
+    assert!(d.meshes.is_empty());
+    assert_eq!(d.instances.len(), 1);
+    let placed: Vec<Vec3> = d.instances[0].transforms().iter().map(|m| m.transform_point3(Vec3::X)).collect();
+    assert_eq!(placed, second_vertex);
+    assert!(d.warnings.iter().any(|w| w.contains("placed 4 times in all are instanced")), "{:?}", d.warnings);
+    let (lo, hi) = d.bounds().unwrap();
+    assert_eq!((lo, hi), (Vec3::new(0.0, 0.0, -1.0), Vec3::new(4.0, 4.0, 0.0)));
+    // The two-level scene hits the instances where the copies are.
+    let scene = Scene::build_with_instances(d.spheres, d.meshes, d.instances).unwrap();
+    let hit = scene.intersect(&geometry::Ray { origin: Vec3::new(2.5, 0.5, 5.0), dir: Vec3::NEG_Z }, f32::INFINITY);
+    let hit = hit.expect("the scaled instance at x = 2..4");
+    assert!((hit.t - 5.0).abs() < 1e-5 && (hit.p - Vec3::new(2.5, 0.5, 0.0)).length() < 1e-5, "{hit:?}");
+    let hit = scene.intersect(&geometry::Ray { origin: Vec3::new(0.2, 0.2, -0.5), dir: Vec3::NEG_Z }, f32::INFINITY);
+    assert!((hit.expect("node 1's copy").t - 0.5).abs() < 1e-6);
 }

@@ -142,9 +142,17 @@ fn a_cameras_aspect_ratio_drives_the_default_image_size() {
     let positions: Vec<u8> = [0f32, 0., 0., 1., 0., 0., 0., 1., 0.].iter().flat_map(|f| f.to_le_bytes()).collect();
     let b64 = base64_encode(&positions);
     for (camera, size, for_width_100) in [
-        (r#"{"type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1, "aspectRatio": 2.0}}"#, (640, 320), (100, 50)),
+        (
+            r#"{"type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1, "aspectRatio": 2.0}}"#,
+            (640, 320),
+            (100, 50),
+        ),
         (r#"{"type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1}}"#, (640, 480), (100, 480)),
-        (r#"{"type": "orthographic", "orthographic": {"xmag": 1.0, "ymag": 4.0, "znear": 0, "zfar": 10}}"#, (640, 2560), (100, 400)),
+        (
+            r#"{"type": "orthographic", "orthographic": {"xmag": 1.0, "ymag": 4.0, "znear": 0, "zfar": 10}}"#,
+            (640, 2560),
+            (100, 400),
+        ),
     ] {
         let gltf = format!(
             r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
