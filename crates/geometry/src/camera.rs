@@ -65,13 +65,22 @@ impl Camera {
     /// image; unit direction.
     #[inline]
     pub fn generate_ray(&self, x: f32, y: f32, width: u32, height: u32) -> Ray {
+        if self.orthographic {
+            return self.orthographic_ray(x, y, width, height);
+        }
         let sx = (2.0 * x / width as f32 - 1.0) * self.tan_half_fov * self.aspect;
         let sy = (1.0 - 2.0 * y / height as f32) * self.tan_half_fov;
-        if self.orthographic {
-            return Ray { origin: self.position + sx * self.right + sy * self.up, dir: self.forward };
-        }
         let dir = (self.forward + sx * self.right + sy * self.up).normalize();
         Ray { origin: self.position, dir }
+    }
+
+    /// Out of line, so that the pinhole's rays pay only the test (callgrind: 6 instructions per ray
+    /// inline, on the Cornell box).
+    #[inline(never)]
+    fn orthographic_ray(&self, x: f32, y: f32, width: u32, height: u32) -> Ray {
+        let sx = (2.0 * x / width as f32 - 1.0) * self.tan_half_fov * self.aspect;
+        let sy = (1.0 - 2.0 * y / height as f32) * self.tan_half_fov;
+        Ray { origin: self.position + sx * self.right + sy * self.up, dir: self.forward }
     }
 
     /// Whether rays are parallel (orthographic) rather than from the eye.
