@@ -517,7 +517,7 @@ impl InstanceSet {
         let (index, object_ray, dt, slot, t, b) = dispatch(simd, TopQuery::<true> { set: self, ray, t_max })?;
         let placement = &self.placements[index];
         let local = self.objects[placement.object as usize].hit_record(&object_ray, slot, t, b);
-        Some(placement.to_world(local, t + dt))
+        Some(placement.hit_to_world(local, t + dt))
     }
 
     #[inline(never)]
@@ -531,7 +531,7 @@ impl Placement {
     /// `Transform::ApplyInverse(Ray, tMax)`), and the distance `dt` it moved (in units of the
     /// direction, which is not renormalised, so t means the same in both spaces).
     #[inline(always)]
-    fn to_object(&self, ray: &Ray) -> (Ray, f32) {
+    fn ray_to_object(&self, ray: &Ray) -> (Ray, f32) {
         let m = &self.world_to_object;
         let origin = m.transform_point3(ray.origin);
         let dir = m.transform_vector3(ray.dir);
@@ -553,7 +553,7 @@ impl Placement {
     /// γ(3)(|M||p| + |translation|) for the transform's own rounding), normals by the inverse
     /// transpose. The primitive id is `u32::MAX`: placed instances are not light sources.
     #[inline]
-    fn to_world(&self, local: Hit, t: f32) -> Hit {
+    fn hit_to_world(&self, local: Hit, t: f32) -> Hit {
         let m = &self.object_to_world;
         let abs = Mat3::from_cols(
             Vec3::from(m.matrix3.x_axis.abs()),
@@ -596,7 +596,7 @@ impl<const CLOSEST: bool> Kernel for TopQuery<'_, CLOSEST> {
             t_max,
             |start, count, mut t_max| {
                 for (k, placement) in set.placements[start..start + count].iter().enumerate() {
-                    let (object_ray, dt) = placement.to_object(ray);
+                    let (object_ray, dt) = placement.ray_to_object(ray);
                     let limit = t_max - dt;
                     if !(limit > 0.0) || !Scene::valid(&object_ray) {
                         continue;

@@ -1042,6 +1042,6 @@ fn ten_thousand_instances_of_a_100k_triangle_mesh_load() {
     let hit = scene.intersect(&geometry::Ray { origin: Vec3::new(0.3, 10.0, 0.2), dir: Vec3::NEG_Y }, f32::INFINITY);
     assert!(hit.is_some_and(|h| h.p.y.abs() <= 0.05 + 1e-4), "{hit:?}");
     let flatten_all = LoadOptions { flatten_triangles: u64::MAX, ..LoadOptions::default() };
-    let e = load_scene_with(&path, &flatten_all).err().expect("10⁹ copied triangles exceed the budget");
+    let e = load_scene_with(&path, &flatten_all).expect_err("10⁹ copied triangles exceed the budget");
     assert!(matches!(e, Error::OverBudget { .. }), "{e}");
 }
