@@ -169,6 +169,7 @@ impl LoadArgs {
         geometry::LoadOptions {
             max_memory: self.max_memory.unwrap_or(geometry::DEFAULT_MAX_MEMORY),
             allow_absolute_paths: self.allow_absolute_paths,
+            ..geometry::LoadOptions::default()
         }
     }
 }
@@ -298,7 +299,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             eprintln!("spectrace: note: {w}");
         }
     }
-    let (scene_width, scene_height) = scene.resolution();
+    let (width, height) = scene.resolution_for(args.width, args.height);
     if integrator_kind == IntegratorKind::WhittedHall && args.rr_depth.is_some() {
         // The paper's model has no Russian roulette: say so rather than drop the flag silently.
         eprintln!("spectrace: warning: --rr-depth is ignored by whitted-hall (it has no Russian roulette)");
@@ -317,8 +318,8 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }),
     };
     let options = RenderOptions {
-        width: args.width.unwrap_or(scene_width),
-        height: args.height.unwrap_or(scene_height),
+        width,
+        height,
         integrator,
         spectral: args.spectral,
         spp: args.spp,

@@ -16,7 +16,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use crate::shapes::{Mesh, Sphere};
+use crate::shapes::{Instances, Mesh, Sphere};
 
 /// A spectrum as written in a scene file, not yet interpreted.
 #[derive(Clone, Debug, PartialEq)]
@@ -466,7 +466,24 @@ impl LightDesc {
     }
 }
 
-/// A pinhole camera as written in a scene file.
+/// How a camera projects the scene onto its image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// A pinhole: rays from the eye, spread by the camera's `vfov_deg`.
+    Perspective,
+    /// Parallel rays along the view direction from a rectangle through the eye, `2·xmag` wide and
+    /// `2·ymag` high in scene units (glTF 2.0 `camera.orthographic`; both finite and > 0). The renderer
+    /// keeps `ymag` and widens or narrows the rectangle to the image's aspect, as `vfov_deg` for a
+    /// pinhole; `xmag / ymag` is the camera's aspect ratio.
+    Orthographic {
+        /// Half the width of the viewed rectangle.
+        xmag: f32,
+        /// Half the height of the viewed rectangle.
+        ymag: f32,
+    },
+}
+
+/// A camera as written in a scene file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraDesc {
     /// Eye position.
@@ -475,8 +492,13 @@ pub struct CameraDesc {
     pub look_at: Vec3,
     /// Up vector (need not be unit or orthogonal to the view direction, must not be parallel to it).
     pub up: Vec3,
-    /// Vertical field of view in degrees, in (0, 180).
+    /// Vertical field of view in degrees, in (0, 180) (perspective projection only).
     pub vfov_deg: f32,
+    /// Perspective or orthographic.
+    pub projection: Projection,
+    /// Width / height the camera was made for (glTF `aspectRatio`, an orthographic camera's `xmag / ymag`),
+    /// finite and > 0, if the file says: it sets the default image height from the default width.
+    pub aspect_ratio: Option<f32>,
     /// Image width in pixels, if the file fixes it.
     pub width: Option<u32>,
     /// Image height in pixels, if the file fixes it.
@@ -503,6 +525,9 @@ pub struct SceneDescription {
     pub spheres: Vec<Sphere>,
     /// World-space triangle meshes; material indices point into `materials`.
     pub meshes: Vec<Mesh>,
+    /// Meshes placed several times, kept once in object space with a transform per placement (see
+    /// [`crate::LoadOptions::flatten_triangles`]); material indices point into `materials`.
+    pub instances: Vec<Instances>,
     /// Materials, indexed by the shapes' material indices.
     pub materials: Vec<MaterialDesc>,
     /// Images the materials' textures use, each read once.
@@ -534,6 +559,7 @@ impl SceneDescription {
             format,
             spheres: Vec::new(),
             meshes: Vec::new(),
+            instances: Vec::new(),
             materials: Vec::new(),
             images: Vec::new(),
             lights: Vec::new(),
@@ -546,7 +572,8 @@ impl SceneDescription {
         }
     }
 
-    /// Axis-aligned bounds of all spheres and mesh vertices, `None` when the scene has no geometry.
+    /// Axis-aligned bounds of all spheres, mesh vertices and placed instances, `None` when the scene has no
+    /// geometry.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -559,6 +586,10 @@ impl SceneDescription {
                 lo = lo.min(*p);
                 hi = hi.max(*p);
             }
+        }
+        for (a, b) in self.instances.iter().filter_map(Instances::bounds) {
+            lo = lo.min(a);
+            hi = hi.max(b);
         }
         (lo.x <= hi.x).then_some((lo, hi))
     }

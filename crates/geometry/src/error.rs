@@ -239,7 +239,7 @@ pub enum Error {
         limit: f32,
     },
     /// A file has no geometry to render.
-    #[error("{}: no geometry (no triangle or sphere could be read{detail})", path.display())]
+    #[error("{}: nothing to render: no geometry (no triangle or sphere could be read{detail})", path.display())]
     NoGeometry {
         /// The file.
         path: PathBuf,

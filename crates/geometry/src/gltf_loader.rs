@@ -18,11 +18,11 @@ use gltf::mesh::{Mode, Semantic};
 
 use crate::desc::{
     AbsorptionDesc, AlphaMode, CameraDesc, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc,
-    MaterialFormat, SceneDescription, SceneFormat, SpectrumDesc, TextureDesc, TextureTransform, WrapMode,
+    MaterialFormat, Projection, SceneDescription, SceneFormat, SpectrumDesc, TextureDesc, TextureTransform, WrapMode,
 };
 use crate::error::{Error, Result};
-use crate::limits::{BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
-use crate::shapes::Mesh;
+use crate::limits::{BYTES_PER_INSTANCE, BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
+use crate::shapes::{Instances, Mesh};
 
 /// Extensions whose data we read; a file that *requires* anything else is refused.
 /// `KHR_materials_dispersion` is read from the raw extension map (the `gltf` crate has no typed accessor).
@@ -39,6 +39,23 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     // Archived, but still written by older exporters (Blender test files require it): converted to
     // metallic-roughness with a warning (see `Loader::material`).
     "KHR_materials_pbrSpecularGlossiness",
+    "EXT_mesh_gpu_instancing",
+];
+
+/// Extensions a file may require that we degrade gracefully: the file loads, with a warning (see
+/// [`extension_notes`]). Animations are ignored, so a file whose animations need `KHR_animation_pointer`
+/// still has a rest pose; `KHR_materials_variants` keeps each primitive's default material.
+const DEGRADED_EXTENSIONS: &[&str] = &["KHR_materials_variants", "KHR_animation_pointer"];
+
+/// Extensions whose data we do not decode, with the way forward for the user. glTF Transform decodes Draco
+/// and meshopt when it reads a file and writes plain buffers (its maintainer: "decompression happens by
+/// default when loading a file", donmccurdy/glTF-Transform#150), and `ktxdecompress` turns KTX2 textures
+/// into PNG. A file that requires one of them loads only if nothing it needs is missing (see
+/// [`extension_notes`]).
+const UNDECODED_EXTENSIONS: &[(&str, &str)] = &[
+    ("KHR_draco_mesh_compression", "decompress the file first, e.g. `gltf-transform cp IN OUT`"),
+    ("EXT_meshopt_compression", "decompress the file first, e.g. `gltf-transform cp IN OUT`"),
+    ("KHR_texture_basisu", "convert them to PNG first, e.g. `gltf-transform ktxdecompress IN OUT`"),
 ];
 
 /// Bytes charged per accessor component read: the f64 staging value and the f32 it becomes.
@@ -63,19 +80,41 @@ pub(crate) fn load_gltf_slice(
     let gltf_err = |cause| Error::Gltf { path: path.to_path_buf(), cause };
     // The JSON document (tree of values) costs a few times its text; charge twice the file.
     budget.charge(path, || "the glTF JSON document".to_owned(), 2 * bytes.len() as u64)?;
-    let gltf::Gltf { document, blob } =
-        guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err))?;
+    let parsed = guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err));
+    let mut dropped_animations = 0;
+    let gltf::Gltf { document, blob } = match parsed {
+        // `gltf-json` 1.4.1 refuses what glTF 2.0 allows or what we ignore anyway: a scene without the
+        // optional `nodes` key (an empty scene), and animation channels without a `node` (a
+        // `KHR_animation_pointer` target). Patch those and parse again; if that fails too, the first error
+        // stands.
+        Err(e) => {
+            let (patched, animations) = match patch_json(bytes) {
+                Some(p) => p,
+                None => return Err(e),
+            };
+            dropped_animations = animations;
+            guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(&patched).map_err(gltf_err))
+                .map_err(|_| e)?
+        }
+        Ok(gltf) => gltf,
+    };
 
     // Required extensions first, with our own list: `gltf`'s validation would reject
     // KHR_materials_volume and KHR_materials_dispersion, which we do read, with a vaguer message.
     let mut root = document.into_json();
-    if let Some(ext) = root.extensions_required.iter().find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str())) {
+    let known = |e: &str| {
+        SUPPORTED_EXTENSIONS.contains(&e)
+            || DEGRADED_EXTENSIONS.contains(&e)
+            || UNDECODED_EXTENSIONS.iter().any(|u| u.0 == e)
+    };
+    if let Some(ext) = root.extensions_required.iter().find(|e| !known(e)) {
         return Err(Error::UnsupportedExtension {
             path: path.to_path_buf(),
             extension: ext.clone(),
             supported: SUPPORTED_EXTENSIONS.join(", "),
         });
     }
+    let notes = extension_notes(&mut root, dropped_animations, path)?;
     root.extensions_required.clear();
     // `gltf-json`'s validation indexes `accessors` with the POSITION attribute before checking the index
     // (gltf-json 1.4.1 src/mesh.rs:151, found by the fuzz test): check it first.
@@ -112,12 +151,161 @@ pub(crate) fn load_gltf_slice(
         desc: SceneDescription::empty(SceneFormat::Gltf),
         default_material: None,
     };
+    for note in notes {
+        loader.warn(note);
+    }
     for material in document.materials() {
         let m = loader.material(&material, &document);
         loader.desc.materials.push(m);
     }
     loader.traverse(&document)?;
     Ok(loader.desc)
+}
+
+/// The file with `"nodes": []` added to every scene that has no `nodes` key and without its animations
+/// (JSON or GLB), and the number of animations removed; `None` if its JSON cannot be read as an object.
+fn patch_json(bytes: &[u8]) -> Option<(Vec<u8>, usize)> {
+    let patch = |json: &[u8]| -> Option<(Vec<u8>, usize)> {
+        let mut value: serde_json::Value = serde_json::from_slice(json).ok()?;
+        let root = value.as_object_mut()?;
+        for scene in root.get_mut("scenes").and_then(|s| s.as_array_mut()).into_iter().flatten() {
+            scene.as_object_mut()?.entry("nodes").or_insert_with(|| serde_json::json!([]));
+        }
+        let animations = root.remove("animations").and_then(|a| a.as_array().map(Vec::len)).unwrap_or(0);
+        Some((serde_json::to_vec(&value).ok()?, animations))
+    };
+    if !bytes.starts_with(b"glTF") {
+        return patch(bytes);
+    }
+    let glb = gltf::Glb::from_slice(bytes).ok()?;
+    // `to_vec` writes the header and chunk lengths (and the padding) from the chunks themselves.
+    let (json, animations) = patch(&glb.json)?;
+    let glb = gltf::Glb { header: glb.header, json: json.into(), bin: glb.bin };
+    Some((glb.to_vec().ok()?, animations))
+}
+
+/// What the file uses that we do not render, as one warning per extension or feature, checked on the JSON
+/// before `gltf`'s validation (which would refuse some of it with a vaguer message):
+/// - Draco (`KHR_draco_mesh_compression`): primitives whose uncompressed fallback accessors are present
+///   load from them (warning); a primitive without them (the file then requires the extension) is an
+///   error naming the extension and the way forward.
+/// - meshopt (`EXT_meshopt_compression`): buffer views whose uncompressed fallback buffer has data load
+///   from it (warning); a fallback buffer without data (no URI) is an error, likewise.
+/// - KTX2 (`KHR_texture_basisu`): a warning; a texture with only a KTX2 image points at it, so that the
+///   file validates (it is not decoded).
+/// - `KHR_materials_variants`: each primitive's default material; the variants are named in a warning.
+/// - Animations (including `KHR_animation_pointer` ones): removed, one warning (the rest pose is drawn).
+fn extension_notes(root: &mut gltf::json::Root, dropped_animations: usize, path: &Path) -> Result<Vec<String>> {
+    let way = |name: &str| UNDECODED_EXTENSIONS.iter().find(|u| u.0 == name).map_or("", |u| u.1);
+    let mut notes = Vec::new();
+
+    const DRACO: &str = "KHR_draco_mesh_compression";
+    let mut draco = 0;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if !primitive.extensions.as_ref().is_some_and(|e| e.others.contains_key(DRACO)) {
+                continue;
+            }
+            draco += 1;
+            let accessors = primitive.attributes.values().chain(primitive.indices.iter());
+            let missing = accessors.into_iter().any(|a| {
+                root.accessors.get(a.value()).is_some_and(|acc| acc.buffer_view.is_none() && acc.sparse.is_none())
+            });
+            if missing {
+                return Err(Error::GltfData {
+                    path: path.to_path_buf(),
+                    context: format!("meshes[{m}] primitive {p}"),
+                    message: format!(
+                        "{DRACO}: the geometry is only Draco-compressed, which is not decoded; {}",
+                        way(DRACO)
+                    ),
+                });
+            }
+        }
+    }
+    if draco > 0 {
+        notes.push(format!(
+            "{DRACO}: {draco} primitive(s) also hold Draco data, not decoded; their uncompressed fallback is used"
+        ));
+    }
+
+    const MESHOPT: &str = "EXT_meshopt_compression";
+    let fallback_without_data = |b: &gltf::json::Buffer| {
+        b.uri.is_none() && b.extensions.as_ref().is_some_and(|e| e.others.contains_key(MESHOPT))
+    };
+    let mut meshopt = 0;
+    for (v, view) in root.buffer_views.iter().enumerate() {
+        if !view.extensions.as_ref().is_some_and(|e| e.others.contains_key(MESHOPT)) {
+            continue;
+        }
+        meshopt += 1;
+        if root.buffers.get(view.buffer.value()).is_some_and(fallback_without_data) {
+            return Err(Error::GltfData {
+                path: path.to_path_buf(),
+                context: format!("bufferViews[{v}]"),
+                message: format!(
+                    "{MESHOPT}: the data is only meshopt-compressed, which is not decoded; {}",
+                    way(MESHOPT)
+                ),
+            });
+        }
+    }
+    if meshopt > 0 || root.buffers.iter().any(fallback_without_data) {
+        notes.push(format!("{MESHOPT}: {meshopt} buffer view(s) also hold meshopt data, not decoded; their uncompressed fallback is used"));
+    }
+
+    const BASISU: &str = "KHR_texture_basisu";
+    let (mut ktx2, mut only_ktx2) = (0, 0);
+    for texture in &mut root.textures {
+        let Some(ext) = texture.extensions.as_ref().and_then(|e| e.others.get(BASISU)) else { continue };
+        ktx2 += 1;
+        let source = ext.get("source").and_then(serde_json::Value::as_u64).and_then(|i| u32::try_from(i).ok());
+        if texture.source.value() == u32::MAX as usize {
+            only_ktx2 += 1;
+            if let Some(i) = source.filter(|i| (*i as usize) < root.images.len()) {
+                texture.source = gltf::json::Index::new(i);
+            }
+        }
+    }
+    if ktx2 > 0 {
+        notes.push(format!(
+            "{BASISU}: {ktx2} texture(s) in KTX2, not decoded ({only_ktx2} without a PNG/JPEG fallback, so missing); {}",
+            way(BASISU)
+        ));
+    }
+
+    const VARIANTS: &str = "KHR_materials_variants";
+    let variants = root
+        .extensions
+        .as_ref()
+        .and_then(|e| e.others.get(VARIANTS))
+        .and_then(|v| v.get("variants"))
+        .and_then(serde_json::Value::as_array)
+        .map(|list| {
+            list.iter().map(|v| v.get("name").and_then(serde_json::Value::as_str).unwrap_or("?")).collect::<Vec<_>>()
+        });
+    let mapped = root
+        .meshes
+        .iter()
+        .flat_map(|m| &m.primitives)
+        .any(|p| p.extensions.as_ref().is_some_and(|e| e.others.contains_key(VARIANTS)));
+    if variants.is_some() || mapped {
+        let names =
+            variants.map(|v| v.iter().map(|n| format!("'{n}'")).collect::<Vec<_>>().join(", ")).unwrap_or_default();
+        notes.push(format!("{VARIANTS}: variants {names} ignored; each primitive's default material is used"));
+    }
+
+    let animations = root.animations.len() + dropped_animations;
+    if animations > 0 {
+        let pointer = if root.extensions_used.iter().any(|e| e == "KHR_animation_pointer") {
+            " (with KHR_animation_pointer)"
+        } else {
+            ""
+        };
+        notes.push(format!("{animations} animation(s){pointer} ignored: the still rest pose is rendered"));
+        root.animations.clear();
+    }
+    Ok(notes)
 }
 
 fn load_buffers(
@@ -228,7 +416,17 @@ impl Loader<'_> {
                 document.nodes().filter(|n| !children.contains(&n.index())).collect()
             }
         };
+        if roots.is_empty() {
+            // Valid glTF (a scene may list no nodes, a file may have none), but there is nothing to render:
+            // said here, so that the no-geometry error names the reason.
+            self.warn(match document.default_scene().or_else(|| document.scenes().next()) {
+                Some(scene) => format!("scene {} has no nodes (an empty scene)", scene.index()),
+                None => "the file has no nodes and no scene".to_owned(),
+            });
+        }
         let mut visited = HashSet::new();
+        // Every placement of a mesh, in traversal order: (mesh, world transform, node context).
+        let mut placements: Vec<(gltf::Mesh<'_>, Mat4, String)> = Vec::new();
         let mut stack: Vec<(gltf::Node<'_>, Mat4)> = roots.into_iter().rev().map(|n| (n, Mat4::IDENTITY)).collect();
         while let Some((node, parent)) = stack.pop() {
             if !visited.insert(node.index()) {
@@ -252,7 +450,18 @@ impl Loader<'_> {
                 if node.skin().is_some() || mesh.weights().is_some() {
                     self.warn(format!("{context}: skinning and morph targets are ignored (rest pose used)"));
                 }
-                self.mesh(&mesh, world, det < 0.0, &context)?;
+                match node.extension_value("EXT_mesh_gpu_instancing") {
+                    Some(ext) => {
+                        for local in self.gpu_instances(document, ext, &context)? {
+                            let m = world * local;
+                            let det = m.determinant();
+                            if m.is_finite() && det.is_finite() && det != 0.0 {
+                                placements.push((mesh.clone(), m, context.clone()));
+                            }
+                        }
+                    }
+                    None => placements.push((mesh, world, context.clone())),
+                }
             }
             if let Some(camera) = node.camera() {
                 self.camera(&camera, world, &context, node.name());
@@ -264,42 +473,199 @@ impl Loader<'_> {
                 stack.push((child, world));
             }
         }
+        self.place_meshes(placements)
+    }
+
+    /// World-space copies of each mesh placed once (in traversal order, as always), or placed several
+    /// times while the copies add few triangles ([`crate::LoadOptions::flatten_triangles`]) or its
+    /// material emits (a light: each triangle must be a light source); else the mesh is read once in
+    /// object space and placed by its transforms ([`Instances`], a two-level BVH above).
+    fn place_meshes(&mut self, placements: Vec<(gltf::Mesh<'_>, Mat4, String)>) -> Result<()> {
+        let mut count = std::collections::HashMap::<usize, u64>::new();
+        for (mesh, ..) in &placements {
+            *count.entry(mesh.index()).or_default() += 1;
+        }
+        let limit = self.budget.options.flatten_triangles;
+        let mut instanced = std::collections::HashMap::<usize, usize>::new();
+        for (mesh, world, context) in placements {
+            let n = count[&mesh.index()];
+            let copies_add = (n - 1).saturating_mul(triangle_estimate(&mesh));
+            if n == 1 || copies_add <= limit || self.emits(&mesh) {
+                self.mesh(&mesh, world, world.determinant() < 0.0, &context)?;
+                continue;
+            }
+            self.budget.charge(
+                self.path,
+                || format!("{context}: an instance of meshes[{}]", mesh.index()),
+                BYTES_PER_INSTANCE,
+            )?;
+            let group = match instanced.get(&mesh.index()) {
+                Some(&g) => g,
+                None => {
+                    // The object-space meshes, read once: the primitives as `mesh` would push them.
+                    let before = self.desc.meshes.len();
+                    self.mesh(&mesh, Mat4::IDENTITY, false, &format!("{context} (instanced {n}×)"))?;
+                    let meshes = self.desc.meshes.split_off(before);
+                    self.desc.instances.push(Instances::new(meshes, Vec::new())?);
+                    instanced.insert(mesh.index(), self.desc.instances.len() - 1);
+                    self.desc.instances.len() - 1
+                }
+            };
+            self.desc.instances[group].push_transform(world)?;
+        }
+        for (&mesh, &group) in &instanced {
+            if let Some((lo, hi)) = self.desc.instances[group].bounds() {
+                check_coordinates(
+                    &[lo, hi],
+                    self.path,
+                    &format!("meshes[{mesh}] (instanced; its placements' bounds)"),
+                )?;
+            }
+        }
+        if !instanced.is_empty() {
+            let placed: u64 = instanced.keys().map(|k| count[k]).sum();
+            self.warn(format!(
+                "{} mesh(es) placed {placed} times in all are instanced (kept once, placed by transforms)",
+                instanced.len()
+            ));
+        }
         Ok(())
     }
 
+    /// Whether any primitive of `mesh` has an emissive material (read before the traversal).
+    fn emits(&self, mesh: &gltf::Mesh<'_>) -> bool {
+        mesh.primitives().any(|p| {
+            p.material().index().and_then(|i| self.desc.materials.get(i)).is_some_and(|m| m.emission.is_some())
+        })
+    }
+
+    /// The local transforms of `EXT_mesh_gpu_instancing`: TRANSLATION, ROTATION (unit quaternion, float or
+    /// normalized integers) and SCALE accessors of equal count, each optional (identity), applied as
+    /// T·R·S in the node's space.
+    fn gpu_instances(
+        &mut self,
+        document: &gltf::Document,
+        ext: &serde_json::Value,
+        context: &str,
+    ) -> Result<Vec<Mat4>> {
+        let context = format!("{context} EXT_mesh_gpu_instancing");
+        let attributes = ext.get("attributes").and_then(serde_json::Value::as_object);
+        let accessor = |name: &str| -> Result<Option<gltf::Accessor<'_>>> {
+            let Some(v) = attributes.and_then(|a| a.get(name)) else { return Ok(None) };
+            let index =
+                v.as_u64().ok_or_else(|| self.data_err(&context, format!("{name} is not an accessor index")))?;
+            document
+                .accessors()
+                .nth(index as usize)
+                .map(Some)
+                .ok_or_else(|| self.data_err(&context, format!("{name}: accessor {index} does not exist")))
+        };
+        let (t, r, s) = (accessor("TRANSLATION")?, accessor("ROTATION")?, accessor("SCALE")?);
+        let read = |acc: &gltf::Accessor<'_>, name: &str, dims: Dimensions| -> Result<Vec<f32>> {
+            if acc.dimensions() != dims {
+                return Err(self.data_err(&context, format!("{name} must be {dims:?}, found {:?}", acc.dimensions())));
+            }
+            self.read_accessor(acc, &format!("{context} {name}"))
+        };
+        let translations = t.as_ref().map(|a| read(a, "TRANSLATION", Dimensions::Vec3)).transpose()?;
+        let rotations = r.as_ref().map(|a| read(a, "ROTATION", Dimensions::Vec4)).transpose()?;
+        let scales = s.as_ref().map(|a| read(a, "SCALE", Dimensions::Vec3)).transpose()?;
+        let counts: Vec<usize> = [(&translations, 3), (&rotations, 4), (&scales, 3)]
+            .iter()
+            .filter_map(|(v, k)| v.as_ref().map(|v| v.len() / k))
+            .collect();
+        let Some(&count) = counts.first() else {
+            self.warn(format!("{context}: no TRANSLATION, ROTATION or SCALE; the node's mesh is placed once"));
+            return Ok(vec![Mat4::IDENTITY]);
+        };
+        if counts.iter().any(|c| *c != count) {
+            return Err(self.data_err(&context, format!("attribute counts differ: {counts:?}")));
+        }
+        let mut out = Vec::with_capacity(count);
+        let mut skipped = 0;
+        for i in 0..count {
+            let tr = translations.as_ref().map_or(Vec3::ZERO, |v| Vec3::from_slice(&v[3 * i..]));
+            let sc = scales.as_ref().map_or(Vec3::ONE, |v| Vec3::from_slice(&v[3 * i..]));
+            let q = rotations.as_ref().map_or(glam::Quat::IDENTITY, |v| glam::Quat::from_slice(&v[4 * i..]));
+            let Some(q) = (q.is_finite() && q.length_squared() > 0.0).then(|| q.normalize()) else {
+                skipped += 1;
+                continue;
+            };
+            let m = Mat4::from_scale_rotation_translation(sc, q, tr);
+            if m.is_finite() && m.determinant() != 0.0 {
+                out.push(m);
+            } else {
+                skipped += 1;
+            }
+        }
+        if skipped > 0 {
+            self.warn(format!(
+                "{context}: {skipped} of {count} instances have a singular or non-finite transform; skipped"
+            ));
+        }
+        Ok(out)
+    }
+
     fn camera(&mut self, camera: &gltf::Camera<'_>, world: Mat4, context: &str, node_name: Option<&str>) {
-        match camera.projection() {
+        let (projection, vfov_deg, aspect_ratio) = match camera.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let vfov_deg = p.yfov().to_degrees();
                 if !(vfov_deg > 0.0 && vfov_deg < 180.0) {
                     self.warn(format!("{context}: camera yfov {} rad is outside (0, π); ignored", p.yfov()));
                     return;
                 }
-                // glTF cameras look down their local −Z with +Y up (glTF 2.0 §3.10.1).
-                let position = world.transform_point3(Vec3::ZERO);
-                let (Some(forward), Some(up)) = (
-                    world.transform_vector3(Vec3::NEG_Z).try_normalize(),
-                    world.transform_vector3(Vec3::Y).try_normalize(),
-                ) else {
-                    return;
-                };
-                let desc =
-                    CameraDesc { position, look_at: position + forward, up, vfov_deg, width: None, height: None };
-                // Every camera is kept, named by the camera, else its node, else its rank; the first
-                // perspective camera is the default.
-                let name = camera
-                    .name()
-                    .or(node_name)
-                    .map_or_else(|| format!("camera {}", self.desc.cameras.len()), str::to_owned);
-                if self.desc.camera.is_none() {
-                    self.desc.camera = Some(desc.clone());
+                let aspect = p.aspect_ratio();
+                if aspect.is_some_and(|a| !(a.is_finite() && a > 0.0)) {
+                    self.warn(format!("{context}: camera aspectRatio {aspect:?} is not finite and > 0; ignored"));
                 }
-                self.desc.cameras.push((name, desc));
+                (Projection::Perspective, vfov_deg, aspect.filter(|a| a.is_finite() && *a > 0.0))
             }
-            gltf::camera::Projection::Orthographic(_) => {
-                self.warn(format!("{context}: orthographic cameras are not supported; ignored"));
+            gltf::camera::Projection::Orthographic(o) => {
+                // glTF 2.0 §5.13: xmag and ymag must not be zero and should not be negative; the sign
+                // would mirror the image, so a negative value is refused rather than guessed at.
+                let (xmag, ymag) = (o.xmag(), o.ymag());
+                if !(xmag.is_finite() && xmag > 0.0 && ymag.is_finite() && ymag > 0.0) {
+                    self.warn(format!(
+                        "{context}: orthographic camera xmag {xmag}, ymag {ymag}: both must be finite and > 0; ignored"
+                    ));
+                    return;
+                }
+                // vfov_deg is not used by an orthographic camera; it holds a valid value all the same.
+                (Projection::Orthographic { xmag, ymag }, 40.0, Some(xmag / ymag))
             }
+        };
+        // glTF cameras look down their local −Z with +Y up (glTF 2.0 §3.10.1).
+        let position = world.transform_point3(Vec3::ZERO);
+        let (Some(forward), Some(up)) =
+            (world.transform_vector3(Vec3::NEG_Z).try_normalize(), world.transform_vector3(Vec3::Y).try_normalize())
+        else {
+            return;
+        };
+        // A scaled node scales an orthographic view (the rectangle is in the camera's local units).
+        let projection = match projection {
+            Projection::Orthographic { xmag, ymag } => Projection::Orthographic {
+                xmag: xmag * world.transform_vector3(Vec3::X).length(),
+                ymag: ymag * world.transform_vector3(Vec3::Y).length(),
+            },
+            p => p,
+        };
+        let desc = CameraDesc {
+            position,
+            look_at: position + forward,
+            up,
+            vfov_deg,
+            projection,
+            aspect_ratio,
+            width: None,
+            height: None,
+        };
+        // Every camera is kept, named by the camera, else its node, else its rank; the first is the default.
+        let name =
+            camera.name().or(node_name).map_or_else(|| format!("camera {}", self.desc.cameras.len()), str::to_owned);
+        if self.desc.camera.is_none() {
+            self.desc.camera = Some(desc.clone());
         }
+        self.desc.cameras.push((name, desc));
     }
 
     fn light(&mut self, light: &gltf::khr_lights_punctual::Light<'_>, world: Mat4) {
@@ -899,6 +1265,21 @@ impl Loader<'_> {
             )
         })
     }
+}
+
+/// Triangles of a mesh's triangle primitives, from the accessor counts (before anything is read).
+fn triangle_estimate(mesh: &gltf::Mesh<'_>) -> u64 {
+    mesh.primitives()
+        .map(|p| {
+            let vertices = p.get(&Semantic::Positions).map_or(0, |a| a.count() as u64);
+            let listed = p.indices().map_or(vertices, |a| a.count() as u64);
+            match p.mode() {
+                Mode::Triangles => listed / 3,
+                Mode::TriangleStrip | Mode::TriangleFan => listed.saturating_sub(2),
+                _ => 0,
+            }
+        })
+        .sum()
 }
 
 /// Reads `count` elements of `components` values each; `None` when any byte lies outside `bytes`.

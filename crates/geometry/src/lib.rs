@@ -34,7 +34,7 @@ pub use bvh::{BvhStats, Primitive, Scene};
 pub use camera::Camera;
 pub use error::{Error, Result};
 pub use ray::{Hit, Ray, spawn_ray, spawn_ray_to};
-pub use shapes::{Mesh, Sphere};
+pub use shapes::{Instances, Mesh, Sphere};
 pub use simd::SimdLevel;
 
 // --- loaders, layered without cycles: `desc` (plain types) and `limits` (budget, file and coordinate
@@ -51,9 +51,9 @@ mod obj_loader;
 mod prefilter;
 pub use desc::{
     AbsorptionDesc, AlphaMode, CameraDesc, EnvironmentMapDesc, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit,
-    MaterialDesc, MaterialFormat, MaterialTextures, SceneDescription, SceneFormat, SpectrumDesc, TextureDesc,
-    TextureTransform, WrapMode,
+    MaterialDesc, MaterialFormat, MaterialTextures, Projection, SceneDescription, SceneFormat, SpectrumDesc,
+    TextureDesc, TextureTransform, WrapMode,
 };
 pub use hash::xxh64;
-pub use limits::{DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};
+pub use limits::{DEFAULT_FLATTEN_TRIANGLES, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};
 pub use load::{load_scene, load_scene_with, parse_manifest, parse_manifest_with};

@@ -111,7 +111,8 @@ fn manifest(text: &str, base_dir: &Path, origin: &str, budget: &Budget) -> Resul
 }
 
 fn require_geometry(desc: SceneDescription, path: &Path) -> Result<SceneDescription> {
-    if desc.meshes.iter().any(|m| m.triangle_count() > 0) || !desc.spheres.is_empty() {
+    let instanced = desc.instances.iter().any(|i| i.triangle_count() > 0 && !i.transforms().is_empty());
+    if desc.meshes.iter().any(|m| m.triangle_count() > 0) || !desc.spheres.is_empty() || instanced {
         return Ok(desc);
     }
     let detail = match std::fs::metadata(path) {
@@ -124,8 +125,14 @@ fn require_geometry(desc: SceneDescription, path: &Path) -> Result<SceneDescript
 
 /// Removes unhittable triangles, with a warning naming the file.
 fn finish(mut desc: SceneDescription, origin: &str) -> SceneDescription {
-    let (meshes, removed) = crate::prefilter::remove_unhittable(std::mem::take(&mut desc.meshes));
+    let (meshes, mut removed) = crate::prefilter::remove_unhittable(std::mem::take(&mut desc.meshes));
     desc.meshes = meshes;
+    for instance in &mut desc.instances {
+        let (meshes, r) = crate::prefilter::remove_unhittable(instance.take_meshes());
+        instance.set_meshes(meshes);
+        removed.degenerate += r.degenerate;
+        removed.duplicates += r.duplicates;
+    }
     if removed.degenerate > 0 || removed.duplicates > 0 {
         desc.warnings.push(format!(
             "{origin}: {} zero-area and {} duplicate triangle(s) removed (they cannot be hit)",

@@ -37,7 +37,7 @@ fn check<T: std::fmt::Debug>(
 
 /// A budget small enough that a fuzzed claim of a huge accessor is refused quickly (256 MiB).
 fn budget() -> Budget {
-    Budget::new(crate::LoadOptions { max_memory: 256 << 20, allow_absolute_paths: false })
+    Budget::new(crate::LoadOptions { max_memory: 256 << 20, ..crate::LoadOptions::default() })
 }
 
 /// What the loaders produced, through the pre-filter and the BVH build (obvhs must not panic either).

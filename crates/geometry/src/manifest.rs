@@ -12,8 +12,8 @@ use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use crate::desc::{
-    CameraDesc, EnvironmentMapDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, SceneDescription,
-    SceneFormat, SpectrumDesc,
+    CameraDesc, EnvironmentMapDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, Projection,
+    SceneDescription, SceneFormat, SpectrumDesc,
 };
 use crate::error::{Error, Result};
 use crate::forms::{Ctx, absorption, ior, number, spectrum};
@@ -334,7 +334,16 @@ fn camera(ctx: &Ctx<'_>, c: CameraJson) -> Result<CameraDesc> {
             return Err(ctx.err(key, "must be > 0"));
         }
     }
-    Ok(CameraDesc { position, look_at, up, vfov_deg: c.vfov_deg, width: c.width, height: c.height })
+    Ok(CameraDesc {
+        position,
+        look_at,
+        up,
+        vfov_deg: c.vfov_deg,
+        projection: Projection::Perspective,
+        aspect_ratio: None,
+        width: c.width,
+        height: c.height,
+    })
 }
 
 /// A light's `intensity` and `unit`: `allowed` units for its kind, the first being the default.

@@ -170,3 +170,90 @@ impl Sphere {
         self.material
     }
 }
+
+/// One object placed several times: its meshes (the primitives of one glTF mesh) in object space and an
+/// object-to-world transform per placement. The BVH keeps one copy of the meshes and a top-level
+/// structure over the placements (two levels), instead of a world-space copy per placement.
+#[derive(Debug, Clone)]
+pub struct Instances {
+    meshes: Vec<Mesh>,
+    transforms: Vec<Mat4>,
+}
+
+impl Instances {
+    /// The meshes placed by each transform; every transform must be finite with a non-zero determinant
+    /// (a mirroring one is fine: normals are transformed by the inverse transpose, so they face as in
+    /// a world-space copy whose winding the loader reversed).
+    pub fn new(meshes: Vec<Mesh>, transforms: Vec<Mat4>) -> Result<Self> {
+        if let Some(i) = transforms.iter().position(|m| {
+            let det = m.determinant();
+            !(m.is_finite() && det.is_finite() && det != 0.0)
+        }) {
+            return Err(Error::Invalid(format!("instance {i}: transform is singular or not finite")));
+        }
+        Ok(Self { meshes, transforms })
+    }
+    /// Add a placement (finite, non-singular).
+    pub fn push_transform(&mut self, m: Mat4) -> Result<()> {
+        let det = m.determinant();
+        if !(m.is_finite() && det.is_finite() && det != 0.0) {
+            return Err(Error::Invalid("instance transform is singular or not finite".to_owned()));
+        }
+        self.transforms.push(m);
+        Ok(())
+    }
+    /// The object-space meshes.
+    pub fn meshes(&self) -> &[Mesh] {
+        &self.meshes
+    }
+    /// Replace the meshes (e.g. after removing unhittable triangles).
+    pub fn set_meshes(&mut self, meshes: Vec<Mesh>) {
+        self.meshes = meshes;
+    }
+    pub(crate) fn take_meshes(&mut self) -> Vec<Mesh> {
+        std::mem::take(&mut self.meshes)
+    }
+    /// Object-to-world transforms, one per placement.
+    pub fn transforms(&self) -> &[Mat4] {
+        &self.transforms
+    }
+    /// Triangles of one placement.
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(Mesh::triangle_count).sum()
+    }
+    /// World-space bounds of every placement, `None` without triangles.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let (lo, hi) = self.object_bounds()?;
+        let mut out = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for m in &self.transforms {
+            let (a, b) = transform_bounds(*m, lo, hi);
+            out = (out.0.min(a), out.1.max(b));
+        }
+        Some(out)
+    }
+    /// Object-space bounds of the meshes' vertices, `None` without any.
+    pub(crate) fn object_bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for p in self.meshes.iter().flat_map(|m| m.positions()) {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        (lo.x <= hi.x).then_some((lo, hi))
+    }
+}
+
+/// The axis-aligned box around the eight transformed corners of `lo`–`hi`.
+pub(crate) fn transform_bounds(m: Mat4, lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
+    let mut out = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for i in 0..8 {
+        let c = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let p = m.transform_point3(c);
+        out = (out.0.min(p), out.1.max(p));
+    }
+    out
+}

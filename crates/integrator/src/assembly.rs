@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use colorimetry::DenselySampledSpectrum;
 use geometry::{
     AbsorptionDesc, Camera, CameraDesc, EnvironmentMapDesc, IorDesc, LightAmount, LightDesc, LightUnit, LoadOptions,
-    MaterialDesc, MaterialFormat, Scene, SceneDescription, SceneFormat, SpectrumDesc,
+    MaterialDesc, MaterialFormat, Projection, Scene, SceneDescription, SceneFormat, SpectrumDesc,
 };
 use glam::Vec3;
 use materials::bsdf::Metal;
@@ -123,6 +123,7 @@ impl RenderScene {
             format,
             spheres,
             meshes,
+            instances,
             materials: mut material_descs,
             images,
             lights: mut light_descs,
@@ -151,7 +152,7 @@ impl RenderScene {
         let mut background = background;
         let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
         warn_unused_keys(&material_descs, &mut warnings);
-        let geometry = Scene::build(spheres, meshes)?;
+        let geometry = Scene::build_with_instances(spheres, meshes, instances)?;
         let (center, radius) = framing(bounds);
         // A description built by hand may set `camera` without `cameras`.
         if let (Some(c), true) = (camera, cameras.is_empty()) {
@@ -165,7 +166,7 @@ impl RenderScene {
         let auto_integrator = auto_integrator(&settings)?;
         // glTF lights are KHR_lights_punctual: candela (point, spot) and lux (directional).
         let photometric_lights = format == geometry::SceneFormat::Gltf && !light_descs.is_empty();
-        let resolution = (camera.width.unwrap_or(DEFAULT_RESOLUTION.0), camera.height.unwrap_or(DEFAULT_RESOLUTION.1));
+        let resolution = image_size(&camera, None, None);
 
         if let Some(env) = &options.environment {
             // The map replaces what escaping rays would have seen: the file's environments and background.
@@ -304,9 +305,17 @@ impl RenderScene {
         self.source_hash
     }
 
-    /// The image size the scene asks for (the paper's 640×480 if it does not say).
+    /// The image size the scene asks for (the paper's 640×480 if it does not say; a camera's aspect
+    /// ratio sets the height from the width).
     pub fn resolution(&self) -> (u32, u32) {
         self.resolution
+    }
+
+    /// The image size for a requested `width` and `height`, each filled in when missing: from the
+    /// camera's fixed size, else the one side from the other by the camera's aspect ratio, else the
+    /// default 640×480.
+    pub fn resolution_for(&self, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
+        image_size(&self.camera, width, height)
     }
 
     /// The acceleration structure and primitives.
@@ -338,13 +347,32 @@ impl RenderScene {
     /// A camera for an image of the given size.
     pub(crate) fn camera(&self, width: u32, height: u32) -> Result<Camera> {
         let c = &self.camera;
-        Camera::look_at(c.position, c.look_at, c.up, c.vfov_deg, width as f32 / height as f32)
-            .map_err(|e| Error::Camera(e.to_string()))
+        let aspect = width as f32 / height as f32;
+        match c.projection {
+            Projection::Perspective => Camera::look_at(c.position, c.look_at, c.up, c.vfov_deg, aspect),
+            Projection::Orthographic { ymag, .. } => Camera::orthographic(c.position, c.look_at, c.up, ymag, aspect),
+        }
+        .map_err(|e| Error::Camera(e.to_string()))
     }
 
     /// A numeric setting from the manifest's `settings` block.
     pub(crate) fn setting_f64(&self, key: &str) -> Option<f64> {
         self.settings.get(key).and_then(serde_json::Value::as_f64)
+    }
+}
+
+/// The image size: `width` and `height` if given, else the camera's fixed size; a side still missing comes
+/// from the other through the camera's aspect ratio (rounded, at least 1 pixel) when the file gives one,
+/// else from the default 640×480.
+fn image_size(camera: &CameraDesc, width: Option<u32>, height: Option<u32>) -> (u32, u32) {
+    let (width, height) = (width.or(camera.width), height.or(camera.height));
+    let from = |side: u32, scale: f32| ((side as f32 * scale).round() as u32).max(1);
+    match (width, height, camera.aspect_ratio) {
+        (Some(w), Some(h), _) => (w, h),
+        (Some(w), None, Some(a)) => (w, from(w, 1.0 / a)),
+        (None, Some(h), Some(a)) => (from(h, a), h),
+        (None, None, Some(a)) => (DEFAULT_RESOLUTION.0, from(DEFAULT_RESOLUTION.0, 1.0 / a)),
+        (w, h, None) => (w.unwrap_or(DEFAULT_RESOLUTION.0), h.unwrap_or(DEFAULT_RESOLUTION.1)),
     }
 }
 

@@ -4,7 +4,7 @@
 
 use std::str::FromStr;
 
-use geometry::{CameraDesc, SceneFormat};
+use geometry::{CameraDesc, Projection, SceneFormat};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
@@ -162,6 +162,12 @@ fn apply_overrides(
         desc.look_at = t;
     }
     if let Some(fov) = options.vfov_deg {
+        if let Projection::Orthographic { .. } = desc.projection {
+            return Err(Error::Camera(format!(
+                "--fov {fov}: {} is orthographic (no field of view; --look-from and --look-at apply)",
+                source
+            )));
+        }
         if !(fov > 0.0 && fov < 180.0) {
             return Err(Error::Camera(format!("--fov {fov}: the field of view must be in (0, 180) degrees")));
         }
@@ -218,7 +224,16 @@ pub(crate) fn default_camera(lo: Vec3, hi: Vec3, up_axis: UpAxis, vfov_deg: f32,
     }
     // A point (or empty) scene: a small positive distance so the camera is not at the target.
     let distance = distance.max(1e-3 * (1.0 + center.length()));
-    CameraDesc { position: center + distance * back, look_at: center, up, vfov_deg, width: None, height: None }
+    CameraDesc {
+        position: center + distance * back,
+        look_at: center,
+        up,
+        vfov_deg,
+        projection: Projection::Perspective,
+        aspect_ratio: None,
+        width: None,
+        height: None,
+    }
 }
 
 #[cfg(test)]
@@ -307,6 +322,8 @@ mod tests {
             look_at: Vec3::ZERO,
             up: Vec3::Y,
             vfov_deg: 30.0,
+            projection: Projection::Perspective,
+            aspect_ratio: None,
             width: None,
             height: None,
         };

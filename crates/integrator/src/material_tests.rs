@@ -26,8 +26,16 @@ fn sphere_scene(material: MaterialDesc) -> RenderScene {
         intensity: geometry::LightAmount { value: 81.0, unit: geometry::LightUnit::Candela },
     });
     // 2 atan(1 / √99) = 11.5°: the sphere's silhouette just fits; a little margin.
-    d.camera =
-        Some(CameraDesc { position: eye, look_at: Vec3::ZERO, up: Vec3::Y, vfov_deg: 12.0, width: None, height: None });
+    d.camera = Some(CameraDesc {
+        position: eye,
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 12.0,
+        projection: geometry::Projection::Perspective,
+        aspect_ratio: None,
+        width: None,
+        height: None,
+    });
     RenderScene::from_description(d).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -234,8 +242,16 @@ fn whitted_gltf_glass_does_not_gain_energy_in_a_uniform_environment() {
         map: None,
     });
     let eye = Vec3::new(0.0, 0.0, 10.0);
-    d.camera =
-        Some(CameraDesc { position: eye, look_at: Vec3::ZERO, up: Vec3::Y, vfov_deg: 14.0, width: None, height: None });
+    d.camera = Some(CameraDesc {
+        position: eye,
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 14.0,
+        projection: geometry::Projection::Perspective,
+        aspect_ratio: None,
+        width: None,
+        height: None,
+    });
     let scene = RenderScene::from_description(d).unwrap_or_else(|e| panic!("{e}"));
     let options =
         RenderOptions { width: 48, height: 48, spectral: SpectralMode::Rgb, threads: Some(2), ..Default::default() }

@@ -23,7 +23,12 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
     let (lo, hi) = scene.bounds();
     // Only materials some primitive uses count towards `needs` (a file may define unused ones).
     let mut used = vec![false; desc.materials.len()];
-    let used_ids = desc.spheres.iter().map(|s| s.material()).chain(desc.meshes.iter().map(|m| m.material()));
+    let used_ids = desc
+        .spheres
+        .iter()
+        .map(|s| s.material())
+        .chain(desc.meshes.iter().map(|m| m.material()))
+        .chain(desc.instances.iter().flat_map(|i| i.meshes().iter().map(|m| m.material())));
     for id in used_ids.flatten() {
         if let Some(u) = used.get_mut(id as usize) {
             *u = true;
@@ -60,6 +65,11 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
         "triangles": scene.triangle_count(),
         "spheres": scene.sphere_count(),
         "meshes": desc.meshes.len(),
+        "instances": {
+            "meshes": desc.instances.len(),
+            "placements": scene.instance_count(),
+            "triangles": scene.instanced_triangle_count(),
+        },
         "materials": materials,
         "lights": render_scene.light_descs.iter().map(light_json).collect::<Vec<_>>(),
         "camera": camera_json(&render_scene.camera, &render_scene.camera_source, &desc.cameras),
@@ -153,6 +163,11 @@ fn camera_json(c: &CameraDesc, source: &str, file_cameras: &[(String, CameraDesc
         "look_at": c.look_at.to_array(),
         "up": c.up.to_array(),
         "vfov_deg": c.vfov_deg,
+        "projection": match c.projection {
+            geometry::Projection::Perspective => json!("perspective"),
+            geometry::Projection::Orthographic { xmag, ymag } => json!({"orthographic": {"xmag": xmag, "ymag": ymag}}),
+        },
+        "aspect_ratio": c.aspect_ratio,
         "width": c.width,
         "height": c.height,
     })

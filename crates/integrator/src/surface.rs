@@ -22,8 +22,13 @@ fn barycentrics(p: Vec3, v: [Vec3; 3]) -> Option<[f32; 3]> {
 /// The tangent at a triangle hit, with the sign of the bitangent that points "up" the image (glTF:
 /// +Y of a normal map, towards decreasing v) in w: the mesh's `TANGENT` interpolated, else the
 /// triangle's ∂p/∂u from its UVs (the per-face frame MikkTSpace starts from; it differs from
-/// MikkTSpace's per-vertex averaging only across faces). `None` for spheres or without UVs.
+/// MikkTSpace's per-vertex averaging only across faces). `None` for spheres, placed instances, or without UVs.
 pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
+    // Hits on placed instances carry no primitive id (u32::MAX): no tangent frame there yet, so a
+    // normal map on an instanced mesh shades with the interpolated normal.
+    if hit.primitive as usize >= scene.primitive_count() {
+        return None;
+    }
     let Primitive::Triangle { mesh, triangle } = scene.primitive(hit.primitive) else { return None };
     let mesh = scene.meshes().get(mesh as usize)?;
     let tri = mesh.indices().get(triangle as usize)?.map(|i| i as usize);

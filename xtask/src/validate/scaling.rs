@@ -27,6 +27,8 @@ pub(crate) fn scaling(report: &mut Report, out: &Path, quick: bool) -> anyhow::R
                 look_at: glam::Vec3::ZERO,
                 up: glam::Vec3::Y,
                 vfov_deg: 50.0,
+                projection: geometry::Projection::Perspective,
+                aspect_ratio: None,
                 width: None,
                 height: None,
             }),

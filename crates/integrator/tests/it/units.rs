@@ -106,6 +106,8 @@ fn obj_plane(extra: &str) -> integrator::RenderScene {
         look_at: glam::Vec3::ZERO,
         up: glam::Vec3::Y,
         vfov_deg: 0.01,
+        projection: geometry::Projection::Perspective,
+        aspect_ratio: None,
         width: Some(1),
         height: Some(1),
     });
