@@ -45,7 +45,8 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
 /// Extensions a file may require that we degrade gracefully: the file loads, with a warning (see
 /// [`extension_notes`]). Animations are ignored, so a file whose animations need `KHR_animation_pointer`
 /// still has a rest pose; `KHR_materials_variants` keeps each primitive's default material.
-const DEGRADED_EXTENSIONS: &[&str] = &["KHR_materials_variants", "KHR_animation_pointer"];
+/// `KHR_materials_unlit` materials are shaded as lit ones (the base colour as albedo), with a warning.
+const DEGRADED_EXTENSIONS: &[&str] = &["KHR_materials_variants", "KHR_animation_pointer", "KHR_materials_unlit"];
 
 /// Extensions whose data we do not decode, with the way forward for the user. glTF Transform decodes Draco
 /// and meshopt when it reads a file and writes plain buffers (its maintainer: "decompression happens by
@@ -828,6 +829,11 @@ impl Loader<'_> {
             gltf::material::AlphaMode::Mask => AlphaMode::Mask(material.alpha_cutoff().unwrap_or(0.5)),
             gltf::material::AlphaMode::Blend => AlphaMode::Blend,
         });
+        if material.extension_value("KHR_materials_unlit").is_some() {
+            self.warn(format!(
+                "{context}: KHR_materials_unlit is shaded as a lit material (its base colour as the albedo)"
+            ));
+        }
         for (extension, what) in [
             ("KHR_materials_clearcoat", "clearcoat"),
             ("KHR_materials_sheen", "sheen"),
@@ -1368,7 +1374,7 @@ mod tests {
         // A 1×1 PNG in a data URI would need an encoder here; the loader reads but never decodes, so
         // any bytes do: "AAEC" is base64 for [0, 1, 2].
         let json = br#"{"asset": {"version": "2.0"}, "extensionsUsed": ["KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness"],
-            "extensionsRequired": ["KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness"],
+            "extensionsRequired": ["KHR_texture_transform", "KHR_materials_pbrSpecularGlossiness", "KHR_materials_unlit"],
             "images": [{"uri": "data:image/png;base64,AAEC"}],
             "samplers": [{"magFilter": 9728, "wrapS": 33071, "wrapT": 33648}],
             "textures": [{"source": 0, "sampler": 0}],
@@ -1377,6 +1383,7 @@ mod tests {
                "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 0.5], "baseColorTexture": {"index": 0, "texCoord": 1,
                  "extensions": {"KHR_texture_transform": {"offset": [0.25, 0], "rotation": 0.5, "scale": [2, 3], "texCoord": 0}}}},
                "normalTexture": {"index": 0, "scale": 0.7}},
+              {"name": "flat", "extensions": {"KHR_materials_unlit": {}}},
               {"name": "sg", "extensions": {"KHR_materials_pbrSpecularGlossiness": {"diffuseFactor": [0.2, 0.4, 0.6, 0.9], "glossinessFactor": 0.75, "diffuseTexture": {"index": 0}}}}]}"#;
         let budget = Budget::new(crate::LoadOptions::default());
         let d = load_gltf_slice(json, None, Path::new("t.gltf"), &budget).unwrap_or_else(|e| panic!("{e}"));
@@ -1394,7 +1401,8 @@ mod tests {
         assert_eq!(a.alpha_mode, Some(AlphaMode::Mask(0.3)));
         assert_eq!(a.alpha, Some(0.5));
         // Specular-glossiness: diffuse → base colour, roughness = 1 − glossiness, metallic 0, and a warning.
-        let sg = &d.materials[1];
+        assert!(d.warnings.iter().any(|w| w.contains("material 'flat': KHR_materials_unlit is shaded as a lit")));
+        let sg = &d.materials[2];
         assert_eq!(sg.base_color, Some(SpectrumDesc::Rgb([0.2, 0.4, 0.6])));
         assert_eq!((sg.roughness, sg.metallic, sg.alpha), (Some(0.25), Some(0.0), Some(0.9)));
         assert_eq!(sg.textures.base_color.as_ref().map(|t| t.image), Some(0));
