@@ -171,6 +171,13 @@ pub struct TextureDesc {
     pub scale: f32,
 }
 
+impl TextureDesc {
+    /// Image `image` with glTF's sampler defaults: repeat, bilinear, `TEXCOORD_0`, no transform, scale 1.
+    pub fn new(image: usize) -> Self {
+        Self { image, tex_coord: 0, wrap: [WrapMode::Repeat; 2], nearest: false, transform: None, scale: 1.0 }
+    }
+}
+
 /// How a material's alpha (base colour A × texture A) is used (glTF `alphaMode`; OBJ `d`/`map_d`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AlphaMode {

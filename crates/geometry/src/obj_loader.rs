@@ -380,14 +380,8 @@ fn texture_statement<'a>(
     args: &[&'a str],
     ignored: &mut Vec<&'a str>,
 ) -> std::result::Result<(String, TextureDesc), String> {
-    let mut texture = TextureDesc {
-        image: 0,
-        tex_coord: 0,
-        wrap: [WrapMode::Repeat; 2],
-        nearest: false,
-        transform: None,
-        scale: 1.0,
-    };
+    // The image index is filled in when the image is read.
+    let mut texture = TextureDesc::new(0);
     let mut transform = TextureTransform { offset: [0.0, 0.0], rotation: 0.0, scale: [1.0, 1.0] };
     let mut i = 0;
     // Option → number of numeric arguments it takes (up to), per the MTL specification.

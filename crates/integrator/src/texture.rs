@@ -381,11 +381,16 @@ pub(crate) fn load_material_textures(
                 && let Some(img) = image(t.image, warnings)
             {
                 let mean = mean_linear_rgb(&img);
-                let factor = match &m.emission {
-                    Some(geometry::SpectrumDesc::Rgb(c)) => *c,
-                    _ => [1.0; 3],
+                // glTF multiplies by `emissiveFactor`, whose default black means no emission (the
+                // loader leaves `emission` unset then); MTL's `map_Ke` without `Ke` stands alone.
+                let factor = match (&m.emission, m.format) {
+                    (Some(geometry::SpectrumDesc::Rgb(c)), _) => *c,
+                    (None, geometry::MaterialFormat::Mtl) => [1.0; 3],
+                    _ => [0.0; 3],
                 };
-                m.emission = Some(geometry::SpectrumDesc::Rgb([0, 1, 2].map(|i| factor[i] * mean[i])));
+                if factor != [0.0; 3] {
+                    m.emission = Some(geometry::SpectrumDesc::Rgb([0, 1, 2].map(|i| factor[i] * mean[i])));
+                }
                 warnings.push(format!(
                     "material '{}': emissive texture rendered as its mean colour ({:.3}, {:.3}, {:.3}) × factor",
                     m.name, mean[0], mean[1], mean[2]
@@ -447,7 +452,7 @@ mod tests {
     use super::*;
 
     fn sampler(w: u32, h: u32, wrap: WrapMode) -> Sampler {
-        let desc = TextureDesc { image: 0, tex_coord: 0, wrap: [wrap; 2], nearest: false, transform: None, scale: 1.0 };
+        let desc = TextureDesc { wrap: [wrap; 2], ..TextureDesc::new(0) };
         Sampler::new(&desc, w, h)
     }
 
@@ -499,14 +504,7 @@ mod tests {
         .map(|c| [c[0], c[1], c[2], 255])
         .collect();
         let image = Image8 { width: 8, height: 2, texels: texels.clone() };
-        let desc = TextureDesc {
-            image: 0,
-            tex_coord: 0,
-            wrap: [WrapMode::Repeat; 2],
-            nearest: false,
-            transform: None,
-            scale: 1.0,
-        };
+        let desc = TextureDesc::new(0);
         let (texture, exact) = ColorTexture::new(&image, &desc, [1.0; 4]);
         assert!(exact);
         let mut worst: f64 = 0.0;
