@@ -79,6 +79,18 @@ pub(crate) fn load_gltf_slice(
     budget: &Budget,
 ) -> Result<SceneDescription> {
     let gltf_err = |cause| Error::Gltf { path: path.to_path_buf(), cause };
+    // A GLB header whose total length is below the header's own 12 bytes makes `gltf` subtract with
+    // overflow (gltf 1.4.1 src/binary.rs:252, found by the `glb` fuzz target): refuse it here.
+    if let [b'g', b'l', b'T', b'F', _, _, _, _, l0, l1, l2, l3, ..] = *bytes {
+        let length = u32::from_le_bytes([l0, l1, l2, l3]);
+        if length < 12 {
+            return Err(Error::GltfData {
+                path: path.to_path_buf(),
+                context: "GLB header".to_owned(),
+                message: format!("declares a total length of {length} bytes, less than the 12-byte header"),
+            });
+        }
+    }
     // The JSON document (tree of values) costs a few times its text; charge twice the file.
     budget.charge(path, || "the glTF JSON document".to_owned(), 2 * bytes.len() as u64)?;
     let parsed = guard_panic(path, "gltf", || gltf::Gltf::from_slice_without_validation(bytes).map_err(gltf_err));
@@ -1369,6 +1381,19 @@ mod tests {
 
     /// Issue 13: every perspective camera is kept with its name (`--camera N|NAME` chooses); the first is
     /// the default; an unnamed camera takes its node's name, else its rank.
+    #[test]
+    fn glb_header_shorter_than_itself_is_a_clear_error() {
+        // `fuzz/regressions/glb/glb_header_length_below_12.glb`: magic, version 2, length 0.
+        let mut bytes = b"glTF".to_vec();
+        bytes.extend_from_slice(&2u32.to_le_bytes());
+        bytes.extend_from_slice(&[0; 40]);
+        let budget = Budget::new(crate::LoadOptions::default());
+        match load_gltf_slice(&bytes, None, Path::new("bad.glb"), &budget) {
+            Err(e @ Error::GltfData { .. }) => assert!(e.to_string().contains("GLB header"), "{e}"),
+            other => panic!("expected a GLB header error, got {other:?}"),
+        }
+    }
+
     #[test]
     fn textures_are_transcribed_with_sampler_transform_and_alpha() {
         // A 1×1 PNG in a data URI would need an encoder here; the loader reads but never decodes, so
