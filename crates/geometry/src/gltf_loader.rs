@@ -152,6 +152,19 @@ pub(crate) fn load_gltf_slice(
             accessor.max.get_or_insert(zeros);
         }
     }
+    // Images `gltf` would unwrap into a panic (`Image::source`, gltf 1.4.1 src/image.rs:124-128: neither
+    // a URI nor a buffer view with a MIME type, or a view that does not exist; found by the fuzz
+    // targets): their textures are skipped with a warning.
+    let bad_images: HashSet<usize> = root
+        .images
+        .iter()
+        .enumerate()
+        .filter(|(_, i)| match (&i.buffer_view, &i.uri) {
+            (Some(view), _) => view.value() >= root.buffer_views.len() || i.mime_type.is_none(),
+            (None, uri) => uri.is_none(),
+        })
+        .map(|(k, _)| k)
+        .collect();
     let document = guard_panic(path, "gltf", || gltf::Document::from_json(root).map_err(gltf_err))?;
 
     let buffers = load_buffers(&document, base, blob, path, budget)?;
@@ -160,6 +173,7 @@ pub(crate) fn load_gltf_slice(
         base,
         buffers: &buffers,
         images: HashMap::new(),
+        bad_images,
         budget,
         desc: SceneDescription::empty(SceneFormat::Gltf),
         default_material: None,
@@ -405,6 +419,8 @@ struct Loader<'a> {
     buffers: &'a [Vec<u8>],
     /// glTF image index → index in `desc.images`: each image is read once however many textures use it.
     images: HashMap<usize, usize>,
+    /// Images with no usable source (see `load_gltf_slice`).
+    bad_images: HashSet<usize>,
     budget: &'a Budget,
     desc: SceneDescription,
     /// Index of the glTF default material, added on first use by a primitive without a material.
@@ -872,6 +888,14 @@ impl Loader<'_> {
         context: &str,
     ) -> Option<TextureDesc> {
         let image = texture.source();
+        if self.bad_images.contains(&image.index()) {
+            self.warn(format!(
+                "{context}: texture {} not used: images[{}] has neither a URI nor a buffer view with a MIME type",
+                texture.index(),
+                image.index()
+            ));
+            return None;
+        }
         let image = match self.images.get(&image.index()) {
             Some(&i) => i,
             None => match self.read_image(&image) {
