@@ -423,9 +423,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 skipped = 0.0;
             }
             // A texture's base colour replaces the material's (it already includes the factor).
-            let rgb_lanes = matches!(sensor, Sensor::Fixed(lanes) if lanes.rgb);
             let base = |id: SpecId, lambda: &SampledWavelengths<N>| match textures.and_then(|t| t.base_color.as_ref()) {
-                Some(t) => t.eval(hit.uv, lambda, rgb_lanes).0,
+                Some(t) => t.eval(hit.uv, lambda, self.rgb_lanes).0,
                 None => self.spectra.eval(id, lambda),
             };
             let bsdf = match m.scattering {

@@ -13,6 +13,7 @@
 
 use std::collections::HashMap;
 use std::io::Cursor;
+use std::sync::Arc;
 
 use colorimetry::{RgbSigmoid, SampledSpectrum, SampledWavelengths, srgb_decode};
 use geometry::{AlphaMode, ImageDesc, MaterialDesc, TextureDesc, WrapMode};
@@ -224,14 +225,16 @@ impl ColorTexture {
 #[derive(Debug)]
 pub(crate) struct DataTexture {
     sampler: Sampler,
-    texels: Vec<[u8; 4]>,
+    /// The decoded image, shared with every other role that uses it (an ORM image serves
+    /// metallic–roughness and occlusion, one file may be several materials' normal map).
+    image: Arc<Image8>,
     /// glTF `normalTexture.scale` (1 for other roles).
     scale: f32,
 }
 
 impl DataTexture {
-    fn new(image: Image8, desc: &TextureDesc) -> Self {
-        Self { sampler: Sampler::new(desc, image.width, image.height), texels: image.texels, scale: desc.scale }
+    fn new(image: Arc<Image8>, desc: &TextureDesc) -> Self {
+        Self { sampler: Sampler::new(desc, image.width, image.height), image, scale: desc.scale }
     }
 
     /// The four channels at `uv`, each in [0, 1].
@@ -239,7 +242,7 @@ impl DataTexture {
     fn eval(&self, uv: Vec2) -> Vec4 {
         let mut out = Vec4::ZERO;
         for (i, w) in self.sampler.footprint(uv) {
-            out += Vec4::from_array(self.texels[i].map(f32::from)) * w;
+            out += Vec4::from_array(self.image.texels[i].map(f32::from)) * w;
         }
         out / 255.0
     }
@@ -330,7 +333,7 @@ impl MaterialTextures {
             + [&self.metallic_roughness, &self.normal, &self.coverage]
                 .into_iter()
                 .flatten()
-                .map(|t| t.texels.len() * 4)
+                .map(|t| t.image.texels.len() * 4)
                 .sum::<usize>()
     }
 }
@@ -344,14 +347,14 @@ pub(crate) fn load_material_textures(
     materials: &mut [MaterialDesc],
     warnings: &mut Vec<String>,
 ) -> Vec<Option<MaterialTextures>> {
-    let mut decoded: HashMap<usize, Option<std::sync::Arc<Image8>>> = HashMap::new();
-    let mut image = |index: usize, warnings: &mut Vec<String>| -> Option<std::sync::Arc<Image8>> {
+    let mut decoded: HashMap<usize, Option<Arc<Image8>>> = HashMap::new();
+    let mut image = |index: usize, warnings: &mut Vec<String>| -> Option<Arc<Image8>> {
         decoded
             .entry(index)
             .or_insert_with(|| {
                 let desc = images.get(index)?;
                 match decode(desc, warnings) {
-                    Ok(img) if img.width > 0 && img.height > 0 => Some(std::sync::Arc::new(img)),
+                    Ok(img) if img.width > 0 && img.height > 0 => Some(Arc::new(img)),
                     Ok(_) => {
                         warnings.push(format!("{}: empty image; the material's factor is used", desc.label));
                         None
@@ -419,7 +422,7 @@ pub(crate) fn load_material_textures(
             let mut data = |t: &Option<TextureDesc>, warnings: &mut Vec<String>| {
                 let t = t.as_ref()?;
                 let img = image(t.image, warnings)?;
-                Some(DataTexture::new(Image8 { width: img.width, height: img.height, texels: img.texels.clone() }, t))
+                Some(DataTexture::new(img, t))
             };
             let metallic_roughness = data(&textures.metallic_roughness, warnings);
             let normal = data(&textures.normal, warnings);
