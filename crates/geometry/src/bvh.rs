@@ -69,6 +69,38 @@ fn padded(lo: Vec3, hi: Vec3) -> Bounds {
     Bounds(Aabb { min: Vec3A::from(lo - pad), max: Vec3A::from(hi + pad) })
 }
 
+/// Largest bound magnitude built as it is: 2⁴⁰ ≈ 1.1e12. obvhs's SAH sums node areas in f32, which
+/// overflows to ∞ once the sum passes 3.4e38 (≈ 2000 coincident triangles spanning 1e18, the
+/// loaders' coordinate limit); every split then costs ∞, none is chosen and the build reads an
+/// invalid child slot (a debug assertion in obvhs 0.4 `bvh2_to_cwbvh.rs`; in release a binary-shaped
+/// tree, 5× the nodes, or an out-of-range index). Below 2⁴⁰ a node's half area is at most
+/// 3·(2⁴¹)² ≈ 1.5e25, so the sum over the 2³⁰ nodes of the largest tree stays below 2e34.
+const MAX_UNSCALED_MAGNITUDE: f32 = (1u64 << 40) as f32;
+
+/// obvhs's CWBVH over `bounds` (whose union is `lo`..`hi`), and the factor its boxes are in: 1 for
+/// bounds within ±[`MAX_UNSCALED_MAGNITUDE`], else a power of two 2ᵏ ≥ the largest magnitude, the
+/// tree having been built over the bounds times 2⁻ᵏ. Scaling by a power of two is exact (no bound
+/// reaches the subnormal range at these magnitudes unless it is tiny, and each scaled bound is
+/// also rounded outward, so it still contains its primitive), so the SAH makes the same decisions
+/// on numbers that cannot overflow, and [`WideBvh::from_cwbvh`] undoes it exactly.
+fn build_scaled(mut bounds: Vec<Bounds>, lo: Vec3, hi: Vec3) -> (obvhs::cwbvh::CwBvh, f32) {
+    let magnitude = lo.abs().max(hi.abs()).max_element();
+    let scale = if magnitude > MAX_UNSCALED_MAGNITUDE {
+        // 2ᵏ with k = ⌈log₂ magnitude⌉ (magnitude is finite: checked by the callers).
+        let k = magnitude.log2().ceil() as i32;
+        let down = 2f32.powi(-k);
+        for b in &mut bounds {
+            b.0.min = Vec3A::from((Vec3::from(b.0.min) * down).map(f32::next_down));
+            b.0.max = Vec3A::from((Vec3::from(b.0.max) * down).map(f32::next_up));
+        }
+        2f32.powi(k)
+    } else {
+        1.0
+    };
+    let mut core = Duration::ZERO;
+    (build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut core), scale)
+}
+
 /// All spheres and triangles of a scene with their BVH.
 #[derive(Debug)]
 pub struct Scene {
@@ -177,16 +209,13 @@ impl Scene {
         if !(lo.is_finite() && hi.is_finite()) && count > 0 {
             return Err(Error::Invalid("scene bounds are not finite".to_owned()));
         }
-        let bvh = (count > 0).then(|| {
-            let mut core = Duration::ZERO;
-            build_cwbvh(&bounds_list, BvhBuildParams::medium_build(), &mut core)
-        });
+        let bvh = (count > 0).then(|| build_scaled(bounds_list, lo, hi));
         let bounds = if count > 0 { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
         let n_spheres = spheres.len();
         let ordered = bvh
             .as_ref()
             .map(|b| {
-                b.primitive_indices
+                b.0.primitive_indices
                     .iter()
                     .map(|&prim| {
                         let vertices = if (prim as usize) < n_spheres {
@@ -199,7 +228,7 @@ impl Scene {
                     .collect()
             })
             .unwrap_or_default();
-        let bvh = bvh.map(|b| WideBvh::from_cwbvh(&b)).unwrap_or_default();
+        let bvh = bvh.map(|(b, scale)| WideBvh::from_cwbvh(&b, scale)).unwrap_or_default();
         Ok(Self {
             spheres,
             meshes,
@@ -415,8 +444,11 @@ impl Scene {
             }
             Primitive::Triangle { mesh, triangle } => {
                 let mesh = &self.meshes[mesh as usize];
-                let [p0, p1, p2] = mesh.indices()[triangle as usize].map(|i| mesh.positions()[i as usize]);
-                0.5 * (p1 - p0).cross(p2 - p0).length()
+                let [p0, p1, p2] = mesh.indices()[triangle as usize].map(|i| mesh.positions()[i as usize].as_dvec3());
+                // In f64: with coordinates near 1e12 the f32 cross product's squared length
+                // overflows (∞ area, then ∞/∞ = NaN in every area share; found by the glTF fuzz
+                // target). Within the loaders' coordinate limit the area itself fits in f32.
+                (0.5 * (p1 - p0).cross(p2 - p0).length()) as f32
             }
         }
     }
@@ -504,10 +536,9 @@ impl InstanceSet {
         if !(lo.is_finite() && hi.is_finite()) {
             return Err(Error::Invalid("instance bounds are not finite".to_owned()));
         }
-        let mut core = Duration::ZERO;
-        let cwbvh = build_cwbvh(&bounds_list, BvhBuildParams::medium_build(), &mut core);
+        let (cwbvh, scale) = build_scaled(bounds_list, lo, hi);
         let placements = cwbvh.primitive_indices.iter().map(|&i| placements[i as usize]).collect();
-        Ok(Self { objects, placements, tlas: WideBvh::from_cwbvh(&cwbvh), bounds: (lo, hi), triangles })
+        Ok(Self { objects, placements, tlas: WideBvh::from_cwbvh(&cwbvh, scale), bounds: (lo, hi), triangles })
     }
 
     /// The closest hit on a placement strictly before `t_max`, in world space. Kept out of line
@@ -623,5 +654,64 @@ impl<const CLOSEST: bool> Kernel for TopQuery<'_, CLOSEST> {
             },
         );
         best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every primitive is in exactly one leaf of the decoded tree.
+    fn assert_each_primitive_once(scene: &Scene) {
+        let mut slots = scene.bvh.leaf_slots();
+        slots.sort_unstable();
+        let expected: Vec<usize> = (0..scene.primitive_count()).collect();
+        assert_eq!(slots, expected, "leaf slots");
+    }
+
+    /// 2000 triangles sharing one box of half-width `big`, as a scene.
+    fn fan(big: f32) -> Scene {
+        let n = 2000u32;
+        let positions: Vec<Vec3> = (0..n)
+            .flat_map(|i| {
+                let x = -big + big * (i as f32 / n as f32);
+                [Vec3::new(-big, -big, 0.0), Vec3::new(big, -big, 0.0), Vec3::new(x, big, 0.0)]
+            })
+            .collect();
+        let indices = (0..n).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        Scene::build(Vec::new(), vec![Mesh::new(positions, None, None, indices, None).unwrap()]).unwrap()
+    }
+
+    #[test]
+    fn coincident_boxes_near_the_coordinate_limit_build_the_tree_they_build_near_the_origin() {
+        // At 2⁵⁹ ≈ 5.8e17 (within the loaders' limit of 1e18) obvhs's summed SAH costs overflow
+        // to ∞ unscaled: it then chose no split and built 1499 nodes (binary, split slots invalid:
+        // a debug assertion in obvhs) instead of the 286 of the same triangles at ½.
+        let (near, far) = (fan(0.5), fan((1u64 << 59) as f32));
+        assert_each_primitive_once(&far);
+        assert_eq!(far.bvh.node_count(), near.bvh.node_count());
+        assert_eq!(far.bvh.leaf_slots(), near.bvh.leaf_slots());
+        assert!(near.bvh.node_count() < 2000 / 4, "{} nodes", near.bvh.node_count());
+    }
+
+    #[test]
+    fn scaled_builds_give_the_tree_of_the_unscaled_scene_times_the_scale() {
+        // The same random triangles at 1 and at 2⁵⁰ (beyond MAX_UNSCALED_MAGNITUDE): a power-of-two
+        // scale is exact, so the trees decide alike and every decoded box scales by 2⁵⁰, up to the
+        // one ulp outward rounding of the scaled path.
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+        };
+        let positions: Vec<Vec3> = (0..600).map(|_| Vec3::new(next(), next(), next())).collect();
+        let indices: Vec<[u32; 3]> = (0..200).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+        let s = (1u64 << 50) as f32;
+        let small = Mesh::new(positions.clone(), None, None, indices.clone(), None).unwrap();
+        let large = Mesh::new(positions.iter().map(|p| *p * s).collect(), None, None, indices, None).unwrap();
+        let (a, b) = (Scene::build(Vec::new(), vec![small]).unwrap(), Scene::build(Vec::new(), vec![large]).unwrap());
+        assert_each_primitive_once(&b);
+        assert_eq!(a.bvh.leaf_slots(), b.bvh.leaf_slots(), "same leaves in the same order");
+        assert_eq!(a.bvh.node_count(), b.bvh.node_count());
     }
 }

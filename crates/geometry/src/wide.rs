@@ -83,7 +83,9 @@ impl WideBvh {
     /// Decode obvhs's CWBVH. Child boxes are dequantised (`p + q·2^e`, exact products) and
     /// rounded outward, so each still contains its child's quantised (and thus conservative)
     /// box. Leaves hold at most 3 primitives (obvhs clamps `max_prims_per_leaf` to 1..=3).
-    pub(crate) fn from_cwbvh(cwbvh: &CwBvh) -> Self {
+    /// `scale` (1 or a power of two) multiplies every box: the factor the tree was built at
+    /// (`bvh.rs` `build_scaled`), undone exactly.
+    pub(crate) fn from_cwbvh(cwbvh: &CwBvh, scale: f32) -> Self {
         let nodes = cwbvh
             .nodes
             .iter()
@@ -103,8 +105,8 @@ impl WideBvh {
                     }
                     let aabb = node.child_aabb(child);
                     for axis in 0..3 {
-                        bounds[2 * axis][child] = aabb.min[axis].next_down();
-                        bounds[2 * axis + 1][child] = aabb.max[axis].next_up();
+                        bounds[2 * axis][child] = (aabb.min[axis] * scale).next_down();
+                        bounds[2 * axis + 1][child] = (aabb.max[axis] * scale).next_up();
                     }
                     children[child] = if node.is_leaf(child) {
                         let (start, count) = node.child_primitives(child);
@@ -122,6 +124,21 @@ impl WideBvh {
 
     pub(crate) fn node_count(&self) -> usize {
         self.nodes.len()
+    }
+
+    /// Every primitive slot the leaves refer to, in node order (for tests of the tree's shape).
+    #[cfg(test)]
+    pub(crate) fn leaf_slots(&self) -> Vec<usize> {
+        let mut slots = Vec::new();
+        for node in &self.nodes {
+            for &c in &node.children {
+                if c != EMPTY && c & LEAF != 0 {
+                    let start = (c & (MAX_PRIMITIVES as u32 - 1)) as usize;
+                    slots.extend(start..start + ((c >> LEAF_START_BITS) & 3) as usize + 1);
+                }
+            }
+        }
+        slots
     }
 
     pub(crate) fn bytes(&self) -> usize {

@@ -369,6 +369,20 @@ fn spawned_rays_find_surfaces_closer_than_obvhs_box_epsilon() {
 }
 
 #[test]
+fn area_of_a_large_triangle_far_out_is_finite_and_exact() {
+    // Legs of 1e12 at 4e11 from the origin: the f32 cross product's squared length (≈ 1e48)
+    // overflows, which made the area ∞ and every eq.-9 area share NaN (found by the glTF fuzz
+    // target: `fuzz/regressions/gltf/gltf_far_triangle_area_nan.gltf`).
+    let o = Vec3::splat(4e11);
+    let legs = 1e12f32;
+    let tri = vec![o, o + Vec3::new(legs, 0.0, 0.0), o + Vec3::new(0.0, legs, 0.0)];
+    let scene = Scene::build(Vec::new(), vec![Mesh::new(tri, None, None, vec![[0, 1, 2]], None).unwrap()]).unwrap();
+    let area = scene.primitive_area(0);
+    let exact = 0.5 * f64::from(legs) * f64::from(legs);
+    assert!(area.is_finite() && (f64::from(area) / exact - 1.0).abs() < 1e-6, "{area} vs {exact}");
+}
+
+#[test]
 fn primitive_ids_map_to_spheres_then_each_meshs_triangles() {
     // Two spheres, then meshes of 2, 0 and 1 triangles: ids 0–1 spheres, 2–3 mesh 0, 4 mesh 2.
     let tri = |x: f32| [Vec3::new(x, 0.0, 0.0), Vec3::new(x + 2.0, 0.0, 0.0), Vec3::new(x, 2.0, 0.0)];
