@@ -557,6 +557,9 @@ pub struct SceneDescription {
     /// it); 0 for a description built in code. Film files record it so that parts rendered
     /// on different machines are known to come from the same scene.
     pub source_hash: u64,
+    /// The memory the loaders charged and the scene's budget ([`crate::LoadOptions::max_memory`]): the
+    /// assembly step charges the images it decodes against what is left.
+    pub memory: crate::MemoryBudget,
 }
 
 impl SceneDescription {
@@ -576,6 +579,7 @@ impl SceneDescription {
             settings: serde_json::Map::new(),
             warnings: Vec::new(),
             source_hash: 0,
+            memory: crate::MemoryBudget::default(),
         }
     }
 

@@ -55,5 +55,5 @@ pub use desc::{
     TextureDesc, TextureTransform, WrapMode,
 };
 pub use hash::xxh64;
-pub use limits::{DEFAULT_FLATTEN_TRIANGLES, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE};
+pub use limits::{DEFAULT_FLATTEN_TRIANGLES, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE, MemoryBudget};
 pub use load::{load_scene, load_scene_with, parse_manifest, parse_manifest_with};

@@ -73,6 +73,56 @@ impl Default for LoadOptions {
     }
 }
 
+/// What a loaded scene has been charged and its budget ([`LoadOptions::max_memory`]), carried in the
+/// [`crate::SceneDescription`]: the loaders charge what they allocate, the assembly step charges what it
+/// decodes afterwards (texture images, an environment map) against the same budget, before decoding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MemoryBudget {
+    /// Bytes charged so far.
+    pub used: u64,
+    /// The budget (bytes).
+    pub limit: u64,
+}
+
+impl MemoryBudget {
+    /// Nothing charged yet, of `limit` bytes.
+    pub fn new(limit: u64) -> Self {
+        Self { used: 0, limit }
+    }
+
+    /// Charges `bytes` for `what` (e.g. `decoding a 4096×4096 image`) of `path` (the file or image it
+    /// comes from), or refuses with [`Error::OverBudget`] when that would pass the limit; a refused
+    /// charge is not counted.
+    pub fn charge(&mut self, path: &Path, what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
+        self.fits(path, what, bytes)?;
+        self.used = self.used.saturating_add(bytes);
+        Ok(())
+    }
+
+    /// Checks that `bytes` more would fit without charging them: for working memory that is freed
+    /// again before the next charge (a decoder's output before conversion, a hash table while
+    /// counting colours).
+    pub fn fits(&self, path: &Path, what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
+        if self.used.saturating_add(bytes) > self.limit {
+            return Err(Error::OverBudget {
+                path: path.to_path_buf(),
+                what: what(),
+                requested: bytes,
+                used: self.used,
+                limit: self.limit,
+            });
+        }
+        Ok(())
+    }
+}
+
+impl Default for MemoryBudget {
+    /// Nothing charged, of [`DEFAULT_MAX_MEMORY`] (a description built in code).
+    fn default() -> Self {
+        Self::new(DEFAULT_MAX_MEMORY)
+    }
+}
+
 /// The running cost of one scene load, checked against [`LoadOptions`].
 #[derive(Debug)]
 pub(crate) struct Budget {
@@ -102,18 +152,15 @@ impl Budget {
 
     /// Charges `bytes` for `what` in `path`, or refuses when that would pass the budget.
     pub(crate) fn charge(&self, path: &Path, what: impl FnOnce() -> String, bytes: u64) -> Result<()> {
-        let total = self.used.get().saturating_add(bytes);
-        if total > self.options.max_memory {
-            return Err(Error::OverBudget {
-                path: path.to_path_buf(),
-                what: what(),
-                requested: bytes,
-                used: self.used.get(),
-                limit: self.options.max_memory,
-            });
-        }
-        self.used.set(total);
+        let mut memory = self.memory();
+        memory.charge(path, what, bytes)?;
+        self.used.set(memory.used);
         Ok(())
+    }
+
+    /// What has been charged so far, and the limit: handed on to the assembly step.
+    pub(crate) fn memory(&self) -> MemoryBudget {
+        MemoryBudget { used: self.used.get(), limit: self.options.max_memory }
     }
 
     /// Charges `count` items of `each` bytes (saturating, so a claimed count near `usize::MAX` is refused).

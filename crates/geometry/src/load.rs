@@ -56,6 +56,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<SceneDescri
     };
     let mut desc = finish(desc, &path.display().to_string());
     desc.source_hash = budget.content_hash();
+    desc.memory = budget.memory();
     if extension == "json" { Ok(desc) } else { require_geometry(desc, path) }
 }
 
@@ -86,6 +87,7 @@ pub fn parse_manifest_with(
     budget.record(text.as_bytes());
     let mut desc = finish(manifest(text, base_dir, origin, &budget)?, origin);
     desc.source_hash = budget.content_hash();
+    desc.memory = budget.memory();
     Ok(desc)
 }
 

@@ -19,7 +19,7 @@ use crate::envmap::EnvironmentMap;
 use crate::error::{Error, Result};
 use crate::lights::{Emitters, Light, LightKind};
 use crate::render::IntegratorKind;
-use crate::texture::{MaterialTextures, load_material_textures};
+use crate::texture::{MaterialTextures, load_material_textures, texture_bytes};
 
 /// Resolution used when neither the scene nor the user gives one: the paper's 640×480.
 pub const DEFAULT_RESOLUTION: (u32, u32) = (640, 480);
@@ -133,13 +133,14 @@ impl RenderScene {
             settings,
             mut warnings,
             mut source_hash,
+            mut memory,
         } = desc;
         let started = std::time::Instant::now();
-        let mut textures = load_material_textures(&images, &mut material_descs, &mut warnings);
+        let mut textures = load_material_textures(&images, &mut material_descs, &mut memory, &mut warnings)?;
         if textures.iter().all(Option::is_none) {
             textures.clear();
         } else {
-            let bytes: usize = textures.iter().flatten().map(MaterialTextures::bytes).sum();
+            let bytes = texture_bytes(&textures);
             warnings.push(format!(
                 "textures: {} images, {:.1} MiB of texel data, decoded and fitted to spectra in {:.2} s; rendered by the path integrator (whitted-hall uses the factors)",
                 images.len(),
@@ -205,7 +206,8 @@ impl RenderScene {
                         });
                     }
                     map_seen = Some(index);
-                    let map = EnvironmentMap::load(&m.path, intensity.value, m.rotation_deg, &mut warnings)?;
+                    let map =
+                        EnvironmentMap::load(&m.path, intensity.value, m.rotation_deg, &mut memory, &mut warnings)?;
                     // Films record the scene's digest: the map's bytes are part of the scene.
                     source_hash = geometry::xxh64(&map.digest().to_le_bytes(), source_hash);
                     Light::environment_map(map)

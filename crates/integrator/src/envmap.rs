@@ -73,16 +73,36 @@ fn luminance(rgb: [f32; 3]) -> f32 {
 impl EnvironmentMap {
     /// Decodes `path` (`.hdr` or `.exr`), multiplies its texels by `intensity` and turns it by
     /// `rotation_deg` about +Y. Texels that are NaN, infinite or negative become 0 with a warning in
-    /// `warnings`; a file that cannot be read or decoded is an error naming it.
-    pub(crate) fn load(path: &Path, intensity: f32, rotation_deg: f32, warnings: &mut Vec<String>) -> Result<Self> {
+    /// `warnings`; a file that cannot be read or decoded is an error naming it. The file (a regular
+    /// file: no device) and the map are charged to the scene's `memory` budget before they are read
+    /// or decoded.
+    pub(crate) fn load(
+        path: &Path,
+        intensity: f32,
+        rotation_deg: f32,
+        memory: &mut geometry::MemoryBudget,
+        warnings: &mut Vec<String>,
+    ) -> Result<Self> {
         let fail = |reason: String| Error::EnvironmentMap { path: path.to_owned(), reason };
+        let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+        if !meta.is_file() {
+            return Err(fail("not a regular file".to_owned()));
+        }
+        memory.charge(path, || "reading the environment map".to_owned(), meta.len())?;
         let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read: {e}")))?;
         let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        let (width, height, rgb) = match extension.as_deref() {
-            Some("hdr") => decode_hdr(&bytes).map_err(fail)?,
-            Some("exr") => decode_exr(&bytes).map_err(fail)?,
+        let hdr = match extension.as_deref() {
+            Some("hdr") => true,
+            Some("exr") => false,
             _ => return Err(fail("not a Radiance .hdr or OpenEXR .exr file (by its extension)".to_owned())),
         };
+        // The size from the header, charged before a texel is decoded.
+        let (w, h) = if hdr { hdr_size(&bytes) } else { exr_size(&bytes) }.map_err(fail)?;
+        let texels = (w as u64).saturating_mul(h as u64);
+        let what = || format!("a {w}×{h} environment map");
+        memory.fits(path, what, texels.saturating_mul(DECODE_BYTES_PER_TEXEL + KEPT_BYTES_PER_TEXEL))?;
+        memory.charge(path, what, texels.saturating_mul(KEPT_BYTES_PER_TEXEL))?;
+        let (width, height, rgb) = if hdr { decode_hdr(&bytes) } else { decode_exr(&bytes) }.map_err(fail)?;
         let (mut map, bad) = Self::from_rgb(path, width, height, rgb, intensity, rotation_deg)?;
         map.digest = geometry::xxh64(&bytes, 0);
         if bad > 0 {
@@ -281,6 +301,14 @@ impl EnvironmentMap {
     }
 }
 
+/// Bytes per texel a map keeps: its [`Texel`] and its density's function and CDF (f32 each).
+const KEPT_BYTES_PER_TEXEL: u64 = std::mem::size_of::<Texel>() as u64 + 8;
+
+/// Working bytes per texel while a map is decoded and built, freed before rendering: the decoder's
+/// output (RGB f32, 12; an EXR's channels as read, up to RGBA f32, 16), the linear RGB list (12) and
+/// the density's function before it is normalised (4).
+const DECODE_BYTES_PER_TEXEL: u64 = 16 + 12 + 4;
+
 /// Checks a decoded size against [`MAX_TEXELS`].
 fn check_size(width: usize, height: usize) -> std::result::Result<(), String> {
     if width == 0 || height == 0 {
@@ -290,6 +318,25 @@ fn check_size(width: usize, height: usize) -> std::result::Result<(), String> {
         return Err(format!("{width}×{height} texels exceed the limit of {MAX_TEXELS} (8192×4096)"));
     }
     Ok(())
+}
+
+/// The size a Radiance file's header states (checked against [`MAX_TEXELS`]), without decoding.
+fn hdr_size(bytes: &[u8]) -> std::result::Result<(usize, usize), String> {
+    use image::ImageDecoder;
+    let decoder = image::codecs::hdr::HdrDecoder::new(Cursor::new(bytes)).map_err(|e| e.to_string())?;
+    let (w, h) = decoder.dimensions();
+    check_size(w as usize, h as usize)?;
+    Ok((w as usize, h as usize))
+}
+
+/// The size of the first layer an OpenEXR file's header states (checked against [`MAX_TEXELS`]),
+/// without reading pixels.
+fn exr_size(bytes: &[u8]) -> std::result::Result<(usize, usize), String> {
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| e.to_string())?;
+    let Some(header) = meta.headers.first() else { return Err("no layer".to_owned()) };
+    let (w, h) = (header.layer_size.width(), header.layer_size.height());
+    check_size(w, h)?;
+    Ok((w, h))
 }
 
 /// A Radiance RGBE file as linear RGB rows from the top.
@@ -307,9 +354,7 @@ fn decode_hdr(bytes: &[u8]) -> std::result::Result<(usize, usize, Vec<[f32; 3]>)
 /// top (alpha ignored; the header's size is checked before the pixels are read).
 fn decode_exr(bytes: &[u8]) -> std::result::Result<(usize, usize, Vec<[f32; 3]>), String> {
     use exr::prelude::*;
-    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(|e| e.to_string())?;
-    let Some(header) = meta.headers.first() else { return Err("no layer".to_owned()) };
-    check_size(header.layer_size.width(), header.layer_size.height())?;
+    exr_size(bytes)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()

@@ -16,7 +16,7 @@ use std::io::Cursor;
 use std::sync::Arc;
 
 use colorimetry::{RgbSigmoid, SampledSpectrum, SampledWavelengths, srgb_decode};
-use geometry::{AlphaMode, ImageDesc, MaterialDesc, TextureDesc, WrapMode};
+use geometry::{AlphaMode, ImageDesc, MaterialDesc, MemoryBudget, TextureDesc, WrapMode};
 use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
@@ -48,24 +48,65 @@ struct Image8 {
     texels: Vec<[u8; 4]>,
 }
 
+/// Working bytes per texel of the hash table that finds a colour texture's distinct colours, at most
+/// (every texel distinct): a hashbrown bucket of key `[u8; 4]` and value `u32` (8 bytes) plus its
+/// control byte, at ≥ 8/7 buckets per entry, with the old and the doubled table both alive while it
+/// grows (3 × 9 × 8/7 ≈ 31), and the list of distinct colours (4, twice while it grows).
+const COLOUR_COUNT_BYTES_PER_TEXEL: u64 = 40;
+
+/// Bytes per texel of [`Image8`].
+const IMAGE8_BYTES_PER_TEXEL: u64 = 4;
+
 /// Decodes `image` (PNG or JPEG, chosen by content) with bounded dimensions and allocation; 16-bit
-/// channels are reduced to 8 bits (a warning names the image).
-fn decode(image: &ImageDesc, warnings: &mut Vec<String>) -> Result<Image8, String> {
-    let mut reader =
-        image::ImageReader::new(Cursor::new(&image.bytes[..])).with_guessed_format().map_err(|e| e.to_string())?;
+/// channels are reduced to 8 bits (a warning names the image). The decoded size is read from the
+/// header and charged to `memory` before any texel is decoded: the decoder's output and the 8-bit
+/// copy as working memory, the kept texels for good. `Ok(None)` (with a warning) for an image that
+/// cannot be decoded; an error only when it would pass the scene's memory budget.
+fn decode(
+    image: &ImageDesc,
+    memory: &mut MemoryBudget,
+    warnings: &mut Vec<String>,
+) -> geometry::Result<Option<Image8>> {
+    use image::ImageDecoder;
+    let skip = |e: &dyn std::fmt::Display, warnings: &mut Vec<String>| {
+        warnings.push(format!("{}: cannot decode ({e}); the material's factor is used", image.label));
+        Ok(None)
+    };
+    let reader = match image::ImageReader::new(Cursor::new(&image.bytes[..])).with_guessed_format() {
+        Ok(reader) => reader,
+        Err(e) => return skip(&e, warnings),
+    };
+    let mut reader = reader;
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIDE);
     limits.max_image_height = Some(MAX_IMAGE_SIDE);
     limits.max_alloc = Some(MAX_DECODE_BYTES);
     reader.limits(limits);
-    let decoded = reader.decode().map_err(|e| e.to_string())?;
-    if decoded.color().bytes_per_pixel() > decoded.color().channel_count() {
-        warnings.push(format!("{}: {:?} texels read at 8 bits per channel", image.label, decoded.color()));
+    let decoder = match reader.into_decoder() {
+        Ok(decoder) => decoder,
+        Err(e) => return skip(&e, warnings),
+    };
+    let (width, height) = decoder.dimensions();
+    if width == 0 || height == 0 {
+        warnings.push(format!("{}: empty image; the material's factor is used", image.label));
+        return Ok(None);
     }
-    let rgba = decoded.to_rgba8();
-    let (width, height) = rgba.dimensions();
-    let texels = rgba.pixels().map(|p| p.0).collect();
-    Ok(Image8 { width, height, texels })
+    let color = decoder.color_type();
+    let kept = u64::from(width) * u64::from(height) * IMAGE8_BYTES_PER_TEXEL;
+    let path = std::path::Path::new(&image.label);
+    let what = || format!("decoding a {width}×{height} {color:?} image");
+    memory.fits(path, what, decoder.total_bytes().saturating_add(2 * kept))?;
+    memory.charge(path, what, kept)?;
+    let decoded = match image::DynamicImage::from_decoder(decoder) {
+        Ok(decoded) => decoded,
+        Err(e) => return skip(&e, warnings),
+    };
+    if color.bytes_per_pixel() > color.channel_count() {
+        warnings.push(format!("{}: {color:?} texels read at 8 bits per channel", image.label));
+    }
+    // `into_rgba8` keeps the buffer when the image is RGBA8 already.
+    let texels = decoded.into_rgba8().into_raw().chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+    Ok(Some(Image8 { width, height, texels }))
 }
 
 /// Where a texture is read: its size, wrap modes, filter and uv transform.
@@ -101,8 +142,12 @@ impl Sampler {
         // A non-finite coordinate (overflowing transform) reads the first texel.
         let (u, v) = if u.is_finite() && v.is_finite() { (u, v) } else { (0.0, 0.0) };
         let (w, h) = (self.width as i64, self.height as i64);
-        let x = f64::from(u) * w as f64 - 0.5;
-        let y = f64::from(v) * h as f64 - 0.5;
+        // Clamped to ±2⁵², where every f64 is an integer and i64 arithmetic (`x0 + 1`, the wrap's
+        // `2n`) cannot overflow (uv near 1e30 overflowed it: found by the GLB fuzz target); repeated
+        // textures that far out have lost all sub-texel precision in f32 anyway.
+        const FAR: f64 = 4_503_599_627_370_496.0;
+        let x = (f64::from(u) * w as f64 - 0.5).clamp(-FAR, FAR);
+        let y = (f64::from(v) * h as f64 - 0.5).clamp(-FAR, FAR);
         if self.nearest {
             // The texel containing (u, v): floor(u w) = floor(x + ½).
             let (i, j) = ((x + 0.5).floor() as i64, (y + 0.5).floor() as i64);
@@ -152,7 +197,21 @@ impl ColorTexture {
     /// From an sRGB-encoded image; `factor` (linear RGBA) multiplies every texel before the fit.
     /// `exact` is false when the image had more than [`MAX_REFINED_COLOURS`] distinct colours and
     /// the table lookup was used.
-    fn new(image: &Image8, desc: &TextureDesc, factor: [f32; 4]) -> (Self, bool) {
+    fn new(
+        image: &Image8,
+        label: &str,
+        desc: &TextureDesc,
+        factor: [f32; 4],
+        memory: &mut MemoryBudget,
+    ) -> geometry::Result<(Self, bool)> {
+        let path = std::path::Path::new(label);
+        let texels = image.texels.len() as u64;
+        let index_bytes = texels * 4;
+        memory.fits(
+            path,
+            || format!("finding the distinct colours of a {}×{} texture", image.width, image.height),
+            index_bytes.saturating_add(texels.saturating_mul(COLOUR_COUNT_BYTES_PER_TEXEL)),
+        )?;
         let mut ids: HashMap<[u8; 4], u32> = HashMap::new();
         let mut distinct: Vec<[u8; 4]> = Vec::new();
         let index = image
@@ -165,6 +224,13 @@ impl ColorTexture {
                 })
             })
             .collect();
+        drop(ids);
+        let palette_bytes = (distinct.len() * std::mem::size_of::<PaletteEntry>()) as u64;
+        memory.charge(
+            path,
+            || format!("the {} colours of a {}×{} texture as spectra", distinct.len(), image.width, image.height),
+            index_bytes.saturating_add(palette_bytes),
+        )?;
         let exact = distinct.len() <= MAX_REFINED_COLOURS;
         let table = colorimetry::RgbToSpectrumTable::srgb();
         let palette = distinct
@@ -179,7 +245,7 @@ impl ColorTexture {
                 }
             })
             .collect();
-        (Self { sampler: Sampler::new(desc, image.width, image.height), index, palette }, exact)
+        Ok((Self { sampler: Sampler::new(desc, image.width, image.height), index, palette }, exact))
     }
 
     /// The reflectance at `uv` at the path's wavelengths (linear RGB on RGB lanes), and the alpha.
@@ -327,15 +393,25 @@ impl MaterialTextures {
         self.normal.is_some()
     }
 
-    /// Bytes of texel data held (for `info`).
-    pub(crate) fn bytes(&self) -> usize {
+    /// Bytes of texel data held (for `info`) by colour textures.
+    fn color_bytes(&self) -> usize {
         self.base_color.as_ref().map_or(0, ColorTexture::bytes)
-            + [&self.metallic_roughness, &self.normal, &self.coverage]
-                .into_iter()
-                .flatten()
-                .map(|t| t.image.texels.len() * 4)
-                .sum::<usize>()
     }
+
+    /// The decoded images the data textures read (shared between roles and materials).
+    fn data_images(&self) -> impl Iterator<Item = &Arc<Image8>> {
+        [&self.metallic_roughness, &self.normal, &self.coverage].into_iter().flatten().map(|t| &t.image)
+    }
+}
+
+/// Bytes of texel data the textures hold: each colour texture's indices and palette, and each
+/// decoded data image once however many roles and materials share it.
+pub(crate) fn texture_bytes(textures: &[Option<MaterialTextures>]) -> usize {
+    let mut images: Vec<&Arc<Image8>> = textures.iter().flatten().flat_map(MaterialTextures::data_images).collect();
+    images.sort_by_key(|i| Arc::as_ptr(i));
+    images.dedup_by(|a, b| Arc::ptr_eq(a, b));
+    textures.iter().flatten().map(MaterialTextures::color_bytes).sum::<usize>()
+        + images.iter().map(|i| i.texels.len() * 4).sum::<usize>()
 }
 
 /// The textures of each material (`None` where a material has none), decoded from `images`. An
@@ -345,31 +421,29 @@ impl MaterialTextures {
 pub(crate) fn load_material_textures(
     images: &[ImageDesc],
     materials: &mut [MaterialDesc],
+    memory: &mut MemoryBudget,
     warnings: &mut Vec<String>,
-) -> Vec<Option<MaterialTextures>> {
+) -> geometry::Result<Vec<Option<MaterialTextures>>> {
+    // Decoded images live until every material has taken its share: each is charged once, when
+    // first decoded, and kept charged.
     let mut decoded: HashMap<usize, Option<Arc<Image8>>> = HashMap::new();
-    let mut image = |index: usize, warnings: &mut Vec<String>| -> Option<Arc<Image8>> {
-        decoded
-            .entry(index)
-            .or_insert_with(|| {
-                let desc = images.get(index)?;
-                match decode(desc, warnings) {
-                    Ok(img) if img.width > 0 && img.height > 0 => Some(Arc::new(img)),
-                    Ok(_) => {
-                        warnings.push(format!("{}: empty image; the material's factor is used", desc.label));
-                        None
-                    }
-                    Err(e) => {
-                        warnings.push(format!("{}: cannot decode ({e}); the material's factor is used", desc.label));
-                        None
-                    }
-                }
-            })
-            .clone()
+    let mut image = |index: usize,
+                     memory: &mut MemoryBudget,
+                     warnings: &mut Vec<String>|
+     -> geometry::Result<Option<Arc<Image8>>> {
+        if let Some(done) = decoded.get(&index) {
+            return Ok(done.clone());
+        }
+        let img = match images.get(index) {
+            Some(desc) => decode(desc, memory, warnings)?.map(Arc::new),
+            None => None,
+        };
+        decoded.insert(index, img.clone());
+        Ok(img)
     };
-    materials
-        .iter_mut()
-        .map(|m| {
+    let mut out = Vec::with_capacity(materials.len());
+    for m in materials.iter_mut() {
+        let entry = {
             let alpha_mode = match (m.alpha_mode, m.textures.alpha.is_some()) {
                 (Some(mode), _) => mode,
                 // MTL `map_d`: coverage, cut out at one half (as viewers treat leaf cards).
@@ -377,11 +451,12 @@ pub(crate) fn load_material_textures(
                 (None, false) => AlphaMode::Opaque,
             };
             if !m.textures.any() && matches!(alpha_mode, AlphaMode::Opaque) {
-                return None;
+                out.push(None);
+                continue;
             }
             let textures = m.textures.clone();
             if let Some(t) = &textures.emissive
-                && let Some(img) = image(t.image, warnings)
+                && let Some(img) = image(t.image, memory, warnings)?
             {
                 let mean = mean_linear_rgb(&img);
                 // glTF multiplies by `emissiveFactor`, whose default black means no emission (the
@@ -406,27 +481,32 @@ pub(crate) fn load_material_textures(
                 _ => [1.0; 3],
             };
             let alpha_factor = m.alpha.unwrap_or(1.0);
-            let base_color = textures.base_color.as_ref().and_then(|t| {
-                let img = image(t.image, warnings)?;
-                let (texture, exact) =
-                    ColorTexture::new(&img, t, [factor_rgb[0], factor_rgb[1], factor_rgb[2], alpha_factor]);
+            let mut base_color = None;
+            if let Some(t) = &textures.base_color
+                && let Some(img) = image(t.image, memory, warnings)?
+            {
+                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                let factor = [factor_rgb[0], factor_rgb[1], factor_rgb[2], alpha_factor];
+                let (texture, exact) = ColorTexture::new(&img, label, t, factor, memory)?;
                 if !exact {
                     warnings.push(format!(
                         "{}: {} distinct colours, more than {MAX_REFINED_COLOURS} fitted exactly: texels use the table lookup (ΔE00 mean 0.045, max 1.2)",
-                        images.get(t.image).map_or("?", |i| i.label.as_str()),
+                        label,
                         texture.palette.len()
                     ));
                 }
-                Some(texture)
-            });
-            let mut data = |t: &Option<TextureDesc>, warnings: &mut Vec<String>| {
-                let t = t.as_ref()?;
-                let img = image(t.image, warnings)?;
-                Some(DataTexture::new(img, t))
+                base_color = Some(texture);
+            }
+            let mut data = |t: &Option<TextureDesc>,
+                            memory: &mut MemoryBudget,
+                            warnings: &mut Vec<String>|
+             -> geometry::Result<Option<DataTexture>> {
+                let Some(t) = t else { return Ok(None) };
+                Ok(image(t.image, memory, warnings)?.map(|img| DataTexture::new(img, t)))
             };
-            let metallic_roughness = data(&textures.metallic_roughness, warnings);
-            let normal = data(&textures.normal, warnings);
-            let coverage = data(&textures.alpha, warnings);
+            let metallic_roughness = data(&textures.metallic_roughness, memory, warnings)?;
+            let normal = data(&textures.normal, memory, warnings)?;
+            let coverage = data(&textures.alpha, memory, warnings)?;
             let set = MaterialTextures { base_color, metallic_roughness, normal, coverage, alpha_mode, alpha_factor };
             let used = set.base_color.is_some()
                 || set.metallic_roughness.is_some()
@@ -434,8 +514,10 @@ pub(crate) fn load_material_textures(
                 || set.coverage.is_some()
                 || set.has_alpha();
             used.then_some(set)
-        })
-        .collect()
+        };
+        out.push(entry);
+    }
+    Ok(out)
 }
 
 /// The mean linear sRGB of an sRGB-encoded image.
@@ -508,7 +590,8 @@ mod tests {
         .collect();
         let image = Image8 { width: 8, height: 2, texels: texels.clone() };
         let desc = TextureDesc::new(0);
-        let (texture, exact) = ColorTexture::new(&image, &desc, [1.0; 4]);
+        let (texture, exact) =
+            ColorTexture::new(&image, "test", &desc, [1.0; 4], &mut MemoryBudget::default()).unwrap();
         assert!(exact);
         let mut worst: f64 = 0.0;
         for (i, t) in texels.iter().enumerate() {
@@ -518,7 +601,8 @@ mod tests {
         }
         assert!(worst < 0.01, "worst ΔE00 {worst}");
         // The factor multiplies in linear RGB before the fit: half of white is linear 0.5 grey.
-        let (half, _) = ColorTexture::new(&image, &desc, [0.5, 0.5, 0.5, 1.0]);
+        let (half, _) =
+            ColorTexture::new(&image, "test", &desc, [0.5, 0.5, 0.5, 1.0], &mut MemoryBudget::default()).unwrap();
         let uv = Vec2::new(3.5 / 8.0, 0.25);
         assert!(delta_e00_under_d65([0.5; 3], &texel_spectrum(&half, uv)) < 0.01);
         // And a wrong decode (treating the bytes as linear) is far off: the test can fail.
@@ -532,6 +616,22 @@ mod tests {
         assert_eq!([-1, 0, 3, 4, 9].map(|i| wrap(i, 4, WrapMode::ClampToEdge)), [0, 0, 3, 3, 3]);
         // Mirrored: … 1 0 | 0 1 2 3 | 3 2 1 0 | 0 …
         assert_eq!([-2, -1, 0, 3, 4, 7, 8].map(|i| wrap(i, 4, WrapMode::MirroredRepeat)), [1, 0, 0, 3, 3, 0, 0]);
+    }
+
+    #[test]
+    fn coordinates_far_out_stay_inside_the_image() {
+        // uv near ±1e30 overflowed `x0 + 1` in i64 (found by the GLB fuzz target:
+        // `fuzz/regressions/glb/glb_uv_overflow.glb`).
+        for wrap in [WrapMode::Repeat, WrapMode::ClampToEdge, WrapMode::MirroredRepeat] {
+            for nearest in [false, true] {
+                let s = Sampler { nearest, ..sampler(4, 2, wrap) };
+                for uv in [Vec2::splat(1e30), Vec2::splat(-1e30), Vec2::new(f32::MAX, -f32::MAX), Vec2::new(3e15, 1.0)]
+                {
+                    let f = s.footprint(uv);
+                    assert!(f.iter().all(|&(i, w)| i < 8 && w.is_finite()), "{wrap:?} {nearest} {uv}: {f:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -216,7 +216,7 @@ fn unreadable_or_malformed_files_are_errors_naming_the_file() {
         if let Some(b) = bytes {
             std::fs::write(&path, b).unwrap();
         }
-        match EnvironmentMap::load(&path, 1.0, 0.0, &mut warnings) {
+        match EnvironmentMap::load(&path, 1.0, 0.0, &mut geometry::MemoryBudget::default(), &mut warnings) {
             Err(e @ Error::EnvironmentMap { .. }) => {
                 let message = e.to_string();
                 assert!(message.contains(name), "{name}: {message}");

@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 use colorimetry::{RgbIlluminantSpectrum, RgbToSpectrumTable, Spectrum};
 use integrator::{AssemblyOptions, EnvironmentOption, Film, RenderOptions, RenderScene, SpectralMode};
 
-use crate::{assert_all_finite, options};
+use crate::{assert_all_finite, chain, options};
 
 /// A fresh folder for one test's files.
 fn temp_dir(name: &str) -> PathBuf {
@@ -47,18 +47,6 @@ fn film(scene: &RenderScene, options: &RenderOptions) -> Film {
 /// 1e-4, so this is `v` to that precision).
 fn grey_texel_luminance(v: f32) -> f64 {
     Spectrum::RgbIlluminant(RgbIlluminantSpectrum::from_rgb(RgbToSpectrumTable::srgb(), [v; 3])).luminance()
-}
-
-/// Everything an error says, its sources included.
-fn chain(e: &dyn std::error::Error) -> String {
-    let mut out = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        out.push_str(": ");
-        out.push_str(&s.to_string());
-        source = s.source();
-    }
-    out
 }
 
 /// A grey diffuse sphere in a uniform environment of 0.5 nits, and in a constant map of the same
@@ -286,5 +274,27 @@ fn env_option_replaces_default_lights_and_the_files_environment() {
     assert!(
         replaced.warnings.iter().any(|w| w.contains("replacing the file's 1 environment light(s) and its background"))
     );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_environment_map_is_charged_to_the_scene_memory_budget_before_decoding() {
+    let dir = temp_dir("budget");
+    // 256×128 texels: ≈ 36 B each kept (RGB, spectrum, density) and ≈ 32 B each while decoding,
+    // about 1.2 MB kept and 2.2 MB at the peak.
+    write_hdr(&dir.join("sky.hdr"), 256, 128, &vec![[0.5; 3]; 256 * 128]);
+    let json = r#"{ "camera": {"position": [0, 0, 4], "look_at": [0, 0, 0], "vfov_deg": 40},
+        "lights": [{"type": "environment", "map": "sky.hdr"}],
+        "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1}] }"#;
+    let load = |max_memory: u64| {
+        let options = geometry::LoadOptions { max_memory, ..geometry::LoadOptions::default() };
+        RenderScene::from_description(geometry::parse_manifest_with(json, &dir, "<test>", &options)?)
+    };
+    let refused = load(1 << 20).err().map(|e| chain(&e)).unwrap_or_default();
+    assert!(
+        refused.contains("sky.hdr") && refused.contains("256×128 environment map") && refused.contains("memory budget"),
+        "{refused}"
+    );
+    load(4 << 20).unwrap_or_else(|e| panic!("{}", chain(&e)));
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -18,6 +18,18 @@ use std::sync::atomic::AtomicBool;
 use integrator::{Image, RenderOptions, RenderScene, RenderStats, render};
 
 /// Assemble a manifest given as JSON text.
+/// Everything an error says, its sources included.
+pub(crate) fn chain(e: &dyn std::error::Error) -> String {
+    let mut out = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        out.push_str(": ");
+        out.push_str(&s.to_string());
+        source = s.source();
+    }
+    out
+}
+
 pub(crate) fn scene(json: &str) -> RenderScene {
     let desc = geometry::parse_manifest(json, Path::new("."), "<test>").expect("test manifest parses");
     RenderScene::from_description(desc).expect("test scene assembles")

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use colorimetry::{RgbColorSpace, Xyz, srgb_decode};
 use integrator::{RenderScene, SpectralMode};
 
-use crate::{assert_all_finite, options, render_with};
+use crate::{assert_all_finite, chain, options, render_with};
 
 /// Illuminance of the test light (lux): a white Lambertian surface facing it reads E / π.
 const E: f64 = 3.0;
@@ -241,4 +241,30 @@ fn a_normal_map_tilts_the_shading_normal_by_the_encoded_angle() {
     for (x, y) in [(1, 1), (4, 4), (6, 2)] {
         assert_rgb(rgb[y][x], [k * cos; 3], 1e-3, &format!("normal-mapped pixel ({x}, {y})"));
     }
+}
+
+#[test]
+fn decoded_textures_are_charged_to_the_scene_memory_budget_before_decoding() {
+    let dir = folder("budget");
+    // 512×512 texels of 512 distinct colours: 1 MiB as RGBA8, charged for decoding (output and the
+    // 8-bit copy, working), kept (1 MiB), then as a colour texture (1 MiB of palette indices, and
+    // 40 B per texel of working memory while its distinct colours are counted).
+    let texels: Vec<[u8; 4]> =
+        (0..512 * 512u32).map(|i| [(i % 256) as u8, (i / 256 % 2) as u8 * 255, 7, 255]).collect();
+    write_png(&dir.join("big.png"), 512, 512, &texels);
+    let obj = write_obj_quad(&dir, "map_Kd big.png");
+    let load = |max_memory: u64| {
+        RenderScene::load_with(&obj, &geometry::LoadOptions { max_memory, ..geometry::LoadOptions::default() })
+    };
+    // The OBJ, MTL, PNG and mesh take a few KB: 3 MiB passes the loaders but not the decode.
+    let refused = load(3 << 20).err().map(|e| chain(&e)).unwrap_or_default();
+    assert!(
+        refused.contains("big.png") && refused.contains("decoding a 512×512") && refused.contains("memory budget"),
+        "{refused}"
+    );
+    // 8 MiB holds the image (3 MiB while decoding) but not the colour count's 11 MiB of working memory.
+    let refused = load(8 << 20).err().map(|e| chain(&e)).unwrap_or_default();
+    assert!(refused.contains("big.png") && refused.contains("distinct colours"), "{refused}");
+    load(16 << 20).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::remove_dir_all(&dir).ok();
 }
