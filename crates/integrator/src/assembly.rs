@@ -76,6 +76,9 @@ pub struct RenderScene {
     pub warnings: Vec<String>,
     /// Digest of the scene's files ([`SceneDescription::source_hash`]).
     pub(crate) source_hash: u64,
+    /// What loading and assembly charged to the scene's memory budget (files, geometry, decoded
+    /// images), and the budget: `info` reports it, so a user can size `--max-memory`.
+    pub(crate) memory: geometry::MemoryBudget,
 }
 
 impl RenderScene {
@@ -279,6 +282,7 @@ impl RenderScene {
             light_descs,
             warnings,
             source_hash,
+            memory,
         };
         scene.emitters = Emitters::new(
             &scene.lights,

@@ -14,7 +14,8 @@ use crate::assembly::RenderScene;
 /// Keys: `triangles`, `spheres`, `meshes`, `materials` (each with `name`, `model` (the assembled
 /// [`materials::MaterialModel`]), `model_key` (the manifest's `model` as written, if any), `uses`: `transmission`,
 /// `absorption`, `dispersion`, `emission`, and its spectra), `lights`, `camera`, `bounds` (`min`, `max`),
-/// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `settings`, `warnings`, and `needs`:
+/// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `memory` (`charged_bytes`, `budget_bytes`:
+/// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `warnings`, and `needs`:
 /// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
 /// the names or files of the non-RGB spectra used (for the layers above to check for spikes).
 pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
@@ -81,6 +82,7 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
             "bytes": stats.bytes,
             "bytes_per_primitive": stats.bytes_per_primitive,
         },
+        "memory": {"charged_bytes": render_scene.memory.used, "budget_bytes": render_scene.memory.limit},
         "settings": desc.settings,
         "warnings": render_scene.warnings,
         "needs": {
