@@ -283,13 +283,15 @@ fn no_flags_choose_the_integrator_and_camera_and_say_why() {
     assert!(torus.contains("EV (auto: log-average luminance to 0.18; the file's lights are photometric"), "{torus}");
 }
 
+/// `spectrace info ARGS` as JSON (it must succeed).
+fn info(args: &[&str]) -> serde_json::Value {
+    let output = spectrace().args(["info"]).args(args).output().unwrap();
+    assert!(output.status.success(), "{args:?}: {}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_slice(&output.stdout).unwrap()
+}
+
 #[test]
 fn info_reports_the_camera_integrator_and_exposure_a_render_uses() {
-    let info = |args: &[&str]| -> serde_json::Value {
-        let output = spectrace().args(["info"]).args(args).output().unwrap();
-        assert!(output.status.success(), "{args:?}: {}", String::from_utf8_lossy(&output.stderr));
-        serde_json::from_slice(&output.stdout).unwrap()
-    };
     let default = info(&[]);
     assert_eq!(default["integrator"]["name"], "whitted-hall", "{default}");
     assert_eq!(default["exposure"]["ev"], 0.0);
@@ -336,4 +338,19 @@ fn env_option_lights_a_file_with_a_map_and_bad_maps_are_refused() {
     refused(&dir, &["render", "tri.obj", "--env-intensity", "2", "-o", "x.exr"], 2, &["--env"]);
     std::fs::write(dir.join("broken.exr"), b"v/1\x01 not really").unwrap();
     refused(&dir, &["render", "tri.obj", "--env", "broken.exr", "-o", "x.exr"], 1, &["broken.exr"]);
+    // `--light-env`: `none` keeps only the key light, a file name is `--env`; `--no-default-lights`
+    // leaves a file without lights unlit, which is refused.
+    let tri = dir.join("tri.obj");
+    let tri = tri.to_str().unwrap();
+    let lights = |args: &[&str]| info(&[&[tri], args].concat())["lights"].as_array().unwrap().len();
+    assert_eq!(lights(&[]), 2, "default: environment and key light");
+    assert_eq!(lights(&["--light-env", "uniform"]), 2);
+    assert_eq!(lights(&["--light-env", "none"]), 1, "the key light alone");
+    let sky_path = dir.join("sky.hdr");
+    let mapped = info(&[tri, "--light-env", sky_path.to_str().unwrap()]);
+    let mapped = mapped["lights"].as_array().unwrap();
+    assert!(mapped.len() == 1 && mapped[0]["map"].as_str().unwrap().ends_with("sky.hdr"), "{mapped:?}");
+    refused(&dir, &["info", "tri.obj", "--no-default-lights"], 1, &["no light"]);
+    refused(&dir, &["info", "tri.obj", "--light-env", "sky"], 1, &["no analytic sky"]);
+    refused(&dir, &["info", "tri.obj", "--light-env", "none", "--no-default-lights"], 2, &["cannot be used with"]);
 }

@@ -4,7 +4,9 @@
 use std::str::FromStr;
 
 use glam::Vec3;
-use integrator::{AssemblyOptions, CameraOptions, EnvironmentOption, IntegratorKind, RenderScene, Tonemap, UpAxis};
+use integrator::{
+    AssemblyOptions, CameraOptions, DefaultLights, EnvironmentOption, IntegratorKind, RenderScene, Tonemap, UpAxis,
+};
 
 /// `--integrator`: a model, or `auto` (the scene's `settings.integrator`, else the path tracer).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -78,6 +80,7 @@ impl CameraArgs {
                 aspect,
             },
             environment: None,
+            default_lights: DefaultLights::default(),
         }
     }
 }
@@ -96,12 +99,38 @@ pub(crate) struct EnvArgs {
     /// Rotation of the map about +Y in degrees, counter-clockwise seen from above [default: 0].
     #[arg(long, value_name = "DEG", requires = "env", allow_hyphen_values = true)]
     env_rotation: Option<f32>,
+    /// The environment of the default lights a glTF/OBJ file without lights gets: `uniform` (a D65
+    /// environment with the key light, the default), `none` (the key light over black), or an
+    /// .hdr/.exr map (as --env FILE).
+    #[arg(long, value_name = "none|uniform|FILE", conflicts_with = "env")]
+    light_env: Option<String>,
+    /// Add no default lights: the file's own lights, emitters and background only (a scene with none
+    /// is an error).
+    #[arg(long, conflicts_with_all = ["env", "light_env"])]
+    no_default_lights: bool,
 }
 
 impl EnvArgs {
-    /// The assembly's environment option.
+    /// Which default lights the assembly may add.
+    pub(crate) fn default_lights(&self) -> anyhow::Result<DefaultLights> {
+        Ok(match (self.no_default_lights, self.light_env.as_deref()) {
+            (true, _) => DefaultLights::None,
+            (false, Some("none")) => DefaultLights::KeyOnly,
+            (false, Some("sky")) => anyhow::bail!(
+                "--light-env sky: spectrace has no analytic sky yet; give an equirectangular .hdr or .exr map"
+            ),
+            _ => DefaultLights::EnvironmentAndKey,
+        })
+    }
+
+    /// The assembly's environment option (`--env FILE`, or `--light-env FILE`).
     pub(crate) fn option(&self) -> anyhow::Result<Option<EnvironmentOption>> {
-        let Some(path) = &self.env else { return Ok(None) };
+        let path = match (&self.env, self.light_env.as_deref()) {
+            (Some(path), _) => path.clone(),
+            (None, Some(value)) if !matches!(value, "none" | "uniform" | "sky") => std::path::PathBuf::from(value),
+            _ => return Ok(None),
+        };
+        let path = &path;
         let intensity = self.env_intensity.unwrap_or(1.0);
         if !(intensity.is_finite() && intensity >= 0.0) {
             anyhow::bail!("--env-intensity {intensity}: must be finite and ≥ 0");

@@ -32,6 +32,22 @@ pub struct AssemblyOptions {
     /// An environment map that lights the scene instead of the file's environment and background
     /// (`--env FILE --env-intensity X`); a glTF or OBJ file then gets no default lights.
     pub environment: Option<EnvironmentOption>,
+    /// What assembly may add to a scene without lights (`--light-env none`, `--no-default-lights`).
+    pub default_lights: DefaultLights,
+}
+
+/// The lights assembly adds to a scene that has none of its own.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum DefaultLights {
+    /// A glTF or OBJ file: a uniform D65 environment and a key light (with emitters, only a dim
+    /// environment); a manifest: a D65 point light (none with emitters). `--light-env uniform`.
+    #[default]
+    EnvironmentAndKey,
+    /// A glTF or OBJ file: the key light alone, over black (with emitters: nothing); a manifest as
+    /// [`DefaultLights::EnvironmentAndKey`]. `--light-env none`.
+    KeyOnly,
+    /// Nothing: a scene with no light, emitter or background is an error. `--no-default-lights`.
+    None,
 }
 
 /// `--env FILE [--env-intensity X]`: the scene is lit by this equirectangular map.
@@ -220,18 +236,30 @@ impl RenderScene {
         }
         let emissive = materials.iter().any(Material::emits);
         let unlit = lights.is_empty() && background.is_none();
-        if unlit && matches!(format, SceneFormat::Gltf | SceneFormat::Obj) {
+        if options.default_lights == DefaultLights::None {
+            if unlit && !emissive {
+                return Err(Error::NoLight);
+            }
+        } else if unlit && matches!(format, SceneFormat::Gltf | SceneFormat::Obj) {
             // A glTF or OBJ file has no way to say "lit by the world": light it as a viewer would.
-            let added = default_lights(&camera, emissive);
+            let environment = options.default_lights == DefaultLights::EnvironmentAndKey;
+            let added = default_lights(&camera, emissive, environment);
             for light in &added {
                 lights.push(light_from_desc(light).map_err(|source| Error::Spectrum {
                     what: "the default lights (added because the file has none)",
                     source,
                 })?);
             }
-            warnings.push(if emissive {
+            warnings.push(if emissive && !environment {
+                "no light in the file: its emitters light it alone (--light-env none)".to_owned()
+            } else if emissive {
                 format!(
                     "no light in the file: added a uniform D65 environment of {DIM_ENVIRONMENT_NITS} nits (Blender's default world) to its emitters"
+                )
+            } else if !environment {
+                format!(
+                    "no light in the file: added a D65 key light of {:.3} lux from above and to the right of the camera over a black background (--light-env none; a white surface facing the camera reads {KEY_NITS:.1})",
+                    key_illuminance()
                 )
             } else {
                 format!(
@@ -450,28 +478,27 @@ fn key_illuminance() -> f32 {
 /// The lights of a glTF or OBJ file that has none: a uniform D65 environment and a D65 key light placed
 /// relative to the camera, so a white Lambertian surface facing the camera has luminance 0.8 (0.3 + 0.5);
 /// a file with emitters gets only a dim environment (its emitters are its lights).
-fn default_lights(camera: &CameraDesc, emissive: bool) -> Vec<LightDesc> {
+/// Without `environment` (`--light-env none`) only the key light (nothing for a file with emitters).
+fn default_lights(camera: &CameraDesc, emissive: bool, environment: bool) -> Vec<LightDesc> {
     let env = |nits: f32| LightDesc::Environment {
         spectrum: SpectrumDesc::Named("D65".into()),
         intensity: LightAmount { value: nits, unit: LightUnit::Nit },
         map: None,
     };
     if emissive {
-        return vec![env(DIM_ENVIRONMENT_NITS)];
+        return if environment { vec![env(DIM_ENVIRONMENT_NITS)] } else { Vec::new() };
     }
     let forward = (camera.look_at - camera.position).normalize_or(Vec3::NEG_Z);
     let right = forward.cross(camera.up).normalize_or(Vec3::X);
     let up = right.cross(forward);
     let [b, u, r] = KEY_FROM;
     let towards_light = (-forward * b + up * u + right * r).normalize();
-    vec![
-        env(ENVIRONMENT_NITS),
-        LightDesc::Directional {
-            direction: -towards_light,
-            spectrum: SpectrumDesc::Named("D65".into()),
-            intensity: LightAmount { value: key_illuminance(), unit: LightUnit::Lux },
-        },
-    ]
+    let key = LightDesc::Directional {
+        direction: -towards_light,
+        spectrum: SpectrumDesc::Named("D65".into()),
+        intensity: LightAmount { value: key_illuminance(), unit: LightUnit::Lux },
+    };
+    if environment { vec![env(ENVIRONMENT_NITS), key] } else { vec![key] }
 }
 
 /// One warning for the keys a scene writes that the renderer reads but does not honour yet.

@@ -47,7 +47,7 @@ mod surface;
 mod texture;
 mod whitted;
 
-pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, EnvironmentOption, RenderScene};
+pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, DefaultLights, EnvironmentOption, RenderScene};
 pub use auto::choose_auto;
 pub use camera::{CameraOptions, UpAxis};
 pub use error::{Error, Result};

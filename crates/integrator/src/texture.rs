@@ -72,11 +72,10 @@ fn decode(
         warnings.push(format!("{}: cannot decode ({e}); the material's factor is used", image.label));
         Ok(None)
     };
-    let reader = match image::ImageReader::new(Cursor::new(&image.bytes[..])).with_guessed_format() {
+    let mut reader = match image::ImageReader::new(Cursor::new(&image.bytes[..])).with_guessed_format() {
         Ok(reader) => reader,
         Err(e) => return skip(&e, warnings),
     };
-    let mut reader = reader;
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIDE);
     limits.max_image_height = Some(MAX_IMAGE_SIDE);

@@ -96,6 +96,14 @@ fn a_unit_that_does_not_fit_the_light_is_refused_with_its_place() {
 
 /// An OBJ file's white quad (z = 0, facing +z), assembled with a camera 1 m in front of it.
 fn obj_plane(extra: &str) -> integrator::RenderScene {
+    obj_plane_with(extra, integrator::DefaultLights::default()).unwrap()
+}
+
+/// [`obj_plane`], with the given default lights.
+fn obj_plane_with(
+    extra: &str,
+    default_lights: integrator::DefaultLights,
+) -> integrator::Result<integrator::RenderScene> {
     let dir = std::env::temp_dir().join(format!("spectrace-units-{}-{}", std::process::id(), extra.len()));
     std::fs::create_dir_all(&dir).unwrap();
     let obj = dir.join("plane.obj");
@@ -112,7 +120,8 @@ fn obj_plane(extra: &str) -> integrator::RenderScene {
         height: Some(1),
     });
     let _ = std::fs::remove_dir_all(&dir);
-    integrator::RenderScene::from_description(desc).unwrap()
+    let options = integrator::AssemblyOptions { default_lights, ..Default::default() };
+    integrator::RenderScene::from_description_with(desc, &options)
 }
 
 #[test]
@@ -125,6 +134,22 @@ fn a_file_without_lights_reads_as_light_grey() {
     assert_all_finite(&image, &stats);
     let y = f64::from(image.xyz(0, 0)[1]);
     assert!((y / 0.4 - 1.0).abs() < 0.03, "Y = {y}, expected 0.8 × 0.5");
+}
+
+#[test]
+fn light_env_none_keeps_only_the_key_light_and_no_default_lights_adds_nothing() {
+    // `--light-env none`: the key light's 0.5 nits on a white surface alone, over black: Y = 0.5 × 0.5.
+    let s = obj_plane_with("", integrator::DefaultLights::KeyOnly).unwrap();
+    assert!(s.warnings.iter().any(|w| w.contains("key light") && w.contains("black")), "{:?}", s.warnings);
+    let opts = integrator::RenderOptions { spectral: SpectralMode::Bins(16), spp: 256, ..options(1, 1) }.path(|_| {});
+    let (image, stats) = render_with(&s, &opts);
+    assert_all_finite(&image, &stats);
+    let y = f64::from(image.xyz(0, 0)[1]);
+    // One delta light on a plane facing the camera: every sample is the same, up to rounding.
+    assert!((y / 0.25 - 1.0).abs() < 1e-3, "Y = {y}, expected 0.5 × 0.5");
+    // `--no-default-lights`: a file with no light, emitter or background is refused.
+    let err = obj_plane_with("", integrator::DefaultLights::None).err().map(|e| e.to_string()).unwrap_or_default();
+    assert!(err.contains("no light"), "{err}");
 }
 
 /// Y seen by a 1-pixel path-traced camera at `eye` looking at the origin, where an emissive quad
