@@ -141,7 +141,7 @@ impl RenderScene {
         let SceneDescription {
             format,
             spheres,
-            meshes,
+            mut meshes,
             instances,
             materials: mut material_descs,
             images,
@@ -172,6 +172,7 @@ impl RenderScene {
         let mut background = background;
         let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
         warn_unused_keys(&material_descs, &mut warnings);
+        add_mikktspace_tangents(&mut meshes, &textures, &mut memory, &mut warnings)?;
         let geometry = Scene::build_with_instances(spheres, meshes, instances)?;
         let (center, radius) = framing(bounds);
         // A description built by hand may set `camera` without `cameras`.
@@ -499,6 +500,46 @@ fn default_lights(camera: &CameraDesc, emissive: bool, environment: bool) -> Vec
         intensity: LightAmount { value: key_illuminance(), unit: LightUnit::Lux },
     };
     if environment { vec![env(ENVIRONMENT_NITS), key] } else { vec![key] }
+}
+
+/// MikkTSpace tangents for every mesh whose material has a normal map and whose file gives no
+/// `TANGENT` (`tangents.rs`), charged to the scene's memory budget (16 bytes per vertex, and each
+/// vertex a uv seam splits); one warning says how many meshes got them.
+fn add_mikktspace_tangents(
+    meshes: &mut [geometry::Mesh],
+    textures: &[Option<MaterialTextures>],
+    memory: &mut geometry::MemoryBudget,
+    warnings: &mut Vec<String>,
+) -> Result<()> {
+    let mut generated = 0;
+    for (i, mesh) in meshes.iter_mut().enumerate() {
+        let normal_mapped = mesh
+            .material()
+            .and_then(|m| textures.get(m as usize))
+            .and_then(Option::as_ref)
+            .is_some_and(MaterialTextures::has_normal_map);
+        if !normal_mapped || mesh.tangents().is_some() || mesh.uvs().is_none() {
+            continue;
+        }
+        // Tangents (16 B) for every vertex, and at most one split vertex (position, normal, uv,
+        // tangent: 48 B) per triangle corner.
+        let worst = 16 * mesh.positions().len() as u64 + 48 * 3 * mesh.triangle_count() as u64;
+        let label = format!("mesh {i}");
+        memory.fits(std::path::Path::new(&label), || "MikkTSpace tangents".to_owned(), worst)?;
+        if let Some(with) = crate::tangents::with_mikktspace_tangents(mesh) {
+            let bytes =
+                16 * with.positions().len() as u64 + 32 * (with.positions().len() - mesh.positions().len()) as u64;
+            memory.charge(std::path::Path::new(&label), || "MikkTSpace tangents".to_owned(), bytes)?;
+            *mesh = with;
+            generated += 1;
+        }
+    }
+    if generated > 0 {
+        warnings.push(format!(
+            "normal maps: MikkTSpace tangents generated for {generated} mesh(es) the file gives none (glTF 2.0 §3.7.2.1)"
+        ));
+    }
+    Ok(())
 }
 
 /// One warning for the keys a scene writes that the renderer reads but does not honour yet.

@@ -44,6 +44,7 @@ mod sampling;
 mod spectral;
 mod summary;
 mod surface;
+mod tangents;
 mod texture;
 mod whitted;
 
