@@ -55,7 +55,34 @@ impl<const N: usize> Spectra<N> {
             Self::Dense(v) => v[id as usize].sample(lambda),
         }
     }
+
+    /// [`Spectra::eval`] through `last`, the previous spectrum this path evaluated at the same call
+    /// site. Hero wavelengths stay the same along a path (dispersion changes only their densities),
+    /// so the light at every next-event estimate, or the wall a path bounces off again, is the value
+    /// interpolated before: with `hero:4` on the Cornell box the interpolation was 11 % of the
+    /// instructions (docs/perf.md). Fixed lanes read their projected table and leave `last` alone.
+    #[inline]
+    fn eval_memo(&self, id: SpecId, lambda: &SampledWavelengths<N>, last: &mut LastSpectrum<N>) -> SampledSpectrum<N> {
+        match self {
+            Self::Fixed(v) => v[id as usize],
+            Self::Dense(v) => {
+                if let Some((last_id, s)) = last.0
+                    && last_id == id
+                {
+                    return s;
+                }
+                let s = v[id as usize].sample(lambda);
+                last.0 = Some((id, s));
+                s
+            }
+        }
+    }
 }
+
+/// The last spectrum evaluated at one call site of a path, with its table index (see
+/// [`Spectra::eval_memo`]); starts empty with each camera ray.
+#[derive(Clone, Copy)]
+struct LastSpectrum<const N: usize>(Option<(SpecId, SampledSpectrum<N>)>);
 
 /// A material's BSDF with its spectra in the render's table: the [`MaterialModel`] baked.
 #[derive(Debug, Clone, Copy)]
@@ -356,6 +383,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         // Distance travelled through cut-outs since the last vertex, and how many were passed.
         let mut skipped = 0.0f32;
         let mut skips = 0u32;
+        // The surface's scattering spectrum and the sampled light's emission, as last evaluated.
+        let mut last_surface = LastSpectrum(None);
+        let mut last_light = LastSpectrum(None);
         loop {
             count.rays += 1;
             let Some(hit) = self.scene.geometry.intersect(&ray, f32::INFINITY) else {
@@ -423,26 +453,30 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 skipped = 0.0;
             }
             // A texture's base colour replaces the material's (it already includes the factor).
-            let base = |id: SpecId, lambda: &SampledWavelengths<N>| match textures.and_then(|t| t.base_color.as_ref()) {
+            let base = |id: SpecId, lambda: &SampledWavelengths<N>, last: &mut LastSpectrum<N>| match textures
+                .and_then(|t| t.base_color.as_ref())
+            {
                 Some(t) => t.eval(hit.uv, lambda, self.rgb_lanes).0,
-                None => self.spectra.eval(id, lambda),
+                None => self.spectra.eval_memo(id, lambda, last),
             };
+            let last = &mut last_surface;
             let bsdf = match m.scattering {
-                PathScattering::Diffuse { r } => Bsdf::Lambertian { r: base(r, lambda) },
-                PathScattering::Mirror { r } => Bsdf::Mirror { r: self.spectra.eval(r, lambda) },
+                PathScattering::Diffuse { r } => Bsdf::Lambertian { r: base(r, lambda, last) },
+                PathScattering::Mirror { r } => Bsdf::Mirror { r: self.spectra.eval_memo(r, lambda, last) },
                 PathScattering::Dielectric { tint } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
-                    Bsdf::Dielectric { eta, tint: self.spectra.eval(tint, lambda) }
+                    Bsdf::Dielectric { eta, tint: self.spectra.eval_memo(tint, lambda, last) }
                 }
                 // Never reached when !ROUGH (`rough` is false only if no material has these).
                 _ if !ROUGH => Bsdf::Lambertian { r: SampledSpectrum([0.0; N]) },
                 PathScattering::RoughDielectric { tint, alpha } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                     let distrib = TrowbridgeReitz::isotropic(alpha);
-                    Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, self.spectra.eval(tint, lambda), true))
+                    let tint = self.spectra.eval_memo(tint, lambda, last);
+                    Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, tint, true))
                 }
                 PathScattering::ThinDielectric { tint, eta } => {
-                    Bsdf::ThinDielectric(ThinDielectricBxdf::new(eta, self.spectra.eval(tint, lambda)))
+                    Bsdf::ThinDielectric(ThinDielectricBxdf::new(eta, self.spectra.eval_memo(tint, lambda, last)))
                 }
                 PathScattering::Conductor { metal, r, alpha } => {
                     let distrib = TrowbridgeReitz::isotropic(alpha);
@@ -451,14 +485,14 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         Some(metal) if !matches!(sensor, Sensor::Fixed(lanes) if lanes.rgb) => {
                             ConductorBxdf::metal(metal, lambda, distrib, true)
                         }
-                        _ => ConductorBxdf::from_reflectance(self.spectra.eval(r, lambda), distrib, true),
+                        _ => ConductorBxdf::from_reflectance(self.spectra.eval_memo(r, lambda, last), distrib, true),
                     })
                 }
                 PathScattering::GltfMetalRough { base: id, metallic, roughness, ior } => {
                     let (metallic, roughness) =
                         textures.map_or((metallic, roughness), |t| t.metallic_roughness(hit.uv, metallic, roughness));
                     Bsdf::GltfMetalRough(GltfMetalRoughBxdf::energy_conserving(
-                        base(id, lambda),
+                        base(id, lambda, last),
                         metallic,
                         roughness,
                         ior,
@@ -471,7 +505,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             };
             let frame = Frame { n: hit.n, ns };
             if !bsdf.is_specular() && !self.scene.emitters.is_empty() {
-                radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, rng, count);
+                radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, &mut last_light, rng, count);
             }
             let Some(s) = bsdf.sample_f(&frame, wo, rng.uniform(), rng.uniform2()) else { break };
             beta *= s.weight;
@@ -507,6 +541,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         wo: Vec3,
         bsdf: &Bsdf<N>,
         lambda: &SampledWavelengths<N>,
+        last_light: &mut LastSpectrum<N>,
         rng: &mut Rng,
         count: &mut RayCount,
     ) -> SampledSpectrum<N> {
@@ -539,7 +574,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             }
             le
         } else {
-            self.spectra.eval(self.light_spectra[light], lambda)
+            self.spectra.eval_memo(self.light_spectra[light], lambda, last_light)
         };
         if ls.delta {
             f * le * (visible * ls.scale / ls.pdf)
