@@ -568,12 +568,7 @@ impl Placement {
         let dir = m.transform_vector3(ray.dir);
         // |M| |o| + |translation|, each coordinate within γ(3) of exact (pbrt-v4 `Transform`
         // applied to a point with error).
-        let abs = Mat3::from_cols(
-            Vec3::from(m.matrix3.x_axis.abs()),
-            Vec3::from(m.matrix3.y_axis.abs()),
-            Vec3::from(m.matrix3.z_axis.abs()),
-        );
-        let error = gamma(3) * (abs * ray.origin.abs() + Vec3::from(m.translation.abs()));
+        let error = gamma(3) * (abs_linear(m) * ray.origin.abs() + Vec3::from(m.translation.abs()));
         let length2 = dir.length_squared();
         let dt = if length2 > 0.0 { dir.abs().dot(error) / length2 } else { 0.0 };
         (Ray { origin: origin + dir * dt, dir }, dt)
@@ -586,11 +581,7 @@ impl Placement {
     #[inline]
     fn hit_to_world(&self, local: Hit, t: f32) -> Hit {
         let m = &self.object_to_world;
-        let abs = Mat3::from_cols(
-            Vec3::from(m.matrix3.x_axis.abs()),
-            Vec3::from(m.matrix3.y_axis.abs()),
-            Vec3::from(m.matrix3.z_axis.abs()),
-        );
+        let abs = abs_linear(m);
         let p = m.transform_point3(local.p);
         let p_error = (1.0 + gamma(3)) * (abs * local.p_error)
             + gamma(3) * (abs * local.p.abs() + Vec3::from(m.translation.abs()));
@@ -602,6 +593,13 @@ impl Placement {
         };
         Hit { t, p, p_error, n, ns, uv: local.uv, primitive: u32::MAX, material: local.material }
     }
+}
+
+/// The linear part of `m` with every entry's magnitude: |M|, the bound of a transform's rounding.
+#[inline(always)]
+fn abs_linear(m: &Affine3A) -> Mat3 {
+    let a = &m.matrix3;
+    Mat3::from_cols(Vec3::from(a.x_axis.abs()), Vec3::from(a.y_axis.abs()), Vec3::from(a.z_axis.abs()))
 }
 
 /// The top-level query as a [`Kernel`]: the world ray through the placements' BVH; at each

@@ -1061,14 +1061,7 @@ impl Loader<'_> {
             let normals = match primitive.get(&Semantic::Normals) {
                 Some(acc) => {
                     let n = self.read_vec3(&acc, &format!("{context} NORMAL"))?;
-                    if n.len() != vertex_count || !n.iter().all(|v| v.is_finite()) {
-                        self.warn(format!(
-                            "{context}: NORMAL count differs from POSITION or is not finite; normals dropped"
-                        ));
-                        None
-                    } else {
-                        Some(n)
-                    }
+                    self.per_vertex(n, vertex_count, Vec3::is_finite, &context, "NORMAL", "normals dropped")
                 }
                 None => None,
             };
@@ -1098,14 +1091,8 @@ impl Loader<'_> {
             let uvs = match primitive.get(&Semantic::TexCoords(set)) {
                 Some(acc) => {
                     let uv = self.read_vec2(&acc, &format!("{context} TEXCOORD_{set}"))?;
-                    if uv.len() != vertex_count || !uv.iter().all(|v| v.is_finite()) {
-                        self.warn(format!(
-                            "{context}: TEXCOORD_{set} count differs from POSITION or is not finite; UVs dropped"
-                        ));
-                        None
-                    } else {
-                        Some(uv)
-                    }
+                    let name = format!("TEXCOORD_{set}");
+                    self.per_vertex(uv, vertex_count, Vec2::is_finite, &context, &name, "UVs dropped")
                 }
                 None => {
                     if !sets.is_empty() {
@@ -1117,14 +1104,8 @@ impl Loader<'_> {
             let tangents = match primitive.get(&Semantic::Tangents).filter(|_| wants_tangents) {
                 Some(acc) => {
                     let t = self.read_vec4(&acc, &format!("{context} TANGENT"))?;
-                    if t.len() != vertex_count || !t.iter().all(|v| v.is_finite()) {
-                        self.warn(format!(
-                            "{context}: TANGENT count differs from POSITION or is not finite; tangents from UVs used"
-                        ));
-                        None
-                    } else {
-                        Some(t)
-                    }
+                    let instead = "MikkTSpace tangents used";
+                    self.per_vertex(t, vertex_count, glam::Vec4::is_finite, &context, "TANGENT", instead)
                 }
                 None => None,
             };
@@ -1143,6 +1124,24 @@ impl Loader<'_> {
             self.desc.meshes.push(mesh);
         }
         Ok(())
+    }
+
+    /// A vertex attribute, if it has one finite value per vertex; else `None` and a warning saying
+    /// what is used `instead`.
+    fn per_vertex<T: Copy>(
+        &mut self,
+        values: Vec<T>,
+        vertex_count: usize,
+        finite: impl Fn(T) -> bool,
+        context: &str,
+        name: &str,
+        instead: &str,
+    ) -> Option<Vec<T>> {
+        if values.len() == vertex_count && values.iter().all(|&v| finite(v)) {
+            return Some(values);
+        }
+        self.warn(format!("{context}: {name} count differs from POSITION or is not finite; {instead}"));
+        None
     }
 
     fn read_vec3(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<Vec3>> {

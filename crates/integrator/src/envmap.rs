@@ -339,22 +339,20 @@ fn exr_size(bytes: &[u8]) -> std::result::Result<(usize, usize), String> {
     Ok((w, h))
 }
 
-/// A Radiance RGBE file as linear RGB rows from the top.
+/// A Radiance RGBE file as linear RGB rows from the top (its size checked first: [`hdr_size`]).
 fn decode_hdr(bytes: &[u8]) -> std::result::Result<(usize, usize, Vec<[f32; 3]>), String> {
     use image::ImageDecoder;
     let decoder = image::codecs::hdr::HdrDecoder::new(Cursor::new(bytes)).map_err(|e| e.to_string())?;
     let (w, h) = decoder.dimensions();
     let (width, height) = (w as usize, h as usize);
-    check_size(width, height)?;
     let image = image::DynamicImage::from_decoder(decoder).map_err(|e| e.to_string())?.into_rgb32f();
     Ok((width, height, image.pixels().map(|p| p.0).collect()))
 }
 
 /// The first RGB(A) layer of an OpenEXR file, at its largest resolution, as linear RGB rows from the
-/// top (alpha ignored; the header's size is checked before the pixels are read).
+/// top (alpha ignored; the header's size is checked first, [`exr_size`], and the layer read again).
 fn decode_exr(bytes: &[u8]) -> std::result::Result<(usize, usize, Vec<[f32; 3]>), String> {
     use exr::prelude::*;
-    exr_size(bytes)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
