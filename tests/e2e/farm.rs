@@ -235,3 +235,76 @@ fn a_render_killed_after_a_checkpoint_resumes_to_the_same_bits() {
     render(&["--time-limit", "0.01", "-o", "short.exr"]);
     assert_ne!(std::fs::read(dir.join("short.exr")).unwrap(), std::fs::read(dir.join("whole.exr")).unwrap());
 }
+
+/// `--set` and `--frame` (docs/scene-format.md "Overrides and frames"): the same image as the edited
+/// file, `{frame}` in output paths, and parts of different variations refuse to merge.
+#[test]
+fn set_and_frame_render_what_the_edited_file_renders() {
+    let dir = scratch("farm_vary");
+    let text = std::fs::read_to_string(repo("scenes/paper/five_spheres.json")).unwrap();
+    // The file with its light's intensity edited, and the file with that edit as its frame 1.
+    let edited = text.replacen("\"intensity\": 13441", "\"intensity\": 26882", 1);
+    assert_ne!(edited, text, "the fixture's light intensity moved");
+    std::fs::write(dir.join("edited.json"), &edited).unwrap();
+    let framed = text.replacen(
+        "\"camera\":",
+        "\"frames\": [{\"lights.0.intensity\": 1}, {\"lights.0.intensity\": 26882}],\n  \"camera\":",
+        1,
+    );
+    std::fs::write(dir.join("framed.json"), framed).unwrap();
+    let base = repo("scenes/paper/five_spheres.json").display().to_string();
+    let small = ["--width", "16", "--height", "12", "-q"];
+    let render = |scene: &str, extra: &[&str], out: &str| {
+        let mut args = vec!["render", scene, "-o", out];
+        args.extend(small);
+        args.extend(extra);
+        run(&dir, &args)
+    };
+    render("edited.json", &[], "edited.exr");
+    render(&base, &[], "base.exr");
+    render(&base, &["--set", "lights.0.intensity=26882"], "set.exr");
+    same_bytes(&dir, "edited.exr", "set.exr");
+    let (a, b) = (std::fs::read(dir.join("base.exr")).unwrap(), std::fs::read(dir.join("set.exr")).unwrap());
+    assert_ne!(a, b, "--set changed nothing");
+    // Frame 1, with {frame} in the name; --set wins over the frame.
+    render("framed.json", &["--frame", "1"], "frame{frame}.exr");
+    same_bytes(&dir, "edited.exr", "frame1.exr");
+    render("framed.json", &["--frame", "0", "--set", "lights.0.intensity=26882"], "frame{frame}.exr");
+    same_bytes(&dir, "edited.exr", "frame0.exr");
+    // Without --frame the frames are named in a warning and the file renders as written.
+    let stderr = run(&dir, &["render", "framed.json", "-o", "plain.exr", "--width", "16", "--height", "12"]);
+    assert!(stderr.contains("2 frame(s) defined"), "{stderr}");
+    same_bytes(&dir, "base.exr", "plain.exr");
+    // Bad variations are refused before anything is written, naming the file and the value.
+    let refuse = |extra: &[&str], needles: &[&str]| {
+        let mut args = vec!["render", "framed.json", "-o", "bad.exr"];
+        args.extend(small);
+        args.extend(extra);
+        refused(&dir, &args, 1, needles);
+    };
+    refuse(&["--frame", "2"], &["framed.json", "--frame 2, but the manifest has 2 frame(s)"]);
+    refuse(&["--set", "lights.3.intensity=1"], &["framed.json", "--set lights.3.intensity", "1 entries"]);
+    refuse(&["--set", "camera.vfov_deg=\"wide\""], &["framed.json (after --frame/--set)"]);
+    let gltf = repo("scenes/gltf/glass_torus.gltf").display().to_string();
+    let mut args = vec!["render", gltf.as_str(), "--set", "a=1", "-o", "bad.exr"];
+    args.extend(small);
+    refused(&dir, &args, 1, &["glass_torus.gltf: --frame and --set change a manifest"]);
+    refused(&dir, &["render", "--set", "novalue", "-o", "bad.exr"], 2, &["expected PATH=VALUE"]);
+    // Parts of two variations are two renders.
+    for (k, value, film) in [("1/2", "26882", "a.film"), ("2/2", "26883", "b.film")] {
+        let set = format!("lights.0.intensity={value}");
+        run(
+            &dir,
+            &[
+                "render", &base, "--width", "8", "--height", "6", "--spp", "2", "--set", &set, "--part", k, "--film",
+                film, "-q",
+            ],
+        );
+    }
+    refused(
+        &dir,
+        &["merge", "a.film", "b.film", "-o", "m.exr"],
+        1,
+        &["b.film: cannot merge with a.film", "a different scene"],
+    );
+}

@@ -12,7 +12,7 @@ use integrator::{
 };
 
 /// Arguments of `spectrace render`.
-#[derive(Debug, clap::Args)]
+#[derive(Debug, Clone, clap::Args)]
 pub(crate) struct RenderArgs {
     /// Scene file: a manifest (.json), glTF (.gltf/.glb) or OBJ (.obj). Without it, the
     /// paper's five transparent spheres are rendered.
@@ -95,7 +95,7 @@ pub(crate) struct RenderArgs {
 }
 
 /// Rendering a part of a render, checkpoints and resuming (docs/film-format.md).
-#[derive(Debug, clap::Args)]
+#[derive(Debug, Clone, clap::Args)]
 pub(crate) struct PartArgs {
     /// Render part K of M of the samples (K = 1..M, e.g. a Slurm array task id); needs --film.
     /// Merge the parts with `spectrace merge`.
@@ -153,7 +153,7 @@ fn parse_interval(s: &str) -> Result<std::time::Duration, String> {
 }
 
 /// What a scene may cost to load (shared by `render` and `info`).
-#[derive(Debug, clap::Args)]
+#[derive(Debug, Clone, clap::Args)]
 pub(crate) struct LoadArgs {
     /// Memory budget for the scene's data, in bytes or with a K/M/G suffix (powers of 1024): files,
     /// decoded geometry and the BVH; a scene that needs more is refused before allocating [default: 8G].
@@ -162,6 +162,15 @@ pub(crate) struct LoadArgs {
     /// Let a scene refer to files by absolute path (refused by default: a scene is a movable folder).
     #[arg(long)]
     allow_absolute_paths: bool,
+    /// Change a value of the manifest before it is read, e.g. `materials.glass.ior=1.6` or
+    /// `lights.0.intensity=2` (a dotted path: keys, and array indices from 0; the value is JSON, or
+    /// else a string). Repeatable; a later one wins. For sweeps (docs/scene-format.md "Overrides and frames").
+    #[arg(long = "set", value_name = "PATH=VALUE", action = clap::ArgAction::Append)]
+    set: Vec<geometry::Override>,
+    /// Render frame K (from 0) of the manifest's `frames`: its changes apply before --set. `{frame}` in
+    /// output and film paths becomes K.
+    #[arg(long, value_name = "K")]
+    frame: Option<u32>,
 }
 
 impl LoadArgs {
@@ -169,7 +178,16 @@ impl LoadArgs {
         geometry::LoadOptions {
             max_memory: self.max_memory.unwrap_or(geometry::DEFAULT_MAX_MEMORY),
             allow_absolute_paths: self.allow_absolute_paths,
+            variation: geometry::Variation { frame: self.frame, overrides: self.set.clone() },
             ..geometry::LoadOptions::default()
+        }
+    }
+
+    /// `path` with `{frame}` replaced by the frame number (unchanged without --frame).
+    pub(crate) fn frame_path(&self, path: &Path) -> PathBuf {
+        match (self.frame, path.to_str()) {
+            (Some(k), Some(text)) if text.contains("{frame}") => PathBuf::from(text.replace("{frame}", &k.to_string())),
+            _ => path.to_path_buf(),
         }
     }
 }
@@ -223,10 +241,29 @@ fn check_limits(options: &RenderOptions, args: &RenderArgs) -> anyhow::Result<()
     }
 }
 
+/// `args` with `{frame}` in every output, film and checkpoint path replaced by `--frame`'s number, so one
+/// command line serves every task of a job array.
+fn with_frame_paths(args: &RenderArgs) -> RenderArgs {
+    let mut args = args.clone();
+    let load = args.load.clone();
+    let frame = |p: &mut Option<PathBuf>| {
+        if let Some(path) = p.as_mut() {
+            *path = load.frame_path(path);
+        }
+    };
+    frame(&mut args.output);
+    frame(&mut args.spectral_exr);
+    frame(&mut args.parts.film);
+    frame(&mut args.parts.checkpoint);
+    frame(&mut args.parts.resume);
+    args
+}
+
 /// Whether the outputs are being written: a signal then removes their temporaries and exits.
 static WRITING: AtomicBool = AtomicBool::new(false);
 
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    let args = &with_frame_paths(args);
     let parts = &args.parts;
     // Images are written unless only a film is asked for.
     let image_path = match (&args.output, &parts.film) {

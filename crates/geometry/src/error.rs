@@ -37,6 +37,15 @@ pub enum Error {
         /// Its extension, lowercased (empty if none).
         extension: String,
     },
+    /// `--frame` or `--set` was given for a glTF or OBJ file: they change a manifest's document.
+    #[error(
+        "{}: --frame and --set change a manifest (.json); include the file from a manifest (an object of type \"mesh\") and vary that",
+        path.display()
+    )]
+    VariationNeedsManifest {
+        /// The file.
+        path: PathBuf,
+    },
     /// The `gltf` crate rejected the file (JSON syntax, GLB framing, validation).
     #[error("{}: {cause}", path.display())]
     Gltf {

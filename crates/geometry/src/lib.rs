@@ -48,6 +48,7 @@ mod limits;
 mod load;
 mod manifest;
 mod obj_loader;
+mod overrides;
 mod prefilter;
 pub use desc::{
     AbsorptionDesc, AlphaMode, CameraDesc, EnvironmentMapDesc, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit,
@@ -57,3 +58,4 @@ pub use desc::{
 pub use hash::xxh64;
 pub use limits::{DEFAULT_FLATTEN_TRIANGLES, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE, MemoryBudget};
 pub use load::{load_scene, load_scene_with, parse_manifest, parse_manifest_with};
+pub use overrides::{Override, Variation};

@@ -36,8 +36,8 @@ pub(crate) const BYTES_PER_TRIANGLE: u64 = 256;
 /// copy a node or manifest transform makes).
 pub(crate) const BYTES_PER_VERTEX: u64 = 64;
 
-/// How much a scene may cost to load, and which files it may refer to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// How much a scene may cost to load, which files it may refer to, and what to change in a manifest.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct LoadOptions {
     /// Upper bound on the memory a scene's data may take (bytes): files read, decoded accessors, vertices and
     /// triangles (with their share of the BVH). Default [`DEFAULT_MAX_MEMORY`].
@@ -51,6 +51,9 @@ pub struct LoadOptions {
     /// beyond, it is kept once and placed by transforms (a two-level BVH). Default
     /// [`DEFAULT_FLATTEN_TRIANGLES`].
     pub flatten_triangles: u64,
+    /// `--frame` and `--set`: changes to a manifest's document before it is read (a glTF or OBJ file
+    /// given them is refused: [`crate::Error::VariationNeedsManifest`]).
+    pub variation: crate::overrides::Variation,
 }
 
 /// Default [`LoadOptions::flatten_triangles`]: 2²⁰ extra triangles (≈ 256 MiB at [`BYTES_PER_TRIANGLE`]).
@@ -69,6 +72,7 @@ impl Default for LoadOptions {
             max_memory: DEFAULT_MAX_MEMORY,
             allow_absolute_paths: false,
             flatten_triangles: DEFAULT_FLATTEN_TRIANGLES,
+            variation: crate::overrides::Variation::default(),
         }
     }
 }

@@ -38,7 +38,7 @@ pub fn load_scene(path: &Path) -> Result<SceneDescription> {
 /// [`Error::AbsolutePath`]), [`Error::CoordinateTooLarge`], and the errors of each format, each naming the
 /// file.
 pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<SceneDescription> {
-    let budget = Budget::new(*options);
+    let budget = Budget::new(options.clone());
     let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
     let desc = match extension.as_str() {
         "json" => {
@@ -49,6 +49,9 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<SceneDescri
             })?;
             let base = path.parent().unwrap_or_else(|| Path::new("."));
             manifest(&text, base, &path.display().to_string(), &budget)?
+        }
+        _ if !options.variation.is_empty() && matches!(extension.as_str(), "gltf" | "glb" | "obj") => {
+            return Err(Error::VariationNeedsManifest { path: path.to_path_buf() });
         }
         "gltf" | "glb" => crate::gltf_loader::load_gltf_file(path, &budget)?,
         "obj" => crate::obj_loader::load_obj_file(path, &budget)?,
@@ -83,7 +86,7 @@ pub fn parse_manifest_with(
     origin: &str,
     options: &LoadOptions,
 ) -> Result<SceneDescription> {
-    let budget = Budget::new(*options);
+    let budget = Budget::new(options.clone());
     budget.record(text.as_bytes());
     let mut desc = finish(manifest(text, base_dir, origin, &budget)?, origin);
     desc.source_hash = budget.content_hash();

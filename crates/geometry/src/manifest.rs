@@ -37,6 +37,9 @@ struct ManifestJson {
     objects: Vec<ObjectJson>,
     #[serde(default)]
     settings: Map<String, Value>,
+    /// Per-frame changes, chosen by `--frame K` ([`crate::Variation`]); checked there.
+    #[serde(default)]
+    frames: Vec<Value>,
 }
 
 fn default_up() -> [f32; 3] {
@@ -222,10 +225,31 @@ pub(crate) fn parse(
     budget: &Budget,
 ) -> Result<(SceneDescription, Vec<Include>)> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let json: ManifestJson =
-        serde_json::from_str(text).map_err(|cause| Error::ManifestSyntax { origin: origin.to_owned(), cause })?;
+    let syntax = |cause| Error::ManifestSyntax { origin: origin.to_owned(), cause };
+    let variation = &budget.options.variation;
+    let json: ManifestJson = if variation.is_empty() {
+        // Straight from the text, so errors keep their line and column.
+        serde_json::from_str(text).map_err(syntax)?
+    } else {
+        let mut doc: Value = serde_json::from_str(text).map_err(syntax)?;
+        variation.apply(&mut doc).map_err(|(context, message)| Error::ManifestValue {
+            origin: origin.to_owned(),
+            context,
+            message,
+        })?;
+        // The varied scene is another scene: its digest (film files, `info`) says so.
+        budget.record(&variation.digest_bytes());
+        ManifestJson::deserialize(doc)
+            .map_err(|cause| Error::ManifestSyntax { origin: format!("{origin} (after --frame/--set)"), cause })?
+    };
     let ctx = Ctx { origin, base_dir, budget };
     let mut desc = SceneDescription::empty(SceneFormat::Manifest);
+    if variation.frame.is_none() && !json.frames.is_empty() {
+        desc.warnings.push(format!(
+            "{origin}: {} frame(s) defined; the scene without them is rendered (choose one with --frame K, from 0)",
+            json.frames.len()
+        ));
+    }
     let mut includes = Vec::new();
 
     // Materials first: objects refer to them by name. serde_json's map is sorted by key, so indices are

@@ -593,7 +593,7 @@ fn budget_is_per_scene_not_per_accessor_read() {
     // by name, with the budget.
     let fifty = write_gltf(&dir, "fifty.gltf", &shared_accessor_gltf(50, 99_999));
     assert!(std::fs::metadata(&fifty).map(|m| m.len()).unwrap_or(0) < 2000);
-    let copies = LoadOptions { flatten_triangles: u64::MAX, ..options };
+    let copies = LoadOptions { flatten_triangles: u64::MAX, ..options.clone() };
     let e = load_scene_with(&fifty, &copies).err().unwrap_or_else(|| panic!("loaded"));
     let msg = e.to_string();
     assert!(matches!(e, Error::OverBudget { limit, .. } if limit == 64 << 20), "{e:?}");
