@@ -306,9 +306,15 @@ fn info_reports_the_camera_integrator_and_exposure_a_render_uses() {
     assert_eq!(moved["camera"]["position"], serde_json::json!([0.0, 0.0, 9.0]), "{moved}");
     assert_eq!(moved["camera"]["vfov_deg"], 25.0);
     assert_eq!(moved["exposure"]["ev"], -1.5);
-    let tilted = info(&[torus, "--integrator", "whitted-hall", "--tonemap", "pbr-neutral"]);
+    // The tone curve: pbr-neutral for glTF/OBJ files, clamp for manifests, unless asked.
+    assert_eq!(default["exposure"]["tonemap"], "clamp");
+    assert_eq!(t["exposure"]["tonemap"], "pbr-neutral");
+    let obj = repo("scenes/obj/cube_and_sphere.obj");
+    assert_eq!(info(&[obj.to_str().unwrap()])["exposure"]["tonemap"], "pbr-neutral");
+    let tilted = info(&[torus, "--integrator", "whitted-hall", "--tonemap", "clamp"]);
     assert_eq!(tilted["integrator"]["name"], "whitted-hall");
-    assert_eq!(tilted["exposure"]["tonemap"], "pbr-neutral");
+    assert_eq!(tilted["exposure"]["tonemap"], "clamp");
+    assert_eq!(info(&["--tonemap", "pbr-neutral"])["exposure"]["tonemap"], "pbr-neutral");
     let dir = scratch("info_bad_camera");
     refused(&dir, &["info", torus, "--camera", "nope"], 1, &["--camera nope: no such camera", "0 'camera'"]);
     refused(&dir, &["render", torus, "--exposure", "1", "--auto-exposure"], 2, &["cannot be used with"]);

@@ -63,7 +63,7 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
             serde_json::json!({
                 "ev": ev,
                 "why": exposure_why,
-                "tonemap": args.exposure.tonemap().to_string(),
+                "tonemap": args.exposure.tonemap(&scene).to_string(),
                 "photometric_lights": scene.has_photometric_lights(),
             }),
         );

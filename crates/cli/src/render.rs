@@ -429,13 +429,13 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         crate::view::ExposurePlan::Manual(ev) => ev,
         crate::view::ExposurePlan::Auto => integrator::auto_exposure_ev(&image).unwrap_or(0.0),
     };
-    image.set_view(integrator::View { ev, tonemap: args.exposure.tonemap() });
+    image.set_view(integrator::View { ev, tonemap: args.exposure.tonemap(&scene) });
     if !args.quiet && !image.view().is_identity() {
         let how =
             if exposure == crate::view::ExposurePlan::Auto { "auto: log-average luminance to 0.18; " } else { "" };
         eprintln!(
             "spectrace: note: PNG exposure {ev:+.2} EV ({how}{exposure_why}), tonemap {}; the EXR is not scaled",
-            args.exposure.tonemap()
+            args.exposure.tonemap(&scene)
         );
     }
 

@@ -155,9 +155,10 @@ pub(crate) struct ExposureArgs {
     #[arg(long)]
     auto_exposure: bool,
     /// Display curve of the PNG: clamp (exact colours up to white) or pbr-neutral (Khronos PBR
-    /// Neutral: a highlight shoulder, base colours kept).
-    #[arg(long, default_value = "clamp")]
-    tonemap: Tonemap,
+    /// Neutral: a highlight shoulder, base colours kept) [default: pbr-neutral for glTF and OBJ
+    /// files, clamp for manifests].
+    #[arg(long)]
+    tonemap: Option<Tonemap>,
 }
 
 /// How the PNG's exposure is decided, before the image exists.
@@ -185,8 +186,11 @@ impl ExposureArgs {
         })
     }
 
-    pub(crate) fn tonemap(&self) -> Tonemap {
-        self.tonemap
+    /// The PNG's tone curve for `scene`: the one asked for, else PBR Neutral for glTF and OBJ files
+    /// (authored for display: highlights roll off instead of clipping, as in the Khronos sample viewer)
+    /// and clamp for manifests (colour-accuracy work: every colour below white exact).
+    pub(crate) fn tonemap(&self, scene: &RenderScene) -> Tonemap {
+        self.tonemap.unwrap_or(if scene.is_gltf_or_obj() { Tonemap::PbrNeutral } else { Tonemap::Clamp })
     }
 }
 

@@ -83,6 +83,9 @@ pub struct RenderScene {
     /// Whether the file's lights are photometric (glTF `KHR_lights_punctual`: candela and lux), so that the
     /// image is in absolute units and auto-exposure is the PNG's default.
     pub(crate) photometric_lights: bool,
+    /// The scene is a glTF or OBJ file (not a manifest): made for display, so its PNG gets a highlight
+    /// shoulder by default.
+    pub(crate) gltf_or_obj: bool,
     pub(crate) resolution: (u32, u32),
     pub(crate) background: Option<DenselySampledSpectrum>,
     pub(crate) settings: serde_json::Map<String, serde_json::Value>,
@@ -305,6 +308,7 @@ impl RenderScene {
             camera_source,
             auto_integrator,
             photometric_lights,
+            gltf_or_obj: matches!(format, SceneFormat::Gltf | SceneFormat::Obj),
             resolution,
             background,
             settings,
@@ -377,6 +381,13 @@ impl RenderScene {
     /// PNG is auto-exposed by default.
     pub fn has_photometric_lights(&self) -> bool {
         self.photometric_lights
+    }
+
+    /// Whether the scene is a glTF or OBJ file rather than a manifest. Such files are authored for
+    /// display (their PNG defaults to the PBR Neutral tone curve); manifests are colour-accuracy work
+    /// (clamp).
+    pub fn is_gltf_or_obj(&self) -> bool {
+        self.gltf_or_obj
     }
 
     /// A camera for an image of the given size.
