@@ -481,7 +481,7 @@ impl<const N: usize> SampledWavelengths<N> {
     }
 
     /// N stratified wavelengths importance-sampled from pbrt-v4's visible-range density
-    /// p(λ) ∝ sech²(0.0072 (λ − 538)) over 360–830 nm.
+    /// p(λ) ∝ [`visible_wavelength_shape`] = sech²(0.0072 (λ − 538)) over 360–830 nm.
     pub fn sample_visible(u: f32) -> Self {
         let mut lambda = [0.0; N];
         let mut pdf = [0.0; N];
@@ -537,18 +537,52 @@ impl<const N: usize> SampledWavelengths<N> {
     }
 }
 
-/// Inverse CDF of the visible-range density (pbrt-v4 `SampleVisibleWavelengths`).
-fn sample_visible_wavelength(u: f32) -> f32 {
-    538.0 - 138.888_89 * (0.856_910_6 - 1.827_502 * u).atanh()
+/// Centre of the visible-range wavelength density (nm): pbrt-v4 `VisibleWavelengthsPDF`
+/// (`util/sampling.h`).
+pub const VISIBLE_PDF_CENTER_NM: f64 = 538.0;
+
+/// Rate of the visible-range density's fall-off (1/nm), pbrt-v4 `VisibleWavelengthsPDF`: the
+/// density is ∝ sech²(rate · (λ − centre)), half its peak about 122 nm either side.
+pub const VISIBLE_PDF_RATE_PER_NM: f64 = 0.0072;
+
+/// The shape of the visible-range density, `sech²(0.0072 (λ − 538))` ([`VISIBLE_PDF_RATE_PER_NM`],
+/// [`VISIBLE_PDF_CENTER_NM`]), 1 at the centre and not normalised, in f64: the one definition
+/// of the curve. Hero sampling ([`SampledWavelengths::sample_visible`]) evaluates the same
+/// expression in f32 on the hot path; the film's illuminant-driven table mixes this shape in.
+pub fn visible_wavelength_shape(lambda: f64) -> f64 {
+    let c = (VISIBLE_PDF_RATE_PER_NM * (lambda - VISIBLE_PDF_CENTER_NM)).cosh();
+    1.0 / (c * c)
 }
 
-/// pbrt-v4 `VisibleWavelengthsPDF`: 0.0039398042 / cosh²(0.0072 (λ − 538)) in 360–830 nm.
+/// [`VISIBLE_PDF_CENTER_NM`] and [`VISIBLE_PDF_RATE_PER_NM`] in f32 (both exact conversions of
+/// the literals: the test `visible_density_constants_are_pbrts` checks the bits), and the
+/// inverse rate of the inverse CDF.
+const CENTER_F32: f32 = VISIBLE_PDF_CENTER_NM as f32;
+const RATE_F32: f32 = VISIBLE_PDF_RATE_PER_NM as f32;
+const INVERSE_RATE_F32: f32 = (1.0 / VISIBLE_PDF_RATE_PER_NM) as f32;
+
+/// `tanh(rate · (centre − 360))`, as pbrt-v4 rounds it (0.85691062; 1 f32 ulp below the
+/// f32 of the exact value, kept so that sampled wavelengths keep their bits).
+const VISIBLE_CDF_LOW: f32 = 0.856_910_6;
+/// `tanh(rate · (centre − 360)) + tanh(rate · (830 − centre))` (pbrt-v4's 1.82750197, the same f32).
+const VISIBLE_CDF_SPAN: f32 = 1.827_502;
+/// `rate / VISIBLE_CDF_SPAN`: the density's normalisation over 360–830 nm (pbrt-v4's
+/// 0.0039398042).
+const VISIBLE_PDF_NORM: f32 = 0.003_939_804;
+
+/// Inverse CDF of the visible-range density (pbrt-v4 `SampleVisibleWavelengths`).
+fn sample_visible_wavelength(u: f32) -> f32 {
+    CENTER_F32 - INVERSE_RATE_F32 * (VISIBLE_CDF_LOW - VISIBLE_CDF_SPAN * u).atanh()
+}
+
+/// pbrt-v4 `VisibleWavelengthsPDF`: [`visible_wavelength_shape`] normalised over 360–830 nm,
+/// in f32 (0 outside).
 fn visible_wavelength_pdf(lambda: f32) -> f32 {
     if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lambda) {
         return 0.0;
     }
-    let c = (0.0072 * (lambda - 538.0)).cosh();
-    0.003_939_804 / (c * c)
+    let c = (RATE_F32 * (lambda - CENTER_F32)).cosh();
+    VISIBLE_PDF_NORM / (c * c)
 }
 
 /// Values at N sampled wavelengths (or N channels). Plain arrays so loops vectorise.
@@ -831,6 +865,34 @@ mod tests {
         assert!((sum - 1.0).abs() < 1e-3, "{sum}");
         // The inverse CDF maps u = 0.5 near the density's centre (538 nm).
         assert!((sample_visible_wavelength(0.5) - 538.0).abs() < 15.0);
+    }
+
+    /// The f32 constants of the hot path are the literals pbrt-v4 writes, and those are the
+    /// curve's ([`VISIBLE_PDF_CENTER_NM`], [`VISIBLE_PDF_RATE_PER_NM`]) to f32 rounding; the f32
+    /// density is the f64 shape, normalised.
+    #[test]
+    fn visible_density_constants_are_pbrts() {
+        // The bits the sampler used before the constants were named.
+        assert_eq!(CENTER_F32.to_bits(), 538.0f32.to_bits());
+        assert_eq!(RATE_F32.to_bits(), 0.0072f32.to_bits());
+        assert_eq!(INVERSE_RATE_F32.to_bits(), 138.888_89f32.to_bits());
+        let rate = VISIBLE_PDF_RATE_PER_NM;
+        let low = (rate * (VISIBLE_PDF_CENTER_NM - f64::from(LAMBDA_MIN))).tanh();
+        let span = low + (rate * (f64::from(LAMBDA_MAX) - VISIBLE_PDF_CENTER_NM)).tanh();
+        // Within 1 f32 ulp of the exact values (pbrt-v4 truncates tanh to 8 digits).
+        let ulp = |x: f32| f64::from(x) * f64::from(f32::EPSILON);
+        assert!((f64::from(VISIBLE_CDF_LOW) - low).abs() <= ulp(VISIBLE_CDF_LOW), "{low}");
+        assert!((f64::from(VISIBLE_CDF_SPAN) - span).abs() <= ulp(VISIBLE_CDF_SPAN), "{span}");
+        assert!((f64::from(VISIBLE_PDF_NORM) - rate / span).abs() <= ulp(VISIBLE_PDF_NORM), "{}", rate / span);
+        // The ends of the inverse CDF are the ends of the range.
+        assert!((sample_visible_wavelength(0.0) - LAMBDA_MIN).abs() < 1e-3);
+        assert!((sample_visible_wavelength(1.0) - LAMBDA_MAX).abs() < 0.05, "{}", sample_visible_wavelength(1.0));
+        for nm in [360.0f32, 450.0, 538.0, 600.0, 700.0, 830.0] {
+            let f32_pdf = f64::from(visible_wavelength_pdf(nm));
+            let f64_pdf = visible_wavelength_shape(f64::from(nm)) * rate / span;
+            assert!((f32_pdf / f64_pdf - 1.0).abs() < 1e-6, "{nm}: {f32_pdf} vs {f64_pdf}");
+        }
+        assert_eq!(visible_wavelength_shape(VISIBLE_PDF_CENTER_NM), 1.0);
     }
 
     #[test]

@@ -981,4 +981,43 @@ mod tests {
         let ratio = y(light) / y(&relative.lights[0].spectrum);
         assert!((2.0..4.0).contains(&ratio), "{ratio}");
     }
+
+    /// Issue 10: one RGB → illuminant recipe. A point light of colour c and an environment-map
+    /// texel of colour c are both pbrt-v4's `RGBIlluminantSpectrum` of c: the light by the exact
+    /// fit (scaled to its Rec. 709 Y), the texel by the table lookup (a few ns per texel).
+    #[test]
+    fn rgb_lights_and_environment_texels_are_one_spectrum() {
+        let lambda = colorimetry::SampledWavelengths::<8>::from_parts(
+            [400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0, 760.0],
+            [1.0; 8],
+        );
+        let mut worst = 0.0f64;
+        for c in [[1.0f32, 1.0, 1.0], [1.0, 0.0, 0.0], [0.1, 0.6, 0.2], [0.2, 0.3, 0.9], [2.0, 1.6, 1.2]] {
+            let scene = assemble(&format!(
+                r#"{{ "camera": {{"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 30}},
+                "lights": [{{"type": "point", "position": [0, 0, 10], "intensity": 1,
+                             "spectrum": {{"rgb": [{}, {}, {}]}}}}],
+                "objects": [{{"type": "sphere", "center": [0, 0, 0], "radius": 1}}] }}"#,
+                c[0], c[1], c[2]
+            ));
+            let light = &scene.lights[0].spectrum;
+            let (map, _) = EnvironmentMap::from_rgb(Path::new("<test>"), 2, 1, vec![c; 2], 1.0, 0.0).unwrap();
+            let texel = map.eval(Vec3::Y, &lambda, false);
+            let pbrt = colorimetry::RgbIlluminantSpectrum::fit(c.map(f64::from));
+            let factor = light.eval(550.0) / pbrt.eval(550.0);
+            let max = light.max_value();
+            for i in 0..8 {
+                let l = f64::from(lambda.lambda(i));
+                // The light is the fit to f32 precision, up to its luminance factor.
+                let fitted = factor * pbrt.eval(l);
+                assert!((light.eval(l) / fitted - 1.0).abs() < 1e-6, "{c:?} at {l}: {} vs {fitted}", light.eval(l));
+                let difference = (f64::from(texel[i]) - light.eval(l)).abs() / max;
+                worst = worst.max(difference);
+                // The texel is the same spectrum within the table lookup's accuracy.
+                assert!(difference < 1e-2, "{c:?} at {l}: texel {} vs light {}", texel[i], light.eval(l));
+            }
+        }
+        // Measured: 2.0e-3 of the peak at most, over these colours and wavelengths.
+        assert!(worst < 5e-3, "{worst}");
+    }
 }

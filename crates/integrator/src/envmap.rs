@@ -14,7 +14,9 @@
 //! Texels are linear Rec. 709 / sRGB primaries (the files' usual space); their luminance
 //! Y = 0.2126 R + 0.7152 G + 0.0722 B, times the light's `intensity`, is in nits. Each becomes
 //! `colorimetry::RgbIlluminantSpectrum` (sigmoid × D65, pbrt-v4 `RGBIlluminantSpectrum`) once, at
-//! load; in `rgb` lanes the texel's RGB is used directly.
+//! load, by table lookup: the recipe of every RGB light (`materials::illuminant_from_rgb`, which
+//! fits the sigmoid exactly and scales to Rec. 709 Y, once per light), at a few ns per texel. In
+//! `rgb` lanes the texel's RGB is used directly.
 
 use std::f32::consts::PI;
 use std::fmt;
@@ -63,8 +65,8 @@ impl fmt::Debug for EnvironmentMap {
     }
 }
 
-/// Rec. 709 luminance of linear sRGB (IEC 61966-2-1; the coefficients `materials::illuminant_from_rgb`
-/// uses).
+/// Rec. 709 luminance of linear sRGB (IEC 61966-2-1; `materials::REC709_LUMINANCE`, which RGB lights
+/// are scaled to).
 #[inline]
 fn luminance(rgb: [f32; 3]) -> f32 {
     0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]

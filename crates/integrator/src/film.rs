@@ -502,12 +502,7 @@ impl WavelengthTable {
             (0..bins).map(|i| s[i] * (cmf.x.eval(centre(i)) + cmf.y.eval(centre(i)) + cmf.z.eval(centre(i)))).collect();
         let f_sum: f64 = f.iter().sum();
         // pbrt-v4's visible density, integrated over each bin by its value at the centre.
-        let visible: Vec<f64> = (0..bins)
-            .map(|i| {
-                let c = (0.0072 * (centre(i) - 538.0)).cosh();
-                1.0 / (c * c)
-            })
-            .collect();
+        let visible: Vec<f64> = (0..bins).map(|i| colorimetry::visible_wavelength_shape(centre(i))).collect();
         let v_sum: f64 = visible.iter().sum();
         let mix = if f_sum > 0.0 { 1.0 - VISIBLE_MIX } else { 0.0 };
         let p: Vec<f64> = (0..bins)
