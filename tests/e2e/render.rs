@@ -357,6 +357,24 @@ fn env_option_lights_a_file_with_a_map_and_bad_maps_are_refused() {
     let mapped = mapped["lights"].as_array().unwrap();
     assert!(mapped.len() == 1 && mapped[0]["map"].as_str().unwrap().ends_with("sky.hdr"), "{mapped:?}");
     refused(&dir, &["info", "tri.obj", "--no-default-lights"], 1, &["no light"]);
-    refused(&dir, &["info", "tri.obj", "--light-env", "sky"], 1, &["no analytic sky"]);
+    // `--light-env sky`: the sky map and the sun (the key light replaced); without the sun, the key
+    // light scaled to the sky; out-of-range options refused; `--env-intensity` scales `--light-env MAP`.
+    let sky = info(&[tri, "--light-env", "sky", "--turbidity", "4", "--sun-elevation", "30"]);
+    let sky_lights = sky["lights"].as_array().unwrap();
+    assert_eq!(sky_lights.len(), 2, "{sky_lights:?}");
+    assert!(sky_lights[0]["spectrum"].as_str().unwrap().contains("Preetham sky T=4 sun 30°"), "{sky_lights:?}");
+    assert_eq!(sky_lights[1]["type"], "directional");
+    assert!(sky_lights[1]["unit"] == "lux" && sky_lights[1]["intensity"].as_f64().unwrap() > 1e4, "{sky_lights:?}");
+    let no_sun = info(&[tri, "--light-env", "sky", "--no-sun"]);
+    let no_sun = no_sun["lights"].as_array().unwrap();
+    assert!(no_sun.len() == 2 && no_sun[1]["spectrum"] == "D65", "the key light: {no_sun:?}");
+    refused(&dir, &["info", "tri.obj", "--light-env", "sky", "--turbidity", "11"], 1, &["--turbidity 11", "2–10"]);
+    refused(&dir, &["info", "tri.obj", "--light-env", "sky", "--sun-elevation", "-5"], 1, &["--sun-elevation -5"]);
+    refused(&dir, &["info", "tri.obj", "--light-env", "sky", "--env-rotation", "5"], 1, &["--sun-azimuth"]);
+    refused(&dir, &["info", "tri.obj", "--turbidity", "3"], 2, &["--light-env"]);
+    refused(&dir, &["info", "tri.obj", "--light-env", "uniform", "--turbidity", "3"], 1, &["--light-env sky"]);
+    let scaled =
+        info(&[tri, "--light-env", sky_path.to_str().unwrap(), "--env-intensity", "2", "--env-rotation", "10"]);
+    assert_eq!(scaled["lights"][0]["intensity"].as_f64(), Some(2.0), "{scaled}");
     refused(&dir, &["info", "tri.obj", "--light-env", "none", "--no-default-lights"], 2, &["cannot be used with"]);
 }

@@ -28,6 +28,7 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let mut assembly = args.camera.assembly((None, None));
     assembly.environment = args.env.option()?;
     assembly.default_lights = args.env.default_lights()?;
+    assembly.sky = args.env.sky()?;
     let (desc, scene) = match &args.scene {
         Some(path) => {
             // Loader errors name the file (and line) themselves.

@@ -324,6 +324,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let mut assembly = args.camera.assembly((args.width, args.height));
     assembly.environment = args.env.option()?;
     assembly.default_lights = args.env.default_lights()?;
+    assembly.sky = args.env.sky()?;
     let scene = match &args.scene {
         // Scene errors name the file (and line) themselves.
         Some(path) => RenderScene::load_with_options(path, &args.load.options(), &assembly)?,

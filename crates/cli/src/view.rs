@@ -5,7 +5,8 @@ use std::str::FromStr;
 
 use glam::Vec3;
 use integrator::{
-    AssemblyOptions, CameraOptions, DefaultLights, EnvironmentOption, IntegratorKind, RenderScene, Tonemap, UpAxis,
+    AssemblyOptions, CameraOptions, DefaultLights, EnvironmentOption, IntegratorKind, RenderScene, SkyOption, Tonemap,
+    UpAxis,
 };
 
 /// `--integrator`: a model, or `auto` (the scene's `settings.integrator`, else the path tracer).
@@ -81,29 +82,47 @@ impl CameraArgs {
             },
             environment: None,
             default_lights: DefaultLights::default(),
+            sky: None,
         }
     }
 }
 
 /// Image-based lighting from the command line.
 #[derive(Debug, Clone, clap::Args)]
+#[command(group(clap::ArgGroup::new("env_source").args(["env", "light_env"]).multiple(false)))]
 pub(crate) struct EnvArgs {
     /// Light the scene with an equirectangular environment map (Radiance .hdr or OpenEXR .exr; +Y up,
     /// docs/scene-format.md "Environment maps"): it replaces the file's environment and background,
     /// and a glTF/OBJ file's default lights.
     #[arg(long, value_name = "FILE")]
     env: Option<std::path::PathBuf>,
-    /// Factor on the map's texels, whose luminance is then in nits [default: 1].
-    #[arg(long, value_name = "X", requires = "env")]
+    /// Factor on the map's texels (--env FILE, --light-env FILE), whose luminance is then in nits, or on
+    /// the sky and sun of --light-env sky [default: 1].
+    #[arg(long, value_name = "X", requires = "env_source")]
     env_intensity: Option<f32>,
-    /// Rotation of the map about +Y in degrees, counter-clockwise seen from above [default: 0].
-    #[arg(long, value_name = "DEG", requires = "env", allow_hyphen_values = true)]
+    /// Rotation of the map (--env FILE, --light-env FILE) about +Y in degrees, counter-clockwise seen from
+    /// above [default: 0]; the sky is turned with --sun-azimuth.
+    #[arg(long, value_name = "DEG", requires = "env_source", allow_hyphen_values = true)]
     env_rotation: Option<f32>,
     /// The environment of the default lights a glTF/OBJ file without lights gets: `uniform` (a D65
-    /// environment with the key light, the default), `none` (the key light over black), or an
-    /// .hdr/.exr map (as --env FILE).
-    #[arg(long, value_name = "none|uniform|FILE", conflicts_with = "env")]
+    /// environment with the key light, the default), `none` (the key light over black), `sky` (a
+    /// Preetham 1999 daylight sky and sun, absolute: nits and lux; docs/defaults.md), or an .hdr/.exr
+    /// map (as --env FILE).
+    #[arg(long, value_name = "none|uniform|sky|FILE", conflicts_with = "env")]
     light_env: Option<String>,
+    /// Sky: turbidity of the atmosphere, 2 (very clear) to 10 (hazy) [default: 3].
+    #[arg(long, value_name = "T", requires = "light_env")]
+    turbidity: Option<f32>,
+    /// Sky: the sun's elevation above the horizon in degrees, 0–90 [default: 45].
+    #[arg(long, value_name = "DEG", requires = "light_env", allow_hyphen_values = true)]
+    sun_elevation: Option<f32>,
+    /// Sky: the sun's azimuth in degrees (the maps' φ: 0 towards −Z, 90 towards +X) [default: the key
+    /// light's, behind, above and right of the camera].
+    #[arg(long, value_name = "DEG", requires = "light_env", allow_hyphen_values = true)]
+    sun_azimuth: Option<f32>,
+    /// Sky: no sun (the sky alone, with the key light scaled to it).
+    #[arg(long, requires = "light_env")]
+    no_sun: bool,
     /// Add no default lights: the file's own lights, emitters and background only (a scene with none
     /// is an error).
     #[arg(long, conflicts_with_all = ["env", "light_env"])]
@@ -116,11 +135,53 @@ impl EnvArgs {
         Ok(match (self.no_default_lights, self.light_env.as_deref()) {
             (true, _) => DefaultLights::None,
             (false, Some("none")) => DefaultLights::KeyOnly,
-            (false, Some("sky")) => anyhow::bail!(
-                "--light-env sky: spectrace has no analytic sky yet; give an equirectangular .hdr or .exr map"
-            ),
             _ => DefaultLights::EnvironmentAndKey,
         })
+    }
+
+    /// The factor of `--env-intensity`, checked.
+    fn intensity(&self) -> anyhow::Result<f32> {
+        let intensity = self.env_intensity.unwrap_or(1.0);
+        if !(intensity.is_finite() && intensity >= 0.0) {
+            anyhow::bail!("--env-intensity {intensity}: must be finite and ≥ 0");
+        }
+        Ok(intensity)
+    }
+
+    /// The sky of `--light-env sky`, if asked for; the sky's options without it are refused.
+    pub(crate) fn sky(&self) -> anyhow::Result<Option<SkyOption>> {
+        let is_sky = self.light_env.as_deref() == Some("sky");
+        let sky_flags =
+            self.turbidity.is_some() || self.sun_elevation.is_some() || self.sun_azimuth.is_some() || self.no_sun;
+        if !is_sky {
+            anyhow::ensure!(
+                !sky_flags,
+                "--turbidity, --sun-elevation, --sun-azimuth and --no-sun need --light-env sky"
+            );
+            return Ok(None);
+        }
+        anyhow::ensure!(self.env_rotation.is_none(), "--env-rotation does not turn the sky: use --sun-azimuth DEG");
+        let default = SkyOption::default();
+        let turbidity = self.turbidity.unwrap_or(default.turbidity);
+        anyhow::ensure!(
+            (2.0..=10.0).contains(&turbidity),
+            "--turbidity {turbidity}: the Preetham sky is fitted for turbidities 2–10"
+        );
+        let sun_elevation_deg = self.sun_elevation.unwrap_or(default.sun_elevation_deg);
+        anyhow::ensure!(
+            (0.0..=90.0).contains(&sun_elevation_deg),
+            "--sun-elevation {sun_elevation_deg}: expected degrees in 0–90 (the model has no night sky)"
+        );
+        if let Some(a) = self.sun_azimuth {
+            anyhow::ensure!(a.is_finite(), "--sun-azimuth {a}: must be finite");
+        }
+        Ok(Some(SkyOption {
+            turbidity,
+            sun_elevation_deg,
+            sun_azimuth_deg: self.sun_azimuth,
+            sun: !self.no_sun,
+            intensity: self.intensity()?,
+        }))
     }
 
     /// The assembly's environment option (`--env FILE`, or `--light-env FILE`).
@@ -128,18 +189,22 @@ impl EnvArgs {
         let path = match (&self.env, self.light_env.as_deref()) {
             (Some(path), _) => path.clone(),
             (None, Some(value)) if !matches!(value, "none" | "uniform" | "sky") => std::path::PathBuf::from(value),
+            (None, Some("none" | "uniform")) => {
+                anyhow::ensure!(
+                    self.env_intensity.is_none() && self.env_rotation.is_none(),
+                    "--env-intensity and --env-rotation apply to a map or the sky, not --light-env {}",
+                    self.light_env.as_deref().unwrap_or_default()
+                );
+                return Ok(None);
+            }
             _ => return Ok(None),
         };
-        let path = &path;
-        let intensity = self.env_intensity.unwrap_or(1.0);
-        if !(intensity.is_finite() && intensity >= 0.0) {
-            anyhow::bail!("--env-intensity {intensity}: must be finite and ≥ 0");
-        }
+        let intensity = self.intensity()?;
         let rotation_deg = self.env_rotation.unwrap_or(0.0);
         if !rotation_deg.is_finite() {
             anyhow::bail!("--env-rotation {rotation_deg}: must be finite");
         }
-        Ok(Some(EnvironmentOption { path: path.clone(), intensity, rotation_deg }))
+        Ok(Some(EnvironmentOption { path, intensity, rotation_deg }))
     }
 }
 

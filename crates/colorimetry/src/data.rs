@@ -237,6 +237,20 @@ pub fn daylight_chromaticity(cct: f64) -> Result<[f64; 2]> {
     Ok([x, y])
 }
 
+/// The CIE daylight basis functions S0, S1, S2 (CIE 015:2018 Table 6, 300–830 nm at 5 nm): any
+/// daylight spectrum is S0 + M1 S1 + M2 S2 ([`daylight_m1_m2`]).
+pub fn daylight_basis() -> &'static [DenselySampledSpectrum; 3] {
+    &DAYLIGHT_BASIS
+}
+
+/// The weights M1, M2 of the daylight basis for chromaticity (x, y) (CIE 015:2018 eq. 4.11), not
+/// rounded: the spectrum S0 + M1 S1 + M2 S2 has chromaticity close to (x, y) on and near the daylight
+/// locus (the analytic sky of `integrator` uses it for every sky direction).
+pub fn daylight_m1_m2(x: f64, y: f64) -> [f64; 2] {
+    let m = 0.0241 + 0.2562 * x - 0.7341 * y;
+    [(-1.3515 - 1.7703 * x + 5.9114 * y) / m, (0.0300 - 31.4424 * x + 30.0717 * y) / m]
+}
+
 /// CIE daylight SPD at `cct`: S0 + M1 S1 + M2 S2 (CIE 015:2018 eq. 4.10), with M1 and M2
 /// rounded to three decimals as CIE 015 prescribes to reproduce its tables; normalised to
 /// S(560 nm) = 100 (S0(560) = 100, S1(560) = S2(560) = 0, so no rescaling is needed).
@@ -345,6 +359,37 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(worst < 1.5e-3, "D{n}: worst row differs by {worst}");
         }
+    }
+
+    #[test]
+    fn daylight_of_the_d65_chromaticity_is_the_d65_table() {
+        // D65 is daylight at 6504 K (6500 × 1.4388/1.4380): its chromaticity on the daylight locus
+        // (eqs. 4.7–4.9) is (0.312720, 0.329125), where eq. 4.11 gives M1 = −0.29465, M2 = −0.68913
+        // (hand-computed); CIE 015 made the table with them rounded to −0.295, −0.689, so each row may
+        // differ by up to 5e-4 (|S1| + |S2|) (that rounding) plus 1.5e-3 (the table's own rounding,
+        // three units of its last digit, as in the test above): that bound, row by row over the table's 300–780 nm.
+        // (The tabulated chromaticity (0.31272, 0.32903) is the integral of the table, 1e-4 off the
+        // locus in y; M2 is that sensitive to y that it would move M2 by 3 %.)
+        let [x, y] = daylight_chromaticity(6500.0 * NOMINAL_CCT_FACTOR).unwrap();
+        assert!((x - 0.312720).abs() < 1e-6 && (y - 0.329125).abs() < 1e-6, "{x} {y}");
+        let [m1, m2] = daylight_m1_m2(x, y);
+        assert!((m1 + 0.29465).abs() < 1e-5 && (m2 + 0.68913).abs() < 1e-5, "{m1} {m2}");
+        let [s0, s1, s2] = daylight_basis();
+        let d65 = Illuminant::D65.spectrum().unwrap();
+        let mut worst = 0.0f64;
+        for l in (300..=780).step_by(5).map(f64::from) {
+            let generated = s0.eval(l) + m1 * s1.eval(l) + m2 * s2.eval(l);
+            let bound = 5e-4 * (s1.eval(l).abs() + s2.eval(l).abs()) + 1.5e-3;
+            let error = (generated - d65.eval(l)).abs();
+            assert!(error <= bound, "{l} nm: {generated} vs D65 {} (bound {bound})", d65.eval(l));
+            worst = worst.max(error);
+        }
+        // And it can fail: 1 % off in M1 is outside the bound somewhere.
+        let off = (300..=780).step_by(5).map(f64::from).any(|l| {
+            let generated = s0.eval(l) + 1.01 * m1 * s1.eval(l) + m2 * s2.eval(l);
+            (generated - d65.eval(l)).abs() > 5e-4 * (s1.eval(l).abs() + s2.eval(l).abs()) + 1.5e-3
+        });
+        assert!(off, "a 1 % error in M1 passed (worst row of the right one: {worst})");
     }
 
     #[test]

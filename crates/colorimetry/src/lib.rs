@@ -41,7 +41,10 @@ pub use continuous::{
     BlackbodySpectrum, PiecewiseLinearSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum, Spectrum, srgb_illuminant,
 };
 pub use csv::{MAX_CSV_BYTES, NamedSpectrum, parse_spectra_csv, read_spectra_csv};
-pub use data::{Cmf, Illuminant, KNOWN_ILLUMINANTS, Observer, blackbody, colorchecker, daylight_chromaticity, tcs};
+pub use data::{
+    Cmf, Illuminant, KNOWN_ILLUMINANTS, Observer, blackbody, colorchecker, daylight_basis, daylight_chromaticity,
+    daylight_m1_m2, tcs,
+};
 pub use error::{Error, Num, Result};
 pub use lab::{Lab, delta_e_2000};
 pub use luminance::{K_M, luminance_normalized, luminous_efficacy, relative_luminance, relative_xyz, y_sum};

@@ -34,6 +34,32 @@ pub struct AssemblyOptions {
     pub environment: Option<EnvironmentOption>,
     /// What assembly may add to a scene without lights (`--light-env none`, `--no-default-lights`).
     pub default_lights: DefaultLights,
+    /// The analytic daylight sky (`--light-env sky`): it replaces the file's environment and background
+    /// like `environment` (which must then be `None`).
+    pub sky: Option<SkyOption>,
+}
+
+/// `--light-env sky`: a Preetham et al. 1999 sky (and sun), in nits and lux (`docs/defaults.md`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SkyOption {
+    /// Atmospheric turbidity T, 2–10 (2: very clear, 3: clear, 6: hazy, 10: thin overcast).
+    pub turbidity: f32,
+    /// Sun elevation above the horizon, degrees, 0–90.
+    pub sun_elevation_deg: f32,
+    /// Sun azimuth, degrees, in the environment maps' φ (0 towards −Z, 90 towards +X); `None`: the key
+    /// light's azimuth (behind, above and right of the camera).
+    pub sun_azimuth_deg: Option<f32>,
+    /// Whether the sun is a light (a directional light of the model's spectrum); without it the key light
+    /// is kept, scaled to the sky.
+    pub sun: bool,
+    /// Factor on the sky's and sun's radiance (1: absolute).
+    pub intensity: f32,
+}
+
+impl Default for SkyOption {
+    fn default() -> Self {
+        Self { turbidity: 3.0, sun_elevation_deg: 45.0, sun_azimuth_deg: None, sun: true, intensity: 1.0 }
+    }
 }
 
 /// The lights assembly adds to a scene that has none of its own.
@@ -189,7 +215,8 @@ impl RenderScene {
         let (camera, camera_source) = (chosen.desc, chosen.source);
         let auto_integrator = auto_integrator(&settings)?;
         // glTF lights are KHR_lights_punctual: candela (point, spot) and lux (directional).
-        let photometric_lights = format == geometry::SceneFormat::Gltf && !light_descs.is_empty();
+        let photometric_lights =
+            (format == geometry::SceneFormat::Gltf && !light_descs.is_empty()) || options.sky.is_some();
         let resolution = image_size(&camera, None, None);
 
         if let Some(env) = &options.environment {
@@ -215,9 +242,32 @@ impl RenderScene {
                 map: Some(EnvironmentMapDesc { path: env.path.clone(), rotation_deg: env.rotation_deg }),
             });
         }
+        let sky_lights = match &options.sky {
+            Some(sky) => {
+                let replaced = light_descs.iter().filter(|l| matches!(l, LightDesc::Environment { .. })).count();
+                light_descs.retain(|l| !matches!(l, LightDesc::Environment { .. }));
+                let had_background = background.take().is_some();
+                let lit = !light_descs.is_empty() || materials.iter().any(Material::emits);
+                let (added, descs, note) = sky_lights(sky, &camera, lit)?;
+                warnings.push(format!(
+                    "{note}{}",
+                    match (replaced, had_background) {
+                        (0, false) => String::new(),
+                        (n, b) => format!(
+                            " (replacing the file's {n} environment light(s){})",
+                            if b { " and its background" } else { "" }
+                        ),
+                    }
+                ));
+                light_descs.extend(descs);
+                Some(added)
+            }
+            None => None,
+        };
         let mut lights = Vec::with_capacity(light_descs.len());
         let mut map_seen: Option<usize> = None;
-        for (index, l) in light_descs.iter().enumerate() {
+        let sky_count = sky_lights.as_ref().map_or(0, Vec::len);
+        for (index, l) in light_descs[..light_descs.len() - sky_count].iter().enumerate() {
             lights.push(match l {
                 LightDesc::Environment { intensity, map: Some(m), .. } => {
                     if let Some(first) = map_seen {
@@ -238,6 +288,7 @@ impl RenderScene {
                 _ => light_from_desc(l).map_err(|source| Error::Light { index, source })?,
             });
         }
+        lights.extend(sky_lights.into_iter().flatten());
         let emissive = materials.iter().any(Material::emits);
         let unlit = lights.is_empty() && background.is_none();
         if options.default_lights == DefaultLights::None {
@@ -511,6 +562,76 @@ fn default_lights(camera: &CameraDesc, emissive: bool, environment: bool) -> Vec
         intensity: LightAmount { value: key_illuminance(), unit: LightUnit::Lux },
     };
     if environment { vec![env(ENVIRONMENT_NITS), key] } else { vec![key] }
+}
+
+/// The lights of `--light-env sky`: the baked sky map, and the sun as a directional light (or, without the
+/// sun, the key light of [`default_lights`] scaled so that it is to the sky what it is to the uniform
+/// default environment; none when the file is `lit` by lights or emitters of its own); their
+/// descriptions (for `info`) and a note.
+fn sky_lights(sky: &SkyOption, camera: &CameraDesc, lit: bool) -> Result<(Vec<Light>, Vec<LightDesc>, String)> {
+    let fail = |reason: String| Error::EnvironmentMap { path: PathBuf::from("--light-env sky"), reason };
+    if !(sky.intensity.is_finite() && sky.intensity >= 0.0) {
+        return Err(fail(format!("intensity {} must be finite and ≥ 0", sky.intensity)));
+    }
+    let key = default_lights(camera, false, false);
+    let key_direction = match key.first() {
+        Some(LightDesc::Directional { direction, .. }) => *direction,
+        _ => Vec3::new(-1.0, -1.0, -0.5).normalize(),
+    };
+    // The key light's azimuth in the maps' φ (towards the light: d = (sin φ, ·, −cos φ)).
+    let towards_key = -key_direction;
+    let azimuth = sky.sun_azimuth_deg.unwrap_or_else(|| towards_key.x.atan2(-towards_key.z).to_degrees());
+    let model = crate::sky::PreethamSky::new(sky.turbidity, sky.sun_elevation_deg, azimuth).map_err(fail)?;
+    let (width, height) = crate::sky::SKY_MAP_SIZE;
+    let map = model.bake(width, height, f64::from(sky.intensity))?;
+    let sky_desc = LightDesc::Environment {
+        spectrum: SpectrumDesc::Named(format!(
+            "Preetham sky T={} sun {}° at azimuth {azimuth:.1}°",
+            sky.turbidity, sky.sun_elevation_deg
+        )),
+        intensity: LightAmount { value: sky.intensity, unit: LightUnit::Nit },
+        map: None,
+    };
+    let horizontal = model.horizontal_illuminance(256, 512) * f64::from(sky.intensity);
+    let mut lights = vec![Light::environment_map(map)];
+    let mut descs = vec![sky_desc];
+    let mut note = format!(
+        "--light-env sky: Preetham sky, turbidity {}, sun {}° above the horizon at azimuth {azimuth:.1}°; the sky gives {horizontal:.0} lux on a horizontal plane",
+        sky.turbidity, sky.sun_elevation_deg
+    );
+    if sky.sun {
+        // K_m Σ E ȳ Δλ (1 nm): the sun's illuminance at normal incidence, lux.
+        let irradiance = model.sun_irradiance();
+        let lux = colorimetry::K_M
+            * colorimetry::y_sum()
+            * colorimetry::relative_luminance(&irradiance)
+            * f64::from(sky.intensity);
+        let spectrum = colorimetry::luminance_normalized(&irradiance).scaled(lux);
+        let direction = -model.sun_direction();
+        lights.push(Light::new(LightKind::Directional { direction }, spectrum));
+        descs.push(LightDesc::Directional {
+            direction,
+            spectrum: SpectrumDesc::Named(format!("Preetham sun T={} at {}°", sky.turbidity, sky.sun_elevation_deg)),
+            intensity: LightAmount { value: lux as f32, unit: LightUnit::Lux },
+        });
+        note.push_str(&format!(", the sun (a directional light) {lux:.0} lux at normal incidence"));
+    } else if !lit {
+        // The key light's share as with the uniform default: KEY_NITS against ENVIRONMENT_NITS of a white
+        // plane's luminance, here E_h / π.
+        let scale = horizontal / PI / f64::from(ENVIRONMENT_NITS);
+        for k in key {
+            if let LightDesc::Directional { direction, spectrum, intensity } = k {
+                let intensity =
+                    LightAmount { value: (f64::from(intensity.value) * scale) as f32, unit: LightUnit::Lux };
+                let desc = LightDesc::Directional { direction, spectrum, intensity };
+                lights
+                    .push(light_from_desc(&desc).map_err(|source| Error::Spectrum { what: "the key light", source })?);
+                note.push_str(&format!(", no sun (--no-sun): a D65 key light of {:.0} lux", intensity.value));
+                descs.push(desc);
+            }
+        }
+    }
+    Ok((lights, descs, note))
 }
 
 /// MikkTSpace tangents for every mesh whose material has a normal map and whose file gives no

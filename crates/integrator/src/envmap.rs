@@ -23,7 +23,9 @@ use std::fmt;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
-use colorimetry::{RgbIlluminantSpectrum, RgbToSpectrumTable, SampledSpectrum, SampledWavelengths};
+use colorimetry::{
+    DenselySampledSpectrum, RgbIlluminantSpectrum, RgbToSpectrumTable, SampledSpectrum, SampledWavelengths,
+};
 use glam::{Vec2, Vec3};
 
 use crate::error::{Error, Result};
@@ -40,17 +42,58 @@ struct Texel {
     spectrum: RgbIlluminantSpectrum,
 }
 
+/// One texel of a daylight map (the analytic sky, `sky.rs`): the weights of its spectrum
+/// w0 S0 + w1 S1 + w2 S2 in the CIE daylight basis, that spectrum's RGB (for `rgb` lanes) and its
+/// luminance (nits).
+#[derive(Clone, Copy)]
+struct DaylightTexel {
+    weights: [f32; 3],
+    rgb: [f32; 3],
+    luminance: f32,
+}
+
+/// A map's texels: RGB from a file, or daylight spectra.
+enum Texels {
+    Rgb(Vec<Texel>),
+    Daylight(Vec<DaylightTexel>),
+}
+
+/// The CIE daylight basis S0, S1, S2 on the 1 nm grid of 360–830 nm, each with its relative luminance and
+/// RGB (`spectral::spectrum_to_rgb`, linear in the spectrum, so a texel's are the weighted sums).
+struct DaylightBasis {
+    spectra: [DenselySampledSpectrum; 3],
+    luminance: [f64; 3],
+    rgb: [[f32; 3]; 3],
+}
+
+static DAYLIGHT_BASIS: std::sync::LazyLock<DaylightBasis> = std::sync::LazyLock::new(|| {
+    let spectra = colorimetry::daylight_basis().clone().map(|s| {
+        let values = (360..=830).map(|l| s.eval(f64::from(l))).collect();
+        DenselySampledSpectrum::new(360.0, 1.0, values).expect("the CIE daylight basis is finite")
+    });
+    let luminance = [0, 1, 2].map(|i| colorimetry::relative_luminance(&spectra[i]));
+    let rgb = [0, 1, 2].map(|i| crate::spectral::spectrum_to_rgb(&spectra[i], crate::spectral::SpectrumKind::Emission));
+    DaylightBasis { spectra, luminance, rgb }
+});
+
+/// Relative luminances of the daylight basis S0, S1, S2 (what the sky's weights are scaled by).
+pub(crate) fn daylight_basis_luminance() -> [f64; 3] {
+    DAYLIGHT_BASIS.luminance
+}
+
 /// An equirectangular environment map, ready to evaluate and sample (see the module docs).
 pub(crate) struct EnvironmentMap {
     path: PathBuf,
     width: usize,
     height: usize,
-    texels: Vec<Texel>,
+    texels: Texels,
     distribution: PiecewiseConstant2D,
     /// sin and cos of the rotation about +Y.
     rotation: (f32, f32),
     /// Mean RGB over the sphere (each texel weighted by its solid angle), × intensity.
     mean_rgb: [f64; 3],
+    /// For a daylight map, the mean of its texels' weights (solid-angle weighted).
+    mean_daylight: Option<[f64; 3]>,
     /// XXH64 of the file's bytes (0 for a map built in memory).
     digest: u64,
 }
@@ -178,13 +221,92 @@ impl EnvironmentMap {
             path: path.to_owned(),
             width,
             height,
-            texels,
+            texels: Texels::Rgb(texels),
             distribution,
             rotation: angle.sin_cos(),
             mean_rgb,
+            mean_daylight: None,
             digest: 0,
         };
         Ok((map, bad))
+    }
+
+    /// A daylight map (the analytic sky) from `width` × `height` texels' daylight weights, rows from the
+    /// top (see [`DaylightTexel`]); non-finite or negative-luminance texels become black. Sampled by
+    /// luminance × sin θ as the RGB maps.
+    pub(crate) fn from_daylight(name: &str, width: usize, height: usize, weights: &[[f64; 3]]) -> Result<Self> {
+        if width == 0 || height == 0 || weights.len() != width * height {
+            return Err(Error::EnvironmentMap {
+                path: PathBuf::from(name),
+                reason: format!("{width}×{height} map with {} texels", weights.len()),
+            });
+        }
+        let basis = &*DAYLIGHT_BASIS;
+        let texels: Vec<DaylightTexel> = weights
+            .iter()
+            .map(|w| {
+                let luminance = w[0] * basis.luminance[0] + w[1] * basis.luminance[1] + w[2] * basis.luminance[2];
+                if !(luminance > 0.0 && luminance.is_finite() && w.iter().all(|v| v.is_finite())) {
+                    return DaylightTexel { weights: [0.0; 3], rgb: [0.0; 3], luminance: 0.0 };
+                }
+                let rgb = [0, 1, 2].map(|c| {
+                    (w[0] * f64::from(basis.rgb[0][c])
+                        + w[1] * f64::from(basis.rgb[1][c])
+                        + w[2] * f64::from(basis.rgb[2][c])) as f32
+                });
+                DaylightTexel { weights: w.map(|v| v as f32), rgb, luminance: luminance as f32 }
+            })
+            .collect();
+        let mut func = Vec::with_capacity(width * height);
+        let (mut mean_rgb, mut mean_weights, mut total) = ([0.0f64; 3], [0.0f64; 3], 0.0f64);
+        for row in 0..height {
+            let sin_theta = (PI * (row as f32 + 0.5) / height as f32).sin();
+            let (t0, t1) = (
+                std::f64::consts::PI * row as f64 / height as f64,
+                std::f64::consts::PI * (row + 1) as f64 / height as f64,
+            );
+            let solid_angle = 2.0 * std::f64::consts::PI / width as f64 * (t0.cos() - t1.cos());
+            for t in &texels[row * width..(row + 1) * width] {
+                func.push(t.luminance * sin_theta);
+                for c in 0..3 {
+                    mean_rgb[c] += f64::from(t.rgb[c]) * solid_angle;
+                    mean_weights[c] += f64::from(t.weights[c]) * solid_angle;
+                }
+                total += solid_angle;
+            }
+        }
+        let distribution = PiecewiseConstant2D::new(&func, width, height);
+        Ok(Self {
+            path: PathBuf::from(name),
+            width,
+            height,
+            texels: Texels::Daylight(texels),
+            distribution,
+            rotation: (0.0, 1.0),
+            mean_rgb: mean_rgb.map(|m| m / total),
+            mean_daylight: Some(mean_weights.map(|m| m / total)),
+            digest: 0,
+        })
+    }
+
+    /// The spectrum of the map's mean radiance (what its power, the scene's white and the spectral
+    /// choices are computed from): an RGB map's mean RGB as an illuminant spectrum (sigmoid × D65, so a
+    /// constant map's mean is its texels' spectrum); a daylight map's mean weights on the daylight basis.
+    pub(crate) fn mean_spectrum(&self) -> DenselySampledSpectrum {
+        match self.mean_daylight {
+            None => {
+                let mean = self.mean_rgb.map(|c| c as f32);
+                let table = RgbToSpectrumTable::srgb();
+                colorimetry::Spectrum::RgbIlluminant(RgbIlluminantSpectrum::from_rgb(table, mean)).to_densely_sampled()
+            }
+            Some(w) => {
+                let [s0, s1, s2] = &DAYLIGHT_BASIS.spectra;
+                let values = (0..s0.values().len())
+                    .map(|i| (w[0] * s0.values()[i] + w[1] * s1.values()[i] + w[2] * s2.values()[i]).max(0.0))
+                    .collect();
+                DenselySampledSpectrum::new(360.0, 1.0, values).expect("the mean weights are finite")
+            }
+        }
     }
 
     /// XXH64 of the file's bytes.
@@ -200,6 +322,7 @@ impl EnvironmentMap {
 
     /// Mean linear sRGB radiance over the sphere (solid-angle weighted, × intensity): its luminance is
     /// the map's mean luminance in nits, what its power and the scene's white are computed from.
+    #[cfg(test)]
     pub(crate) fn mean_rgb(&self) -> [f64; 3] {
         self.mean_rgb
     }
@@ -245,10 +368,11 @@ impl EnvironmentMap {
         (column, row)
     }
 
+    /// Index of the texel seen along world direction `w`.
     #[inline]
-    fn texel(&self, w: Vec3) -> &Texel {
+    fn texel_index(&self, w: Vec3) -> usize {
         let (column, row) = self.texel_of(Self::direction_to_uv(self.to_local(w)));
-        &self.texels[row * self.width + column]
+        row * self.width + column
     }
 
     /// Radiance arriving from world direction `w` (unit; pointing away from the scene, i.e. the way
@@ -260,20 +384,32 @@ impl EnvironmentMap {
         lambda: &SampledWavelengths<N>,
         rgb: bool,
     ) -> SampledSpectrum<N> {
-        let t = self.texel(w);
-        if rgb {
+        let lanes = |c: &[f32; 3]| {
             let mut out = [0.0f32; N];
-            out[..3].copy_from_slice(&t.rgb);
+            out[..3].copy_from_slice(c);
             SampledSpectrum(out)
-        } else {
-            t.spectrum.sample(lambda)
+        };
+        let i = self.texel_index(w);
+        match &self.texels {
+            Texels::Rgb(texels) => {
+                let t = &texels[i];
+                if rgb { lanes(&t.rgb) } else { t.spectrum.sample(lambda) }
+            }
+            Texels::Daylight(texels) => {
+                let t = &texels[i];
+                if rgb { lanes(&t.rgb) } else { daylight_sample(t.weights, lambda) }
+            }
         }
     }
 
     /// Luminance (nits) arriving from world direction `w`.
     #[cfg(test)]
     pub(crate) fn luminance(&self, w: Vec3) -> f32 {
-        luminance(self.texel(w).rgb)
+        let i = self.texel_index(w);
+        match &self.texels {
+            Texels::Rgb(texels) => luminance(texels[i].rgb),
+            Texels::Daylight(texels) => texels[i].luminance,
+        }
     }
 
     /// A world direction sampled ∝ luminance × solid angle, and its density per steradian; `None` at
@@ -301,6 +437,15 @@ impl EnvironmentMap {
         let (column, row) = self.texel_of(Self::direction_to_uv(d));
         self.distribution.pdf_of(column, row) / (2.0 * PI * PI * sin_theta)
     }
+}
+
+/// w0 S0(λ) + w1 S1(λ) + w2 S2(λ) at the sampled wavelengths, clamped at 0 (far from the daylight locus
+/// the basis can go negative at the spectrum's ends).
+#[inline(never)]
+fn daylight_sample<const N: usize>(w: [f32; 3], lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    let [s0, s1, s2] = &DAYLIGHT_BASIS.spectra;
+    let (a, b, c) = (s0.sample(lambda), s1.sample(lambda), s2.sample(lambda));
+    SampledSpectrum(std::array::from_fn(|j| (w[0] * a.0[j] + w[1] * b.0[j] + w[2] * c.0[j]).max(0.0)))
 }
 
 /// Bytes per texel a map keeps: its [`Texel`] and its density's function and CDF (f32 each).

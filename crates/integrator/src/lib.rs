@@ -41,6 +41,7 @@ mod output;
 mod path;
 mod render;
 mod sampling;
+mod sky;
 mod spectral;
 mod summary;
 mod surface;
@@ -48,7 +49,7 @@ mod tangents;
 mod texture;
 mod whitted;
 
-pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, DefaultLights, EnvironmentOption, RenderScene};
+pub use assembly::{AssemblyOptions, DEFAULT_RESOLUTION, DefaultLights, EnvironmentOption, RenderScene, SkyOption};
 pub use auto::choose_auto;
 pub use camera::{CameraOptions, UpAxis};
 pub use error::{Error, Result};

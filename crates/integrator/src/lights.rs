@@ -94,12 +94,7 @@ impl Light {
 
     /// An environment light whose radiance is `map`'s.
     pub(crate) fn environment_map(map: EnvironmentMap) -> Self {
-        // The texels' own RGB → spectrum (pbrt-v4's, by the table as the texels are; RGB lights fit it
-        // exactly), so a constant map's mean is its texels' spectrum.
-        let mean = map.mean_rgb().map(|c| c as f32);
-        let table = colorimetry::RgbToSpectrumTable::srgb();
-        let spectrum = colorimetry::Spectrum::RgbIlluminant(colorimetry::RgbIlluminantSpectrum::from_rgb(table, mean))
-            .to_densely_sampled();
+        let spectrum = map.mean_spectrum();
         Self { kind: LightKind::Environment, spectrum, map: Some(Arc::new(map)) }
     }
 }

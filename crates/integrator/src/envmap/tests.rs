@@ -186,9 +186,10 @@ fn non_finite_and_negative_texels_become_black_and_are_counted() {
     let rgb = vec![[1.0, 1.0, 1.0], [f32::NAN, 1.0, 1.0], [f32::INFINITY, 0.0, 0.0], [-1.0, 2.0, 2.0]];
     let (map, bad) = EnvironmentMap::from_rgb(Path::new("<test>"), 2, 2, rgb, 2.0, 0.0).unwrap();
     assert_eq!(bad, 3);
-    assert!(map.texels.iter().all(|t| t.rgb.iter().all(|c| c.is_finite() && *c >= 0.0)));
-    assert_eq!(map.texels[0].rgb, [2.0; 3]);
-    assert!(map.texels[1..].iter().all(|t| t.rgb == [0.0; 3]));
+    let Texels::Rgb(texels) = &map.texels else { panic!("an RGB map") };
+    assert!(texels.iter().all(|t| t.rgb.iter().all(|c| c.is_finite() && *c >= 0.0)));
+    assert_eq!(texels[0].rgb, [2.0; 3]);
+    assert!(texels[1..].iter().all(|t| t.rgb == [0.0; 3]));
     // Only the top-left quarter of the sphere shines: the mean is a quarter of its 2 (rows of equal solid
     // angle), and only it is sampled.
     assert!(map.mean_rgb().iter().all(|&m| (m - 0.5).abs() < 1e-6), "{:?}", map.mean_rgb());
