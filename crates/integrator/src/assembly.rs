@@ -243,6 +243,12 @@ impl RenderScene {
             });
         }
         let sky_lights = match &options.sky {
+            Some(_) if options.environment.is_some() => {
+                return Err(Error::EnvironmentMap {
+                    path: PathBuf::from("--light-env sky"),
+                    reason: "the sky and an environment map cannot both light a scene (at most one map)".to_owned(),
+                });
+            }
             Some(sky) => {
                 let replaced = light_descs.iter().filter(|l| matches!(l, LightDesc::Environment { .. })).count();
                 light_descs.retain(|l| !matches!(l, LightDesc::Environment { .. }));
