@@ -200,12 +200,7 @@ impl EnvironmentMap {
         let mut mean = [0.0f64; 3];
         let mut total_solid_angle = 0.0f64;
         for row in 0..height {
-            let sin_theta = (PI * (row as f32 + 0.5) / height as f32).sin();
-            let (t0, t1) = (
-                std::f64::consts::PI * row as f64 / height as f64,
-                std::f64::consts::PI * (row + 1) as f64 / height as f64,
-            );
-            let solid_angle = 2.0 * std::f64::consts::PI / width as f64 * (t0.cos() - t1.cos());
+            let (sin_theta, solid_angle) = row_measure(row, width, height);
             for t in &texels[row * width..(row + 1) * width] {
                 func.push(luminance(t.rgb).max(0.0) * sin_theta);
                 for (m, &c) in mean.iter_mut().zip(&t.rgb) {
@@ -260,12 +255,7 @@ impl EnvironmentMap {
         let mut func = Vec::with_capacity(width * height);
         let (mut mean_rgb, mut mean_weights, mut total) = ([0.0f64; 3], [0.0f64; 3], 0.0f64);
         for row in 0..height {
-            let sin_theta = (PI * (row as f32 + 0.5) / height as f32).sin();
-            let (t0, t1) = (
-                std::f64::consts::PI * row as f64 / height as f64,
-                std::f64::consts::PI * (row + 1) as f64 / height as f64,
-            );
-            let solid_angle = 2.0 * std::f64::consts::PI / width as f64 * (t0.cos() - t1.cos());
+            let (sin_theta, solid_angle) = row_measure(row, width, height);
             for t in &texels[row * width..(row + 1) * width] {
                 func.push(t.luminance * sin_theta);
                 for c in 0..3 {
@@ -516,6 +506,15 @@ fn decode_exr(bytes: &[u8]) -> std::result::Result<(usize, usize, Vec<[f32; 3]>)
     let size = image.layer_data.size;
     check_size(size.width(), size.height())?;
     Ok((size.width(), size.height(), image.layer_data.channel_data.pixels.1))
+}
+
+/// Row `row` of a `width` × `height` lat-long map: sin θ at the row's centre (the sampling density's
+/// Jacobian) and one texel's exact solid angle, Δφ (cos θ₀ − cos θ₁) (the mean's weight).
+fn row_measure(row: usize, width: usize, height: usize) -> (f32, f64) {
+    let sin_theta = (PI * (row as f32 + 0.5) / height as f32).sin();
+    let (t0, t1) =
+        (std::f64::consts::PI * row as f64 / height as f64, std::f64::consts::PI * (row + 1) as f64 / height as f64);
+    (sin_theta, 2.0 * std::f64::consts::PI / width as f64 * (t0.cos() - t1.cos()))
 }
 
 #[cfg(test)]
