@@ -265,15 +265,13 @@ impl RenderScene {
                         ),
                     }
                 ));
-                light_descs.extend(descs);
-                Some(added)
+                Some((added, descs))
             }
             None => None,
         };
         let mut lights = Vec::with_capacity(light_descs.len());
         let mut map_seen: Option<usize> = None;
-        let sky_count = sky_lights.as_ref().map_or(0, Vec::len);
-        for (index, l) in light_descs[..light_descs.len() - sky_count].iter().enumerate() {
+        for (index, l) in light_descs.iter().enumerate() {
             lights.push(match l {
                 LightDesc::Environment { intensity, map: Some(m), .. } => {
                     if let Some(first) = map_seen {
@@ -294,7 +292,10 @@ impl RenderScene {
                 _ => light_from_desc(l).map_err(|source| Error::Light { index, source })?,
             });
         }
-        lights.extend(sky_lights.into_iter().flatten());
+        if let Some((added, descs)) = sky_lights {
+            lights.extend(added);
+            light_descs.extend(descs);
+        }
         let emissive = materials.iter().any(Material::emits);
         let unlit = lights.is_empty() && background.is_none();
         if options.default_lights == DefaultLights::None {
@@ -544,6 +545,16 @@ fn key_illuminance() -> f32 {
     KEY_NITS * std::f32::consts::PI / key_cos()
 }
 
+/// The unit direction towards the default key light: behind, above and to the right of the camera
+/// (`KEY_FROM` in the camera's frame).
+fn towards_key_light(camera: &CameraDesc) -> Vec3 {
+    let forward = (camera.look_at - camera.position).normalize_or(Vec3::NEG_Z);
+    let right = forward.cross(camera.up).normalize_or(Vec3::X);
+    let up = right.cross(forward);
+    let [b, u, r] = KEY_FROM;
+    (-forward * b + up * u + right * r).normalize()
+}
+
 /// The lights of a glTF or OBJ file that has none: a uniform D65 environment and a D65 key light placed
 /// relative to the camera, so a white Lambertian surface facing the camera has luminance 0.8 (0.3 + 0.5);
 /// a file with emitters gets only a dim environment (its emitters are its lights).
@@ -557,13 +568,8 @@ fn default_lights(camera: &CameraDesc, emissive: bool, environment: bool) -> Vec
     if emissive {
         return if environment { vec![env(DIM_ENVIRONMENT_NITS)] } else { Vec::new() };
     }
-    let forward = (camera.look_at - camera.position).normalize_or(Vec3::NEG_Z);
-    let right = forward.cross(camera.up).normalize_or(Vec3::X);
-    let up = right.cross(forward);
-    let [b, u, r] = KEY_FROM;
-    let towards_light = (-forward * b + up * u + right * r).normalize();
     let key = LightDesc::Directional {
-        direction: -towards_light,
+        direction: -towards_key_light(camera),
         spectrum: SpectrumDesc::Named("D65".into()),
         intensity: LightAmount { value: key_illuminance(), unit: LightUnit::Lux },
     };
@@ -580,12 +586,8 @@ fn sky_lights(sky: &SkyOption, camera: &CameraDesc, lit: bool) -> Result<(Vec<Li
         return Err(fail(format!("intensity {} must be finite and ≥ 0", sky.intensity)));
     }
     let key = default_lights(camera, false, false);
-    let key_direction = match key.first() {
-        Some(LightDesc::Directional { direction, .. }) => *direction,
-        _ => Vec3::new(-1.0, -1.0, -0.5).normalize(),
-    };
     // The key light's azimuth in the maps' φ (towards the light: d = (sin φ, ·, −cos φ)).
-    let towards_key = -key_direction;
+    let towards_key = towards_key_light(camera);
     let azimuth = sky.sun_azimuth_deg.unwrap_or_else(|| towards_key.x.atan2(-towards_key.z).to_degrees());
     let model = crate::sky::PreethamSky::new(sky.turbidity, sky.sun_elevation_deg, azimuth).map_err(fail)?;
     let (width, height) = crate::sky::SKY_MAP_SIZE;

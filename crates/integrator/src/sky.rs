@@ -43,6 +43,12 @@ const ZENITH_X: [[f64; 4]; 3] =
 const ZENITH_Y: [[f64; 4]; 3] =
     [[0.00275, -0.00610, 0.00317, 0.0], [-0.04214, 0.08970, -0.04153, 0.00516], [0.15346, -0.26756, 0.06670, 0.26688]];
 
+/// The direction of azimuth `phi` and zenith angle `theta` (radians) in the environment maps' convention
+/// (`envmap.rs` `uv_to_direction`, +Y up, φ = 0 towards −Z), in f64 for baking and integration.
+fn map_direction(phi: f64, theta: f64) -> DVec3 {
+    DVec3::new(phi.sin() * theta.sin(), theta.cos(), -phi.cos() * theta.sin())
+}
+
 /// Perez coefficients A..E at turbidity `t`.
 fn coefficients(rows: &[[f64; 2]; 5], t: f64) -> [f64; 5] {
     rows.map(|[a, b]| a * t + b)
@@ -103,7 +109,7 @@ impl PreethamSky {
         let t = f64::from(turbidity);
         let theta_s = (90.0 - f64::from(elevation_deg)).to_radians();
         let phi = f64::from(azimuth_deg).to_radians();
-        let sun = DVec3::new(phi.sin() * theta_s.sin(), theta_s.cos(), -phi.cos() * theta_s.sin());
+        let sun = map_direction(phi, theta_s);
         let perez = [coefficients(&PEREZ_Y, t), coefficients(&PEREZ_X, t), coefficients(&PEREZ_SMALL_Y, t)];
         let [xz, yz] = zenith_chromaticity(t, theta_s);
         let zenith = [zenith_luminance(t, theta_s) * 1000.0, xz, yz];
@@ -184,7 +190,7 @@ impl PreethamSky {
             let theta = PI * (row as f64 + 0.5) / height as f64;
             for column in 0..width {
                 let phi = 2.0 * PI * (column as f64 + 0.5) / width as f64;
-                let d = DVec3::new(phi.sin() * theta.sin(), theta.cos(), -phi.cos() * theta.sin());
+                let d = map_direction(phi, theta);
                 weights.push(self.daylight_weights(d, &basis).map(|w| w * intensity));
             }
         }
@@ -202,7 +208,7 @@ impl PreethamSky {
             let theta = 0.5 * (t0 + t1);
             for j in 0..columns {
                 let phi = 2.0 * PI * (j as f64 + 0.5) / columns as f64;
-                let d = DVec3::new(phi.sin() * theta.sin(), theta.cos(), -phi.cos() * theta.sin());
+                let d = map_direction(phi, theta);
                 sum += self.xyy(d).map_or(0.0, |v| v[0]) * weight;
             }
         }
