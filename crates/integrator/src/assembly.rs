@@ -66,7 +66,8 @@ impl Default for SkyOption {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum DefaultLights {
     /// A glTF or OBJ file: a uniform D65 environment and a key light (with emitters, only a dim
-    /// environment); a manifest: a D65 point light (none with emitters). `--light-env uniform`.
+    /// environment, Blender's default world; with lights of its own but no environment, that world
+    /// too); a manifest: a D65 point light (none with emitters). `--light-env uniform`.
     #[default]
     EnvironmentAndKey,
     /// A glTF or OBJ file: the key light alone, over black (with emitters: nothing); a manifest as
@@ -331,6 +332,24 @@ impl RenderScene {
                 )
             });
             light_descs.extend(added);
+        } else if options.default_lights == DefaultLights::EnvironmentAndKey
+            && matches!(format, SceneFormat::Gltf | SceneFormat::Obj)
+            && background.is_none()
+            && !light_descs.iter().any(|l| matches!(l, LightDesc::Environment { .. }))
+        {
+            // The file's own lights, but no world: glTF cannot carry one, and a Blender scene exported
+            // with its lamps lost the world it was lit in. Put it back in Blender's default world, as
+            // importing it into Blender would, so what the lamps leave unlit is dim, not black.
+            let nits = lamp_world_nits(&light_descs, center);
+            let world = uniform_environment(nits);
+            lights.push(light_from_desc(&world).map_err(|source| Error::Spectrum {
+                what: "the default world (added because the file has no environment)",
+                source,
+            })?);
+            warnings.push(format!(
+                "the file's lights have no world around them: added a uniform D65 environment of {nits:.4} nits (Blender's default world in its lamps' units, {LAMP_WORLD_NITS:.1}, at most a fill 3 stops below the brightest lamp; --light-env none: none)"
+            ));
+            light_descs.push(world);
         } else if lights.is_empty() && !emissive {
             let light = default_light(center, radius);
             lights.push(light_from_desc(&light).map_err(|source| Error::Spectrum {
@@ -528,9 +547,33 @@ fn default_light(center: Vec3, radius: f32) -> LightDesc {
 const ENVIRONMENT_NITS: f32 = 0.3;
 /// Luminance the default key light adds to a white Lambertian surface facing the camera.
 const KEY_NITS: f32 = 0.5;
-/// The environment of a file lit only by its own emitters: Blender's default world colour (0.050876, the
-/// sRGB grey 0.25 linearised), so emitters still dominate but unlit corners are not pure black.
+/// The environment of a glTF or OBJ file lit only by its own emitters or lights: Blender's default world
+/// colour (0.050876, the sRGB grey 0.25 linearised), so they still dominate but what they leave unlit is
+/// not pure black.
 const DIM_ENVIRONMENT_NITS: f32 = 0.050_876;
+/// Blender's default world around a file's lamps: [`DIM_ENVIRONMENT_NITS`] in the units its lamps are
+/// exported in. Blender's exporter writes a lamp of P watts as P · 683 / 4π cd (a 1,500 W lamp is
+/// 81,527 cd): watts at K_m = 683 lm/W, so its world of 0.050876 W/(m² sr) is 34.7 nits beside them
+/// (emission strengths it writes unscaled, hence the unscaled world beside emitters).
+const LAMP_WORLD_NITS: f32 = DIM_ENVIRONMENT_NITS * colorimetry::K_M as f32;
+/// The world around a file's own lamps: [`LAMP_WORLD_NITS`], but never more than a fill three stops below the
+/// brightest lamp's illuminance E at the scene's centre (a white surface it lights head-on reads E/π, the
+/// world E/8π), so that a scene lit by weak lamps keeps its pools of light instead of drowning in the
+/// world: Khronos' *AnimateAllTheThings* (blenderio/24_animation_pointer) is lit by 3–16 cd spots.
+fn lamp_world_nits(lights: &[LightDesc], center: Vec3) -> f32 {
+    let illuminance = |l: &LightDesc| match l {
+        LightDesc::Point { position, intensity, .. } | LightDesc::Spot { position, intensity, .. }
+            if intensity.unit == LightUnit::Candela =>
+        {
+            intensity.value / position.distance_squared(center).max(1e-6)
+        }
+        LightDesc::Directional { intensity, .. } if intensity.unit == LightUnit::Lux => intensity.value,
+        _ => 0.0,
+    };
+    let brightest = lights.iter().map(illuminance).filter(|e| e.is_finite()).fold(0.0, f32::max);
+    if brightest > 0.0 { LAMP_WORLD_NITS.min(brightest / (8.0 * std::f32::consts::PI)) } else { LAMP_WORLD_NITS }
+}
+
 /// The key light comes from up, and to the right, behind the camera: (−forward + up + ½ right), normalised.
 const KEY_FROM: [f32; 3] = [1.0, 1.0, 0.5];
 
@@ -560,20 +603,30 @@ fn towards_key_light(camera: &CameraDesc) -> Vec3 {
 /// a file with emitters gets only a dim environment (its emitters are its lights).
 /// Without `environment` (`--light-env none`) only the key light (nothing for a file with emitters).
 fn default_lights(camera: &CameraDesc, emissive: bool, environment: bool) -> Vec<LightDesc> {
-    let env = |nits: f32| LightDesc::Environment {
-        spectrum: SpectrumDesc::Named("D65".into()),
-        intensity: LightAmount { value: nits, unit: LightUnit::Nit },
-        map: None,
-    };
     if emissive {
-        return if environment { vec![env(DIM_ENVIRONMENT_NITS)] } else { Vec::new() };
+        return if environment { vec![default_world()] } else { Vec::new() };
     }
     let key = LightDesc::Directional {
         direction: -towards_key_light(camera),
         spectrum: SpectrumDesc::Named("D65".into()),
         intensity: LightAmount { value: key_illuminance(), unit: LightUnit::Lux },
     };
-    if environment { vec![env(ENVIRONMENT_NITS), key] } else { vec![key] }
+    if environment { vec![uniform_environment(ENVIRONMENT_NITS), key] } else { vec![key] }
+}
+
+/// A uniform D65 environment of `nits`.
+fn uniform_environment(nits: f32) -> LightDesc {
+    LightDesc::Environment {
+        spectrum: SpectrumDesc::Named("D65".into()),
+        intensity: LightAmount { value: nits, unit: LightUnit::Nit },
+        map: None,
+    }
+}
+
+/// Blender's default world ([`DIM_ENVIRONMENT_NITS`]): what a glTF or OBJ file that has lights or emitters of
+/// its own, but no environment, is lit by besides them.
+fn default_world() -> LightDesc {
+    uniform_environment(DIM_ENVIRONMENT_NITS)
 }
 
 /// The lights of `--light-env sky`: the baked sky map, and the sun as a directional light (or, without the
@@ -1081,6 +1134,56 @@ mod tests {
 
     fn assemble(json: &str) -> RenderScene {
         RenderScene::from_description(geometry::parse_manifest(json, Path::new("."), "<test>").unwrap()).unwrap()
+    }
+
+    /// The world around a file's lamps: Blender's 0.050876 × 683 = 34.748 nits, at most E_max / 8π.
+    #[test]
+    fn the_world_around_lamps_is_blenders_at_most_three_stops_below_the_brightest() {
+        let d65 = || SpectrumDesc::Named("D65".into());
+        let point = |cd: f32, at: Vec3| LightDesc::Point {
+            position: at,
+            spectrum: d65(),
+            intensity: LightAmount { value: cd, unit: LightUnit::Candela },
+        };
+        let sun = |lux: f32| LightDesc::Directional {
+            direction: -Vec3::Y,
+            spectrum: d65(),
+            intensity: LightAmount { value: lux, unit: LightUnit::Lux },
+        };
+        assert!((LAMP_WORLD_NITS - 34.748_31).abs() < 1e-3, "{LAMP_WORLD_NITS}");
+        // 4 cd at 2 m: 1 lux, a fill of 1 / 8π = 0.039789 nits.
+        let weak = lamp_world_nits(&[point(4.0, Vec3::new(0.0, 2.0, 0.0))], Vec3::ZERO);
+        assert!((weak - 0.039_789).abs() < 1e-6, "{weak}");
+        // The brightest lamp sets it: 100 lux beside the 1 lux point gives 100 / 8π = 3.9789.
+        let two = lamp_world_nits(&[point(4.0, Vec3::new(0.0, 2.0, 0.0)), sun(100.0)], Vec3::ZERO);
+        assert!((two - 3.978_87).abs() < 1e-4, "{two}");
+        // Blender's 1,500 W lamp (81,527 cd) at 3 m: 9,058 lux, far above the cap.
+        let blender = lamp_world_nits(&[point(81_527.0, Vec3::new(3.0, 0.0, 0.0))], Vec3::ZERO);
+        assert_eq!(blender, LAMP_WORLD_NITS);
+        // Lamps that give no illuminance there leave Blender's world.
+        assert_eq!(lamp_world_nits(&[point(0.0, Vec3::Y)], Vec3::ZERO), LAMP_WORLD_NITS);
+
+        // A glTF quad around the origin under that weak lamp gets the fill as one more light; with
+        // `--light-env none`, or as a manifest, it gets nothing.
+        let scene = |format, default_lights| {
+            let mut d = SceneDescription::empty(format);
+            let quad = [
+                Vec3::new(-1.0, 0.0, -1.0),
+                Vec3::new(1.0, 0.0, -1.0),
+                Vec3::new(1.0, 0.0, 1.0),
+                Vec3::new(-1.0, 0.0, 1.0),
+            ];
+            d.meshes.push(geometry::Mesh::new(quad.to_vec(), None, None, vec![[0, 2, 1], [0, 3, 2]], None).unwrap());
+            d.lights.push(point(4.0, Vec3::new(0.0, 2.0, 0.0)));
+            let options = AssemblyOptions { default_lights, ..Default::default() };
+            RenderScene::from_description_with(d, &options).unwrap().light_descs
+        };
+        let lit = scene(SceneFormat::Gltf, DefaultLights::EnvironmentAndKey);
+        assert_eq!(lit.len(), 2, "{lit:?}");
+        let LightDesc::Environment { intensity, map: None, .. } = &lit[1] else { panic!("{lit:?}") };
+        assert!((intensity.value - 0.039_789).abs() < 1e-6 && intensity.unit == LightUnit::Nit, "{intensity:?}");
+        assert_eq!(scene(SceneFormat::Gltf, DefaultLights::KeyOnly).len(), 1);
+        assert_eq!(scene(SceneFormat::Manifest, DefaultLights::EnvironmentAndKey).len(), 1);
     }
 
     /// Issue 16: every light or emission spectrum was rescaled to luminance 1, so a measured
