@@ -924,15 +924,21 @@ fn material_model(
             }
         },
         // glTF 2.0: transmission refracts into the closed mesh when KHR_materials_volume gives a thickness,
-        // else the surface is thin-walled (KHR_materials_volume: "thicknessFactor 0 … thin-walled");
-        // everything else is the metallic–roughness BRDF of Appendix B.
+        // else the surface is thin-walled (KHR_materials_volume: "thicknessFactor 0 … thin-walled"); a
+        // transmission factor below 1 or a metallic part blends that glass with the opaque BRDF, as
+        // KHR_materials_transmission writes it; everything else is the metallic–roughness BRDF of Appendix B.
         MaterialFormat::Gltf => {
-            if transmits {
-                if d.thickness.is_some_and(|t| t > 0.0) {
-                    MaterialModel::Dielectric { roughness: p.roughness }
-                } else {
-                    MaterialModel::ThinDielectric
+            let thin = !d.thickness.is_some_and(|t| t > 0.0);
+            if transmits && (p.kt < 1.0 || p.metallic > 0.0) {
+                // KHR_materials_transmission's blend: part glass, part the opaque BRDF.
+                MaterialModel::GltfTransmission {
+                    metallic: p.metallic,
+                    roughness: p.roughness,
+                    transmission: p.kt,
+                    thin,
                 }
+            } else if transmits {
+                if thin { MaterialModel::ThinDielectric } else { MaterialModel::Dielectric { roughness: p.roughness } }
             } else {
                 MaterialModel::GltfMetalRough { metallic: p.metallic, roughness: p.roughness }
             }

@@ -263,3 +263,90 @@ fn whitted_gltf_glass_does_not_gain_energy_in_a_uniform_environment() {
     eprintln!("whitted glTF glass: brightest / environment = {}", brightest / environment);
     assert!(environment > 0.0 && brightest <= environment * 1.001, "{brightest} vs {environment}");
 }
+
+/// A 2 × 2 quad in the z = 0 plane facing +z, filling the view from +z at distance 10, with a point light at
+/// the camera and a uniform environment: every path meets the surface once (a plane cannot see itself) and
+/// escapes, so the image is linear in the surface's BSDF.
+fn quad_scene(material: MaterialDesc) -> RenderScene {
+    let mut d = SceneDescription::empty(SceneFormat::Manifest);
+    let positions = vec![
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
+    d.meshes.push(geometry::Mesh::new(positions, None, None, vec![[0, 1, 2], [0, 2, 3]], Some(0)).unwrap());
+    d.materials.push(material);
+    let eye = Vec3::new(0.0, 0.0, 10.0);
+    d.lights.push(LightDesc::Point {
+        position: eye,
+        spectrum: SpectrumDesc::Named("D65".into()),
+        intensity: geometry::LightAmount { value: 81.0, unit: geometry::LightUnit::Candela },
+    });
+    d.lights.push(LightDesc::Environment {
+        spectrum: SpectrumDesc::Named("D65".into()),
+        intensity: geometry::LightAmount { value: 0.3, unit: geometry::LightUnit::Nit },
+        map: None,
+    });
+    d.camera = Some(CameraDesc {
+        position: eye,
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_deg: 10.0,
+        projection: geometry::Projection::Perspective,
+        aspect_ratio: None,
+        width: None,
+        height: None,
+    });
+    RenderScene::from_description(d).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A rough coloured glTF surface with `metallic` and a thin-walled `transmission`.
+fn transmitting(metallic: f32, transmission: f32) -> MaterialDesc {
+    let mut m = gltf_material(Some(metallic), Some(0.4));
+    m.base_color = Some(SpectrumDesc::Rgb([0.8, 0.3, 0.2]));
+    m.transmission = Some(transmission);
+    m
+}
+
+/// z of the mean per-pixel difference between `image` and the weighted sum of `parts` (pixels are
+/// independent samples of it).
+fn mixture_z(image: &Image, parts: &[(f64, &Image)]) -> f64 {
+    let y = luminance(image);
+    let d: Vec<f64> = (0..y.len())
+        .map(|i| f64::from(y[i]) - parts.iter().map(|(w, p)| w * f64::from(luminance(p)[i])).sum::<f64>())
+        .collect();
+    let n = d.len() as f64;
+    let mean = d.iter().sum::<f64>() / n;
+    let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+    mean / (var / n).sqrt()
+}
+
+/// Issue 11: KHR_materials_transmission below 1 is the extension's blend, mix(diffuse, btdf, t) under one
+/// specular layer, inside mix(dielectric, metal, metallic). With one scattering event per path the image
+/// of the blend is the blend of the images of its parts: t = 0.5 is half the opaque surface and half the
+/// glass, and metallic 0.5 adds half the metal. Before, t = 0.5 was glass with half its transmission
+/// (and no diffuse part at all). The same images against wrong weights (0.4 / 0.6) are rejected.
+#[test]
+fn gltf_transmission_below_one_is_the_extensions_blend() {
+    let render = |metallic, t| path_render(&quad_scene(transmitting(metallic, t)), SpectralMode::Rgb, 16);
+    let opaque = render(0.0, 0.0);
+    let glass = render(0.0, 1.0);
+    let metal = render(1.0, 0.0);
+    let half = render(0.0, 0.5);
+    let quarter = render(0.5, 0.5);
+    let mean = |i: &Image| luminance(i).iter().map(|&v| f64::from(v)).sum::<f64>() / (SIDE * SIDE) as f64;
+    assert!(
+        (mean(&opaque) - mean(&glass)).abs() > 0.2 * mean(&opaque),
+        "the parts must differ for the test to see the weights: {} vs {}",
+        mean(&opaque),
+        mean(&glass)
+    );
+    let z_half = mixture_z(&half, &[(0.5, &opaque), (0.5, &glass)]);
+    assert!(z_half.abs() < 4.0, "t = 0.5 vs the mean of t = 0 and t = 1: z = {z_half}");
+    let z = mixture_z(&quarter, &[(0.5, &metal), (0.25, &opaque), (0.25, &glass)]);
+    assert!(z.abs() < 4.0, "metallic 0.5, t = 0.5 vs ½ metal + ¼ opaque + ¼ glass: z = {z}");
+    let wrong = mixture_z(&half, &[(0.4, &opaque), (0.6, &glass)]);
+    eprintln!("blend z: t 0.5 {z_half:.2}, metallic 0.5 {z:.2}, wrong weights {wrong:.1}");
+    assert!(wrong.abs() > 8.0, "wrong weights must be rejected: z = {wrong}");
+}

@@ -102,6 +102,10 @@ enum PathScattering {
     Conductor { metal: Option<Metal>, r: SpecId, alpha: f32 },
     /// The glTF metallic–roughness BRDF: base colour k_d F_d clamped to 1, index at n_d.
     GltfMetalRough { base: SpecId, metallic: f32, roughness: f32, ior: f32 },
+    /// [`MaterialModel::GltfTransmission`]: per hit, the glass part (tinted by the base colour F_d
+    /// clamped to 1; thin-walled at the index at n_d, or refracting) with probability
+    /// (1 − metallic)·transmission, else the metallic–roughness BRDF with the rest of the metal.
+    GltfTransmission { base: SpecId, metallic: f32, roughness: f32, ior: f32, transmission: f32, thin: bool },
 }
 
 #[derive(Debug, Clone)]
@@ -176,6 +180,18 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     roughness,
                     ior: m.ior.eval(LAMBDA_D),
                 },
+                // glTF's base colour is the diffuse colour and the transmission tint alike (k_d = 1 − k_t is
+                // Hall's split, which the mixture weight replaces).
+                MaterialModel::GltfTransmission { metallic, roughness, transmission, thin } => {
+                    PathScattering::GltfTransmission {
+                        base: add(clamp01(&m.diffuse, 1.0), SpectrumKind::Reflectance),
+                        metallic,
+                        roughness,
+                        ior: m.ior.eval(LAMBDA_D),
+                        transmission,
+                        thin,
+                    }
+                }
             };
             PathMaterial {
                 scattering,
@@ -429,8 +445,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let wo = -ray.dir / dir_len;
             // Beer–Lambert over the segment just travelled inside a dielectric: the ray leaves
             // through this surface (this also covers a camera inside glass).
-            if matches!(m.scattering, PathScattering::Dielectric { .. } | PathScattering::RoughDielectric { .. })
-                && hit.n.dot(wo) < 0.0
+            // Only a material that encloses a medium has `sigma_a`.
+            if hit.n.dot(wo) < 0.0
                 && let Some(sigma_a) = m.sigma_a
             {
                 beta *= materials::beer_transmittance(&self.spectra.eval(sigma_a, lambda), segment);
@@ -497,6 +513,34 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         roughness,
                         ior,
                     ))
+                }
+                PathScattering::GltfTransmission { base: id, metallic, roughness, ior, transmission, thin } => {
+                    let (metallic, roughness) =
+                        textures.map_or((metallic, roughness), |t| t.metallic_roughness(hit.uv, metallic, roughness));
+                    let glass = (1.0 - metallic) * transmission;
+                    let colour = base(id, lambda, last);
+                    if rng.uniform() < glass {
+                        if thin {
+                            Bsdf::ThinDielectric(ThinDielectricBxdf::new(ior, colour))
+                        } else {
+                            let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
+                            if roughness > 0.0 {
+                                let distrib = TrowbridgeReitz::isotropic(roughness * roughness);
+                                Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, colour, true))
+                            } else {
+                                Bsdf::Dielectric { eta, tint: colour }
+                            }
+                        }
+                    } else {
+                        // What is not glass: metallic / (1 − glass) of it is metal (glass < 1 here).
+                        let metal = if glass < 1.0 { metallic / (1.0 - glass) } else { 1.0 };
+                        Bsdf::GltfMetalRough(GltfMetalRoughBxdf::energy_conserving(
+                            colour,
+                            metal.min(1.0),
+                            roughness,
+                            ior,
+                        ))
+                    }
                 }
             };
             let ns = match textures.filter(|t| t.has_normal_map()) {

@@ -92,6 +92,23 @@ pub enum MaterialModel {
         /// glTF `roughnessFactor` in [0, 1].
         roughness: f32,
     },
+    /// The glTF BRDF with `KHR_materials_transmission` where it is not plain glass (a factor below 1, or a
+    /// metallic part): the extension's `dielectric_brdf = fresnel_mix(ior, mix(diffuse_brdf,
+    /// specular_btdf, transmission), specular_brdf)` inside `mix(dielectric_brdf, metal_brdf, metallic)`.
+    /// Its three parts share the specular layer, so it is the mixture of [`MaterialModel::GltfMetalRough`]
+    /// (weight 1 − (1 − metallic)·transmission) and the dielectric (thin or rough or smooth, tinted by the
+    /// base colour; weight (1 − metallic)·transmission), which the path tracer picks between per hit.
+    GltfTransmission {
+        /// glTF `metallicFactor` in [0, 1].
+        metallic: f32,
+        /// glTF `roughnessFactor` in [0, 1], of every part.
+        roughness: f32,
+        /// `transmissionFactor` in (0, 1].
+        transmission: f32,
+        /// Whether the transmitting part is thin-walled (no `KHR_materials_volume` thickness) or refracts
+        /// into the enclosed medium.
+        thin: bool,
+    },
 }
 
 impl MaterialModel {
@@ -104,6 +121,7 @@ impl MaterialModel {
             Self::ThinDielectric => "thin_dielectric",
             Self::Conductor { .. } => "conductor",
             Self::GltfMetalRough { .. } => "gltf_metal_rough",
+            Self::GltfTransmission { .. } => "gltf_transmission",
         }
     }
 
@@ -112,6 +130,9 @@ impl MaterialModel {
         match *self {
             Self::Dielectric { roughness } | Self::Conductor { roughness, .. } => vec![("roughness", roughness)],
             Self::GltfMetalRough { metallic, roughness } => vec![("metallic", metallic), ("roughness", roughness)],
+            Self::GltfTransmission { metallic, roughness, transmission, .. } => {
+                vec![("metallic", metallic), ("roughness", roughness), ("transmission", transmission)]
+            }
             Self::Diffuse | Self::Mirror | Self::ThinDielectric => Vec::new(),
         }
     }
@@ -176,15 +197,18 @@ impl Material {
     /// Whether light passes through the surface: the model transmits and its filter
     /// k_t T_s(λ) is not black. The one answer both integrators and `spectrace info` use.
     pub fn is_transmissive(&self) -> bool {
-        matches!(self.model, MaterialModel::Dielectric { .. } | MaterialModel::ThinDielectric)
-            && self.kt > 0.0
+        matches!(
+            self.model,
+            MaterialModel::Dielectric { .. } | MaterialModel::ThinDielectric | MaterialModel::GltfTransmission { .. }
+        ) && self.kt > 0.0
             && self.transmittance.max_value() > 0.0
     }
 
     /// Whether light refracts into a medium the surface encloses (a dielectric that is not
     /// thin-walled and transmits).
     pub fn encloses_medium(&self) -> bool {
-        matches!(self.model, MaterialModel::Dielectric { .. }) && self.is_transmissive()
+        matches!(self.model, MaterialModel::Dielectric { .. } | MaterialModel::GltfTransmission { thin: false, .. })
+            && self.is_transmissive()
     }
 
     /// Whether refraction separates wavelengths (only then do paths split by wavelength).
@@ -244,6 +268,11 @@ mod tests {
         assert!(m.is_spectrally_flat());
         m.ior = Ior::from_abbe(1.5, 40.0).unwrap();
         assert!(m.is_dispersive() && !m.is_spectrally_flat());
+        // A part-transmitting glTF surface transmits; it encloses a medium only with a volume.
+        m.model = MaterialModel::GltfTransmission { metallic: 0.0, roughness: 0.1, transmission: 0.5, thin: true };
+        assert!(m.is_transmissive() && !m.encloses_medium() && !m.absorbs());
+        m.model = MaterialModel::GltfTransmission { metallic: 0.0, roughness: 0.1, transmission: 0.5, thin: false };
+        assert!(m.is_transmissive() && m.encloses_medium() && m.absorbs());
     }
 
     #[test]
