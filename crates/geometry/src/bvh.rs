@@ -453,6 +453,43 @@ impl Scene {
         }
     }
 
+    /// Where a hit lies on its mesh: the mesh's index, the triangle's index within it and the hit
+    /// point's barycentric weights of the triangle's three vertices (non-negative, summing to 1).
+    /// Recomputed from `hit.p`, which lies on the triangle up to rounding: the hit record does not
+    /// carry them, so that queries on meshes without per-vertex data beyond normals and UVs pay
+    /// nothing for them. `None` for spheres, hits on placed instances (primitive id `u32::MAX`) and
+    /// degenerate triangles.
+    pub fn hit_barycentrics(&self, hit: &Hit) -> Option<(usize, usize, [f32; 3])> {
+        if hit.primitive as usize >= self.primitive_count() {
+            return None;
+        }
+        let Primitive::Triangle { mesh, triangle } = self.primitive(hit.primitive) else { return None };
+        let m = self.meshes.get(mesh as usize)?;
+        let tri = m.indices().get(triangle as usize)?;
+        let v = tri.map(|i| m.positions()[i as usize]);
+        let (e0, e1, e2) = (v[1] - v[0], v[2] - v[0], hit.p - v[0]);
+        let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
+        let (d20, d21) = (e2.dot(e0), e2.dot(e1));
+        let denom = d00 * d11 - d01 * d01;
+        if denom == 0.0 || !denom.is_finite() {
+            return None;
+        }
+        let b1 = (d11 * d20 - d01 * d21) / denom;
+        let b2 = (d00 * d21 - d01 * d20) / denom;
+        // A point rounded just outside the triangle gives a weight of about −1e-7: clamped, so that
+        // an interpolated colour stays within its vertices' range.
+        let b = [1.0 - b1 - b2, b1, b2].map(|w| w.max(0.0));
+        let sum = b[0] + b[1] + b[2];
+        (sum > 0.0 && sum.is_finite()).then(|| (mesh as usize, triangle as usize, b.map(|w| w / sum)))
+    }
+
+    /// The mesh's vertex colour (linear RGBA) interpolated at `hit` as UVs are; `None` for spheres,
+    /// placed instances and meshes without vertex colours.
+    pub fn vertex_color(&self, hit: &Hit) -> Option<glam::Vec4> {
+        let (mesh, triangle, b) = self.hit_barycentrics(hit)?;
+        self.meshes[mesh].color_at(triangle, b)
+    }
+
     /// Node count, build time and memory of the acceleration structure.
     pub fn stats(&self) -> BvhStats {
         let mut nodes = self.bvh.node_count();
@@ -711,5 +748,49 @@ mod tests {
         assert_each_primitive_once(&b);
         assert_eq!(a.bvh.leaf_slots(), b.bvh.leaf_slots(), "same leaves in the same order");
         assert_eq!(a.bvh.node_count(), b.bvh.node_count());
+    }
+
+    #[test]
+    fn vertex_colour_at_a_hit_is_the_barycentric_mix_of_its_vertices() {
+        // The unit right triangle in z = 0: a point (x, y) on it has barycentrics (1 − x − y, x, y),
+        // the weights of vertices 0, 1, 2. Vertex 1 is blue, the others red, so at (0.3, 0.2) the
+        // colour is 0.7 red + 0.3 blue.
+        let (red, blue) = (glam::Vec4::new(1.0, 0.0, 0.0, 1.0), glam::Vec4::new(0.0, 0.0, 1.0, 0.5));
+        let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let mesh = Mesh::new(positions.clone(), None, None, vec![[0, 1, 2]], None).unwrap();
+        let colored = mesh.clone().with_colors(vec![red, blue, red]).unwrap();
+        let scene =
+            Scene::build(vec![Sphere::new(Vec3::new(5.0, 0.0, 0.0), 1.0, None).unwrap()], vec![colored]).unwrap();
+        let down = |x: f32, y: f32| Ray { origin: Vec3::new(x, y, 1.0), dir: -Vec3::Z };
+        let hit = scene.intersect(&down(0.3, 0.2), f32::INFINITY).expect("the triangle");
+        let (_, _, b) = scene.hit_barycentrics(&hit).unwrap();
+        for (got, want) in b.iter().zip([0.5, 0.3, 0.2]) {
+            assert!((got - want).abs() < 1e-6, "barycentrics {b:?}");
+        }
+        let c = scene.vertex_color(&hit).unwrap();
+        let want = glam::Vec4::new(0.7, 0.0, 0.3, 0.85);
+        assert!((c - want).abs().max_element() < 1e-6, "{c} (want {want})");
+        // At a vertex its own colour, whatever the rounding of the hit point.
+        let at_blue = scene.intersect(&down(1.0 - 1e-6, 0.0), f32::INFINITY).unwrap();
+        assert!((scene.vertex_color(&at_blue).unwrap() - blue).abs().max_element() < 1e-5);
+        // Spheres and meshes without colours have none.
+        let sphere = scene.intersect(&Ray { origin: Vec3::new(5.0, 0.0, 3.0), dir: -Vec3::Z }, f32::INFINITY);
+        assert_eq!(sphere.map(|h| scene.vertex_color(&h)), Some(None));
+        let plain = Scene::build(Vec::new(), vec![mesh]).unwrap();
+        let hit = plain.intersect(&down(0.3, 0.2), f32::INFINITY).unwrap();
+        assert!(plain.hit_barycentrics(&hit).is_some() && plain.vertex_color(&hit).is_none());
+    }
+
+    #[test]
+    fn colours_follow_the_triangles_kept_and_refuse_a_wrong_count() {
+        let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Y];
+        let mesh = Mesh::new(positions, None, None, vec![[0, 1, 2], [0, 2, 3]], None).unwrap();
+        assert!(mesh.clone().with_colors(vec![glam::Vec4::ONE; 3]).is_err());
+        assert!(mesh.clone().with_colors(vec![glam::Vec4::splat(f32::NAN); 4]).is_err());
+        let colors: Vec<glam::Vec4> = (0..4).map(|i| glam::Vec4::splat(i as f32 / 4.0)).collect();
+        let colored = mesh.with_colors(colors.clone()).unwrap();
+        // The second triangle is degenerate (vertices 2 and 3 coincide): the build drops it, the colours stay.
+        let scene = Scene::build(Vec::new(), vec![colored]).unwrap();
+        assert_eq!(scene.meshes()[0].colors(), Some(&colors[..]));
     }
 }

@@ -1080,9 +1080,6 @@ impl Loader<'_> {
                     .collect();
             let set = sets.first().copied().unwrap_or(0);
             let wants_tangents = textures.normal.is_some();
-            if primitive.get(&Semantic::Colors(0)).is_some() {
-                self.warn(format!("{context}: COLOR_0 vertex colours are not rendered yet; ignored"));
-            }
             if sets.iter().any(|&s| s != set) {
                 self.warn(format!(
                     "{context}: the material's textures use several TEXCOORD sets {sets:?}; all are read with TEXCOORD_{set}"
@@ -1109,9 +1106,28 @@ impl Loader<'_> {
                 }
                 None => None,
             };
+            // glTF 2.0 §3.7.2.1: COLOR_0 multiplies the base colour (linear RGB, alpha multiplying alpha).
+            let colors = match primitive.get(&Semantic::Colors(0)) {
+                Some(acc) => {
+                    let c = self.read_colors(&acc, &format!("{context} COLOR_0"))?;
+                    self.per_vertex(
+                        c,
+                        vertex_count,
+                        glam::Vec4::is_finite,
+                        &context,
+                        "COLOR_0",
+                        "vertex colours dropped",
+                    )
+                }
+                None => None,
+            };
             let local = Mesh::new(positions, normals, uvs, triangles, Some(material))
                 .and_then(|m| match tangents {
                     Some(t) => m.with_tangents(t),
+                    None => Ok(m),
+                })
+                .and_then(|m| match colors {
+                    Some(c) => m.with_colors(c),
                     None => Ok(m),
                 })
                 .map_err(|e| Error::InvalidGeometry {
@@ -1183,6 +1199,34 @@ impl Loader<'_> {
         self.budget.charge(self.path, || format!("{context} ({} tangents)", acc.count()), acc.count() as u64 * 16)?;
         let v = self.read_accessor(acc, context)?;
         Ok(v.chunks_exact(4).map(|c| glam::Vec4::new(c[0], c[1], c[2], c[3])).collect())
+    }
+
+    /// `COLOR_0` as linear RGBA: VEC3 (alpha 1) or VEC4 of FLOAT or normalized UNSIGNED_BYTE/SHORT, the
+    /// accessor types glTF 2.0 §3.7.2.1 allows.
+    fn read_colors(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<glam::Vec4>> {
+        let ok_type = acc.data_type() == DataType::F32
+            || (acc.normalized() && matches!(acc.data_type(), DataType::U8 | DataType::U16));
+        let components = match acc.dimensions() {
+            Dimensions::Vec3 => 3,
+            Dimensions::Vec4 => 4,
+            _ => 0,
+        };
+        if components == 0 || !ok_type {
+            return Err(self.data_err(
+                context,
+                format!(
+                    "must be VEC3 or VEC4 of FLOAT or normalized UNSIGNED_BYTE/SHORT, found {:?} of {:?}",
+                    acc.dimensions(),
+                    acc.data_type()
+                ),
+            ));
+        }
+        // The colours are not in the vertex charge (most meshes have none).
+        self.budget.charge(self.path, || format!("{context} ({} colours)", acc.count()), acc.count() as u64 * 16)?;
+        let v = self.read_accessor(acc, context)?;
+        Ok(v.chunks_exact(components)
+            .map(|c| glam::Vec4::new(c[0], c[1], c[2], if components == 4 { c[3] } else { 1.0 }))
+            .collect())
     }
 
     fn read_indices(&self, acc: &gltf::Accessor<'_>, context: &str) -> Result<Vec<u32>> {

@@ -16,7 +16,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use serde_json::{Map, Value};
 
 use crate::desc::{
@@ -181,11 +181,30 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
         let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
         // Material ids index tobj's list, which we copied in order; ids past its end (missing MTL) mean none.
         let material = mesh.material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
-        let m = Mesh::new(positions, normals, uvs, indices, material).map_err(|e| Error::InvalidGeometry {
-            path: path.to_path_buf(),
-            context: context.clone(),
-            cause: Box::new(e),
-        })?;
+        // `v x y z r g b`: colours multiplying `Kd` (and `map_Kd`), read as linear RGB as glTF's COLOR_0 is
+        // (the format says nothing of their encoding).
+        let colors: Vec<Vec4> = mesh.vertex_color.chunks_exact(3).map(|c| Vec4::new(c[0], c[1], c[2], 1.0)).collect();
+        let colors = if colors.is_empty() {
+            None
+        } else if colors.len() == positions.len() && colors.iter().all(|c| c.is_finite()) {
+            Some(colors)
+        } else {
+            desc.warnings.push(format!(
+                "{}: {context}: vertex colours missing on some vertices or not finite; vertex colours dropped",
+                path.display()
+            ));
+            None
+        };
+        let m = Mesh::new(positions, normals, uvs, indices, material)
+            .and_then(|m| match colors {
+                Some(c) => m.with_colors(c),
+                None => Ok(m),
+            })
+            .map_err(|e| Error::InvalidGeometry {
+                path: path.to_path_buf(),
+                context: context.clone(),
+                cause: Box::new(e),
+            })?;
         desc.meshes.push(m);
     }
     Ok(desc)

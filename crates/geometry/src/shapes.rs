@@ -13,6 +13,8 @@ pub struct Mesh {
     uvs: Option<Vec<Vec2>>,
     /// Per-vertex tangents (xyz) and bitangent sign (w), as glTF's `TANGENT` gives them.
     tangents: Option<Vec<Vec4>>,
+    /// Per-vertex linear RGBA (glTF `COLOR_0`, OBJ `v x y z r g b`), multiplying the base colour.
+    colors: Option<Vec<Vec4>>,
     indices: Vec<[u32; 3]>,
     material: Option<u32>,
 }
@@ -54,7 +56,7 @@ impl Mesh {
                 positions.len()
             )));
         }
-        Ok(Self { positions, normals, uvs, tangents: None, indices, material })
+        Ok(Self { positions, normals, uvs, tangents: None, colors: None, indices, material })
     }
 
     /// The mesh with per-vertex tangents (xyz, and the bitangent sign in w: glTF `TANGENT`);
@@ -68,6 +70,32 @@ impl Mesh {
         }
         self.tangents = Some(tangents);
         Ok(self)
+    }
+
+    /// The mesh with per-vertex colours (linear RGBA, glTF `COLOR_0`); rejects a count differing
+    /// from the positions' or a non-finite value.
+    pub fn with_colors(mut self, colors: Vec<Vec4>) -> Result<Self> {
+        if colors.len() != self.positions.len() {
+            return Err(Error::Invalid(format!("{} colours for {} positions", colors.len(), self.positions.len())));
+        }
+        if let Some(i) = colors.iter().position(|v| !v.is_finite()) {
+            return Err(Error::Invalid(format!("vertex {i} colour {:?} is not finite", colors[i])));
+        }
+        self.colors = Some(colors);
+        Ok(self)
+    }
+
+    /// Vertex colours (linear RGBA), if the mesh has them.
+    pub fn colors(&self) -> Option<&[Vec4]> {
+        self.colors.as_deref()
+    }
+
+    /// The vertex colour of triangle `triangle` at barycentrics `b` (weights of its three vertices),
+    /// interpolated as UVs are; `None` without vertex colours or for a triangle out of range.
+    pub fn color_at(&self, triangle: usize, b: [f32; 3]) -> Option<Vec4> {
+        let colors = self.colors.as_deref()?;
+        let tri = self.indices.get(triangle)?;
+        Some(b[0] * colors[tri[0] as usize] + b[1] * colors[tri[1] as usize] + b[2] * colors[tri[2] as usize])
     }
 
     /// Vertex positions.
@@ -89,6 +117,7 @@ impl Mesh {
         m.normals.clone_from(&self.normals);
         m.uvs.clone_from(&self.uvs);
         m.tangents.clone_from(&self.tangents);
+        m.colors.clone_from(&self.colors);
         Ok(m)
     }
 
@@ -132,6 +161,7 @@ impl Mesh {
             normals,
             uvs: self.uvs.clone(),
             tangents,
+            colors: self.colors.clone(),
             indices: self.indices.clone(),
             material: self.material,
         }

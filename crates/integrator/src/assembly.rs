@@ -19,7 +19,7 @@ use crate::envmap::EnvironmentMap;
 use crate::error::{Error, Result};
 use crate::lights::{Emitters, Light, LightKind};
 use crate::render::IntegratorKind;
-use crate::texture::{MaterialTextures, load_material_textures, texture_bytes};
+use crate::texture::{MaterialTextures, VertexColors, load_material_textures, texture_bytes, vertex_color_bytes};
 
 /// Resolution used when neither the scene nor the user gives one: the paper's 640×480.
 pub const DEFAULT_RESOLUTION: (u32, u32) = (640, 480);
@@ -95,6 +95,9 @@ pub struct RenderScene {
     pub(crate) materials: Vec<Material>,
     /// The textures of each material, in its order (`None`: untextured); empty when no material has any.
     pub(crate) textures: Vec<Option<MaterialTextures>>,
+    /// The vertex colours of each mesh of `geometry`, in its order, as spectra (`None`: the mesh has none,
+    /// or its material does not take them); empty when no mesh has any.
+    pub(crate) vertex_colors: Vec<Option<VertexColors>>,
     /// Whether some material has a cut-out or blended alpha: shadow rays then look through it.
     pub(crate) alpha_cutouts: bool,
     /// Material of primitives that name none: a mid-grey Lambertian.
@@ -185,10 +188,35 @@ impl RenderScene {
             mut memory,
         } = desc;
         let started = std::time::Instant::now();
-        let mut textures = load_material_textures(&images, &mut material_descs, &mut memory, &mut warnings)?;
+        // Decided once: a material used by a mesh with vertex colours has a base colour varying per hit,
+        // as a textured one does (the path tracer's textured instantiation then reads them).
+        let without_material = meshes.iter().filter(|m| tinting_colors(m).is_some() && m.material().is_none()).count();
+        if without_material > 0 {
+            // An OBJ without MTL: its colours are the surface's as written, so they take a white diffuse
+            // base rather than tinting the default grey.
+            let index = material_descs.len() as u32;
+            let mut white = MaterialDesc::new("vertex colours", MaterialFormat::Manifest);
+            white.base_color = Some(SpectrumDesc::Rgb([1.0; 3]));
+            material_descs.push(white);
+            for m in meshes.iter_mut().filter(|m| tinting_colors(m).is_some() && m.material().is_none()) {
+                m.set_material(Some(index));
+            }
+            warnings.push(format!(
+                "{without_material} mesh(es) with vertex colours and no material: rendered as white diffuse × their colours"
+            ));
+        }
+        let mut vertex_colored = vec![false; material_descs.len()];
+        for m in meshes.iter().filter(|m| tinting_colors(m).is_some()).filter_map(geometry::Mesh::material) {
+            if let Some(flag) = vertex_colored.get_mut(m as usize) {
+                *flag = true;
+            }
+        }
+        warn_unrendered_vertex_colors(&instances, &mut warnings);
+        let mut textures =
+            load_material_textures(&images, &mut material_descs, &vertex_colored, &mut memory, &mut warnings)?;
         if textures.iter().all(Option::is_none) {
             textures.clear();
-        } else {
+        } else if textures.iter().flatten().any(MaterialTextures::is_textured) {
             let bytes = texture_bytes(&textures);
             warnings.push(format!(
                 "textures: {} images, {:.1} MiB of texel data, decoded and fitted to spectra in {:.2} s; rendered by the path integrator (whitted-hall uses the factors)",
@@ -204,6 +232,19 @@ impl RenderScene {
         warn_unused_keys(&material_descs, &mut warnings);
         add_mikktspace_tangents(&mut meshes, &textures, &mut memory, &mut warnings)?;
         let geometry = Scene::build_with_instances(spheres, meshes, instances)?;
+        let vertex_colors = if vertex_colored.contains(&true) {
+            let started = std::time::Instant::now();
+            let colors = fit_vertex_colors(&geometry, &textures, &material_descs, &mut memory, &mut warnings)?;
+            let meshes = colors.iter().flatten().count();
+            warnings.push(format!(
+                "vertex colours: {meshes} mesh(es), {:.1} MiB as spectra, fitted in {:.2} s; rendered by the path integrator (whitted-hall uses the factors)",
+                vertex_color_bytes(&colors) as f64 / (1024.0 * 1024.0),
+                started.elapsed().as_secs_f64()
+            ));
+            colors
+        } else {
+            Vec::new()
+        };
         let (center, radius) = framing(bounds);
         // A description built by hand may set `camera` without `cameras`.
         if let (Some(c), true) = (camera, cameras.is_empty()) {
@@ -377,6 +418,7 @@ impl RenderScene {
             geometry,
             materials,
             textures,
+            vertex_colors,
             alpha_cutouts,
             default_material: Material::diffuse("default grey", DenselySampledSpectrum::constant(0.5)),
             lights,
@@ -733,6 +775,62 @@ fn add_mikktspace_tangents(
         ));
     }
     Ok(())
+}
+
+/// A mesh's vertex colours unless every one is opaque white: exporters write those (Blender's for
+/// any mesh with a colour attribute), and multiplying by 1 changes nothing, so such meshes render
+/// exactly as without colours, at no cost.
+fn tinting_colors(mesh: &geometry::Mesh) -> Option<&[glam::Vec4]> {
+    mesh.colors().filter(|c| c.iter().any(|&v| v != glam::Vec4::ONE))
+}
+
+/// The vertex colours of each mesh of `geometry` whose material takes them, fitted to spectra
+/// ([`VertexColors`]). The material's base colour factor is folded into the fit where it is an RGB
+/// colour and no texture gives the base colour (glTF: factor × COLOR_0, an RGB product); otherwise
+/// the colours multiply the texture's or the spectrum's reflectance.
+fn fit_vertex_colors(
+    geometry: &Scene,
+    textures: &[Option<MaterialTextures>],
+    materials: &[MaterialDesc],
+    memory: &mut geometry::MemoryBudget,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Option<VertexColors>>> {
+    let mut out = Vec::with_capacity(geometry.meshes().len());
+    for (i, mesh) in geometry.meshes().iter().enumerate() {
+        let material = mesh.material().map(|m| m as usize);
+        let taken = material.and_then(|m| textures.get(m)).and_then(Option::as_ref);
+        let (Some(colors), Some(m), Some(t)) = (tinting_colors(mesh), material, taken) else {
+            out.push(None);
+            continue;
+        };
+        let factor = match (t.has_base_color_texture(), hall_params(&materials[m]).base_color) {
+            (true, _) => None,
+            (false, SpectrumDesc::Rgb(c)) => Some(c),
+            (false, SpectrumDesc::Constant(v)) => Some([v; 3]),
+            (false, _) => None,
+        };
+        let label = format!("mesh {i}");
+        let (fitted, exact) = VertexColors::new(colors, factor, &label, memory)?;
+        if !exact {
+            warnings.push(format!(
+                "{label}: more than {} distinct vertex colours: they use the table lookup (ΔE00 mean 0.045, max 1.2)",
+                crate::texture::MAX_REFINED_COLOURS
+            ));
+        }
+        out.push(Some(fitted));
+    }
+    Ok(out)
+}
+
+/// One warning for vertex colours no hit reads: those of objects placed several times (their hits
+/// carry no mesh to look the colours up in).
+fn warn_unrendered_vertex_colors(instances: &[geometry::Instances], warnings: &mut Vec<String>) {
+    let placed = instances.iter().flat_map(geometry::Instances::meshes).filter(|m| tinting_colors(m).is_some()).count();
+    if placed > 0 {
+        warnings.push(format!(
+            "vertex colours of {placed} instanced mesh(es) (placed several times) are not rendered yet; the base colour is used"
+        ));
+    }
 }
 
 /// One warning for the keys a scene writes that the renderer reads but does not honour yet.

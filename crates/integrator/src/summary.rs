@@ -13,7 +13,8 @@ use crate::assembly::RenderScene;
 ///
 /// Keys: `triangles`, `spheres`, `meshes`, `materials` (each with `name`, `model` (the assembled
 /// [`materials::MaterialModel`]), `model_key` (the manifest's `model` as written, if any), `uses`: `transmission`,
-/// `absorption`, `dispersion`, `emission`, and its spectra), `lights`, `camera`, `bounds` (`min`, `max`),
+/// `absorption`, `dispersion`, `emission`, `vertex_colors` (a mesh's vertex colours multiply its base
+/// colour), and its spectra), `lights`, `camera`, `bounds` (`min`, `max`),
 /// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `memory` (`charged_bytes`, `budget_bytes`:
 /// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `warnings`, and `needs`:
 /// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
@@ -60,8 +61,21 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
         note(s);
     }
 
-    let materials: Vec<Value> =
-        desc.materials.iter().zip(assembled).zip(&used).map(|((d, m), u)| material_json(d, m, *u)).collect();
+    let vertex_colored = |i: usize| {
+        render_scene
+            .textures
+            .get(i)
+            .and_then(Option::as_ref)
+            .is_some_and(crate::texture::MaterialTextures::has_vertex_colors)
+    };
+    let materials: Vec<Value> = desc
+        .materials
+        .iter()
+        .zip(assembled)
+        .zip(&used)
+        .enumerate()
+        .map(|(i, ((d, m), u))| material_json(d, m, *u, vertex_colored(i)))
+        .collect();
     json!({
         "triangles": scene.triangle_count(),
         "spheres": scene.sphere_count(),
@@ -104,7 +118,7 @@ fn ior_json(ior: &IorDesc) -> Value {
     }
 }
 
-fn material_json(d: &MaterialDesc, m: &Material, used: bool) -> Value {
+fn material_json(d: &MaterialDesc, m: &Material, used: bool, vertex_colors: bool) -> Value {
     json!({
         "name": d.name,
         "model": m.model.name(),
@@ -115,6 +129,7 @@ fn material_json(d: &MaterialDesc, m: &Material, used: bool) -> Value {
             "absorption": m.absorbs(),
             "dispersion": m.is_dispersive(),
             "emission": m.emits(),
+            "vertex_colors": vertex_colors,
         },
         "ior": d.ior.as_ref().map(ior_json),
         "spectra": d.spectra().into_iter().map(|(k, s)| json!({"field": k, "spectrum": s.label()})).collect::<Vec<_>>(),

@@ -112,7 +112,13 @@ pub(crate) fn with_mikktspace_tangents(mesh: &Mesh) -> Option<Mesh> {
         let positions = pick(mesh.positions());
         let normals = mesh.normals().map(pick);
         let uvs = Some(uvs.iter().copied().chain(extra.iter().map(|&(i, _)| uvs[i as usize])).collect());
-        Mesh::new(positions, normals, uvs, indices, mesh.material()).ok()?
+        let colors: Option<Vec<Vec4>> =
+            mesh.colors().map(|c| c.iter().copied().chain(extra.iter().map(|&(i, _)| c[i as usize])).collect());
+        let split = Mesh::new(positions, normals, uvs, indices, mesh.material()).ok()?;
+        match colors {
+            Some(c) => split.with_colors(c).ok()?,
+            None => split,
+        }
     };
     result.with_tangents(all).ok()
 }

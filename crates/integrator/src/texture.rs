@@ -33,7 +33,7 @@ const MAX_DECODE_BYTES: u64 = 1 << 30;
 /// a few ns; ΔE00 mean 0.045, max 1.2) with a warning: a 4096² image of noise has 13 M distinct
 /// colours, 210 s to fit on this project's 2-core machine; photographs and paintings of 2048²
 /// have a few hundred thousand (FlightHelmet's 15 images: 1.1 s in all).
-const MAX_REFINED_COLOURS: usize = 1 << 20;
+pub(crate) const MAX_REFINED_COLOURS: usize = 1 << 20;
 
 /// Images passed through a surface before a path stops treating further cut-outs as holes:
 /// stacked foliage cards rarely exceed a few dozen, and a bound keeps a pathological file
@@ -231,17 +231,11 @@ impl ColorTexture {
             index_bytes.saturating_add(palette_bytes),
         )?;
         let exact = distinct.len() <= MAX_REFINED_COLOURS;
-        let table = colorimetry::RgbToSpectrumTable::srgb();
         let palette = distinct
             .par_iter()
             .map(|t| {
-                let c = |i: usize| (srgb_decode(f64::from(t[i]) / 255.0) as f32 * factor[i]).clamp(0.0, 1.0);
-                let rgb = [c(0), c(1), c(2)];
-                PaletteEntry {
-                    sigmoid: if exact { RgbSigmoid::refined(rgb) } else { RgbSigmoid::from_rgb(table, rgb) },
-                    rgb,
-                    alpha: (f32::from(t[3]) / 255.0 * factor[3]).clamp(0.0, 1.0),
-                }
+                let c = |i: usize| srgb_decode(f64::from(t[i]) / 255.0) as f32 * factor[i];
+                palette_entry([c(0), c(1), c(2)], f32::from(t[3]) / 255.0 * factor[3], exact)
             })
             .collect();
         Ok((Self { sampler: Sampler::new(desc, image.width, image.height), index, palette }, exact))
@@ -283,6 +277,128 @@ impl ColorTexture {
     /// Bytes held: 4 per texel and the palette.
     fn bytes(&self) -> usize {
         self.index.len() * 4 + self.palette.len() * std::mem::size_of::<PaletteEntry>()
+    }
+}
+
+/// The linear RGB × factor of one colour, clamped to reflectances, fitted as texels are.
+fn palette_entry(rgb: [f32; 3], alpha: f32, exact: bool) -> PaletteEntry {
+    let rgb = rgb.map(|c| c.clamp(0.0, 1.0));
+    PaletteEntry {
+        sigmoid: if exact {
+            RgbSigmoid::refined(rgb)
+        } else {
+            RgbSigmoid::from_rgb(colorimetry::RgbToSpectrumTable::srgb(), rgb)
+        },
+        rgb,
+        alpha: alpha.clamp(0.0, 1.0),
+    }
+}
+
+/// A mesh's vertex colours (glTF `COLOR_0`, OBJ `v x y z r g b`) as spectra, built like a colour
+/// texture: each distinct colour (times the material's base colour factor where it can be folded
+/// in) fitted once at assembly, a palette index per vertex. A hit blends its triangle's three
+/// vertices' spectra with the barycentric weights, as a texture blends its texels' (bilinear).
+#[derive(Debug)]
+pub(crate) struct VertexColors {
+    index: Vec<u32>,
+    palette: Vec<PaletteEntry>,
+    /// Whether the palette holds colour × the material's RGB factor and so replaces the base colour;
+    /// else (a base colour texture, or a base colour given as a spectrum) it multiplies it.
+    replaces_base: bool,
+}
+
+impl VertexColors {
+    /// From linear RGBA per vertex; `factor` is the material's base colour factor (linear RGB) when
+    /// it is folded into the fit (glTF: base colour = factor × texture × COLOR_0, an RGB product,
+    /// exact here when there is no texture). `exact` is false when the mesh had more than
+    /// [`MAX_REFINED_COLOURS`] distinct colours and the table lookup was used.
+    pub(crate) fn new(
+        colors: &[Vec4],
+        factor: Option<[f32; 3]>,
+        label: &str,
+        memory: &mut MemoryBudget,
+    ) -> geometry::Result<(Self, bool)> {
+        let mut ids: HashMap<[u32; 4], u32> = HashMap::new();
+        let mut distinct: Vec<Vec4> = Vec::new();
+        let index: Vec<u32> = colors
+            .iter()
+            .map(|c| {
+                *ids.entry(c.to_array().map(f32::to_bits)).or_insert_with(|| {
+                    distinct.push(*c);
+                    (distinct.len() - 1) as u32
+                })
+            })
+            .collect();
+        drop(ids);
+        let bytes = (index.len() * 4 + distinct.len() * std::mem::size_of::<PaletteEntry>()) as u64;
+        memory.charge(
+            std::path::Path::new(label),
+            || format!("the {} vertex colours of a mesh as spectra", distinct.len()),
+            bytes,
+        )?;
+        let exact = distinct.len() <= MAX_REFINED_COLOURS;
+        let f = factor.unwrap_or([1.0; 3]);
+        let palette =
+            distinct.par_iter().map(|c| palette_entry([c.x * f[0], c.y * f[1], c.z * f[2]], c.w, exact)).collect();
+        Ok((Self { index, palette, replaces_base: factor.is_some() }, exact))
+    }
+
+    /// The colour at barycentric `weights` of the triangle with vertex indices `vertices`.
+    #[inline]
+    pub(crate) fn at(&self, vertices: [u32; 3], weights: [f32; 3]) -> VertexColorHit<'_> {
+        VertexColorHit {
+            entries: vertices.map(|v| &self.palette[self.index[v as usize] as usize]),
+            weights,
+            replaces_base: self.replaces_base,
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        self.index.len() * 4 + self.palette.len() * std::mem::size_of::<PaletteEntry>()
+    }
+}
+
+/// Bytes the vertex colours' palettes and indices hold (for `info`).
+pub(crate) fn vertex_color_bytes(colors: &[Option<VertexColors>]) -> usize {
+    colors.iter().flatten().map(VertexColors::bytes).sum()
+}
+
+/// The vertex colour at one hit: its triangle's three palette entries and their weights.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct VertexColorHit<'a> {
+    entries: [&'a PaletteEntry; 3],
+    weights: [f32; 3],
+    replaces_base: bool,
+}
+
+impl VertexColorHit<'_> {
+    /// The interpolated alpha (multiplying the material's).
+    #[inline]
+    pub(crate) fn alpha(&self) -> f32 {
+        (0..3).map(|k| self.weights[k] * self.entries[k].alpha).sum()
+    }
+
+    /// The blend of the vertices' reflectances at the path's wavelengths (linear RGB on RGB lanes).
+    #[inline]
+    pub(crate) fn eval<const N: usize>(&self, lambda: &SampledWavelengths<N>, rgb_lanes: bool) -> SampledSpectrum<N> {
+        let mut r = SampledSpectrum([0.0; N]);
+        for (e, &w) in self.entries.iter().zip(&self.weights) {
+            if rgb_lanes {
+                for c in 0..3.min(N) {
+                    r.0[c] += w * e.rgb[c];
+                }
+            } else {
+                r += e.sigmoid.sample(lambda) * w;
+            }
+        }
+        r
+    }
+
+    /// Whether [`VertexColorHit::eval`] is the base colour itself (the factor folded in), rather than a
+    /// tint multiplying the material's texture or spectrum.
+    #[inline]
+    pub(crate) fn replaces_base(&self) -> bool {
+        self.replaces_base
     }
 }
 
@@ -328,6 +444,8 @@ pub(crate) struct MaterialTextures {
     alpha_mode: AlphaMode,
     /// The material's alpha factor where no texture gives alpha.
     alpha_factor: f32,
+    /// Whether a mesh with vertex colours uses the material (they multiply its base colour and alpha).
+    vertex_colors: bool,
 }
 
 impl MaterialTextures {
@@ -337,14 +455,15 @@ impl MaterialTextures {
     }
 
     /// The probability that a ray meets the surface at `uv` (1 for opaque materials), before the
-    /// base colour is looked up: MASK is 0 or 1 by the cutoff, BLEND the alpha itself.
+    /// base colour is looked up: MASK is 0 or 1 by the cutoff, BLEND the alpha itself;
+    /// `vertex_alpha` (the vertex colours', 1 without) multiplies the material's alpha.
     #[inline]
-    pub(crate) fn coverage(&self, uv: Vec2) -> f32 {
+    pub(crate) fn coverage(&self, uv: Vec2, vertex_alpha: f32) -> f32 {
         let alpha = match (&self.coverage, &self.base_color) {
             (Some(t), _) => t.eval(uv).x * self.alpha_factor,
             (None, Some(t)) => t.alpha(uv),
             (None, None) => self.alpha_factor,
-        };
+        } * vertex_alpha;
         match self.alpha_mode {
             AlphaMode::Opaque => 1.0,
             AlphaMode::Mask(cutoff) => {
@@ -392,6 +511,27 @@ impl MaterialTextures {
         self.normal.is_some()
     }
 
+    /// Whether the material has a texture or a non-opaque alpha (what it would need an entry for
+    /// without vertex colours).
+    pub(crate) fn is_textured(&self) -> bool {
+        self.base_color.is_some()
+            || self.metallic_roughness.is_some()
+            || self.normal.is_some()
+            || self.coverage.is_some()
+            || self.has_alpha()
+    }
+
+    /// Whether meshes with vertex colours use the material (hits then look their colour up).
+    #[inline]
+    pub(crate) fn has_vertex_colors(&self) -> bool {
+        self.vertex_colors
+    }
+
+    /// Whether the base colour comes from an image (vertex colours then multiply its spectrum).
+    pub(crate) fn has_base_color_texture(&self) -> bool {
+        self.base_color.is_some()
+    }
+
     /// Bytes of texel data held (for `info`) by colour textures.
     fn color_bytes(&self) -> usize {
         self.base_color.as_ref().map_or(0, ColorTexture::bytes)
@@ -416,10 +556,13 @@ pub(crate) fn texture_bytes(textures: &[Option<MaterialTextures>]) -> usize {
 /// The textures of each material (`None` where a material has none), decoded from `images`. An
 /// image that cannot be decoded is named in a warning and the material keeps its factor. An
 /// emissive texture is reduced to its mean colour (written into `desc.emission`): emission that
-/// varies over a surface would need the light sampler to know it.
+/// varies over a surface would need the light sampler to know it. Materials marked in
+/// `vertex_colored` (used by a mesh with vertex colours) get an entry even without textures: their
+/// base colour varies per hit as a texture's does.
 pub(crate) fn load_material_textures(
     images: &[ImageDesc],
     materials: &mut [MaterialDesc],
+    vertex_colored: &[bool],
     memory: &mut MemoryBudget,
     warnings: &mut Vec<String>,
 ) -> geometry::Result<Vec<Option<MaterialTextures>>> {
@@ -441,7 +584,8 @@ pub(crate) fn load_material_textures(
         Ok(img)
     };
     let mut out = Vec::with_capacity(materials.len());
-    for m in materials.iter_mut() {
+    for (index, m) in materials.iter_mut().enumerate() {
+        let vertex_colors = vertex_colored.get(index).copied().unwrap_or(false);
         let entry = {
             let alpha_mode = match (m.alpha_mode, m.textures.alpha.is_some()) {
                 (Some(mode), _) => mode,
@@ -449,7 +593,7 @@ pub(crate) fn load_material_textures(
                 (None, true) => AlphaMode::Mask(0.5),
                 (None, false) => AlphaMode::Opaque,
             };
-            if !m.textures.any() && matches!(alpha_mode, AlphaMode::Opaque) {
+            if !m.textures.any() && matches!(alpha_mode, AlphaMode::Opaque) && !vertex_colors {
                 out.push(None);
                 continue;
             }
@@ -506,13 +650,16 @@ pub(crate) fn load_material_textures(
             let metallic_roughness = data(&textures.metallic_roughness, memory, warnings)?;
             let normal = data(&textures.normal, memory, warnings)?;
             let coverage = data(&textures.alpha, memory, warnings)?;
-            let set = MaterialTextures { base_color, metallic_roughness, normal, coverage, alpha_mode, alpha_factor };
-            let used = set.base_color.is_some()
-                || set.metallic_roughness.is_some()
-                || set.normal.is_some()
-                || set.coverage.is_some()
-                || set.has_alpha();
-            used.then_some(set)
+            let set = MaterialTextures {
+                base_color,
+                metallic_roughness,
+                normal,
+                coverage,
+                alpha_mode,
+                alpha_factor,
+                vertex_colors,
+            };
+            (set.is_textured() || set.vertex_colors).then_some(set)
         };
         out.push(entry);
     }

@@ -1053,3 +1053,110 @@ fn ten_thousand_instances_of_a_100k_triangle_mesh_load() {
     let e = load_scene_with(&path, &flatten_all).expect_err("10⁹ copied triangles exceed the budget");
     assert!(matches!(e, Error::OverBudget { .. }), "{e}");
 }
+
+/// The one-triangle glTF with a COLOR_0 accessor of `count` elements of `kind` (`"VEC3"`/`"VEC4"`) and
+/// `component_type`, its bytes after the positions.
+fn colored_triangle(
+    dir: &Path,
+    name: &str,
+    colors: &[u8],
+    kind: &str,
+    component_type: u32,
+    normalized: bool,
+    count: usize,
+) -> SceneDescription {
+    let mut bytes = f32_bytes(&TRIANGLE);
+    bytes.extend_from_slice(colors);
+    let uri = data_uri(&bytes);
+    let mut doc = triangle_gltf(Some(&uri), bytes.len(), json!({}));
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(1);
+    doc["bufferViews"] =
+        json!([{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": colors.len()}]);
+    doc["accessors"].as_array_mut().unwrap().push(
+        json!({"bufferView": 1, "componentType": component_type, "normalized": normalized, "count": count, "type": kind}),
+    );
+    load_scene(&write_gltf(dir, name, &doc)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn gltf_color_0_float_and_normalized_integers_load_as_the_same_linear_rgba() {
+    // glTF 2.0 §3.7.2.1: COLOR_0 is VEC3 or VEC4 of FLOAT or normalized UNSIGNED_BYTE/SHORT; §3.11
+    // decodes normalized integers as c / (2ⁿ − 1). 51/255 = 13107/65535 = 0.2 and 102/255 = 0.4 exactly,
+    // so all three encodings name the same colours; VEC3 has alpha 1.
+    let dir = temp_dir("color-0");
+    let want = [[1.0, 0.2, 0.0, 1.0], [0.0, 0.0, 1.0, 0.4], [0.4, 0.4, 0.2, 1.0]];
+    let float: Vec<f32> = want.iter().flatten().copied().collect();
+    let u8s: Vec<u8> = float.iter().map(|v| (v * 255.0).round() as u8).collect();
+    let u16s: Vec<u8> = float.iter().flat_map(|v| ((v * 65535.0).round() as u16).to_le_bytes()).collect();
+    let cases =
+        [("float.gltf", f32_bytes(&float), 5126, false), ("u8.gltf", u8s, 5121, true), ("u16.gltf", u16s, 5123, true)];
+    for (name, bytes, component_type, normalized) in cases {
+        let d = colored_triangle(&dir, name, &bytes, "VEC4", component_type, normalized, 3);
+        let got = d.meshes[0].colors().unwrap_or_else(|| panic!("{name}: colours dropped: {:?}", d.warnings));
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g.to_array().iter().zip(w)).all(|(a, b)| (a - b).abs() < 1e-7), "{name}: {g} vs {w:?}");
+        }
+        assert!(d.warnings.iter().all(|w| !w.contains("COLOR_0")), "{name}: {:?}", d.warnings);
+    }
+    let rgb: Vec<f32> = want.iter().flat_map(|c| [c[0], c[1], c[2]]).collect();
+    let d = colored_triangle(&dir, "vec3.gltf", &f32_bytes(&rgb), "VEC3", 5126, false, 3);
+    assert_eq!(d.meshes[0].colors().unwrap()[1].to_array(), [0.0, 0.0, 1.0, 1.0]);
+}
+
+#[test]
+fn gltf_color_0_of_the_wrong_count_or_not_finite_warns_and_is_dropped() {
+    let dir = temp_dir("color-0-bad");
+    let two = f32_bytes(&[1.0, 0.0, 0.0, 1.0, 0.0, 0.0]);
+    let d = colored_triangle(&dir, "count.gltf", &two, "VEC3", 5126, false, 2);
+    assert!(d.meshes[0].colors().is_none());
+    assert!(
+        d.warnings
+            .iter()
+            .any(|w| w.contains("COLOR_0 count differs from POSITION") && w.contains("vertex colours dropped")),
+        "{:?}",
+        d.warnings
+    );
+    let nan = f32_bytes(&[1.0, 0.0, 0.0, f32::NAN, 0.0, 0.0, 1.0, 1.0, 1.0]);
+    let d = colored_triangle(&dir, "nan.gltf", &nan, "VEC3", 5126, false, 3);
+    assert!(d.meshes[0].colors().is_none());
+    assert!(d.warnings.iter().any(|w| w.contains("COLOR_0") && w.contains("not finite")), "{:?}", d.warnings);
+    // Integers that are not normalized are not a colour glTF allows: an error naming the file.
+    let bytes = [255u8, 0, 0, 255, 0, 0, 255, 255, 255, 255, 255, 255];
+    let mut all = f32_bytes(&TRIANGLE);
+    all.extend_from_slice(&bytes);
+    let uri = data_uri(&all);
+    let mut doc = triangle_gltf(Some(&uri), all.len(), json!({}));
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(1);
+    doc["bufferViews"] = json!([{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 12}]);
+    doc["accessors"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"bufferView": 1, "componentType": 5121, "count": 3, "type": "VEC4"}));
+    let path = write_gltf(&dir, "raw-u8.gltf", &doc);
+    let message = match load_scene(&path) {
+        Err(e) => e.to_string(),
+        Ok(_) => panic!("non-normalized UNSIGNED_BYTE colours accepted"),
+    };
+    assert!(message.contains("raw-u8.gltf") && message.contains("COLOR_0"), "{message}");
+}
+
+#[test]
+fn obj_vertex_colours_are_read_with_their_vertices() {
+    let dir = temp_dir("obj-colors");
+    let obj = "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0.5 1\nf 1 2 3\n";
+    let d = load_scene(&write(&dir, "c.obj", obj.as_bytes())).unwrap_or_else(|e| panic!("{e}"));
+    let c = d.meshes[0].colors().expect("colours");
+    for (p, c) in d.meshes[0].positions().iter().zip(c) {
+        let want = if *p == Vec3::ZERO {
+            [1.0, 0.0, 0.0, 1.0]
+        } else if *p == Vec3::X {
+            [0.0, 1.0, 0.0, 1.0]
+        } else {
+            [0.0, 0.5, 1.0, 1.0]
+        };
+        assert_eq!(c.to_array(), want, "vertex {p}");
+    }
+    // Without colours none are made up.
+    let plain = load_scene(&write(&dir, "p.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")).unwrap();
+    assert!(plain.meshes[0].colors().is_none());
+}

@@ -11,6 +11,7 @@ mod prism;
 mod spectral_film;
 mod textures;
 mod units;
+mod vertex_colors;
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
