@@ -486,9 +486,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let wo = -ray.dir / dir_len;
             // Beer–Lambert over the segment just travelled inside a dielectric: the ray leaves
             // through this surface (this also covers a camera inside glass).
-            // Only a material that encloses a medium has `sigma_a`.
-            if hit.n.dot(wo) < 0.0
-                && let Some(sigma_a) = m.sigma_a
+            // Only a material that encloses a medium has `sigma_a` (tested first: it is rarely there).
+            if let Some(sigma_a) = m.sigma_a
+                && hit.n.dot(wo) < 0.0
             {
                 beta *= materials::beer_transmittance(&self.spectra.eval(sigma_a, lambda), segment);
             }
