@@ -19,18 +19,24 @@ fn sphere_scene(material: MaterialDesc) -> RenderScene {
     let mut d = SceneDescription::empty(SceneFormat::Manifest);
     d.spheres.push(Sphere::new(Vec3::ZERO, 1.0, Some(0)).unwrap());
     d.materials.push(material);
+    // 2 atan(1 / √99) = 11.5°: the sphere's silhouette just fits; a little margin.
+    from_the_camera(d, 12.0)
+}
+
+/// `d` seen from (0, 0, 10) towards the origin with a vertical field of view of `vfov_deg`, lit by an
+/// 81 cd D65 point light at the camera (after the lights `d` has).
+fn from_the_camera(mut d: SceneDescription, vfov_deg: f32) -> RenderScene {
     let eye = Vec3::new(0.0, 0.0, 10.0);
     d.lights.push(LightDesc::Point {
         position: eye,
         spectrum: SpectrumDesc::Named("D65".into()),
         intensity: geometry::LightAmount { value: 81.0, unit: geometry::LightUnit::Candela },
     });
-    // 2 atan(1 / √99) = 11.5°: the sphere's silhouette just fits; a little margin.
     d.camera = Some(CameraDesc {
         position: eye,
         look_at: Vec3::ZERO,
         up: Vec3::Y,
-        vfov_deg: 12.0,
+        vfov_deg,
         projection: geometry::Projection::Perspective,
         aspect_ratio: None,
         width: None,
@@ -277,28 +283,12 @@ fn quad_scene(material: MaterialDesc) -> RenderScene {
     ];
     d.meshes.push(geometry::Mesh::new(positions, None, None, vec![[0, 1, 2], [0, 2, 3]], Some(0)).unwrap());
     d.materials.push(material);
-    let eye = Vec3::new(0.0, 0.0, 10.0);
-    d.lights.push(LightDesc::Point {
-        position: eye,
-        spectrum: SpectrumDesc::Named("D65".into()),
-        intensity: geometry::LightAmount { value: 81.0, unit: geometry::LightUnit::Candela },
-    });
     d.lights.push(LightDesc::Environment {
         spectrum: SpectrumDesc::Named("D65".into()),
         intensity: geometry::LightAmount { value: 0.3, unit: geometry::LightUnit::Nit },
         map: None,
     });
-    d.camera = Some(CameraDesc {
-        position: eye,
-        look_at: Vec3::ZERO,
-        up: Vec3::Y,
-        vfov_deg: 10.0,
-        projection: geometry::Projection::Perspective,
-        aspect_ratio: None,
-        width: None,
-        height: None,
-    });
-    RenderScene::from_description(d).unwrap_or_else(|e| panic!("{e}"))
+    from_the_camera(d, 10.0)
 }
 
 /// A rough coloured glTF surface with `metallic` and a thin-walled `transmission`.

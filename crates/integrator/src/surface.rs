@@ -2,22 +2,7 @@
 //! material needs it: tangents for normal maps.
 
 use geometry::{Hit, Primitive, Scene};
-use glam::{Vec3, Vec4};
-
-/// Barycentrics of `p` (on the triangle's plane up to rounding) in the triangle `v`; `None`
-/// for a degenerate triangle.
-fn barycentrics(p: Vec3, v: [Vec3; 3]) -> Option<[f32; 3]> {
-    let (e0, e1, e2) = (v[1] - v[0], v[2] - v[0], p - v[0]);
-    let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
-    let (d20, d21) = (e2.dot(e0), e2.dot(e1));
-    let denom = d00 * d11 - d01 * d01;
-    if denom == 0.0 || !denom.is_finite() {
-        return None;
-    }
-    let b1 = (d11 * d20 - d01 * d21) / denom;
-    let b2 = (d00 * d21 - d01 * d20) / denom;
-    Some([1.0 - b1 - b2, b1, b2])
-}
+use glam::Vec4;
 
 /// The tangent at a triangle hit, with the sign of the bitangent that points "up" the image (glTF:
 /// +Y of a normal map, towards decreasing v) in w: the mesh's `TANGENT` interpolated, else the
@@ -35,7 +20,7 @@ pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
     let p = mesh.positions();
     let (p0, p1, p2) = (p[tri[0]], p[tri[1]], p[tri[2]]);
     if let Some(tangents) = mesh.tangents() {
-        let [b0, b1, b2] = barycentrics(hit.p, [p0, p1, p2])?;
+        let (_, _, [b0, b1, b2]) = scene.hit_barycentrics(hit)?;
         let t = tangents[tri[0]] * b0 + tangents[tri[1]] * b1 + tangents[tri[2]] * b2;
         return Some(t.truncate().extend(tangents[tri[0]].w));
     }
