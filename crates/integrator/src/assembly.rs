@@ -379,8 +379,8 @@ impl RenderScene {
             && !light_descs.iter().any(|l| matches!(l, LightDesc::Environment { .. }))
         {
             // The file's own lights, but no world: glTF cannot carry one, and a Blender scene exported
-            // with its lamps lost the world it was lit in. Put it back in Blender's default world, as
-            // importing it into Blender would, so what the lamps leave unlit is dim, not black.
+            // with its lamps lost the world it was lit in. Put it back (Blender's default world in its
+            // lamps' units, capped below weak lamps), so what the lamps leave unlit is dim, not black.
             let nits = lamp_world_nits(&light_descs, center);
             let world = uniform_environment(nits);
             lights.push(light_from_desc(&world).map_err(|source| Error::Spectrum {
@@ -589,9 +589,9 @@ fn default_light(center: Vec3, radius: f32) -> LightDesc {
 const ENVIRONMENT_NITS: f32 = 0.3;
 /// Luminance the default key light adds to a white Lambertian surface facing the camera.
 const KEY_NITS: f32 = 0.5;
-/// The environment of a glTF or OBJ file lit only by its own emitters or lights: Blender's default world
-/// colour (0.050876, the sRGB grey 0.25 linearised), so they still dominate but what they leave unlit is
-/// not pure black.
+/// The environment of a glTF or OBJ file lit only by its own emitters: Blender's default world colour
+/// (0.050876, the sRGB grey 0.25 linearised), so they still dominate but what they leave unlit is not
+/// pure black.
 const DIM_ENVIRONMENT_NITS: f32 = 0.050_876;
 /// Blender's default world around a file's lamps: [`DIM_ENVIRONMENT_NITS`] in the units its lamps are
 /// exported in. Blender's exporter writes a lamp of P watts as P · 683 / 4π cd (a 1,500 W lamp is
@@ -665,8 +665,8 @@ fn uniform_environment(nits: f32) -> LightDesc {
     }
 }
 
-/// Blender's default world ([`DIM_ENVIRONMENT_NITS`]): what a glTF or OBJ file that has lights or emitters of
-/// its own, but no environment, is lit by besides them.
+/// Blender's default world ([`DIM_ENVIRONMENT_NITS`]): what a glTF or OBJ file lit only by its own emitters
+/// (no lights, no environment) is lit by besides them; beside lamps it is [`lamp_world_nits`].
 fn default_world() -> LightDesc {
     uniform_environment(DIM_ENVIRONMENT_NITS)
 }
