@@ -484,8 +484,10 @@ impl Scene {
     }
 
     /// The mesh's vertex colour (linear RGBA) interpolated at `hit` as UVs are; `None` for spheres,
-    /// placed instances and meshes without vertex colours.
-    pub fn vertex_color(&self, hit: &Hit) -> Option<glam::Vec4> {
+    /// placed instances and meshes without vertex colours. The renderer interpolates the colours'
+    /// spectra instead (`integrator`'s `VertexColors`); this is the RGBA reference its tests check.
+    #[cfg(test)]
+    pub(crate) fn vertex_color(&self, hit: &Hit) -> Option<glam::Vec4> {
         let (mesh, triangle, b) = self.hit_barycentrics(hit)?;
         self.meshes[mesh].color_at(triangle, b)
     }

@@ -165,17 +165,13 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
             continue;
         }
         let normals: Vec<Vec3> = mesh.normals.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
-        let normals = if normals.is_empty() {
-            None
-        } else if normals.len() == positions.len() && normals.iter().all(|n| n.is_finite()) {
-            Some(normals)
-        } else {
-            desc.warnings.push(format!(
-                "{}: {context}: normals missing on some faces or not finite; normals dropped",
-                path.display()
-            ));
-            None
-        };
+        let normals = per_vertex(
+            normals,
+            positions.len(),
+            |n: &Vec3| n.is_finite(),
+            &mut desc.warnings,
+            || format!("{}: {context}: normals missing on some faces or not finite; normals dropped", path.display()),
+        );
         // v flipped: OBJ's origin is the image's bottom-left corner, the meshes' (glTF's) its top-left.
         let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(|c| Vec2::new(c[0], 1.0 - c[1])).collect();
         let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
@@ -184,17 +180,18 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
         // `v x y z r g b`: colours multiplying `Kd` (and `map_Kd`), read as linear RGB as glTF's COLOR_0 is
         // (the format says nothing of their encoding).
         let colors: Vec<Vec4> = mesh.vertex_color.chunks_exact(3).map(|c| Vec4::new(c[0], c[1], c[2], 1.0)).collect();
-        let colors = if colors.is_empty() {
-            None
-        } else if colors.len() == positions.len() && colors.iter().all(|c| c.is_finite()) {
-            Some(colors)
-        } else {
-            desc.warnings.push(format!(
-                "{}: {context}: vertex colours missing on some vertices or not finite; vertex colours dropped",
-                path.display()
-            ));
-            None
-        };
+        let colors = per_vertex(
+            colors,
+            positions.len(),
+            |c: &Vec4| c.is_finite(),
+            &mut desc.warnings,
+            || {
+                format!(
+                    "{}: {context}: vertex colours missing on some vertices or not finite; vertex colours dropped",
+                    path.display()
+                )
+            },
+        );
         let m = Mesh::new(positions, normals, uvs, indices, material)
             .and_then(|m| match colors {
                 Some(c) => m.with_colors(c),
@@ -647,6 +644,25 @@ fn material(m: &tobj::Material, side: Option<&SideInfo>, path: &Path, warnings: 
     }
     d.extras = (!extras.is_empty()).then_some(Value::Object(extras));
     d
+}
+
+/// A per-vertex attribute as tobj gives it: `None` when the file has none; `values` when there is one per
+/// position and all are finite; else dropped with the `warning` (the mesh still renders without it).
+fn per_vertex<T>(
+    values: Vec<T>,
+    count: usize,
+    finite: impl Fn(&T) -> bool,
+    warnings: &mut Vec<String>,
+    warning: impl FnOnce() -> String,
+) -> Option<Vec<T>> {
+    if values.is_empty() {
+        None
+    } else if values.len() == count && values.iter().all(finite) {
+        Some(values)
+    } else {
+        warnings.push(warning());
+        None
+    }
 }
 
 /// For tests: the sanitised MTL text, without the side info.

@@ -62,12 +62,7 @@ impl Mesh {
     /// The mesh with per-vertex tangents (xyz, and the bitangent sign in w: glTF `TANGENT`);
     /// rejects a count differing from the positions' or a non-finite value.
     pub fn with_tangents(mut self, tangents: Vec<Vec4>) -> Result<Self> {
-        if tangents.len() != self.positions.len() {
-            return Err(Error::Invalid(format!("{} tangents for {} positions", tangents.len(), self.positions.len())));
-        }
-        if let Some(i) = tangents.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Invalid(format!("vertex {i} tangent {:?} is not finite", tangents[i])));
-        }
+        self.check_per_vertex(&tangents, "tangent")?;
         self.tangents = Some(tangents);
         Ok(self)
     }
@@ -75,14 +70,20 @@ impl Mesh {
     /// The mesh with per-vertex colours (linear RGBA, glTF `COLOR_0`); rejects a count differing
     /// from the positions' or a non-finite value.
     pub fn with_colors(mut self, colors: Vec<Vec4>) -> Result<Self> {
-        if colors.len() != self.positions.len() {
-            return Err(Error::Invalid(format!("{} colours for {} positions", colors.len(), self.positions.len())));
-        }
-        if let Some(i) = colors.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Invalid(format!("vertex {i} colour {:?} is not finite", colors[i])));
-        }
+        self.check_per_vertex(&colors, "colour")?;
         self.colors = Some(colors);
         Ok(self)
+    }
+
+    /// One `what` per vertex, all finite.
+    fn check_per_vertex(&self, values: &[Vec4], what: &str) -> Result<()> {
+        if values.len() != self.positions.len() {
+            return Err(Error::Invalid(format!("{} {what}s for {} positions", values.len(), self.positions.len())));
+        }
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(Error::Invalid(format!("vertex {i} {what} {:?} is not finite", values[i])));
+        }
+        Ok(())
     }
 
     /// Vertex colours (linear RGBA), if the mesh has them.
@@ -92,7 +93,8 @@ impl Mesh {
 
     /// The vertex colour of triangle `triangle` at barycentrics `b` (weights of its three vertices),
     /// interpolated as UVs are; `None` without vertex colours or for a triangle out of range.
-    pub fn color_at(&self, triangle: usize, b: [f32; 3]) -> Option<Vec4> {
+    #[cfg(test)]
+    pub(crate) fn color_at(&self, triangle: usize, b: [f32; 3]) -> Option<Vec4> {
         let colors = self.colors.as_deref()?;
         let tri = self.indices.get(triangle)?;
         Some(b[0] * colors[tri[0] as usize] + b[1] * colors[tri[1] as usize] + b[2] * colors[tri[2] as usize])

@@ -211,19 +211,7 @@ impl ColorTexture {
             || format!("finding the distinct colours of a {}×{} texture", image.width, image.height),
             index_bytes.saturating_add(texels.saturating_mul(COLOUR_COUNT_BYTES_PER_TEXEL)),
         )?;
-        let mut ids: HashMap<[u8; 4], u32> = HashMap::new();
-        let mut distinct: Vec<[u8; 4]> = Vec::new();
-        let index = image
-            .texels
-            .iter()
-            .map(|t| {
-                *ids.entry(*t).or_insert_with(|| {
-                    distinct.push(*t);
-                    (distinct.len() - 1) as u32
-                })
-            })
-            .collect();
-        drop(ids);
+        let (index, distinct) = index_distinct(&image.texels, |t| *t);
         let palette_bytes = (distinct.len() * std::mem::size_of::<PaletteEntry>()) as u64;
         memory.charge(
             path,
@@ -307,6 +295,23 @@ pub(crate) struct VertexColors {
     replaces_base: bool,
 }
 
+/// The distinct values of `values` (equal when their `key`s are), in order of first appearance, and the
+/// index of each value's among them: what texel and vertex-colour palettes are fitted from.
+fn index_distinct<T: Copy, K: std::hash::Hash + Eq>(values: &[T], key: impl Fn(&T) -> K) -> (Vec<u32>, Vec<T>) {
+    let mut ids: HashMap<K, u32> = HashMap::new();
+    let mut distinct: Vec<T> = Vec::new();
+    let index = values
+        .iter()
+        .map(|v| {
+            *ids.entry(key(v)).or_insert_with(|| {
+                distinct.push(*v);
+                (distinct.len() - 1) as u32
+            })
+        })
+        .collect();
+    (index, distinct)
+}
+
 impl VertexColors {
     /// From linear RGBA per vertex; `factor` is the material's base colour factor (linear RGB) when
     /// it is folded into the fit (glTF: base colour = factor × texture × COLOR_0, an RGB product,
@@ -318,18 +323,7 @@ impl VertexColors {
         label: &str,
         memory: &mut MemoryBudget,
     ) -> geometry::Result<(Self, bool)> {
-        let mut ids: HashMap<[u32; 4], u32> = HashMap::new();
-        let mut distinct: Vec<Vec4> = Vec::new();
-        let index: Vec<u32> = colors
-            .iter()
-            .map(|c| {
-                *ids.entry(c.to_array().map(f32::to_bits)).or_insert_with(|| {
-                    distinct.push(*c);
-                    (distinct.len() - 1) as u32
-                })
-            })
-            .collect();
-        drop(ids);
+        let (index, distinct) = index_distinct(colors, |c| c.to_array().map(f32::to_bits));
         let bytes = (index.len() * 4 + distinct.len() * std::mem::size_of::<PaletteEntry>()) as u64;
         memory.charge(
             std::path::Path::new(label),
