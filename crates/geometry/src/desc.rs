@@ -274,6 +274,9 @@ pub struct MaterialDesc {
     pub emission_strength: Option<f32>,
     /// Manifest `double_sided`, glTF `doubleSided`. Not rendered yet.
     pub double_sided: Option<bool>,
+    /// Manifest `multiple_scattering`: whether rough conductors and dielectrics are energy-compensated
+    /// (default yes); `false` is the single-scattering GGX of pbrt-v4 and Mitsuba 3.
+    pub multiple_scattering: Option<bool>,
     /// MTL `d` (dissolve; `Tr` is read as `d = 1 − Tr`).
     pub dissolve: Option<f32>,
     /// MTL `illum` (illumination model number, 0–10).
@@ -313,6 +316,7 @@ impl MaterialDesc {
             emission: None,
             emission_strength: None,
             double_sided: None,
+            multiple_scattering: None,
             dissolve: None,
             illum: None,
             textures: MaterialTextures::default(),

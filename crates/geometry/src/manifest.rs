@@ -190,6 +190,7 @@ struct MaterialJson {
     emission: Option<Value>,
     emission_strength: Option<f32>,
     double_sided: Option<bool>,
+    multiple_scattering: Option<bool>,
     #[serde(flatten)]
     extras: Map<String, Value>,
 }
@@ -514,6 +515,7 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>
     out.emission = spectrum_of("emission", &m.emission)?;
     out.emission_strength = non_negative("emission_strength", m.emission_strength)?;
     out.double_sided = m.double_sided;
+    out.multiple_scattering = m.multiple_scattering;
     if !m.extras.is_empty() {
         let keys: Vec<&str> = m.extras.keys().map(String::as_str).collect();
         warnings.push(format!(

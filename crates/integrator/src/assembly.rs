@@ -1227,6 +1227,7 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         fresnel_weighted: desc.format == MaterialFormat::Gltf && transmits,
         // glTF's doubleSided defaults to false; the manifest's `double_sided` and OBJ default to both sides.
         two_sided: desc.double_sided.unwrap_or(desc.format != MaterialFormat::Gltf),
+        multiple_scattering: desc.multiple_scattering.unwrap_or(true),
     };
     material.validate().map_err(wrap)?;
     Ok(material)

@@ -94,12 +94,12 @@ enum PathScattering {
     /// Smooth dielectric, transmission filter k_t T_s clamped to 1.
     Dielectric { tint: SpecId },
     /// GGX rough dielectric (α > 0), transmission filter k_t T_s clamped to 1.
-    RoughDielectric { tint: SpecId, alpha: f32 },
+    RoughDielectric { tint: SpecId, alpha: f32, compensate: bool },
     /// Thin-walled dielectric, transmission filter k_t T_s clamped to 1, index at n_d.
     ThinDielectric { tint: SpecId, eta: f32 },
     /// GGX conductor: a measured metal, or the reflectance `r` = k_s F_s clamped to 1 (also the
     /// metal's colour in RGB, where the lanes are not wavelengths).
-    Conductor { metal: Option<Metal>, r: SpecId, alpha: f32 },
+    Conductor { metal: Option<Metal>, r: SpecId, alpha: f32, compensate: bool },
     /// The glTF metallic–roughness BRDF: base colour k_d F_d clamped to 1, index at n_d.
     GltfMetalRough { base: SpecId, metallic: f32, roughness: f32, ior: f32 },
     /// [`MaterialModel::GltfTransmission`]: per hit, the glass part (tinted by the base colour F_d
@@ -160,7 +160,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 MaterialModel::Dielectric { roughness } => {
                     let tint = add(clamp01(&m.transmittance, m.kt), SpectrumKind::Reflectance);
                     if roughness > 0.0 {
-                        PathScattering::RoughDielectric { tint, alpha: roughness * roughness }
+                        PathScattering::RoughDielectric {
+                            tint,
+                            alpha: roughness * roughness,
+                            compensate: m.multiple_scattering,
+                        }
                     } else {
                         PathScattering::Dielectric { tint }
                     }
@@ -173,6 +177,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     metal,
                     r: add(clamp01(&m.specular, m.ks), SpectrumKind::Reflectance),
                     alpha: roughness * roughness,
+                    compensate: m.multiple_scattering,
                 },
                 MaterialModel::GltfMetalRough { metallic, roughness } => PathScattering::GltfMetalRough {
                     base: add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance),
@@ -534,23 +539,27 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 }
                 // Never reached when !ROUGH (`rough` is false only if no material has these).
                 _ if !ROUGH => Bsdf::Lambertian { r: SampledSpectrum([0.0; N]) },
-                PathScattering::RoughDielectric { tint, alpha } => {
+                PathScattering::RoughDielectric { tint, alpha, compensate } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                     let distrib = TrowbridgeReitz::isotropic(alpha);
                     let tint = self.spectra.eval_memo(tint, lambda, last);
-                    Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, tint, true))
+                    Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, tint, compensate))
                 }
                 PathScattering::ThinDielectric { tint, eta } => {
                     Bsdf::ThinDielectric(ThinDielectricBxdf::new(eta, self.spectra.eval_memo(tint, lambda, last)))
                 }
-                PathScattering::Conductor { metal, r, alpha } => {
+                PathScattering::Conductor { metal, r, alpha, compensate } => {
                     let distrib = TrowbridgeReitz::isotropic(alpha);
                     Bsdf::Conductor(match metal {
                         // RGB lanes are not wavelengths: there the metal is its reflectance colour.
                         Some(metal) if !matches!(sensor, Sensor::Fixed(lanes) if lanes.rgb) => {
-                            ConductorBxdf::metal(metal, lambda, distrib, true)
+                            ConductorBxdf::metal(metal, lambda, distrib, compensate)
                         }
-                        _ => ConductorBxdf::from_reflectance(self.spectra.eval_memo(r, lambda, last), distrib, true),
+                        _ => ConductorBxdf::from_reflectance(
+                            self.spectra.eval_memo(r, lambda, last),
+                            distrib,
+                            compensate,
+                        ),
                     })
                 }
                 PathScattering::GltfMetalRough { base: id, metallic, roughness, ior } => {
