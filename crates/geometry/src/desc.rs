@@ -215,6 +215,24 @@ impl MaterialTextures {
     }
 }
 
+/// glTF `KHR_materials_specular`'s factors, as written (textures are not read: the loader warns).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpecularLayer {
+    /// `specularFactor`: the strength of the layer (scales its Fresnel, F90 included).
+    pub factor: f32,
+    /// `specularColorFactor` (linear RGB, may exceed 1): tints the layer's F0.
+    pub color: [f32; 3],
+}
+
+/// glTF `KHR_materials_clearcoat`'s factors, as written (textures are not read: the loader warns).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clearcoat {
+    /// `clearcoatFactor`: the coat's weight.
+    pub factor: f32,
+    /// `clearcoatRoughnessFactor`: its perceptual roughness (GGX α = roughness²).
+    pub roughness: f32,
+}
+
 /// The file format a material was read from. Its fields mean what that format says (a glTF roughness, an MTL
 /// `Ns`, a manifest `ks`), and the defaults for unwritten fields depend on it, so the layers above need it
 /// to interpret the material.
@@ -274,6 +292,10 @@ pub struct MaterialDesc {
     pub emission_strength: Option<f32>,
     /// Manifest `double_sided`, glTF `doubleSided`. Not rendered yet.
     pub double_sided: Option<bool>,
+    /// glTF `KHR_materials_specular`: the strength and F0 colour of the dielectric specular layer.
+    pub specular_layer: Option<SpecularLayer>,
+    /// glTF `KHR_materials_clearcoat`: a clear varnish over the material.
+    pub clearcoat: Option<Clearcoat>,
     /// Manifest `multiple_scattering`: whether rough conductors and dielectrics are energy-compensated
     /// (default yes); `false` is the single-scattering GGX of pbrt-v4 and Mitsuba 3.
     pub multiple_scattering: Option<bool>,
@@ -316,6 +338,8 @@ impl MaterialDesc {
             emission: None,
             emission_strength: None,
             double_sided: None,
+            specular_layer: None,
+            clearcoat: None,
             multiple_scattering: None,
             dissolve: None,
             illum: None,

@@ -17,15 +17,16 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
 use crate::desc::{
-    AbsorptionDesc, AlphaMode, CameraDesc, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc,
-    MaterialFormat, Projection, SceneDescription, SceneFormat, SpectrumDesc, TextureDesc, TextureTransform, WrapMode,
+    AbsorptionDesc, AlphaMode, CameraDesc, Clearcoat, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit,
+    MaterialDesc, MaterialFormat, Projection, SceneDescription, SceneFormat, SpectrumDesc, SpecularLayer, TextureDesc,
+    TextureTransform, WrapMode,
 };
 use crate::error::{Error, Result};
 use crate::limits::{BYTES_PER_INSTANCE, BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
 use crate::shapes::{Instances, Mesh};
 
 /// Extensions whose data we read; a file that *requires* anything else is refused.
-/// `KHR_materials_dispersion` is read from the raw extension map (the `gltf` crate has no typed accessor).
+/// `KHR_materials_dispersion`, `_specular` and `_clearcoat` are read from the raw extension map (the `gltf` crate has no typed accessor).
 const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_transmission",
@@ -33,6 +34,9 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_materials_emissive_strength",
     "KHR_materials_dispersion",
+    // Their factors (their textures are ignored with a warning).
+    "KHR_materials_specular",
+    "KHR_materials_clearcoat",
     // Read in full (offset, rotation, scale, texCoord); Blender marks it required whenever a Mapping
     // node is used.
     "KHR_texture_transform",
@@ -862,10 +866,14 @@ impl Loader<'_> {
                 "{context}: KHR_materials_unlit is shaded as a lit material (its base colour as the albedo)"
             ));
         }
+        if let Some(value) = material.extension_value("KHR_materials_specular") {
+            m.specular_layer = self.specular_layer(value, &context);
+        }
+        if let Some(value) = material.extension_value("KHR_materials_clearcoat") {
+            m.clearcoat = self.clearcoat(value, &context);
+        }
         for (extension, what) in [
-            ("KHR_materials_clearcoat", "clearcoat"),
             ("KHR_materials_sheen", "sheen"),
-            ("KHR_materials_specular", "specular"),
             ("KHR_materials_anisotropy", "anisotropy"),
             ("KHR_materials_iridescence", "iridescence"),
             ("KHR_materials_diffuse_transmission", "diffuse transmission"),
@@ -875,6 +883,71 @@ impl Loader<'_> {
             }
         }
         m
+    }
+
+    /// A factor of a material extension: `default` where absent, else a number in [0, `max`] (a warning and
+    /// `default` otherwise).
+    fn factor(&mut self, value: &serde_json::Value, key: &str, default: f32, max: f32, context: &str) -> f32 {
+        match value.get(key) {
+            None => default,
+            Some(v) => match v.as_f64() {
+                Some(x) if x.is_finite() && (0.0..=f64::from(max)).contains(&x) => x as f32,
+                _ => {
+                    self.warn(format!(
+                        "{context}: {key} {v} is not a number in [0, {max}]; the default {default} is used"
+                    ));
+                    default
+                }
+            },
+        }
+    }
+
+    /// Warn once per texture key of an extension that is present: its factors are read, its textures not.
+    fn warn_extension_textures(&mut self, value: &serde_json::Value, extension: &str, keys: &[&str], context: &str) {
+        let present: Vec<&str> = keys.iter().copied().filter(|k| value.get(*k).is_some()).collect();
+        if !present.is_empty() {
+            self.warn(format!("{context}: {extension} {} ignored (its factors are used)", present.join(", ")));
+        }
+    }
+
+    /// `KHR_materials_specular`: `specularFactor` (default 1) and `specularColorFactor` (default white, each
+    /// component ≥ 0: the extension lets it exceed 1).
+    fn specular_layer(&mut self, value: &serde_json::Value, context: &str) -> Option<SpecularLayer> {
+        const EXT: &str = "KHR_materials_specular";
+        self.warn_extension_textures(value, EXT, &["specularTexture", "specularColorTexture"], context);
+        let factor = self.factor(value, "specularFactor", 1.0, 1.0, context);
+        let color = match value.get("specularColorFactor") {
+            None => [1.0; 3],
+            Some(v) => {
+                let parsed: Option<Vec<f32>> = v.as_array().filter(|a| a.len() == 3).and_then(|a| {
+                    a.iter().map(|c| c.as_f64().filter(|x| x.is_finite() && *x >= 0.0).map(|x| x as f32)).collect()
+                });
+                match parsed {
+                    Some(c) => [c[0], c[1], c[2]],
+                    None => {
+                        self.warn(format!(
+                            "{context}: {EXT}.specularColorFactor {v} is not three numbers ≥ 0; white is used"
+                        ));
+                        [1.0; 3]
+                    }
+                }
+            }
+        };
+        Some(SpecularLayer { factor, color })
+    }
+
+    /// `KHR_materials_clearcoat`: `clearcoatFactor` (default 0: no coat) and `clearcoatRoughnessFactor`
+    /// (default 0).
+    fn clearcoat(&mut self, value: &serde_json::Value, context: &str) -> Option<Clearcoat> {
+        self.warn_extension_textures(
+            value,
+            "KHR_materials_clearcoat",
+            &["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"],
+            context,
+        );
+        let factor = self.factor(value, "clearcoatFactor", 0.0, 1.0, context);
+        let roughness = self.factor(value, "clearcoatRoughnessFactor", 0.0, 1.0, context);
+        (factor > 0.0).then_some(Clearcoat { factor, roughness })
     }
 
     /// The texture `texture` addressed by `tex_coord` (before the transform's override), its image read

@@ -12,7 +12,7 @@ use geometry::{
 };
 use glam::Vec3;
 use materials::bsdf::Metal;
-use materials::{Absorption, Ior, Material, MaterialModel};
+use materials::{Absorption, Coat, DielectricSpecular, Ior, Material, MaterialModel};
 
 use crate::camera::{CameraOptions, choose_camera};
 use crate::envmap::EnvironmentMap;
@@ -846,6 +846,16 @@ fn warn_unused_keys(materials: &[MaterialDesc], warnings: &mut Vec<String>) {
             one_sided.join(", ")
         ));
     }
+    let specular_glass = names(&|m| {
+        m.transmission.is_some_and(|t| t > 0.0)
+            && m.specular_layer.is_some_and(|l| l.factor != 1.0 || l.color != [1.0; 3])
+    });
+    if !specular_glass.is_empty() {
+        warnings.push(format!(
+            "material(s) {}: KHR_materials_specular changes the reflection of the opaque part only; the transmitting part keeps the Fresnel of its index",
+            specular_glass.join(", ")
+        ));
+    }
     let thick = names(&|m| m.thickness.is_some_and(|t| t > 0.0));
     if !thick.is_empty() {
         warnings.push(format!(
@@ -1060,6 +1070,26 @@ fn material_model(
     })
 }
 
+/// `KHR_materials_specular` on a glTF dielectric layer of index `ior` (at n_d): F0(λ) = min(F0_ior ·
+/// colour(λ), 1) with F0_ior = ((n − 1)/(n + 1))² (1 in `KHR_materials_ior`'s mode 0). The colour may exceed 1:
+/// it is upsampled as a reflectance at its largest component's scale. `None` for the extension's defaults
+/// (factor 1, white), which are the plain layer.
+fn dielectric_specular(layer: &geometry::SpecularLayer, ior: &Ior) -> Option<DielectricSpecular> {
+    if layer.factor == 1.0 && layer.color == [1.0; 3] {
+        return None;
+    }
+    let n = ior.eval(materials::LAMBDA_D);
+    let f0_ior = if n > 0.0 { f64::from(((n - 1.0) / (n + 1.0)).powi(2)) } else { 1.0 };
+    let scale = layer.color.into_iter().fold(0.0f32, f32::max);
+    let color = if scale > 0.0 {
+        materials::reflectance_from_rgb(layer.color.map(|c| c / scale))
+    } else {
+        DenselySampledSpectrum::constant(0.0)
+    };
+    let f0 = color.map(|c| (f0_ior * c * f64::from(scale)).clamp(0.0, 1.0));
+    Some(DielectricSpecular { weight: layer.factor, f0 })
+}
+
 /// A reflectance-like spectrum (values in [0, 1] expected): RGB is upsampled as a reflectance.
 fn reflectance_spectrum(desc: &SpectrumDesc) -> materials::Result<DenselySampledSpectrum> {
     Ok(match desc {
@@ -1228,6 +1258,8 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         // glTF's doubleSided defaults to false; the manifest's `double_sided` and OBJ default to both sides.
         two_sided: desc.double_sided.unwrap_or(desc.format != MaterialFormat::Gltf),
         multiple_scattering: desc.multiple_scattering.unwrap_or(true),
+        dielectric_specular: desc.specular_layer.as_ref().and_then(|l| dielectric_specular(l, &ior)),
+        coat: desc.clearcoat.map(|c| Coat { weight: c.factor, roughness: c.roughness }),
     };
     material.validate().map_err(wrap)?;
     Ok(material)

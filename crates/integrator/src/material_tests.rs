@@ -387,3 +387,41 @@ fn gltf_transmission_below_one_is_the_extensions_blend() {
     eprintln!("blend z: t 0.5 {z_half:.2}, metallic 0.5 {z:.2}, wrong weights {wrong:.1}");
     assert!(wrong.abs() > 8.0, "wrong weights must be rejected: z = {wrong}");
 }
+
+/// Issue 11: `KHR_materials_clearcoat` is `mix(material, specular_brdf(α_c), clearcoat · F(N·V))`, F Schlick's
+/// of index 1.5, and `KHR_materials_specular` 0 turns the dielectric layer off. Seen near the normal
+/// (N·V > 0.99 on the quad: F = 0.04 to 1e-9), one scattering event per path, so images mix linearly:
+/// - a black base with its layer off reflects nothing at all (exactly 0);
+/// - the same with a full coat is 0.04 of the coat's lobe, which is a white metal of the coat's roughness;
+/// - a red plastic with a full coat is 0.96 of the plastic plus 0.04 of that metal.
+///
+/// The last against the uncoated plastic alone (the coat ignored) is rejected.
+#[test]
+fn gltf_clearcoat_is_the_extensions_mix_and_specular_zero_turns_the_layer_off() {
+    let coat = geometry::Clearcoat { factor: 1.0, roughness: 0.3 };
+    let material = |base: [f32; 3], specular: Option<f32>, clearcoat: Option<geometry::Clearcoat>| {
+        let mut m = gltf_material(Some(0.0), Some(0.5));
+        m.base_color = Some(SpectrumDesc::Rgb(base));
+        m.specular_layer = specular.map(|factor| geometry::SpecularLayer { factor, color: [1.0; 3] });
+        m.clearcoat = clearcoat;
+        m
+    };
+    let render = |m: MaterialDesc| path_render(&quad_scene(m), SpectralMode::Rgb, 16);
+    let dark = render(material([0.0; 3], Some(0.0), None));
+    assert!(dark.pixels().iter().flatten().all(|&v| v == 0.0), "specular 0 on black: nothing reflects");
+    let lobe = render(gltf_material(Some(1.0), Some(coat.roughness)));
+    let coated_dark = render(material([0.0; 3], Some(0.0), Some(coat)));
+    let z_dark = mixture_z(&coated_dark, &[(0.04, &lobe)]);
+    let plastic = render(material([0.8, 0.1, 0.1], None, None));
+    let coated = render(material([0.8, 0.1, 0.1], None, Some(coat)));
+    let z = mixture_z(&coated, &[(0.96, &plastic), (0.04, &lobe)]);
+    let ignored = mixture_z(&coated, &[(1.0, &plastic)]);
+    let wrong_dark = mixture_z(&coated_dark, &[(0.05, &lobe)]);
+    eprintln!(
+        "clearcoat z: dark {z_dark:.3}, plastic {z:.3}, coat ignored {ignored:.1}, dark against 0.05 × lobe {wrong_dark:.1}"
+    );
+    assert!(wrong_dark.abs() > 8.0, "a coat weight of 0.05 must be rejected: z = {wrong_dark}");
+    assert!(z_dark.abs() < 4.0, "coat over nothing vs 0.04 × its lobe: z = {z_dark}");
+    assert!(z.abs() < 4.0, "coated plastic vs 0.96 plastic + 0.04 lobe: z = {z}");
+    assert!(ignored.abs() > 8.0, "the coat must show: z = {ignored}");
+}

@@ -17,7 +17,7 @@ use glam::{Vec2, Vec3};
 use materials::bsdf::{
     Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, ThinDielectricBxdf, TrowbridgeReitz,
 };
-use materials::{Ior, LAMBDA_D, MaterialModel};
+use materials::{Coat, Ior, LAMBDA_D, MaterialModel};
 
 use crate::assembly::RenderScene;
 use crate::envmap::EnvironmentMap;
@@ -101,11 +101,28 @@ enum PathScattering {
     /// metal's colour in RGB, where the lanes are not wavelengths).
     Conductor { metal: Option<Metal>, r: SpecId, alpha: f32, compensate: bool },
     /// The glTF metallic–roughness BRDF: base colour k_d F_d clamped to 1, index at n_d.
-    GltfMetalRough { base: SpecId, metallic: f32, roughness: f32, ior: f32 },
+    GltfMetalRough { base: SpecId, metallic: f32, roughness: f32, ior: f32, specular: Option<SpecularLayer> },
     /// [`MaterialModel::GltfTransmission`]: per hit, the glass part (tinted by the base colour F_d
     /// clamped to 1; thin-walled at the index at n_d, or refracting) with probability
     /// (1 − metallic)·transmission, else the metallic–roughness BRDF with the rest of the metal.
-    GltfTransmission { base: SpecId, metallic: f32, roughness: f32, ior: f32, transmission: f32, thin: bool },
+    GltfTransmission {
+        base: SpecId,
+        metallic: f32,
+        roughness: f32,
+        ior: f32,
+        transmission: f32,
+        thin: bool,
+        specular: Option<SpecularLayer>,
+    },
+}
+
+/// [`materials::DielectricSpecular`] with its F0 in the render's table.
+#[derive(Debug, Clone, Copy)]
+struct SpecularLayer {
+    weight: f32,
+    f0: SpecId,
+    /// The largest F0 over the spectrum.
+    f0_max: f32,
 }
 
 #[derive(Debug, Clone)]
@@ -117,6 +134,8 @@ struct PathMaterial {
     /// Whether the emission leaves both faces.
     two_sided: bool,
     ior: Ior,
+    /// `KHR_materials_clearcoat`, picked per hit with [`Coat::probability`].
+    coat: Option<Coat>,
 }
 
 /// Everything a path-traced render needs, precomputed.
@@ -150,6 +169,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         };
         let clamp01 = |s: &DenselySampledSpectrum, k: f32| s.map(|v| (v * f64::from(k)).clamp(0.0, 1.0));
         let mut path_material = |m: &materials::Material| -> PathMaterial {
+            // (Only the glTF models read it; only glTF materials have it.)
+            let specular = m.dielectric_specular.as_ref().map(|d| SpecularLayer {
+                weight: d.weight,
+                f0: add(d.f0.clone(), SpectrumKind::Reflectance),
+                f0_max: d.f0.max_value() as f32,
+            });
             let scattering = match m.model {
                 MaterialModel::Diffuse => {
                     PathScattering::Diffuse { r: add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance) }
@@ -184,6 +209,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     metallic,
                     roughness,
                     ior: m.ior.eval(LAMBDA_D),
+                    specular,
                 },
                 // glTF's base colour is the diffuse colour and the transmission tint alike (k_d = 1 − k_t is
                 // Hall's split, which the mixture weight replaces).
@@ -195,6 +221,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         ior: m.ior.eval(LAMBDA_D),
                         transmission,
                         thin,
+                        specular,
                     }
                 }
             };
@@ -208,15 +235,17 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 emission: m.emission.as_ref().filter(|_| m.emits()).map(|e| add(e.clone(), SpectrumKind::Emission)),
                 two_sided: m.two_sided,
                 ior: m.ior,
+                coat: m.coat,
             }
         };
         let materials: Vec<PathMaterial> = scene.materials.iter().map(&mut path_material).collect();
         let default_material = path_material(&scene.default_material);
         let rough = materials.iter().chain([&default_material]).any(|m| {
-            !matches!(
-                m.scattering,
-                PathScattering::Diffuse { .. } | PathScattering::Mirror { .. } | PathScattering::Dielectric { .. }
-            )
+            m.coat.is_some()
+                || !matches!(
+                    m.scattering,
+                    PathScattering::Diffuse { .. } | PathScattering::Mirror { .. } | PathScattering::Dielectric { .. }
+                )
         });
 
         // The spectrum of each light, in the table: a light's own, the background, or the
@@ -525,7 +554,15 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             // its uses below rather than inside `base`, which would then capture `colors` (callgrind,
             // Cornell box, path, 4 spp at 128²: +0.069 % instructions folded into `base`, +0.029 % so).
             let last = &mut last_surface;
+            let ns = match textures.filter(|t| t.has_normal_map()) {
+                Some(t) => t.shading_normal(hit.uv, hit.ns, surface_tangent(&self.scene.geometry, &hit), hit.n),
+                None => hit.ns,
+            };
+            let frame = Frame { n: hit.n, ns };
+            // A clear coat is picked with its share of the light seen from `wo`, the material otherwise.
+            let coated = if ROUGH { m.coat.filter(|c| rng.uniform() < c.probability(wo.dot(ns))) } else { None };
             let bsdf = match m.scattering {
+                _ if let Some(c) = coated => Bsdf::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(c.roughness)),
                 PathScattering::Diffuse { r } => Bsdf::Lambertian {
                     r: match colors {
                         Some(c) => self.vertex_colored_base(&c, textures, hit.uv, r, lambda, last),
@@ -562,16 +599,24 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         ),
                     })
                 }
-                PathScattering::GltfMetalRough { base: id, metallic, roughness, ior } => {
+                PathScattering::GltfMetalRough { base: id, metallic, roughness, ior, specular } => {
                     let (metallic, roughness) =
                         textures.map_or((metallic, roughness), |t| t.metallic_roughness(hit.uv, metallic, roughness));
                     let base = match colors {
                         Some(c) => self.vertex_colored_base(&c, textures, hit.uv, id, lambda, last),
                         None => base(id, lambda, last),
                     };
-                    Bsdf::GltfMetalRough(GltfMetalRoughBxdf::energy_conserving(base, metallic, roughness, ior))
+                    Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular, lambda))
                 }
-                PathScattering::GltfTransmission { base: id, metallic, roughness, ior, transmission, thin } => {
+                PathScattering::GltfTransmission {
+                    base: id,
+                    metallic,
+                    roughness,
+                    ior,
+                    transmission,
+                    thin,
+                    specular,
+                } => {
                     let (metallic, roughness) =
                         textures.map_or((metallic, roughness), |t| t.metallic_roughness(hit.uv, metallic, roughness));
                     let glass = (1.0 - metallic) * transmission;
@@ -594,20 +639,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     } else {
                         // What is not glass: metallic / (1 − glass) of it is metal (glass < 1 here).
                         let metal = if glass < 1.0 { metallic / (1.0 - glass) } else { 1.0 };
-                        Bsdf::GltfMetalRough(GltfMetalRoughBxdf::energy_conserving(
-                            colour,
-                            metal.min(1.0),
-                            roughness,
-                            ior,
-                        ))
+                        Bsdf::GltfMetalRough(self.metal_rough(colour, metal.min(1.0), roughness, ior, specular, lambda))
                     }
                 }
             };
-            let ns = match textures.filter(|t| t.has_normal_map()) {
-                Some(t) => t.shading_normal(hit.uv, hit.ns, surface_tangent(&self.scene.geometry, &hit), hit.n),
-                None => hit.ns,
-            };
-            let frame = Frame { n: hit.n, ns };
             if !bsdf.is_specular() && !self.scene.emitters.is_empty() {
                 radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, &mut last_light, rng, count);
             }
@@ -633,6 +668,24 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             }
         }
         (radiance, first)
+    }
+
+    /// The glTF metallic–roughness BRDF of a hit, with `KHR_materials_specular` where the material has it.
+    fn metal_rough(
+        &self,
+        base: SampledSpectrum<N>,
+        metallic: f32,
+        roughness: f32,
+        ior: f32,
+        specular: Option<SpecularLayer>,
+        lambda: &SampledWavelengths<N>,
+    ) -> GltfMetalRoughBxdf<N> {
+        let g = GltfMetalRoughBxdf::new(base, metallic, roughness, ior);
+        match specular {
+            None => g,
+            Some(s) => g.with_specular(s.weight, self.spectra.eval(s.f0, lambda), s.f0_max),
+        }
+        .conserving()
     }
 
     /// Next-event estimation: one light chosen by power, one point or direction on it, a

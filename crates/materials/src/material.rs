@@ -56,6 +56,34 @@ pub struct Material {
     /// Default yes; the manifest's `"multiple_scattering": false` gives the uncompensated lobes of pbrt-v4
     /// and Mitsuba 3, for comparisons.
     pub multiple_scattering: bool,
+    /// glTF `KHR_materials_specular` on the dielectric specular layer of the glTF models; `None`: the
+    /// plain layer (weight 1, F0 from `ior`).
+    pub dielectric_specular: Option<DielectricSpecular>,
+    /// glTF `KHR_materials_clearcoat`: a clear GGX varnish over the model; `None`: none.
+    pub coat: Option<Coat>,
+}
+
+/// `KHR_materials_specular` as the glTF models use it: the dielectric specular layer's Fresnel is
+/// weight · (F0(λ) + (1 − F0(λ))(1 − |V·H|)⁵) with F0(λ) = min(((1 − ior)/(1 + ior))² · colour(λ), 1), and
+/// the diffuse layer beneath it loses what the layer's strongest wavelength reflects (the extension's
+/// `max_value(fr)`, taken over λ).
+#[derive(Debug, Clone)]
+pub struct DielectricSpecular {
+    /// `specularFactor` in [0, 1].
+    pub weight: f32,
+    /// F0(λ) in [0, 1], the colour and the index already applied.
+    pub f0: DenselySampledSpectrum,
+}
+
+/// `KHR_materials_clearcoat`: `mix(material, specular_brdf(α = roughness²), weight · F(|N·V|))` with
+/// Schlick's F of index 1.5 (F0 = 0.04). The mix depends on the view direction only, so the path tracer
+/// picks the coat with that probability at each hit and the material otherwise (an exact mixture).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Coat {
+    /// `clearcoatFactor` in (0, 1].
+    pub weight: f32,
+    /// `clearcoatRoughnessFactor` in [0, 1] (GGX α = roughness²).
+    pub roughness: f32,
 }
 
 /// What a surface is for a physically based integrator (pbrt-v4 `Material`'s closed list of
@@ -143,6 +171,16 @@ impl MaterialModel {
     }
 }
 
+impl Coat {
+    /// The coat's share of the light seen from a direction at `cos_o` to the shading normal:
+    /// weight · F_Schlick(F0 = 0.04, |cos_o|), the probability with which the path tracer picks it.
+    pub fn probability(&self, cos_o: f32) -> f32 {
+        /// ((1 − 1.5) / (1 + 1.5))²: the coat's index is 1.5 (the extension fixes it).
+        const COAT_F0: f32 = 0.04;
+        self.weight * crate::bsdf::schlick(COAT_F0, cos_o.abs())
+    }
+}
+
 impl Material {
     /// A Lambertian surface with the given reflectance.
     pub fn diffuse(name: &str, reflectance: DenselySampledSpectrum) -> Self {
@@ -161,6 +199,8 @@ impl Material {
             model: MaterialModel::Diffuse,
             fresnel_weighted: false,
             multiple_scattering: true,
+            dielectric_specular: None,
+            coat: None,
             two_sided: true,
         }
     }
@@ -186,6 +226,21 @@ impl Material {
                 if !(0.0..=1.0).contains(&v) {
                     return Err(Error::OutOfRange { what, value: v, range: "[0, 1]" });
                 }
+            }
+        }
+        if let Some(c) = &self.coat {
+            for (what, v) in [("clearcoat", c.weight), ("clearcoat roughness", c.roughness)] {
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(Error::OutOfRange { what, value: v.into(), range: "[0, 1]" });
+                }
+            }
+        }
+        if let Some(d) = &self.dielectric_specular {
+            if !(0.0..=1.0).contains(&d.weight) {
+                return Err(Error::OutOfRange { what: "specular weight", value: d.weight.into(), range: "[0, 1]" });
+            }
+            if let Some(&v) = d.f0.values().iter().find(|v| !(0.0..=1.0).contains(*v)) {
+                return Err(Error::OutOfRange { what: "specular F0", value: v, range: "[0, 1]" });
             }
         }
         if let Some(e) = &self.emission

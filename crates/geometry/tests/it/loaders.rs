@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use geometry::{
-    AbsorptionDesc, Error, IorDesc, LightDesc, LoadOptions, MaterialDesc, MaterialFormat, Scene, SceneDescription,
-    SpectrumDesc, load_scene, load_scene_with, parse_manifest,
+    AbsorptionDesc, Clearcoat, Error, IorDesc, LightDesc, LoadOptions, MaterialDesc, MaterialFormat, Scene,
+    SceneDescription, SpectrumDesc, SpecularLayer, load_scene, load_scene_with, parse_manifest,
 };
 use glam::Vec3;
 use serde_json::json;
@@ -406,6 +406,43 @@ fn gltf_required_volume_and_dispersion_are_accepted() {
                "extensionsRequired": ["KHR_materials_volume", "KHR_materials_dispersion"]}),
     );
     load_scene(&write_gltf(&dir, "ok.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+}
+
+#[test]
+fn gltf_specular_and_clearcoat_factors_are_read_and_their_textures_named() {
+    let dir = temp_dir("specular-clearcoat");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let mut doc = triangle_gltf(
+        Some(&uri),
+        36,
+        json!({"extensionsUsed": ["KHR_materials_specular", "KHR_materials_clearcoat"],
+        "extensionsRequired": ["KHR_materials_specular", "KHR_materials_clearcoat"],
+        "materials": [
+            {"name": "coated", "extensions": {
+                "KHR_materials_specular": {"specularFactor": 0.3, "specularColorFactor": [2.0, 1.0, 0.5]},
+                "KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.2,
+                                            "clearcoatNormalTexture": {"index": 0}}}},
+            {"name": "defaults", "extensions": {"KHR_materials_specular": {},
+                                                "KHR_materials_clearcoat": {}}},
+            {"name": "bad", "extensions": {"KHR_materials_specular": {"specularFactor": 4.0,
+                                                                       "specularColorFactor": [1, -1, 1]}}}
+        ]}),
+    );
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let d = load_scene(&write_gltf(&dir, "coat.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    let m = |name: &str| d.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("{name}"));
+    assert_eq!(m("coated").specular_layer, Some(SpecularLayer { factor: 0.3, color: [2.0, 1.0, 0.5] }));
+    assert_eq!(m("coated").clearcoat, Some(Clearcoat { factor: 0.7, roughness: 0.2 }));
+    // The extensions' defaults: the plain layer; a coat of factor 0 is no coat.
+    assert_eq!(m("defaults").specular_layer, Some(SpecularLayer { factor: 1.0, color: [1.0; 3] }));
+    assert_eq!(m("defaults").clearcoat, None);
+    // Out-of-range values fall back to the defaults, each with a warning naming the key.
+    assert_eq!(m("bad").specular_layer, Some(SpecularLayer { factor: 1.0, color: [1.0; 3] }));
+    let said = |s: &str| d.warnings.iter().any(|w| w.contains(s));
+    assert!(said("'bad': specularFactor 4"), "{:?}", d.warnings);
+    assert!(said("'bad': KHR_materials_specular.specularColorFactor"), "{:?}", d.warnings);
+    assert!(said("'coated': KHR_materials_clearcoat clearcoatNormalTexture ignored"), "{:?}", d.warnings);
+    assert!(!said("not rendered yet"), "{:?}", d.warnings);
 }
 
 #[test]

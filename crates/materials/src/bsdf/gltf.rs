@@ -14,6 +14,10 @@
 //! is not energy-compensated: the spec does not compensate. Below roughness² = 1e-3 the
 //! specular layer is a delta lobe.
 //!
+//! `KHR_materials_specular` ([`GltfMetalRoughBxdf::with_specular`]) scales the dielectric layer's
+//! Fresnel by its factor and tints its F0 per wavelength; `KHR_materials_clearcoat`'s layer is
+//! [`GltfMetalRoughBxdf::clearcoat`].
+//!
 //! The spec's `fresnel_mix` weights the diffuse layer by 1 − F(V·H) for each light direction
 //! while the specular layer reflects about F(N·V) in total, so at grazing view a dielectric
 //! reflects more than it receives (measured: albedo 1.59 for smooth white plastic at 85°, 1.11
@@ -43,7 +47,7 @@ fn schlick_weight(cos: f32) -> f32 {
 /// Schlick's approximation F = f0 + (1 − f0)(1 − cos)⁵ of a dielectric's Fresnel reflectance
 /// (glTF Appendix B, `fresnel_mix`; `conductor_fresnel` is the same mix per wavelength).
 #[inline]
-fn schlick(f0: f32, cos: f32) -> f32 {
+pub(crate) fn schlick(f0: f32, cos: f32) -> f32 {
     f0 + (1.0 - f0) * schlick_weight(cos)
 }
 
@@ -53,19 +57,18 @@ pub struct GltfMetalRoughBxdf<const N: usize> {
     base: SampledSpectrum<N>,
     metallic: f32,
     distrib: TrowbridgeReitz,
-    /// Dielectric reflectance at normal incidence, ((1 − ior) / (1 + ior))².
+    /// Dielectric reflectance at normal incidence, ((1 − ior) / (1 + ior))²; under
+    /// `KHR_materials_specular` the largest F0(λ) of the layer (over the whole spectrum, not the lanes).
     f0: f32,
-    /// The albedo-scaled diffuse coupling instead of the spec's `fresnel_mix`, if chosen.
-    conserving: Option<Coupling>,
-}
-
-/// The albedo-scaled diffuse coupling's per-material constants.
-#[derive(Debug, Clone, Copy)]
-struct Coupling {
-    /// α the albedo tables are read at, √(α_x α_y).
-    alpha: f32,
-    /// The specular layer's cosine-weighted average albedo E_s,avg.
-    avg: f32,
+    /// `KHR_materials_specular`'s `specularFactor` (1 without it): scales the dielectric layer's Fresnel.
+    specular_weight: f32,
+    /// The dielectric layer's F0 per lane: `f0` in every lane, or `KHR_materials_specular`'s F0(λ).
+    /// (Always present rather than an `Option`: the model then stays no larger than the conductor, the
+    /// size of every [`super::Bsdf`]; the lane arithmetic gives the scalar one's bits.)
+    f0_lanes: SampledSpectrum<N>,
+    /// The albedo-scaled diffuse coupling instead of the spec's `fresnel_mix`, if chosen: the specular
+    /// layer's cosine-weighted average albedo E_s,avg (its tables are read at α = √(α_x α_y)).
+    conserving: Option<f32>,
 }
 
 impl<const N: usize> GltfMetalRoughBxdf<N> {
@@ -81,26 +84,58 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
             metallic,
             distrib: TrowbridgeReitz::isotropic(roughness * roughness),
             f0,
+            specular_weight: 1.0,
+            f0_lanes: SampledSpectrum([f0; N]),
             conserving: None,
+        }
+    }
+
+    /// `KHR_materials_clearcoat`'s layer: `specular_brdf(α = roughness²)` alone, D · V_smith with no
+    /// Fresnel (the coat's Fresnel is its mixing weight, [`crate::Coat::probability`]), which is this model
+    /// as a white metal.
+    pub fn clearcoat(roughness: f32) -> Self {
+        Self::new(SampledSpectrum([1.0; N]), 1.0, roughness, 1.5)
+    }
+
+    /// The same model with `KHR_materials_specular` on its dielectric layer (`crate::DielectricSpecular`):
+    /// `weight` its factor, `f0` its F0(λ) per lane and `f0_max` the largest F0 over the spectrum. Call
+    /// before [`Self::conserving`], whose coupling depends on the layer.
+    pub fn with_specular(self, weight: f32, f0: SampledSpectrum<N>, f0_max: f32) -> Self {
+        Self {
+            f0: f0_max.clamp(0.0, 1.0),
+            specular_weight: weight.clamp(0.0, 1.0),
+            f0_lanes: f0.map(|v| v.clamp(0.0, 1.0)),
+            ..self
         }
     }
 
     /// The same model with the diffuse layer coupled by albedo scaling (module docs), so that
     /// it never reflects more than it receives.
     pub fn energy_conserving(base: SampledSpectrum<N>, metallic: f32, roughness: f32, ior: f32) -> Self {
-        let g = Self::new(base, metallic, roughness, ior);
-        let alpha = g.distrib.alpha_iso();
-        Self { conserving: Some(Coupling { alpha, avg: g.specular_albedo_avg(alpha) }), ..g }
+        Self::new(base, metallic, roughness, ior).conserving()
+    }
+
+    /// This model with the diffuse layer coupled by albedo scaling (see [`Self::energy_conserving`]).
+    pub fn conserving(self) -> Self {
+        let alpha = self.distrib.alpha_iso();
+        Self { conserving: Some(self.specular_albedo_avg(alpha)), ..self }
+    }
+
+    /// The dielectric layer's Fresnel weight at `cos` for the diffuse coupling and sampling: its strongest
+    /// wavelength's, specularFactor · Schlick(F0_max, cos) (the extension's `max_value(fr)`).
+    #[inline]
+    fn dielectric_fresnel(&self, cos: f32) -> f32 {
+        self.specular_weight * schlick(self.f0, cos)
     }
 
     /// Directional albedo of the dielectric specular layer at μ: f0 E₁ + (1 − f0) E₂.
     #[inline]
     fn specular_albedo(&self, mu: f32, alpha: f32) -> f32 {
         if self.is_smooth() {
-            return schlick(self.f0, mu);
+            return self.dielectric_fresnel(mu);
         }
         let t = conductor_table();
-        self.f0 * t.e(mu, alpha) + (1.0 - self.f0) * t.e_schlick(mu, alpha)
+        self.specular_weight * (self.f0 * t.e(mu, alpha) + (1.0 - self.f0) * t.e_schlick(mu, alpha))
     }
 
     /// Cosine-weighted average of [`Self::specular_albedo`].
@@ -108,10 +143,10 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     fn specular_albedo_avg(&self, alpha: f32) -> f32 {
         if self.is_smooth() {
             // 2 ∫ (1 − μ)⁵ μ dμ = 1/21.
-            return self.f0 + (1.0 - self.f0) / 21.0;
+            return self.specular_weight * (self.f0 + (1.0 - self.f0) / 21.0);
         }
         let t = conductor_table();
-        self.f0 * t.e_avg(alpha) + (1.0 - self.f0) * t.e_schlick_avg(alpha)
+        self.specular_weight * (self.f0 * t.e_avg(alpha) + (1.0 - self.f0) * t.e_schlick_avg(alpha))
     }
 
     /// Whether the specular layer is a delta lobe.
@@ -134,9 +169,10 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// (1 − metallic) F_dielectric + metallic F_conductor(base).
     #[inline]
     fn specular_fresnel(&self, vh: f32) -> SampledSpectrum<N> {
-        let dielectric = schlick(self.f0, vh);
-        let conductor = self.base + (SampledSpectrum([1.0; N]) - self.base) * schlick_weight(vh);
-        conductor * self.metallic + (1.0 - self.metallic) * dielectric
+        let weight = schlick_weight(vh);
+        let conductor = self.base + (SampledSpectrum([1.0; N]) - self.base) * weight;
+        let dielectric = self.f0_lanes + (SampledSpectrum([1.0; N]) - self.f0_lanes) * weight;
+        conductor * self.metallic + dielectric * ((1.0 - self.metallic) * self.specular_weight)
     }
 
     /// The diffuse layer's value: (1 − metallic)(1 − F_dielectric(|V·H|)) base / π as the spec
@@ -144,12 +180,13 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     #[inline]
     fn diffuse(&self, wo: Vec3, wi: Vec3, vh: f32) -> SampledSpectrum<N> {
         let weight = match self.conserving {
-            Some(c) if c.avg >= 1.0 => 0.0,
-            Some(c) => {
-                let (eo, ei) = (self.specular_albedo(wo.z, c.alpha), self.specular_albedo(wi.z, c.alpha));
-                ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - c.avg)
+            Some(avg) if avg >= 1.0 => 0.0,
+            Some(avg) => {
+                let alpha = self.distrib.alpha_iso();
+                let (eo, ei) = (self.specular_albedo(wo.z, alpha), self.specular_albedo(wi.z, alpha));
+                ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - avg)
             }
-            None => 1.0 - schlick(self.f0, vh),
+            None => 1.0 - self.dielectric_fresnel(vh),
         };
         self.base * ((1.0 - self.metallic) * weight * FRAC_1_PI)
     }
@@ -158,7 +195,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// at V·H = N·V (metallic + (1 − metallic) F against (1 − metallic)(1 − F) · mean base).
     #[inline]
     fn specular_probability(&self, wo: Vec3) -> f32 {
-        let fr = schlick(self.f0, wo.z);
+        let fr = self.dielectric_fresnel(wo.z);
         let ws = self.metallic + (1.0 - self.metallic) * fr;
         let wd = (1.0 - self.metallic) * (1.0 - fr) * self.base.average().clamp(0.0, 1.0);
         if ws + wd > 0.0 { ws / (ws + wd) } else { 1.0 }

@@ -43,6 +43,7 @@ use glam::{Vec2, Vec3};
 pub use conductor::ConductorBxdf;
 pub use dielectric::{RoughDielectricBxdf, ThinDielectricBxdf};
 pub use gltf::GltfMetalRoughBxdf;
+pub(crate) use gltf::schlick;
 pub use microfacet::TrowbridgeReitz;
 pub use spectral_ior::{KNOWN_METALS, Metal};
 

@@ -690,6 +690,130 @@ fn gltf_energy_conserving_variant_keeps_a_white_dielectric_white() {
     }
 }
 
+/// The glTF model with `KHR_materials_specular`: F0 per lane `f0`, its largest over the spectrum `f0_max`.
+fn gltf_specular<const N: usize>(
+    base: f32,
+    roughness: f32,
+    weight: f32,
+    f0: [f32; N],
+    f0_max: f32,
+) -> GltfMetalRoughBxdf<N> {
+    GltfMetalRoughBxdf::new(SampledSpectrum([base; N]), 0.0, roughness, 1.5).with_specular(
+        weight,
+        SampledSpectrum(f0),
+        f0_max,
+    )
+}
+
+/// Appendix B's `specular_brdf` = D · V (its own formulas) and V·H, for a pair above the surface.
+fn appendix_b_specular(wo: Vec3, wi: Vec3, alpha: f32) -> (f32, f32) {
+    let h = (wo + wi).normalize();
+    let (nl, nv, nh) = (wi.z, wo.z, h.z);
+    let a2 = alpha * alpha;
+    let d = a2 / (PI * (nh * nh * (a2 - 1.0) + 1.0).powi(2));
+    let v = 0.5 / (nl * (nv * nv * (1.0 - a2) + a2).sqrt() + nv * (nl * nl * (1.0 - a2) + a2).sqrt());
+    (d * v, wo.dot(h))
+}
+
+#[test]
+fn gltf_specular_extension_is_the_formula_its_defaults_the_plain_model() {
+    let mut rng = TestRng::new(64);
+    let (base, roughness) = (0.6f32, 0.5f32);
+    let plain = GltfMetalRoughBxdf::new(SampledSpectrum([base]), 0.0, roughness, 1.5);
+    // The defaults (factor 1, white: F0 = 0.04 in every lane) are the plain model.
+    let defaults = gltf_specular(base, roughness, 1.0, [0.04], 0.04);
+    for _ in 0..200 {
+        let (a, b) = (rng.sphere(), rng.sphere());
+        let (wo, wi) = (Vec3::new(a.x, a.y, a.z.abs()), Vec3::new(b.x, b.y, b.z.abs()));
+        for (x, y) in [(plain, defaults), (plain.conserving(), defaults.conserving())] {
+            let (fx, fy) = (x.f(wo, wi).0[0], y.f(wo, wi).0[0]);
+            assert!((fx - fy).abs() <= 1e-6 * fx.abs(), "{wo} {wi}: {fx} vs {fy}");
+            assert!((x.pdf(wo, wi) - y.pdf(wo, wi)).abs() <= 1e-6 * x.pdf(wo, wi));
+        }
+    }
+    // Factor 0.5 and a coloured F0 (0.12 in this lane, 0.3 the spectrum's largest), as the extension
+    // writes it: fr = F0 + (1 − F0)(1 − V·H)⁵ per wavelength, the layer weight · fr, the diffuse layer
+    // 1 − weight · max(fr).
+    let (weight, f0, f0_max) = (0.5f32, 0.12f32, 0.3f32);
+    let (wo, wi) = (incident(40.0, false), Vec3::new(-0.3, 0.2, 0.9).normalize());
+    let (spec, vh) = appendix_b_specular(wo, wi, roughness * roughness);
+    let fr = |f0: f32| f0 + (1.0 - f0) * (1.0 - vh).powi(5);
+    let expected = (1.0 - weight * fr(f0_max)) * base / PI + weight * fr(f0) * spec;
+    let f = gltf_specular(base, roughness, weight, [f0], f0_max).f(wo, wi).0[0];
+    assert!((f - expected).abs() < 1e-5 * expected, "{f} vs {expected}");
+    // Factor 0 disables the layer: a pure diffuse material (the extension's words), exactly base / π,
+    // also with the albedo coupling.
+    let off = gltf_specular(base, roughness, 0.0, [0.04], 0.04).conserving();
+    for t in [0.0, 60.0, 85.0] {
+        let f = off.f(incident(t, false), wi).0[0];
+        assert!((f - base / PI).abs() < 1e-6, "θ {t}: {f}");
+    }
+}
+
+#[test]
+fn gltf_specular_colour_keeps_the_strongest_wavelength_white_in_a_furnace() {
+    // White base, coloured layer: the wavelength with the largest F0 reflects exactly 1 (the albedo
+    // coupling is computed for it, as the extension's max_value rule intends); one with a smaller F0
+    // reflects less, by what its layer misses: E_s(F0_max) − E_s(F0) at α = 0.25, μ = cos 30°.
+    let mut rng = TestRng::new(65);
+    let (f0_max, f0) = (0.3f32, 0.04f32);
+    let b = Bsdf::GltfMetalRough(gltf_specular(1.0, 0.5, 1.0, [f0_max, f0], f0_max).conserving());
+    let wo = incident(30.0, false);
+    let n = 40_000;
+    let (mut sum, mut sum2) = ([0.0f64; 2], [0.0f64; 2]);
+    for _ in 0..n {
+        if let Some(s) = b.sample_f(&FRAME, wo, rng.uniform(), rng.uniform2()) {
+            for l in 0..2 {
+                let w = f64::from(s.weight.0[l]);
+                sum[l] += w;
+                sum2[l] += w * w;
+            }
+        }
+    }
+    let mean = |l: usize| sum[l] / f64::from(n);
+    let se = |l: usize| ((sum2[l] / f64::from(n) - mean(l).powi(2)) / f64::from(n)).sqrt();
+    assert!((mean(0) - 1.0).abs() < 0.015 + 4.0 * se(0), "strongest lane: {} ± {}", mean(0), se(0));
+    let t = conductor_table();
+    let e_s = |f0: f64| f0 * f64::from(t.e(wo.z, 0.25)) + (1.0 - f0) * f64::from(t.e_schlick(wo.z, 0.25));
+    let expected = 1.0 - (e_s(f64::from(f0_max)) - e_s(f64::from(f0)));
+    assert!((mean(1) - expected).abs() < 0.015 + 4.0 * se(1), "weaker lane: {} ± {} vs {expected}", mean(1), se(1));
+    assert!(mean(1) < mean(0) - 0.05, "{} vs {}", mean(1), mean(0));
+}
+
+#[test]
+fn chi2_gltf_specular_extension() {
+    // Sampling reads the layer's scalar strength (weight · Schlick(F0_max)); the pdf must follow it.
+    chi2_family(&grid_cases(|a| {
+        vec![(
+            format!("glTF specular 0.6 F0 0.1/0.3 α {a}"),
+            Bsdf::GltfMetalRough(gltf_specular(0.8, a.sqrt(), 0.6, [0.1], 0.3).conserving()),
+            a,
+            false,
+        )]
+    }));
+}
+
+#[test]
+fn clearcoat_weight_is_schlick_of_index_1_5_and_its_lobe_the_uncompensated_white_ggx() {
+    let coat = crate::Coat { weight: 0.8, roughness: 0.3 };
+    assert!((coat.probability(1.0) - 0.8 * 0.04).abs() < 1e-7);
+    assert!((coat.probability(-1.0) - 0.8 * 0.04).abs() < 1e-7, "seen from either side");
+    assert!((coat.probability(0.0) - 0.8).abs() < 1e-7);
+    assert!((coat.probability(0.5) - 0.8 * (0.04 + 0.96 / 32.0)).abs() < 1e-7);
+    // The coat lobe's albedo is single-scattering GGX's E(μ, α) (the compensation tables' own
+    // quadrature), at α = roughness².
+    let mut rng = TestRng::new(66);
+    for roughness in [0.3f32, 0.7] {
+        let lobe = Bsdf::GltfMetalRough(GltfMetalRoughBxdf::<1>::clearcoat(roughness));
+        for t in [0.0f32, 60.0] {
+            let wo = incident(t, false);
+            let (e, se) = albedo(&lobe, wo, 20_000, &mut rng);
+            let table = f64::from(conductor_table().e(wo.z, roughness * roughness));
+            assert!((e - table).abs() < 0.01 + 4.0 * se, "roughness {roughness} θ {t}: {e} ± {se} vs {table}");
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------
 // Size of the per-hit value.
 
