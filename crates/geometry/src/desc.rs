@@ -202,6 +202,8 @@ pub struct MaterialTextures {
     pub emissive: Option<TextureDesc>,
     /// Coverage alone (the R channel, or luminance): MTL `map_d`.
     pub alpha: Option<TextureDesc>,
+    /// Linear; R = transmission (multiplying the factor): glTF `KHR_materials_transmission.transmissionTexture`.
+    pub transmission: Option<TextureDesc>,
 }
 
 impl MaterialTextures {
@@ -212,6 +214,7 @@ impl MaterialTextures {
             || self.normal.is_some()
             || self.emissive.is_some()
             || self.alpha.is_some()
+            || self.transmission.is_some()
     }
 }
 

@@ -772,9 +772,9 @@ impl Loader<'_> {
         }
         if let Some(t) = material.transmission() {
             m.transmission = Some(t.transmission_factor());
-            if t.transmission_texture().is_some() {
-                self.warn(format!("material '{name}': transmission texture ignored"));
-            }
+            m.textures.transmission = t.transmission_texture().and_then(|i| {
+                self.texture(&i.texture(), i.tex_coord(), transform(&i), 1.0, &format!("material '{name}'"))
+            });
         }
         // 0 is kept: it means Fresnel ≡ 1 (see IorDesc). KHR_materials_ior allows 0 or ≥ 1; a negative or
         // non-finite value is not an index of refraction at all.

@@ -1037,7 +1037,8 @@ fn material_model(
         // KHR_materials_transmission writes it; everything else is the metallic–roughness BRDF of Appendix B.
         MaterialFormat::Gltf => {
             let thin = !d.thickness.is_some_and(|t| t > 0.0);
-            if transmits && (p.kt < 1.0 || p.metallic > 0.0) {
+            // A transmission texture varies the factor over the surface: the blend, read per hit.
+            if transmits && (p.kt < 1.0 || p.metallic > 0.0 || d.textures.transmission.is_some()) {
                 // KHR_materials_transmission's blend: part glass, part the opaque BRDF.
                 MaterialModel::GltfTransmission {
                     metallic: p.metallic,

@@ -619,6 +619,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 } => {
                     let (metallic, roughness) =
                         textures.map_or((metallic, roughness), |t| t.metallic_roughness(hit.uv, metallic, roughness));
+                    let transmission = textures.map_or(transmission, |t| t.transmission(hit.uv, transmission));
                     let glass = (1.0 - metallic) * transmission;
                     let colour = match colors {
                         Some(c) => self.vertex_colored_base(&c, textures, hit.uv, id, lambda, last),

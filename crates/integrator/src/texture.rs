@@ -434,6 +434,8 @@ pub(crate) struct MaterialTextures {
     normal: Option<DataTexture>,
     /// MTL `map_d`: coverage from the R channel.
     coverage: Option<DataTexture>,
+    /// glTF `transmissionTexture`: R multiplies the transmission factor.
+    transmission: Option<DataTexture>,
     /// How alpha is used; `Opaque` skips every alpha lookup.
     alpha_mode: AlphaMode,
     /// The material's alpha factor where no texture gives alpha.
@@ -483,6 +485,12 @@ impl MaterialTextures {
         }
     }
 
+    /// The transmission factor `factor` at `uv`, times the texture's R where there is one.
+    #[inline]
+    pub(crate) fn transmission(&self, uv: Vec2, factor: f32) -> f32 {
+        self.transmission.as_ref().map_or(factor, |t| factor * t.eval(uv).x)
+    }
+
     /// The shading normal with the normal map applied, given the interpolated normal `ns`, the
     /// tangent (xyz) with the bitangent sign (w), and the geometric normal `n`; `ns` itself when
     /// there is no map or the mapped normal would face away from `n`.
@@ -512,6 +520,7 @@ impl MaterialTextures {
             || self.metallic_roughness.is_some()
             || self.normal.is_some()
             || self.coverage.is_some()
+            || self.transmission.is_some()
             || self.has_alpha()
     }
 
@@ -533,7 +542,10 @@ impl MaterialTextures {
 
     /// The decoded images the data textures read (shared between roles and materials).
     fn data_images(&self) -> impl Iterator<Item = &Arc<Image8>> {
-        [&self.metallic_roughness, &self.normal, &self.coverage].into_iter().flatten().map(|t| &t.image)
+        [&self.metallic_roughness, &self.normal, &self.coverage, &self.transmission]
+            .into_iter()
+            .flatten()
+            .map(|t| &t.image)
     }
 }
 
@@ -644,11 +656,13 @@ pub(crate) fn load_material_textures(
             let metallic_roughness = data(&textures.metallic_roughness, memory, warnings)?;
             let normal = data(&textures.normal, memory, warnings)?;
             let coverage = data(&textures.alpha, memory, warnings)?;
+            let transmission = data(&textures.transmission, memory, warnings)?;
             let set = MaterialTextures {
                 base_color,
                 metallic_roughness,
                 normal,
                 coverage,
+                transmission,
                 alpha_mode,
                 alpha_factor,
                 vertex_colors,

@@ -187,6 +187,42 @@ fn texture_transform_offset_moves_texels_as_the_extension_says() {
     assert_eq!(row(scaled, used), "rrggrrgg");
 }
 
+/// Issue 11: `KHR_materials_transmission`'s texture multiplies the factor per texel. Left texel R = 255
+/// (transmission 1: thin glass, which under a delta light and one bounce shows almost nothing), right texel
+/// R = 0 (opaque plastic). Each half renders as the untextured material of its transmission does.
+/// Before, the texture was ignored (with a warning) and the whole quad was glass.
+#[test]
+fn transmission_texture_multiplies_the_factor_per_texel() {
+    let dir = folder("transmission");
+    write_png(&dir.join("t.png"), 2, 1, &[[255, 0, 0, 255], [0, 0, 0, 255]]);
+    let textures =
+        r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "t.png"}]"#;
+    let used = r#""extensionsUsed": ["KHR_materials_transmission"],"#;
+    let material = |transmission: &str| {
+        format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [0.8, 0.6, 0.4, 1], "metallicFactor": 0, "roughnessFactor": 0.5}},
+               "extensions": {{"KHR_materials_transmission": {transmission}}}}}"#
+        )
+    };
+    let render = |m: &str| {
+        let gltf = write_gltf_quad(&dir, m, textures, used);
+        render_rgb(&scene_around(&dir, &gltf, [0.0, 0.0, -1.0], ""))
+    };
+    let textured = render(&material(r#"{"transmissionFactor": 1, "transmissionTexture": {"index": 0}}"#));
+    let glass = render(&material(r#"{"transmissionFactor": 1}"#));
+    let opaque = render(&material(r#"{"transmissionFactor": 0}"#));
+    let luminance = |rgb: [f64; 3]| 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    assert!(luminance(opaque[4][6]) > 10.0 * luminance(glass[4][1]).max(1e-3), "the two must differ");
+    for y in 0..8 {
+        for x in 0..8 {
+            let want = if x < 4 { glass[y][x] } else { opaque[y][x] };
+            let got = textured[y][x];
+            let (g, w) = (luminance(got), luminance(want));
+            assert!((g - w).abs() <= 0.02 * w + 1e-3, "pixel ({x}, {y}): {got:?} vs {want:?}");
+        }
+    }
+}
+
 #[test]
 fn mask_cut_outs_let_light_through_exactly_where_alpha_is_below_the_cutoff() {
     let dir = folder("mask");

@@ -62,14 +62,18 @@ pub struct GltfMetalRoughBxdf<const N: usize> {
     f0: f32,
     /// `KHR_materials_specular`'s `specularFactor` (1 without it): scales the dielectric layer's Fresnel.
     specular_weight: f32,
-    /// The dielectric layer's F0 per lane: `f0` in every lane, or `KHR_materials_specular`'s F0(λ).
-    /// (Always present rather than an `Option`: the model then stays no larger than the conductor, the
-    /// size of every [`super::Bsdf`]; the lane arithmetic gives the scalar one's bits.)
-    f0_lanes: SampledSpectrum<N>,
-    /// The albedo-scaled diffuse coupling instead of the spec's `fresnel_mix`, if chosen: the specular
-    /// layer's cosine-weighted average albedo E_s,avg (its tables are read at α = √(α_x α_y)).
-    conserving: Option<f32>,
+    /// `KHR_materials_specular`'s F0(λ) per lane, where the material has the extension (the scalar
+    /// arithmetic otherwise: per-lane Fresnel cost a glTF scene without it 0.3 % of its instructions).
+    f0_lanes: Option<SampledSpectrum<N>>,
+    /// The diffuse coupling: with albedo scaling, the specular layer's cosine-weighted average albedo
+    /// E_s,avg in [0, 1] (its tables read at α = √(α_x α_y)); [`SPEC_COUPLING`] for the spec's
+    /// `fresnel_mix`. (A plain number, not an `Option`: with the tag the model would be larger than the
+    /// conductor, and so every [`super::Bsdf`].)
+    coupling_avg: f32,
 }
+
+/// [`GltfMetalRoughBxdf::coupling_avg`] of the spec's `fresnel_mix` (any negative value).
+const SPEC_COUPLING: f32 = -1.0;
 
 impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// `base` the base colour as a reflectance spectrum, `metallic` and `roughness` in [0, 1]
@@ -85,8 +89,8 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
             distrib: TrowbridgeReitz::isotropic(roughness * roughness),
             f0,
             specular_weight: 1.0,
-            f0_lanes: SampledSpectrum([f0; N]),
-            conserving: None,
+            f0_lanes: None,
+            coupling_avg: SPEC_COUPLING,
         }
     }
 
@@ -104,7 +108,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         Self {
             f0: f0_max.clamp(0.0, 1.0),
             specular_weight: weight.clamp(0.0, 1.0),
-            f0_lanes: f0.map(|v| v.clamp(0.0, 1.0)),
+            f0_lanes: Some(f0.map(|v| v.clamp(0.0, 1.0))),
             ..self
         }
     }
@@ -118,7 +122,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// This model with the diffuse layer coupled by albedo scaling (see [`Self::energy_conserving`]).
     pub fn conserving(self) -> Self {
         let alpha = self.distrib.alpha_iso();
-        Self { conserving: Some(self.specular_albedo_avg(alpha)), ..self }
+        Self { coupling_avg: self.specular_albedo_avg(alpha), ..self }
     }
 
     /// The dielectric layer's Fresnel weight at `cos` for the diffuse coupling and sampling: its strongest
@@ -169,24 +173,29 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// (1 − metallic) F_dielectric + metallic F_conductor(base).
     #[inline]
     fn specular_fresnel(&self, vh: f32) -> SampledSpectrum<N> {
-        let weight = schlick_weight(vh);
-        let conductor = self.base + (SampledSpectrum([1.0; N]) - self.base) * weight;
-        let dielectric = self.f0_lanes + (SampledSpectrum([1.0; N]) - self.f0_lanes) * weight;
-        conductor * self.metallic + dielectric * ((1.0 - self.metallic) * self.specular_weight)
+        let conductor = self.base + (SampledSpectrum([1.0; N]) - self.base) * schlick_weight(vh);
+        match self.f0_lanes {
+            None => conductor * self.metallic + (1.0 - self.metallic) * self.dielectric_fresnel(vh),
+            Some(f0) => {
+                let dielectric = f0 + (SampledSpectrum([1.0; N]) - f0) * schlick_weight(vh);
+                conductor * self.metallic + dielectric * ((1.0 - self.metallic) * self.specular_weight)
+            }
+        }
     }
 
     /// The diffuse layer's value: (1 − metallic)(1 − F_dielectric(|V·H|)) base / π as the spec
     /// writes it, or the albedo-scaled coupling.
     #[inline]
     fn diffuse(&self, wo: Vec3, wi: Vec3, vh: f32) -> SampledSpectrum<N> {
-        let weight = match self.conserving {
-            Some(avg) if avg >= 1.0 => 0.0,
-            Some(avg) => {
-                let alpha = self.distrib.alpha_iso();
-                let (eo, ei) = (self.specular_albedo(wo.z, alpha), self.specular_albedo(wi.z, alpha));
-                ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - avg)
-            }
-            None => 1.0 - self.dielectric_fresnel(vh),
+        let avg = self.coupling_avg;
+        let weight = if avg < 0.0 {
+            1.0 - self.dielectric_fresnel(vh)
+        } else if avg >= 1.0 {
+            0.0
+        } else {
+            let alpha = self.distrib.alpha_iso();
+            let (eo, ei) = (self.specular_albedo(wo.z, alpha), self.specular_albedo(wi.z, alpha));
+            ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - avg)
         };
         self.base * ((1.0 - self.metallic) * weight * FRAC_1_PI)
     }
