@@ -160,6 +160,16 @@ fn hard_cases_render_finite() {
     let mut tiny = gltf_material(Some(1.0), Some(0.01));
     tiny.base_color = Some(SpectrumDesc::Rgb([0.9, 0.6, 0.3]));
     path_render(&sphere_scene(tiny), SpectralMode::Hero { count: 8 }, 2);
+    // Polished and rough clear coats over a coloured specular layer (sphere edges are grazing), and over
+    // glass.
+    for coat_roughness in [0.0, 0.01, 0.6] {
+        let mut coated = gltf_material(Some(0.0), Some(0.02));
+        coated.specular_layer = Some(geometry::SpecularLayer { factor: 0.7, color: [3.0, 0.5, 0.0] });
+        coated.clearcoat = Some(geometry::Clearcoat { factor: 1.0, roughness: coat_roughness });
+        path_render(&sphere_scene(coated.clone()), SpectralMode::Hero { count: 4 }, 2);
+        coated.transmission = Some(0.5);
+        path_render(&sphere_scene(coated), SpectralMode::Rgb, 2);
+    }
 }
 
 /// The model each format's material gets (`docs/scene-format.md`, "Material models").
