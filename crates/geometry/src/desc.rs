@@ -204,6 +204,12 @@ pub struct MaterialTextures {
     pub alpha: Option<TextureDesc>,
     /// Linear; R = transmission (multiplying the factor): glTF `KHR_materials_transmission.transmissionTexture`.
     pub transmission: Option<TextureDesc>,
+    /// Linear; A = the specular layer's strength (× `specularFactor`): `KHR_materials_specular.specularTexture`.
+    pub specular: Option<TextureDesc>,
+    /// Linear; R = the coat's weight (× `clearcoatFactor`): `KHR_materials_clearcoat.clearcoatTexture`.
+    pub clearcoat: Option<TextureDesc>,
+    /// Linear; G = the coat's roughness (× its factor): `KHR_materials_clearcoat.clearcoatRoughnessTexture`.
+    pub clearcoat_roughness: Option<TextureDesc>,
 }
 
 impl MaterialTextures {
@@ -215,6 +221,9 @@ impl MaterialTextures {
             || self.emissive.is_some()
             || self.alpha.is_some()
             || self.transmission.is_some()
+            || self.specular.is_some()
+            || self.clearcoat.is_some()
+            || self.clearcoat_roughness.is_some()
     }
 }
 

@@ -846,12 +846,7 @@ impl Loader<'_> {
             m.alpha = Some(a);
             m.metallic = Some(0.0);
             m.roughness = Some(1.0 - sg.get("glossinessFactor").and_then(number).unwrap_or(1.0).clamp(0.0, 1.0));
-            let texture = sg.get("diffuseTexture").and_then(|t| {
-                let index = usize::try_from(t.get("index")?.as_u64()?).ok()?;
-                let set = t.get("texCoord").and_then(serde_json::Value::as_u64).unwrap_or(0) as u32;
-                Some((document.textures().nth(index)?, set))
-            });
-            m.textures.base_color = texture.and_then(|(t, set)| self.texture(&t, set, None, 1.0, &context));
+            m.textures.base_color = self.raw_texture(sg.get("diffuseTexture"), document, &context);
             self.warn(format!(
                 "{context}: KHR_materials_pbrSpecularGlossiness converted to metallic-roughness (diffuse → base colour, roughness = 1 − glossiness, metallic 0; specular colour and specularGlossinessTexture ignored)"
             ));
@@ -868,9 +863,15 @@ impl Loader<'_> {
         }
         if let Some(value) = material.extension_value("KHR_materials_specular") {
             m.specular_layer = self.specular_layer(value, &context);
+            m.textures.specular = self.raw_texture(value.get("specularTexture"), document, &context);
         }
         if let Some(value) = material.extension_value("KHR_materials_clearcoat") {
             m.clearcoat = self.clearcoat(value, &context);
+            if m.clearcoat.is_some() {
+                m.textures.clearcoat = self.raw_texture(value.get("clearcoatTexture"), document, &context);
+                m.textures.clearcoat_roughness =
+                    self.raw_texture(value.get("clearcoatRoughnessTexture"), document, &context);
+            }
         }
         for (extension, what) in [
             ("KHR_materials_sheen", "sheen"),
@@ -902,6 +903,29 @@ impl Loader<'_> {
         }
     }
 
+    /// A material extension's `textureInfo` (`index`, `texCoord`, `KHR_texture_transform`), read from its raw
+    /// JSON (the `gltf` crate types only the core roles); `None` where absent, and with a warning where it
+    /// names no texture of the file.
+    fn raw_texture(
+        &mut self,
+        info: Option<&serde_json::Value>,
+        document: &gltf::Document,
+        context: &str,
+    ) -> Option<TextureDesc> {
+        let info = info?;
+        let texture = info.get("index").and_then(serde_json::Value::as_u64).and_then(|i| {
+            let i = usize::try_from(i).ok()?;
+            document.textures().nth(i)
+        });
+        let Some(texture) = texture else {
+            self.warn(format!("{context}: texture {info} names no texture of the file; ignored"));
+            return None;
+        };
+        let set = info.get("texCoord").and_then(serde_json::Value::as_u64).unwrap_or(0) as u32;
+        let transform = info.get("extensions").and_then(|e| e.get("KHR_texture_transform")).and_then(transform_value);
+        self.texture(&texture, set, transform, 1.0, context)
+    }
+
     /// Warn once per texture key of an extension that is present: its factors are read, its textures not.
     fn warn_extension_textures(&mut self, value: &serde_json::Value, extension: &str, keys: &[&str], context: &str) {
         let present: Vec<&str> = keys.iter().copied().filter(|k| value.get(*k).is_some()).collect();
@@ -914,7 +938,7 @@ impl Loader<'_> {
     /// component ≥ 0: the extension lets it exceed 1).
     fn specular_layer(&mut self, value: &serde_json::Value, context: &str) -> Option<SpecularLayer> {
         const EXT: &str = "KHR_materials_specular";
-        self.warn_extension_textures(value, EXT, &["specularTexture", "specularColorTexture"], context);
+        self.warn_extension_textures(value, EXT, &["specularColorTexture"], context);
         let factor = self.factor(value, "specularFactor", 1.0, 1.0, context);
         let color = match value.get("specularColorFactor") {
             None => [1.0; 3],
@@ -939,12 +963,7 @@ impl Loader<'_> {
     /// `KHR_materials_clearcoat`: `clearcoatFactor` (default 0: no coat) and `clearcoatRoughnessFactor`
     /// (default 0).
     fn clearcoat(&mut self, value: &serde_json::Value, context: &str) -> Option<Clearcoat> {
-        self.warn_extension_textures(
-            value,
-            "KHR_materials_clearcoat",
-            &["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"],
-            context,
-        );
+        self.warn_extension_textures(value, "KHR_materials_clearcoat", &["clearcoatNormalTexture"], context);
         let factor = self.factor(value, "clearcoatFactor", 0.0, 1.0, context);
         let roughness = self.factor(value, "clearcoatRoughnessFactor", 0.0, 1.0, context);
         (factor > 0.0).then_some(Clearcoat { factor, roughness })

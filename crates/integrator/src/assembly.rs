@@ -1074,9 +1074,9 @@ fn material_model(
 /// `KHR_materials_specular` on a glTF dielectric layer of index `ior` (at n_d): F0(λ) = min(F0_ior ·
 /// colour(λ), 1) with F0_ior = ((n − 1)/(n + 1))² (1 in `KHR_materials_ior`'s mode 0). The colour may exceed 1:
 /// it is upsampled as a reflectance at its largest component's scale. `None` for the extension's defaults
-/// (factor 1, white), which are the plain layer.
-fn dielectric_specular(layer: &geometry::SpecularLayer, ior: &Ior) -> Option<DielectricSpecular> {
-    if layer.factor == 1.0 && layer.color == [1.0; 3] {
+/// (factor 1, white, no `specularTexture`), which are the plain layer.
+fn dielectric_specular(layer: &geometry::SpecularLayer, ior: &Ior, textured: bool) -> Option<DielectricSpecular> {
+    if layer.factor == 1.0 && layer.color == [1.0; 3] && !textured {
         return None;
     }
     let n = ior.eval(materials::LAMBDA_D);
@@ -1259,7 +1259,10 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         // glTF's doubleSided defaults to false; the manifest's `double_sided` and OBJ default to both sides.
         two_sided: desc.double_sided.unwrap_or(desc.format != MaterialFormat::Gltf),
         multiple_scattering: desc.multiple_scattering.unwrap_or(true),
-        dielectric_specular: desc.specular_layer.as_ref().and_then(|l| dielectric_specular(l, &ior)),
+        dielectric_specular: desc
+            .specular_layer
+            .as_ref()
+            .and_then(|l| dielectric_specular(l, &ior, desc.textures.specular.is_some())),
         coat: desc.clearcoat.map(|c| Coat { weight: c.factor, roughness: c.roughness }),
     };
     material.validate().map_err(wrap)?;

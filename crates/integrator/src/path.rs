@@ -560,7 +560,19 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             };
             let frame = Frame { n: hit.n, ns };
             // A clear coat is picked with its share of the light seen from `wo`, the material otherwise.
-            let coated = if ROUGH { m.coat.filter(|c| rng.uniform() < c.probability(wo.dot(ns))) } else { None };
+            let coated = if ROUGH {
+                let coat = m.coat.map(|c| textures.map_or(c, |t| t.coat(hit.uv, c)));
+                coat.filter(|c| rng.uniform() < c.probability(wo.dot(ns)))
+            } else {
+                None
+            };
+            // `KHR_materials_specular`'s strength at the hit.
+            let textured_specular = |s: Option<SpecularLayer>| {
+                s.map(|s| SpecularLayer {
+                    weight: textures.map_or(s.weight, |t| t.specular_weight(hit.uv, s.weight)),
+                    ..s
+                })
+            };
             let bsdf = match m.scattering {
                 _ if let Some(c) = coated => Bsdf::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(c.roughness)),
                 PathScattering::Diffuse { r } => Bsdf::Lambertian {
@@ -606,6 +618,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         Some(c) => self.vertex_colored_base(&c, textures, hit.uv, id, lambda, last),
                         None => base(id, lambda, last),
                     };
+                    let specular = textured_specular(specular);
                     Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular, lambda))
                 }
                 PathScattering::GltfTransmission {
@@ -640,6 +653,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     } else {
                         // What is not glass: metallic / (1 − glass) of it is metal (glass < 1 here).
                         let metal = if glass < 1.0 { metallic / (1.0 - glass) } else { 1.0 };
+                        let specular = textured_specular(specular);
                         Bsdf::GltfMetalRough(self.metal_rough(colour, metal.min(1.0), roughness, ior, specular, lambda))
                     }
                 }

@@ -18,6 +18,7 @@ use std::sync::Arc;
 use colorimetry::{RgbSigmoid, SampledSpectrum, SampledWavelengths, srgb_decode};
 use geometry::{AlphaMode, ImageDesc, MaterialDesc, MemoryBudget, TextureDesc, WrapMode};
 use glam::{Vec2, Vec3, Vec4};
+use materials::Coat;
 use rayon::prelude::*;
 
 /// Largest image side decoded (pixels): 16 K, the largest texture GPUs address; beyond it a
@@ -436,6 +437,11 @@ pub(crate) struct MaterialTextures {
     coverage: Option<DataTexture>,
     /// glTF `transmissionTexture`: R multiplies the transmission factor.
     transmission: Option<DataTexture>,
+    /// `specularTexture`: A multiplies `specularFactor`.
+    specular: Option<DataTexture>,
+    /// `clearcoatTexture` (R × the coat's weight) and `clearcoatRoughnessTexture` (G × its roughness).
+    clearcoat: Option<DataTexture>,
+    clearcoat_roughness: Option<DataTexture>,
     /// How alpha is used; `Opaque` skips every alpha lookup.
     alpha_mode: AlphaMode,
     /// The material's alpha factor where no texture gives alpha.
@@ -491,6 +497,22 @@ impl MaterialTextures {
         self.transmission.as_ref().map_or(factor, |t| factor * t.eval(uv).x)
     }
 
+    /// The specular layer's strength `factor` at `uv`, times the texture's A where there is one.
+    #[inline]
+    pub(crate) fn specular_weight(&self, uv: Vec2, factor: f32) -> f32 {
+        self.specular.as_ref().map_or(factor, |t| factor * t.eval(uv).w)
+    }
+
+    /// The coat at `uv`: its weight times the coat texture's R, its roughness times the roughness
+    /// texture's G, where there are such textures.
+    #[inline]
+    pub(crate) fn coat(&self, uv: Vec2, coat: Coat) -> Coat {
+        Coat {
+            weight: self.clearcoat.as_ref().map_or(coat.weight, |t| coat.weight * t.eval(uv).x),
+            roughness: self.clearcoat_roughness.as_ref().map_or(coat.roughness, |t| coat.roughness * t.eval(uv).y),
+        }
+    }
+
     /// The shading normal with the normal map applied, given the interpolated normal `ns`, the
     /// tangent (xyz) with the bitangent sign (w), and the geometric normal `n`; `ns` itself when
     /// there is no map or the mapped normal would face away from `n`.
@@ -521,6 +543,9 @@ impl MaterialTextures {
             || self.normal.is_some()
             || self.coverage.is_some()
             || self.transmission.is_some()
+            || self.specular.is_some()
+            || self.clearcoat.is_some()
+            || self.clearcoat_roughness.is_some()
             || self.has_alpha()
     }
 
@@ -542,10 +567,18 @@ impl MaterialTextures {
 
     /// The decoded images the data textures read (shared between roles and materials).
     fn data_images(&self) -> impl Iterator<Item = &Arc<Image8>> {
-        [&self.metallic_roughness, &self.normal, &self.coverage, &self.transmission]
-            .into_iter()
-            .flatten()
-            .map(|t| &t.image)
+        [
+            &self.metallic_roughness,
+            &self.normal,
+            &self.coverage,
+            &self.transmission,
+            &self.specular,
+            &self.clearcoat,
+            &self.clearcoat_roughness,
+        ]
+        .into_iter()
+        .flatten()
+        .map(|t| &t.image)
     }
 }
 
@@ -657,12 +690,18 @@ pub(crate) fn load_material_textures(
             let normal = data(&textures.normal, memory, warnings)?;
             let coverage = data(&textures.alpha, memory, warnings)?;
             let transmission = data(&textures.transmission, memory, warnings)?;
+            let specular = data(&textures.specular, memory, warnings)?;
+            let clearcoat = data(&textures.clearcoat, memory, warnings)?;
+            let clearcoat_roughness = data(&textures.clearcoat_roughness, memory, warnings)?;
             let set = MaterialTextures {
                 base_color,
                 metallic_roughness,
                 normal,
                 coverage,
                 transmission,
+                specular,
+                clearcoat,
+                clearcoat_roughness,
                 alpha_mode,
                 alpha_factor,
                 vertex_colors,

@@ -223,6 +223,59 @@ fn transmission_texture_multiplies_the_factor_per_texel() {
     }
 }
 
+/// Issue 12: the textures of `KHR_materials_specular` (A × `specularFactor`) and `KHR_materials_clearcoat`
+/// (R × `clearcoatFactor`) vary those factors per texel: with the left texel 1 and the right 0, each half
+/// renders as the untextured material with that factor does. The specular layer over a black base is
+/// all the reflection there is, so its off half is exactly black. Before, both textures were ignored
+/// (with a warning) and the whole quad had the factor.
+#[test]
+fn specular_and_clearcoat_textures_multiply_their_factors_per_texel() {
+    let dir = folder("specular-coat");
+    write_png(&dir.join("on_off.png"), 2, 1, &[[255, 0, 0, 255], [0, 0, 0, 0]]);
+    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "on_off.png"}]"#;
+    let used = r#""extensionsUsed": ["KHR_materials_specular", "KHR_materials_clearcoat"],"#;
+    let material = |base: &str, extensions: &str| {
+        format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": {base}, "metallicFactor": 0, "roughnessFactor": 0.6}},
+               "extensions": {{{extensions}}}}}"#
+        )
+    };
+    let render = |m: &str| {
+        let gltf = write_gltf_quad(&dir, m, textures, used);
+        render_rgb(&scene_around(&dir, &gltf, [0.2, 0.1, -1.0], ""))
+    };
+    let luminance = |rgb: [f64; 3]| 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    let halves_match = |textured: &[Vec<[f64; 3]>], on: &[Vec<[f64; 3]>], off: &[Vec<[f64; 3]>], what: &str| {
+        for y in 0..8 {
+            for x in 0..8 {
+                let want = luminance(if x < 4 { on[y][x] } else { off[y][x] });
+                let got = luminance(textured[y][x]);
+                assert!((got - want).abs() <= 0.02 * want + 1e-4, "{what} pixel ({x}, {y}): {got} vs {want}");
+            }
+        }
+    };
+    let black = "[0, 0, 0, 1]";
+    let layer = render(&material(black, r#""KHR_materials_specular": {"specularFactor": 1}"#));
+    let none = render(&material(black, r#""KHR_materials_specular": {"specularFactor": 0}"#));
+    assert!(none.iter().flatten().all(|p| *p == [0.0; 3]), "specular 0 over black reflects nothing");
+    assert!(luminance(layer[4][2]) > 1e-3, "the layer must show");
+    let textured = render(&material(black, r#""KHR_materials_specular": {"specularTexture": {"index": 0}}"#));
+    halves_match(&textured, &layer, &none, "specular");
+    let red = "[0.7, 0.1, 0.1, 1]";
+    let coated =
+        render(&material(red, r#""KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.5}"#));
+    let bare = render(&material(red, r#""KHR_materials_clearcoat": {"clearcoatFactor": 0}"#));
+    let textured = render(&material(
+        red,
+        r#""KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.5, "clearcoatTexture": {"index": 0}}"#,
+    ));
+    let total = |image: &[Vec<[f64; 3]>]| image.iter().flatten().map(|p| luminance(*p)).sum::<f64>();
+    let (with, without) = (total(&coated), total(&bare));
+    eprintln!("coated / bare quad luminance: {}", with / without);
+    assert!((with - without).abs() > 0.03 * without, "the coat must show: {with} vs {without}");
+    halves_match(&textured, &coated, &bare, "clearcoat");
+}
+
 #[test]
 fn mask_cut_outs_let_light_through_exactly_where_alpha_is_below_the_cutoff() {
     let dir = folder("mask");
