@@ -22,40 +22,23 @@ with each other (the systematic difference between the two renderers).
 """
 
 import argparse
-import csv
 import json
 import os
 import subprocess
+import sys
 import time
 from pathlib import Path
 
-import colour
 import drjit as dr
 import mitsuba as mi
 import numpy as np
-import OpenEXR
 
-ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from mitsuba_common import GRID, ROOT, delta_e00, held, illuminant, read_csv, read_spectrace_exr, spectrum  # noqa: E402
+
 SCENE = ROOT / "scenes/reference/cornell_box.json"
 
 mi.set_variant("scalar_spectral")
-
-
-def read_csv(name):
-    with open(ROOT / "data" / name) as f:
-        rows = list(csv.reader(f))
-    header, body = rows[0], [[float(v) for v in r] for r in rows[1:]]
-    return header, np.array(body)
-
-
-def held(lam, values, grid):
-    """Linear interpolation holding the end values (spectrace's `held_to_visible`)."""
-    return np.interp(grid, lam, values)
-
-
-GRID = np.arange(360.0, 831.0, 1.0)
-_, CMF = read_csv("cie1931_2deg_xyz_cmf_1nm.csv")
-YBAR = np.interp(GRID, CMF[:, 0], CMF[:, 2])
 
 
 def reflectance(name):
@@ -67,14 +50,7 @@ def reflectance(name):
 
 def emission(name, strength):
     assert name == "A", name
-    _, table = read_csv("cie_a_1nm.csv")
-    s = held(table[:, 0], table[:, 1], GRID)
-    # Luminance-normalised (sum S ybar = sum ybar at 1 nm), times the strength.
-    return s * (YBAR.sum() / (s * YBAR).sum()) * strength
-
-
-def spectrum(values):
-    return {"type": "spectrum", "value": [(float(l), float(v)) for l, v in zip(GRID, values)]}
+    return illuminant("cie_a_1nm.csv", strength)
 
 
 def rectangle(corner, eu, ev, bsdf, emitter=None, flip=False, lift=0.0):
@@ -150,11 +126,6 @@ def render_mitsuba(manifest, spp, width, height, seed):
     return np.array(image)[:, :, :3].astype(np.float64), seconds
 
 
-SRGB_TO_XYZ = np.array(
-    [[0.4124564, 0.3575761, 0.1804375], [0.2126729, 0.7151522, 0.0721750], [0.0193339, 0.1191920, 0.9503041]]
-)
-
-
 def render_spectrace(binary, spp, width, height, seed, threads, spectral, out):
     exr = out / f"spectrace_{spectral.replace(':', '')}_{spp}.exr"
     cmd = [str(binary), "render", str(SCENE), "--integrator", "path", "--spp", str(spp), "--seed", str(seed)]
@@ -165,17 +136,11 @@ def render_spectrace(binary, spp, width, height, seed, threads, spectral, out):
     start = time.perf_counter()
     subprocess.run(cmd, check=True)
     seconds = time.perf_counter() - start
-    with OpenEXR.File(str(exr)) as f:
-        rgb = np.asarray(f.channels()["RGB"].pixels, dtype=np.float64)[:, :, :3]
-    return rgb @ SRGB_TO_XYZ.T, seconds
+    return read_spectrace_exr(exr), seconds
 
 
 def errors(image, reference):
-    white = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
-    xy_white = colour.XYZ_to_xy(white)
-    lab = colour.XYZ_to_Lab(np.clip(image, 0, None), xy_white)
-    lab_ref = colour.XYZ_to_Lab(np.clip(reference, 0, None), xy_white)
-    de = colour.delta_E(lab, lab_ref, method="CIE 2000")
+    de = delta_e00(image, reference)
     y, y_ref = image[:, :, 1], reference[:, :, 1]
     rel_mse = float(np.mean((y - y_ref) ** 2 / (y_ref**2 + 1e-2)))
     return float(de.mean()), float(np.percentile(de, 95)), rel_mse
