@@ -18,8 +18,8 @@ Rows (spectrace manifest material ↔ Mitsuba BSDF), GGX α = r² with r spectra
 - conductor Au, Cu (the tables of data/metals/ given to Mitsuba as `irregular` η and k),
   α 0.1, 0.3, 0.6, "multiple_scattering": false ↔ roughconductor ggx (the same model), and
   spectrace's default (Kulla–Conty compensation on: not the same model);
-- dielectric IOR 1.5, α 0.1, 0.3, "transmittance": 1 (clear; the default is the base colour,
-  0.5), the same way ↔ roughdielectric;
+- dielectric IOR 1.5, α 0.1, 0.3, "transmittance": 1 (clear, as the default now is; binaries before
+  the fix tinted it by the base colour, 0.5), the same way ↔ roughdielectric;
 - glossy plastic: spectrace's gltf_metal_rough (glTF Appendix B, metallic 0, base colour 0.5,
   ior 1.5; a UV-sphere mesh written as glTF, and the same mesh as PLY for Mitsuba) ↔ principled
   (metallic 0, specular 0.5, i.e. F0 0.04) and ↔ roughplastic (int_ior 1.5, diffuse 0.5). Not the
@@ -98,7 +98,7 @@ def rows(plastic_alphas):
                 bsdf = {"type": "roughconductor", "distribution": "ggx", "alpha": alpha, "eta": eta, "k": k}
                 out.append((f"conductor {metal}{suffix}", alpha, same, mat, bsdf))
         for alpha in (0.1, 0.3):
-            # `transmittance` 1: without it a manifest dielectric is tinted by `base_color` (default 0.5).
+            # `transmittance` 1, explicit: older binaries tinted a bare manifest dielectric by `base_color`.
             mat = {"model": "dielectric", "ior": 1.5, "transmittance": 1.0, "roughness": float(np.sqrt(alpha))}
             if not compensated:
                 mat["multiple_scattering"] = False

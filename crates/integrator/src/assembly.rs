@@ -1201,12 +1201,14 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         (None, Some(metal)) => metal.normal_reflectance(),
         (None, None) => DenselySampledSpectrum::constant(1.0),
     };
-    // glTF tints transmitted light by the base colour; a manifest may give its own spectrum; MTL glass
-    // without `Tf` is clear (its `Kd` is the colour of the diffuse part, often black for glass).
+    // glTF tints transmitted light by the base colour; a manifest without `transmittance` is clear glass (as
+    // documented, and as pbrt-v4 and Mitsuba 3 default: it was tinted by the diffuse colour, 0.5 unless
+    // given, which halved the light at each crossing); MTL glass without `Tf` is clear (its `Kd` is the
+    // colour of the diffuse part, often black for glass).
     let transmittance = match (&desc.transmittance, desc.format) {
         (Some(s), _) => reflectance_spectrum(s).map_err(wrap)?,
-        (None, MaterialFormat::Mtl) => DenselySampledSpectrum::constant(1.0),
-        (None, _) => diffuse.clone(),
+        (None, MaterialFormat::Mtl | MaterialFormat::Manifest) => DenselySampledSpectrum::constant(1.0),
+        (None, MaterialFormat::Gltf) => diffuse.clone(),
     };
     let mut ior = match p.ior {
         IorDesc::Constant(n) => Ior::Constant(n),
@@ -1329,6 +1331,25 @@ mod tests {
 
     /// Issue 16: every light or emission spectrum was rescaled to luminance 1, so a measured
     /// radiance could not be used as is. `"normalize": false` keeps the values (× intensity).
+    #[test]
+    fn a_manifest_dielectric_without_transmittance_is_clear() {
+        // Found by the Mitsuba comparison: a bare `{"model": "dielectric"}` was tinted by the default
+        // base colour 0.5 (0.125 of the environment through the centre of a sphere instead of 0.5).
+        let scene = assemble(
+            r#"{"materials": {"glass": {"model": "dielectric", "ior": 1.5}, "grey": {"model": "dielectric", "base_color": 0.3}},
+                "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "glass"},
+                            {"type": "sphere", "center": [3, 0, 0], "radius": 1, "material": "grey"}]}"#,
+        );
+        for m in scene.materials() {
+            assert!(
+                m.transmittance.values().iter().all(|&v| v == 1.0),
+                "{}: {:?}",
+                m.name,
+                m.transmittance.values()[0]
+            );
+        }
+    }
+
     #[test]
     fn absolute_spectra_keep_their_values_and_normalised_ones_have_unit_luminance() {
         let scene = |normalize: &str| {
