@@ -14,7 +14,8 @@ use crate::assembly::RenderScene;
 /// Keys: `triangles`, `spheres`, `meshes`, `materials` (each with `name`, `model` (the assembled
 /// [`materials::MaterialModel`]), `model_key` (the manifest's `model` as written, if any), `uses`: `transmission`,
 /// `absorption`, `dispersion`, `emission`, `vertex_colors` (a mesh's vertex colours multiply its base
-/// colour), and its spectra), `lights`, `camera`, `bounds` (`min`, `max`),
+/// colour), `clearcoat` and `specular_layer` (glTF `KHR_materials_clearcoat`, `KHR_materials_specular` other than
+/// its defaults), and its spectra), `lights`, `camera`, `bounds` (`min`, `max`),
 /// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `memory` (`charged_bytes`, `budget_bytes`:
 /// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `warnings`, and `needs`:
 /// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
@@ -130,6 +131,8 @@ fn material_json(d: &MaterialDesc, m: &Material, used: bool, vertex_colors: bool
             "dispersion": m.is_dispersive(),
             "emission": m.emits(),
             "vertex_colors": vertex_colors,
+            "clearcoat": m.coat.is_some(),
+            "specular_layer": m.dielectric_specular.is_some(),
         },
         "ior": d.ior.as_ref().map(ior_json),
         "spectra": d.spectra().into_iter().map(|(k, s)| json!({"field": k, "spectrum": s.label()})).collect::<Vec<_>>(),
@@ -200,6 +203,27 @@ mod tests {
         let desc = geometry::parse_manifest(json, Path::new("."), "t.json").unwrap_or_else(|e| panic!("{e}"));
         let scene = RenderScene::from_description(desc.clone()).unwrap_or_else(|e| panic!("{e}"));
         summarize(&desc, &scene)
+    }
+
+    /// `info` says which glTF materials carry a clear coat or a (non-default) specular layer.
+    #[test]
+    fn clearcoat_and_specular_layer_are_reported() {
+        let mut d = SceneDescription::empty(geometry::SceneFormat::Gltf);
+        d.spheres.push(geometry::Sphere::new(glam::Vec3::ZERO, 1.0, Some(0)).unwrap());
+        d.spheres.push(geometry::Sphere::new(glam::Vec3::X * 3.0, 1.0, Some(1)).unwrap());
+        let mut coated = MaterialDesc::new("coated", geometry::MaterialFormat::Gltf);
+        coated.clearcoat = Some(geometry::Clearcoat { factor: 0.5, roughness: 0.1 });
+        coated.specular_layer = Some(geometry::SpecularLayer { factor: 0.5, color: [1.0; 3] });
+        let mut plain = MaterialDesc::new("plain", geometry::MaterialFormat::Gltf);
+        plain.specular_layer = Some(geometry::SpecularLayer { factor: 1.0, color: [1.0; 3] });
+        d.materials.extend([coated, plain]);
+        let scene = RenderScene::from_description(d.clone()).unwrap_or_else(|e| panic!("{e}"));
+        let s = summarize(&d, &scene);
+        assert_eq!(s["materials"][0]["uses"]["clearcoat"], json!(true));
+        assert_eq!(s["materials"][0]["uses"]["specular_layer"], json!(true));
+        // The extension's defaults are the plain layer: nothing to report.
+        assert_eq!(s["materials"][1]["uses"]["clearcoat"], json!(false));
+        assert_eq!(s["materials"][1]["uses"]["specular_layer"], json!(false));
     }
 
     /// Issue 10: `info` reports the assembled model and the one `is_transmissive`. `"model": "dielectric"`
