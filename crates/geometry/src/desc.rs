@@ -236,6 +236,13 @@ pub struct SpecularLayer {
     pub color: [f32; 3],
 }
 
+impl SpecularLayer {
+    /// Whether these are the extension's defaults (factor 1, white), which are the plain layer.
+    pub fn is_default(&self) -> bool {
+        self.factor == 1.0 && self.color == [1.0; 3]
+    }
+}
+
 /// glTF `KHR_materials_clearcoat`'s factors, as written (textures are not read: the loader warns).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Clearcoat {

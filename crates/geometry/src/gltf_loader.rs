@@ -26,7 +26,8 @@ use crate::limits::{BYTES_PER_INSTANCE, BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Bu
 use crate::shapes::{Instances, Mesh};
 
 /// Extensions whose data we read; a file that *requires* anything else is refused.
-/// `KHR_materials_dispersion`, `_specular` and `_clearcoat` are read from the raw extension map (the `gltf` crate has no typed accessor).
+/// `KHR_materials_dispersion`, `_specular` and `_clearcoat` are read from the raw extension map (the `gltf`
+/// crate has no typed accessor).
 const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_transmission",
@@ -34,7 +35,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_materials_emissive_strength",
     "KHR_materials_dispersion",
-    // Their factors (their textures are ignored with a warning).
+    // Factors and textures (`specularColorTexture` and `clearcoatNormalTexture` are ignored with a warning).
     "KHR_materials_specular",
     "KHR_materials_clearcoat",
     // Read in full (offset, rotation, scale, texCoord); Blender marks it required whenever a Mapping
@@ -770,11 +771,12 @@ impl Loader<'_> {
             m.emission = Some(SpectrumDesc::Rgb(emissive));
             m.emission_strength = material.emissive_strength();
         }
+        let context = format!("material '{name}'");
         if let Some(t) = material.transmission() {
             m.transmission = Some(t.transmission_factor());
-            m.textures.transmission = t.transmission_texture().and_then(|i| {
-                self.texture(&i.texture(), i.tex_coord(), transform(&i), 1.0, &format!("material '{name}'"))
-            });
+            m.textures.transmission = t
+                .transmission_texture()
+                .and_then(|i| self.texture(&i.texture(), i.tex_coord(), transform(&i), 1.0, &context));
         }
         // 0 is kept: it means Fresnel ≡ 1 (see IorDesc). KHR_materials_ior allows 0 or ≥ 1; a negative or
         // non-finite value is not an index of refraction at all.
@@ -799,17 +801,11 @@ impl Loader<'_> {
             }
         }
         if let Some(value) = material.extension_value("KHR_materials_dispersion") {
-            match value.get("dispersion").and_then(serde_json::Value::as_f64) {
-                Some(d) if d.is_finite() && d >= 0.0 => m.dispersion = Some(d as f32),
-                None if value.get("dispersion").is_none() => {} // the extension's default, 0
-                _ => self.warn(format!(
-                    "material '{name}': KHR_materials_dispersion.dispersion must be a number ≥ 0; ignored"
-                )),
-            }
+            // The extension's default, 0, is no dispersion.
+            m.dispersion = Some(self.factor(value, "dispersion", 0.0, f32::INFINITY, &context)).filter(|&d| d > 0.0);
         }
         m.extras = extras_value(material.extras());
 
-        let context = format!("material '{name}'");
         m.textures.base_color = pbr
             .base_color_texture()
             .and_then(|t| self.texture(&t.texture(), t.tex_coord(), transform(&t), 1.0, &context));
@@ -862,7 +858,7 @@ impl Loader<'_> {
             ));
         }
         if let Some(value) = material.extension_value("KHR_materials_specular") {
-            m.specular_layer = self.specular_layer(value, &context);
+            m.specular_layer = Some(self.specular_layer(value, &context));
             m.textures.specular = self.raw_texture(value.get("specularTexture"), document, &context);
         }
         if let Some(value) = material.extension_value("KHR_materials_clearcoat") {
@@ -936,7 +932,7 @@ impl Loader<'_> {
 
     /// `KHR_materials_specular`: `specularFactor` (default 1) and `specularColorFactor` (default white, each
     /// component ≥ 0: the extension lets it exceed 1).
-    fn specular_layer(&mut self, value: &serde_json::Value, context: &str) -> Option<SpecularLayer> {
+    fn specular_layer(&mut self, value: &serde_json::Value, context: &str) -> SpecularLayer {
         const EXT: &str = "KHR_materials_specular";
         self.warn_extension_textures(value, EXT, &["specularColorTexture"], context);
         let factor = self.factor(value, "specularFactor", 1.0, 1.0, context);
@@ -957,7 +953,7 @@ impl Loader<'_> {
                 }
             }
         };
-        Some(SpecularLayer { factor, color })
+        SpecularLayer { factor, color }
     }
 
     /// `KHR_materials_clearcoat`: `clearcoatFactor` (default 0: no coat) and `clearcoatRoughnessFactor`

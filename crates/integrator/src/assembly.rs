@@ -846,10 +846,8 @@ fn warn_unused_keys(materials: &[MaterialDesc], warnings: &mut Vec<String>) {
             one_sided.join(", ")
         ));
     }
-    let specular_glass = names(&|m| {
-        m.transmission.is_some_and(|t| t > 0.0)
-            && m.specular_layer.is_some_and(|l| l.factor != 1.0 || l.color != [1.0; 3])
-    });
+    let specular_glass =
+        names(&|m| m.transmission.is_some_and(|t| t > 0.0) && m.specular_layer.is_some_and(|l| !l.is_default()));
     if !specular_glass.is_empty() {
         warnings.push(format!(
             "material(s) {}: KHR_materials_specular changes the reflection of the opaque part only; the transmitting part keeps the Fresnel of its index",
@@ -1076,7 +1074,7 @@ fn material_model(
 /// it is upsampled as a reflectance at its largest component's scale. `None` for the extension's defaults
 /// (factor 1, white, no `specularTexture`), which are the plain layer.
 fn dielectric_specular(layer: &geometry::SpecularLayer, ior: &Ior, textured: bool) -> Option<DielectricSpecular> {
-    if layer.factor == 1.0 && layer.color == [1.0; 3] && !textured {
+    if layer.is_default() && !textured {
         return None;
     }
     let n = ior.eval(materials::LAMBDA_D);

@@ -494,13 +494,13 @@ impl MaterialTextures {
     /// The transmission factor `factor` at `uv`, times the texture's R where there is one.
     #[inline]
     pub(crate) fn transmission(&self, uv: Vec2, factor: f32) -> f32 {
-        self.transmission.as_ref().map_or(factor, |t| factor * t.eval(uv).x)
+        scaled_by_channel(&self.transmission, uv, factor, 0)
     }
 
     /// The specular layer's strength `factor` at `uv`, times the texture's A where there is one.
     #[inline]
     pub(crate) fn specular_weight(&self, uv: Vec2, factor: f32) -> f32 {
-        self.specular.as_ref().map_or(factor, |t| factor * t.eval(uv).w)
+        scaled_by_channel(&self.specular, uv, factor, 3)
     }
 
     /// The coat at `uv`: its weight times the coat texture's R, its roughness times the roughness
@@ -508,8 +508,8 @@ impl MaterialTextures {
     #[inline]
     pub(crate) fn coat(&self, uv: Vec2, coat: Coat) -> Coat {
         Coat {
-            weight: self.clearcoat.as_ref().map_or(coat.weight, |t| coat.weight * t.eval(uv).x),
-            roughness: self.clearcoat_roughness.as_ref().map_or(coat.roughness, |t| coat.roughness * t.eval(uv).y),
+            weight: scaled_by_channel(&self.clearcoat, uv, coat.weight, 0),
+            roughness: scaled_by_channel(&self.clearcoat_roughness, uv, coat.roughness, 1),
         }
     }
 
@@ -538,15 +538,7 @@ impl MaterialTextures {
     /// Whether the material has a texture or a non-opaque alpha (what it would need an entry for
     /// without vertex colours).
     pub(crate) fn is_textured(&self) -> bool {
-        self.base_color.is_some()
-            || self.metallic_roughness.is_some()
-            || self.normal.is_some()
-            || self.coverage.is_some()
-            || self.transmission.is_some()
-            || self.specular.is_some()
-            || self.clearcoat.is_some()
-            || self.clearcoat_roughness.is_some()
-            || self.has_alpha()
+        self.base_color.is_some() || self.data_images().next().is_some() || self.has_alpha()
     }
 
     /// Whether meshes with vertex colours use the material (hits then look their colour up).
@@ -580,6 +572,12 @@ impl MaterialTextures {
         .flatten()
         .map(|t| &t.image)
     }
+}
+
+/// A material factor at `uv` times `channel` (0 R … 3 A) of its texture, or the factor alone without one.
+#[inline]
+fn scaled_by_channel(texture: &Option<DataTexture>, uv: Vec2, factor: f32, channel: usize) -> f32 {
+    texture.as_ref().map_or(factor, |t| factor * t.eval(uv)[channel])
 }
 
 /// Bytes of texel data the textures hold: each colour texture's indices and palette, and each
