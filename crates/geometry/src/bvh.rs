@@ -10,7 +10,7 @@ use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::{Boundable, BvhBuildParams};
 
 use crate::error::{Error, Result};
-use crate::ray::{Hit, Ray, gamma};
+use crate::ray::{Hit, NO_PRIMITIVE, Ray, ShadowRay, gamma, offset_ray_origin};
 use crate::shapes::{Instances, Mesh, Sphere, transform_bounds};
 use crate::simd::{Kernel, NodeTest, SimdLevel, Supported, dispatch};
 use crate::sphere::{intersect_sphere, sphere_hit_point};
@@ -244,11 +244,12 @@ impl Scene {
     }
 
     /// The closest hit in (0, `t_max`).
+    #[inline]
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         if !Self::valid(ray) {
             return None;
         }
-        let found = dispatch(self.simd, Query::<true> { scene: self, ray, t_max });
+        let found = dispatch(self.simd, Query::<true, false> { scene: self, ray, t_max, skip: NO_PRIMITIVE });
         if let Some(set) = &self.instances {
             let t_best = found.map_or(t_max, |f| f.1);
             if let Some(hit) = set.intersect(self.simd, ray, t_best) {
@@ -260,12 +261,76 @@ impl Scene {
     }
 
     /// Whether anything lies in (0, `t_max`) along the ray (shadow rays; stops at the first hit).
+    #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         if !Self::valid(ray) {
             return false;
         }
-        dispatch(self.simd, Query::<false> { scene: self, ray, t_max }).is_some()
+        dispatch(self.simd, Query::<false, false> { scene: self, ray, t_max, skip: NO_PRIMITIVE }).is_some()
             || self.instances.as_ref().is_some_and(|set| set.occluded(self.simd, ray, t_max))
+    }
+
+    /// The shadow ray from `hit` to the point `target` (or along `wi` to infinity, without one)
+    /// where the plain one ([`crate::spawn_ray_to`], [`crate::spawn_ray`]) is wrong: towards light
+    /// below the flat triangle's plane but above the shading normal's horizon, near the shadow
+    /// terminator of a smooth-shaded low-poly mesh. From the hit point that ray would enter the
+    /// solid, and every facet's edge would show as a step in the shadow; this one starts from the
+    /// lifted point ([`Scene::lifted_point`]) and passes through its own triangle (Hanika 2021).
+    /// `None` elsewhere (the plain ray is right there, and a lifted origin can start inside
+    /// another object that meets this one: a dark seam where parts of a model intersect) and
+    /// where there is no lift (spheres, meshes without normals, placed instances). Costs two dot
+    /// products unless in the terminator's wedge.
+    #[inline(always)]
+    pub fn terminator_shadow_ray(&self, hit: &Hit, target: Option<Vec3>, wi: Vec3) -> Option<ShadowRay> {
+        let towards = target.map_or(wi, |q| q - hit.p);
+        if towards.dot(hit.n) < 0.0 && towards.dot(hit.ns) > 0.0 {
+            self.lifted_shadow_ray(hit, target, towards)
+        } else {
+            None
+        }
+    }
+
+    #[inline(never)]
+    fn lifted_shadow_ray(&self, hit: &Hit, target: Option<Vec3>, towards: Vec3) -> Option<ShadowRay> {
+        let lifted = self.lifted_point(hit)?;
+        // The lift's own rounding: a few operations on coordinates the size of the lift.
+        let error = hit.p_error + gamma(8) * (lifted - hit.p).abs();
+        let origin = offset_ray_origin(lifted, error, hit.n, towards);
+        let skip = hit.primitive;
+        Some(match target {
+            Some(q) => ShadowRay { ray: Ray { origin, dir: q - origin }, t_max: 1.0 - 1e-4, skip },
+            None => ShadowRay { ray: Ray { origin, dir: towards }, t_max: f32::INFINITY, skip },
+        })
+    }
+
+    /// Whether anything other than the primitive it leaves blocks a shadow ray from a lifted
+    /// point ([`Scene::terminator_shadow_ray`]). Out of line, as an instantiation of the query of
+    /// its own, so that the other queries do not carry the test.
+    #[inline(never)]
+    pub fn shadow_occluded(&self, shadow: &ShadowRay) -> bool {
+        let (ray, t_max, skip) = (&shadow.ray, shadow.t_max, shadow.skip);
+        Self::valid(ray)
+            && (dispatch(self.simd, Query::<false, true> { scene: self, ray, t_max, skip }).is_some()
+                || self.instances.as_ref().is_some_and(|set| set.occluded(self.simd, ray, t_max)))
+    }
+
+    /// The closest surface other than the primitive it leaves on a shadow ray from a lifted point
+    /// ([`Scene::terminator_shadow_ray`]), for walking through cut-outs and transparent surfaces.
+    #[inline(never)]
+    pub fn shadow_blocker(&self, shadow: &ShadowRay) -> Option<Hit> {
+        let (ray, t_max, skip) = (&shadow.ray, shadow.t_max, shadow.skip);
+        if !Self::valid(ray) {
+            return None;
+        }
+        let found = dispatch(self.simd, Query::<true, true> { scene: self, ray, t_max, skip });
+        if let Some(set) = &self.instances {
+            let t_best = found.map_or(t_max, |f| f.1);
+            if let Some(hit) = set.intersect(self.simd, ray, t_best) {
+                return Some(hit);
+            }
+        }
+        let (slot, t, b) = found?;
+        Some(self.hit_record(ray, slot, t, b))
     }
 
     /// The instruction-set level this scene's queries run at.
@@ -290,14 +355,16 @@ impl Scene {
     }
 
     /// The closest hit (`CLOSEST`) or the first hit found (any-hit, for shadow rays: stops
-    /// there), as (leaf-order slot, t, barycentrics).
+    /// there), as (leaf-order slot, t, barycentrics); with `SKIP`, primitive `skip` is passed
+    /// through.
     #[inline(always)]
-    fn query<const CLOSEST: bool, const KX: usize, const KY: usize, const KZ: usize, N: NodeTest>(
+    fn query<const CLOSEST: bool, const SKIP: bool, const KX: usize, const KY: usize, const KZ: usize, N: NodeTest>(
         &self,
         node_test: N,
         ray: &Ray,
         tri_ray: &TriangleRay,
         t_max: f32,
+        skip: u32,
     ) -> Option<(usize, f32, [f32; 3])> {
         let n_spheres = self.spheres.len() as u32;
         let mut best = None;
@@ -319,6 +386,9 @@ impl Scene {
                             .map(|h| (h.t, h.b))
                     };
                     if let Some((t, b)) = hit {
+                        if SKIP && *prim == skip {
+                            continue;
+                        }
                         best = Some((start + slot, t, b));
                         if !CLOSEST {
                             return None;
@@ -386,6 +456,43 @@ impl Scene {
             None => Vec2::new(b[1], b[2]),
         };
         Hit { t, p, p_error, n, ns, uv, primitive: prim, material: mesh.material() }
+    }
+
+    /// Hanika's lift of a hit on a smooth-shaded triangle ("Hacking the shadow terminator", Ray
+    /// Tracing Gems II, 2021): the hit point projected onto each vertex's tangent plane where it
+    /// lies below it (never down), the projections blended with its barycentrics. On a convex
+    /// smooth-shaded patch this lands near the smooth surface the vertex normals describe; it is
+    /// the hit point at the vertices and on flat or concave patches, and two triangles give the
+    /// same point along their shared edge. `None` for spheres, meshes without normals and placed
+    /// instances (whose hits have no primitive id to pass through).
+    pub fn lifted_point(&self, hit: &Hit) -> Option<Vec3> {
+        let index = (hit.primitive as usize).checked_sub(self.spheres.len())?;
+        if hit.primitive == NO_PRIMITIVE || index >= self.triangle_count {
+            return None;
+        }
+        let (mesh_index, tri_index) = self.triangle_source(index);
+        let mesh = &self.meshes[mesh_index];
+        let normals = mesh.normals()?;
+        let tri = mesh.indices()[tri_index];
+        let v = tri.map(|i| mesh.positions()[i as usize]);
+        // The hit's barycentrics, recomputed from its point (the hit record keeps only the UVs).
+        let (e1, e2, d) = (v[1] - v[0], v[2] - v[0], hit.p - v[0]);
+        let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        let det = d11 * d22 - d12 * d12;
+        if !(det > 0.0) {
+            return None;
+        }
+        let b1 = ((d22 * d.dot(e1) - d12 * d.dot(e2)) / det).clamp(0.0, 1.0);
+        let b2 = ((d11 * d.dot(e2) - d12 * d.dot(e1)) / det).clamp(0.0, 1.0 - b1);
+        let b = [1.0 - b1 - b2, b1, b2];
+        let mut lift = Vec3::ZERO;
+        for (k, &i) in tri.iter().enumerate() {
+            // Normals turned to the geometric normal's side, as the shading normal is.
+            let ni = normals[i as usize].normalize_or_zero();
+            let ni = if ni.dot(hit.n) < 0.0 { -ni } else { ni };
+            lift += (b[k] * (hit.p - v[k]).dot(ni).min(0.0)) * ni;
+        }
+        Some(hit.p - lift)
     }
 
     /// Bounds of everything in the scene (padded).
@@ -517,22 +624,24 @@ impl Scene {
 
 /// A closest-hit (`CLOSEST`) or any-hit query as a [`Kernel`]: the triangle test's axis
 /// permutation is fixed per ray, so it is dispatched once here.
-struct Query<'a, const CLOSEST: bool> {
+struct Query<'a, const CLOSEST: bool, const SKIP: bool> {
     scene: &'a Scene,
     ray: &'a Ray,
     t_max: f32,
+    /// A primitive the query passes through (with `SKIP`).
+    skip: u32,
 }
 
-impl<const CLOSEST: bool> Kernel for Query<'_, CLOSEST> {
+impl<const CLOSEST: bool, const SKIP: bool> Kernel for Query<'_, CLOSEST, SKIP> {
     type Output = Option<(usize, f32, [f32; 3])>;
     #[inline(always)]
     fn run<N: NodeTest>(self, node_test: N) -> Self::Output {
-        let Self { scene, ray, t_max } = self;
+        let Self { scene, ray, t_max, skip } = self;
         let tri_ray = TriangleRay::new(ray.origin, ray.dir);
         match tri_ray.axis() {
-            0 => scene.query::<CLOSEST, 1, 2, 0, N>(node_test, ray, &tri_ray, t_max),
-            1 => scene.query::<CLOSEST, 2, 0, 1, N>(node_test, ray, &tri_ray, t_max),
-            _ => scene.query::<CLOSEST, 0, 1, 2, N>(node_test, ray, &tri_ray, t_max),
+            0 => scene.query::<CLOSEST, SKIP, 1, 2, 0, N>(node_test, ray, &tri_ray, t_max, skip),
+            1 => scene.query::<CLOSEST, SKIP, 2, 0, 1, N>(node_test, ray, &tri_ray, t_max, skip),
+            _ => scene.query::<CLOSEST, SKIP, 0, 1, 2, N>(node_test, ray, &tri_ray, t_max, skip),
         }
     }
 }
@@ -630,7 +739,7 @@ impl Placement {
             Some(s) => s,
             None => n,
         };
-        Hit { t, p, p_error, n, ns, uv: local.uv, primitive: u32::MAX, material: local.material }
+        Hit { t, p, p_error, n, ns, uv: local.uv, primitive: NO_PRIMITIVE, material: local.material }
     }
 }
 
@@ -672,9 +781,27 @@ impl<const CLOSEST: bool> Kernel for TopQuery<'_, CLOSEST> {
                     let object = &set.objects[placement.object as usize];
                     let tri_ray = TriangleRay::new(object_ray.origin, object_ray.dir);
                     let found = match tri_ray.axis() {
-                        0 => object.query::<CLOSEST, 1, 2, 0, N>(node_test, &object_ray, &tri_ray, limit),
-                        1 => object.query::<CLOSEST, 2, 0, 1, N>(node_test, &object_ray, &tri_ray, limit),
-                        _ => object.query::<CLOSEST, 0, 1, 2, N>(node_test, &object_ray, &tri_ray, limit),
+                        0 => object.query::<CLOSEST, false, 1, 2, 0, N>(
+                            node_test,
+                            &object_ray,
+                            &tri_ray,
+                            limit,
+                            NO_PRIMITIVE,
+                        ),
+                        1 => object.query::<CLOSEST, false, 2, 0, 1, N>(
+                            node_test,
+                            &object_ray,
+                            &tri_ray,
+                            limit,
+                            NO_PRIMITIVE,
+                        ),
+                        _ => object.query::<CLOSEST, false, 0, 1, 2, N>(
+                            node_test,
+                            &object_ray,
+                            &tri_ray,
+                            limit,
+                            NO_PRIMITIVE,
+                        ),
                     };
                     if let Some((slot, t, b)) = found {
                         // Strictly closer than the best so far, as within one BVH.

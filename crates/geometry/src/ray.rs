@@ -33,6 +33,20 @@ pub struct Hit {
     pub material: Option<u32>,
 }
 
+/// The primitive id of none: hits on placed instances, and queries that skip nothing.
+pub(crate) const NO_PRIMITIVE: u32 = u32::MAX;
+
+/// A shadow ray from a lifted point ([`crate::Scene::terminator_shadow_ray`]): occluded if
+/// anything other than the primitive it leaves lies in (0, `t_max`) along it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShadowRay {
+    /// The ray.
+    pub ray: Ray,
+    /// Where along it occluders count up to.
+    pub t_max: f32,
+    pub(crate) skip: u32,
+}
+
 /// γ(n) = n·ε / (1 − n·ε), ε = half an f32 ulp at 1: the bound on the relative error of n
 /// rounded operations (pbrt-v4 `gamma`, Higham 2002).
 #[inline]

@@ -373,15 +373,21 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// calls out of [`PathTracer::sample_light`] for every scene.
     #[inline(never)]
     fn visibility(&self, hit: &Hit, target: Option<Vec3>, wi: Vec3, count: &mut RayCount) -> f32 {
-        let spawn = |from: &Hit| match target {
-            Some(q) => spawn_ray_to(from, q),
-            None => (spawn_ray(from, wi), f32::INFINITY),
-        };
+        let geometry = &self.scene.geometry;
         let mut visible = 1.0f32;
         let mut from = *hit;
         for _ in 0..MAX_ALPHA_SKIPS {
-            let (shadow, t_max) = spawn(&from);
-            let Some(blocker) = self.scene.geometry.intersect(&shadow, t_max) else { return visible };
+            let blocker = match geometry.terminator_shadow_ray(&from, target, wi) {
+                Some(lifted) => geometry.shadow_blocker(&lifted),
+                None => {
+                    let (shadow, t_max) = match target {
+                        Some(q) => spawn_ray_to(&from, q),
+                        None => (spawn_ray(&from, wi), f32::INFINITY),
+                    };
+                    geometry.intersect(&shadow, t_max)
+                }
+            };
+            let Some(blocker) = blocker else { return visible };
             let textures = self.textures(blocker.material);
             let vertex_alpha = self.vertex_color_of(textures, &blocker).map_or(1.0, |c| c.alpha());
             let coverage = textures.map_or(1.0, |t| t.coverage(blocker.uv, vertex_alpha));
@@ -730,11 +736,18 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let visible = if self.scene.alpha_cutouts {
             self.visibility(hit, ls.target, ls.wi, count)
         } else {
-            let (shadow, t_max) = match ls.target {
-                Some(q) => spawn_ray_to(hit, q),
-                None => (spawn_ray(hit, ls.wi), f32::INFINITY),
+            let geometry = &self.scene.geometry;
+            let occluded = match geometry.terminator_shadow_ray(hit, ls.target, ls.wi) {
+                Some(lifted) => geometry.shadow_occluded(&lifted),
+                None => {
+                    let (shadow, t_max) = match ls.target {
+                        Some(q) => spawn_ray_to(hit, q),
+                        None => (spawn_ray(hit, ls.wi), f32::INFINITY),
+                    };
+                    geometry.occluded(&shadow, t_max)
+                }
             };
-            if self.scene.geometry.occluded(&shadow, t_max) { 0.0 } else { 1.0 }
+            if occluded { 0.0 } else { 1.0 }
         };
         if visible == 0.0 {
             return black;

@@ -505,3 +505,80 @@ fn instanced_objects_hit_like_world_space_copies() {
     assert!(disagreements * 1000 < hits, "{disagreements} disagreements in {hits} hits");
     assert!(neighbours * 100 < hits, "{neighbours} neighbour triangles in {hits} hits");
 }
+
+/// An icosphere of unit radius at the origin, smooth-shaded: each vertex normal points away
+/// from the centre (the sphere it approximates).
+fn smooth_icosphere(subdivisions: u32) -> Mesh {
+    let flat = icosphere(subdivisions, Vec3::ZERO, 1.0);
+    let normals = flat.positions().to_vec();
+    Mesh::new(flat.positions().to_vec(), Some(normals), None, flat.indices().to_vec(), None).unwrap()
+}
+
+/// The hit of a ray from outside aimed at the origin through `target`.
+fn hit_towards(scene: &Scene, target: Vec3) -> Hit {
+    let ray = Ray { origin: 3.0 * target.normalize(), dir: -target.normalize() };
+    scene.intersect(&ray, f32::INFINITY).expect("the ray hits the sphere")
+}
+
+/// Hanika's lift on an icosahedron with its vertices' sphere normals, where the answer is known
+/// in closed form: at a facet's centroid c (distance |c| from the centre, so c·vᵢ = |c|²) each
+/// vertex plane lies 1 − |c|² above, the lift is c(2 − |c|²); at an edge midpoint m of vertices
+/// a, b it is m(1 + (1 − a·b)/2), whichever of the two triangles the ray hits; at a vertex,
+/// none. Flat-shaded, there is no lift.
+#[test]
+fn lifted_points_are_hanikas_and_agree_along_shared_edges() {
+    let smooth = Scene::build(Vec::new(), vec![smooth_icosphere(0)]).unwrap();
+    let mesh = icosphere(0, Vec3::ZERO, 1.0);
+    let flat = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
+    let v = mesh.positions();
+    for [a, b, c] in mesh.indices().iter().map(|t| t.map(|i| v[i as usize])) {
+        let lifted = |target: Vec3| {
+            let hit = hit_towards(&smooth, target);
+            (hit, smooth.lifted_point(&hit).expect("smooth-shaded triangles lift"))
+        };
+        let centroid = (a + b + c) / 3.0;
+        let (hit, p) = lifted(centroid);
+        let expected = centroid * (2.0 - centroid.length_squared());
+        assert!((p - expected).length() < 1e-5, "centroid {centroid}: {p} ≠ {expected}");
+        assert!((p - hit.p).dot(hit.n) > 0.1, "the lift is up, and large at a coarse centroid");
+        let mid = (a + b) / 2.0;
+        let (_, p) = lifted(mid);
+        let expected = mid * (1.0 + (1.0 - a.dot(b)) / 2.0);
+        assert!((p - expected).length() < 1e-5, "edge midpoint {mid}: {p} ≠ {expected}");
+        let (hit, p) = lifted(a);
+        assert!((p - hit.p).length() < 1e-5, "vertex {a}: lifted to {p}");
+        assert_eq!(flat.lifted_point(&hit_towards(&flat, centroid)), None, "flat-shaded: no lift");
+    }
+}
+
+/// Near the shadow terminator of a smooth-shaded icosahedron, light arriving below the flat
+/// facet's plane but above the shading normal's horizon: a plain shadow ray from the hit point
+/// enters the solid and is blocked by its far side, the one from the lifted point passes (to a
+/// direction and to a point). Outside that wedge no lifted ray is made.
+#[test]
+fn shadow_rays_from_lifted_points_clear_the_terminator() {
+    let smooth = Scene::build(Vec::new(), vec![smooth_icosphere(0)]).unwrap();
+    let mesh = icosphere(0, Vec3::ZERO, 1.0);
+    let v = mesh.positions();
+    let mut cleared = 0;
+    for [a, b, c] in mesh.indices().iter().map(|t| t.map(|i| v[i as usize])) {
+        // A point toward vertex a, where the shading normal tilts towards a.
+        let hit = hit_towards(&smooth, 0.7 * a + 0.15 * b + 0.15 * c);
+        let (n, ns) = (hit.n, hit.ns);
+        let tangent = (ns - ns.dot(n) * n).normalize();
+        // Half-way (in slope) between the facet's horizon and the shading normal's.
+        let below = (tangent - 0.5 * tangent.dot(ns) / n.dot(ns) * n).normalize();
+        assert!(below.dot(n) < 0.0 && below.dot(ns) > 0.0, "in the terminator wedge");
+        assert!(smooth.occluded(&spawn_ray(&hit, below), f32::INFINITY), "the facet's own solid blocks a plain ray");
+        let lifted = smooth.terminator_shadow_ray(&hit, None, below).expect("a lifted ray in the wedge");
+        cleared += usize::from(!smooth.shadow_occluded(&lifted));
+        let target = hit.p + 10.0 * below;
+        let lifted = smooth.terminator_shadow_ray(&hit, Some(target), below).expect("a lifted ray to a point");
+        assert!(!smooth.shadow_occluded(&lifted), "to {target}");
+        // Outside the wedge the plain rays are right, and no lifted one is made.
+        for wi in [-ns, (n + ns).normalize()] {
+            assert!(smooth.terminator_shadow_ray(&hit, None, wi).is_none(), "towards {wi}");
+        }
+    }
+    assert_eq!(cleared, 20, "every facet's terminator ray clears the solid");
+}

@@ -9,6 +9,7 @@ mod paper_model;
 mod path;
 mod prism;
 mod spectral_film;
+mod terminator;
 mod textures;
 mod units;
 mod vertex_colors;

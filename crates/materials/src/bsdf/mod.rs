@@ -251,12 +251,20 @@ impl<const N: usize> Bsdf<N> {
 
     /// f(wo, wi), the BSDF value (0 for delta lobes, whose value at a given direction is zero
     /// with probability one).
+    ///
+    /// A reflection has a value wherever `wi` is above the shading surface, as in pbrt-v4, even
+    /// below the geometric one: there, near the shadow terminator of a smooth-shaded low-poly
+    /// mesh, the shadow ray from the lifted point (the geometry crate's `Scene::shadow_ray`) decides
+    /// whether light arrives (without, each facet's horizon showed as a step in the shading).
+    /// [`Bsdf::sample_f`] still returns only directions above the geometric surface (a
+    /// bounce ray below it would start inside the object), and [`Bsdf::pdf`] is 0 where it does
+    /// not, so light sampling alone covers those directions and MIS stays unbiased.
     #[inline]
     pub fn f(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
         if let Self::Lambertian { r } = self {
-            let (ng, ns) = frame.facing(wo);
-            return if lambert_cos(ng, ns, wi).is_some() { *r * FRAC_1_PI } else { black };
+            let (_, ns) = frame.facing(wo);
+            return if ns.dot(wi) > 0.0 { *r * FRAC_1_PI } else { black };
         }
         self.f_local(frame, wo, wi).map_or(black, |(f, _)| f)
     }
@@ -266,11 +274,9 @@ impl<const N: usize> Bsdf<N> {
     pub fn f_cos(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
         if let Self::Lambertian { r } = self {
-            let (ng, ns) = frame.facing(wo);
-            return match lambert_cos(ng, ns, wi) {
-                Some(cos) => *r * (cos * FRAC_1_PI),
-                None => black,
-            };
+            let (_, ns) = frame.facing(wo);
+            let cos = ns.dot(wi);
+            return if cos > 0.0 { *r * (cos * FRAC_1_PI) } else { black };
         }
         self.f_local(frame, wo, wi).map_or(black, |(f, cos)| f * cos)
     }
@@ -282,7 +288,7 @@ impl<const N: usize> Bsdf<N> {
             let (ng, ns) = frame.facing(wo);
             return lambert_cos(ng, ns, wi).map_or(0.0, |cos| cos * FRAC_1_PI);
         }
-        let Some((wo_l, wi_l)) = self.local_pair(frame, wo, wi) else { return 0.0 };
+        let Some((wo_l, wi_l)) = self.local_pair(frame, wo, wi, true) else { return 0.0 };
         match self {
             Self::Conductor(c) => c.pdf(wo_l, wi_l),
             Self::RoughDielectric(d) => d.pdf(wo_l, wi_l),
@@ -295,7 +301,7 @@ impl<const N: usize> Bsdf<N> {
     /// where [`Bsdf::local_pair`] rejects the pair.
     #[inline]
     fn f_local(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> Option<(SampledSpectrum<N>, f32)> {
-        let (wo_l, wi_l) = self.local_pair(frame, wo, wi)?;
+        let (wo_l, wi_l) = self.local_pair(frame, wo, wi, false)?;
         let f = match self {
             Self::Conductor(c) => c.f(wo_l, wi_l),
             Self::RoughDielectric(d) => d.f(wo_l, wi_l),
@@ -307,14 +313,18 @@ impl<const N: usize> Bsdf<N> {
 
     /// (wo, wi) in a rough lobe's local frame; `None` for the other models (Lambertian is
     /// evaluated in world space, delta lobes have no value) and where the geometric normal
-    /// forbids the pair (light would leak through the surface).
+    /// forbids the pair (light would leak through the surface). With `sampled`, the pairs
+    /// [`Bsdf::sample_f`] can return (for its density); without, the pairs with a value, which for
+    /// reflection also include directions below the geometric surface but above the shading
+    /// one (see [`Bsdf::f`]).
     #[inline]
-    fn local_pair(&self, frame: &Frame, wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+    fn local_pair(&self, frame: &Frame, wo: Vec3, wi: Vec3, sampled: bool) -> Option<(Vec3, Vec3)> {
         match self {
-            // Reflection only: wi must be on wo's side of the geometric surface.
+            // Reflection only: wi must be on wo's side of the shading surface, and of the
+            // geometric one for a sample.
             Self::Conductor(_) | Self::GltfMetalRough(_) => {
                 let (ng, ns) = frame.facing(wo);
-                if ng.dot(wi) <= 0.0 {
+                if ns.dot(wi) <= 0.0 || (sampled && ng.dot(wi) <= 0.0) {
                     return None;
                 }
                 let l = Local::new(ns);
