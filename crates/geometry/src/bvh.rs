@@ -271,35 +271,28 @@ impl Scene {
     }
 
     /// The shadow ray from `hit` to the point `target` (or along `wi` to infinity, without one)
-    /// where the plain one ([`crate::spawn_ray_to`], [`crate::spawn_ray`]) is wrong: towards light
-    /// below the flat triangle's plane but above the shading normal's horizon, near the shadow
-    /// terminator of a smooth-shaded low-poly mesh. From the hit point that ray would enter the
-    /// solid, and every facet's edge would show as a step in the shadow; this one starts from the
+    /// for light the shading normal sees but the flat triangle hides: below its plane on the side
+    /// `side` (the geometric normal turned to the viewer) and above the shading normal's horizon,
+    /// near the shadow terminator of a smooth-shaded low-poly mesh. From the hit point that ray
+    /// would enter the solid (every facet's edge a step in the shadow); this one starts from the
     /// lifted point ([`Scene::lifted_point`]) and passes through its own triangle (Hanika 2021).
-    /// `None` elsewhere (the plain ray is right there, and a lifted origin can start inside
-    /// another object that meets this one: a dark seam where parts of a model intersect) and
-    /// where there is no lift (spheres, meshes without normals, placed instances). Costs two dot
-    /// products unless in the terminator's wedge.
-    #[inline(always)]
-    pub fn terminator_shadow_ray(&self, hit: &Hit, target: Option<Vec3>, wi: Vec3) -> Option<ShadowRay> {
-        let towards = target.map_or(wi, |q| q - hit.p);
-        if towards.dot(hit.n) < 0.0 && towards.dot(hit.ns) > 0.0 {
-            self.lifted_shadow_ray(hit, target, towards)
-        } else {
-            None
-        }
-    }
-
+    /// `None` where there is no lift (spheres, meshes without normals, placed instances): the light
+    /// is hidden there. Out of line: only directions in that wedge ask, and the plain rays
+    /// ([`crate::spawn_ray_to`], [`crate::spawn_ray`]) serve all others (a lifted origin there
+    /// could start inside another object meeting this one: a dark seam where parts intersect).
     #[inline(never)]
-    fn lifted_shadow_ray(&self, hit: &Hit, target: Option<Vec3>, towards: Vec3) -> Option<ShadowRay> {
-        let lifted = self.lifted_point(hit)?;
-        // The lift's own rounding: a few operations on coordinates the size of the lift.
+    pub fn terminator_shadow_ray(&self, hit: &Hit, side: Vec3, target: Option<Vec3>, wi: Vec3) -> Option<ShadowRay> {
+        let lifted = self.lifted_point(hit, side)?;
+        // Offset up, along `side`: near a vertex the lift is about 0, and an origin pushed towards
+        // the light would start below the facet, inside the solid (its own triangle is skipped anyway).
+        // The lift's rounding: a handful of operations whose results are the size of the lift
+        // (those on full-size coordinates round within p_error).
         let error = hit.p_error + gamma(8) * (lifted - hit.p).abs();
-        let origin = offset_ray_origin(lifted, error, hit.n, towards);
+        let origin = offset_ray_origin(lifted, error, side, side);
         let skip = hit.primitive;
         Some(match target {
             Some(q) => ShadowRay { ray: Ray { origin, dir: q - origin }, t_max: 1.0 - 1e-4, skip },
-            None => ShadowRay { ray: Ray { origin, dir: towards }, t_max: f32::INFINITY, skip },
+            None => ShadowRay { ray: Ray { origin, dir: wi }, t_max: f32::INFINITY, skip },
         })
     }
 
@@ -458,39 +451,24 @@ impl Scene {
         Hit { t, p, p_error, n, ns, uv, primitive: prim, material: mesh.material() }
     }
 
-    /// Hanika's lift of a hit on a smooth-shaded triangle ("Hacking the shadow terminator", Ray
-    /// Tracing Gems II, 2021): the hit point projected onto each vertex's tangent plane where it
-    /// lies below it (never down), the projections blended with its barycentrics. On a convex
+    /// Hanika's lift of a hit on a smooth-shaded triangle, seen from the side `side` of its plane
+    /// ("Hacking the shadow terminator", Ray Tracing Gems II, 2021): the hit point projected onto
+    /// each vertex's tangent plane where it lies below it (never down), the projections blended
+    /// with its barycentrics; vertex normals are turned to `side` first. On a convex
     /// smooth-shaded patch this lands near the smooth surface the vertex normals describe; it is
     /// the hit point at the vertices and on flat or concave patches, and two triangles give the
     /// same point along their shared edge. `None` for spheres, meshes without normals and placed
     /// instances (whose hits have no primitive id to pass through).
-    pub fn lifted_point(&self, hit: &Hit) -> Option<Vec3> {
-        let index = (hit.primitive as usize).checked_sub(self.spheres.len())?;
-        if hit.primitive == NO_PRIMITIVE || index >= self.triangle_count {
-            return None;
-        }
-        let (mesh_index, tri_index) = self.triangle_source(index);
-        let mesh = &self.meshes[mesh_index];
+    pub fn lifted_point(&self, hit: &Hit, side: Vec3) -> Option<Vec3> {
+        let (mesh, triangle, b) = self.hit_barycentrics(hit)?;
+        let mesh = &self.meshes[mesh];
         let normals = mesh.normals()?;
-        let tri = mesh.indices()[tri_index];
-        let v = tri.map(|i| mesh.positions()[i as usize]);
-        // The hit's barycentrics, recomputed from its point (the hit record keeps only the UVs).
-        let (e1, e2, d) = (v[1] - v[0], v[2] - v[0], hit.p - v[0]);
-        let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-        let det = d11 * d22 - d12 * d12;
-        if !(det > 0.0) {
-            return None;
-        }
-        let b1 = ((d22 * d.dot(e1) - d12 * d.dot(e2)) / det).clamp(0.0, 1.0);
-        let b2 = ((d11 * d.dot(e2) - d12 * d.dot(e1)) / det).clamp(0.0, 1.0 - b1);
-        let b = [1.0 - b1 - b2, b1, b2];
+        let tri = mesh.indices()[triangle];
         let mut lift = Vec3::ZERO;
         for (k, &i) in tri.iter().enumerate() {
-            // Normals turned to the geometric normal's side, as the shading normal is.
             let ni = normals[i as usize].normalize_or_zero();
-            let ni = if ni.dot(hit.n) < 0.0 { -ni } else { ni };
-            lift += (b[k] * (hit.p - v[k]).dot(ni).min(0.0)) * ni;
+            let ni = if ni.dot(side) < 0.0 { -ni } else { ni };
+            lift += (b[k] * (hit.p - mesh.positions()[i as usize]).dot(ni).min(0.0)) * ni;
         }
         Some(hit.p - lift)
     }

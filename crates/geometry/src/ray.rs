@@ -27,7 +27,7 @@ pub struct Hit {
     pub ns: Vec3,
     /// Surface coordinates: the mesh's UVs, else barycentrics (b1, b2); spheres: (φ/2π, θ/π).
     pub uv: Vec2,
-    /// Global primitive index in the [`crate::Scene`].
+    /// Global primitive index in the [`crate::Scene`]; `u32::MAX` on placed instances.
     pub primitive: u32,
     /// Material of the primitive.
     pub material: Option<u32>,

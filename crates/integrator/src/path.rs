@@ -12,7 +12,7 @@
 //! `docs/path-tracer.md` documents the model and its choices.
 
 use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
-use geometry::{Hit, Ray, spawn_ray, spawn_ray_to};
+use geometry::{Hit, Ray, ShadowRay, spawn_ray, spawn_ray_to};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{
     Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, ThinDielectricBxdf, TrowbridgeReitz,
@@ -368,17 +368,25 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// Whether light passes between `hit` and the light sample (`target`, or direction `wi` to
     /// infinity), as a fraction: 0 or 1 through opaque surfaces; cut-outs (MASK) pass where
     /// alpha is below the cutoff and blended surfaces (BLEND) pass 1 − alpha, their expected
-    /// transmission (no random choice, so shadow rays add no noise there).
+    /// transmission (no random choice, so shadow rays add no noise there). The first segment is
+    /// `lifted` where given (the shadow terminator's wedge), the rest plain rays from each blocker.
     /// Kept out of line: only scenes with cut-outs call it, and inlined it would crowd the BSDF
     /// calls out of [`PathTracer::sample_light`] for every scene.
     #[inline(never)]
-    fn visibility(&self, hit: &Hit, target: Option<Vec3>, wi: Vec3, count: &mut RayCount) -> f32 {
+    fn visibility(
+        &self,
+        hit: &Hit,
+        lifted: Option<&ShadowRay>,
+        target: Option<Vec3>,
+        wi: Vec3,
+        count: &mut RayCount,
+    ) -> f32 {
         let geometry = &self.scene.geometry;
         let mut visible = 1.0f32;
         let mut from = *hit;
-        for _ in 0..MAX_ALPHA_SKIPS {
-            let blocker = match geometry.terminator_shadow_ray(&from, target, wi) {
-                Some(lifted) => geometry.shadow_blocker(&lifted),
+        for segment in 0..MAX_ALPHA_SKIPS {
+            let blocker = match lifted.filter(|_| segment == 0) {
+                Some(lifted) => geometry.shadow_blocker(lifted),
                 None => {
                     let (shadow, t_max) = match target {
                         Some(q) => spawn_ray_to(&from, q),
@@ -726,19 +734,31 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let black = SampledSpectrum([0.0; N]);
         let u = rng.uniform();
         let u2 = rng.uniform2();
-        let ctx = LightSampleContext { p: hit.p, ns: frame.facing(wo).1 };
+        let (ng, ns) = frame.facing(wo);
+        let ctx = LightSampleContext { p: hit.p, ns };
         let Some((light, ls)) = self.scene.emitters.sample_li(&ctx, u, u2) else { return black };
         let f = bsdf.f_cos(frame, wo, ls.wi);
         if f.is_black() {
             return black;
         }
+        let geometry = &self.scene.geometry;
+        // Light the shading normal sees below the flat triangle (the shadow terminator's wedge,
+        // see `Bsdf::f`) arrives only along the lifted shadow ray; without one (no vertex normals:
+        // a normal map, a placed instance) it is hidden, as the facet hides it.
+        let lifted = if ls.wi.dot(ng) <= 0.0 && ls.wi.dot(ns) > 0.0 {
+            match geometry.terminator_shadow_ray(hit, ng, ls.target, ls.wi) {
+                Some(lifted) => Some(lifted),
+                None => return black,
+            }
+        } else {
+            None
+        };
         count.rays += 1;
         let visible = if self.scene.alpha_cutouts {
-            self.visibility(hit, ls.target, ls.wi, count)
+            self.visibility(hit, lifted.as_ref(), ls.target, ls.wi, count)
         } else {
-            let geometry = &self.scene.geometry;
-            let occluded = match geometry.terminator_shadow_ray(hit, ls.target, ls.wi) {
-                Some(lifted) => geometry.shadow_occluded(&lifted),
+            let occluded = match &lifted {
+                Some(lifted) => geometry.shadow_occluded(lifted),
                 None => {
                     let (shadow, t_max) = match ls.target {
                         Some(q) => spawn_ray_to(hit, q),

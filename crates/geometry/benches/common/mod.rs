@@ -1,5 +1,6 @@
 //! Scenes and ray sets shared by the geometry benchmarks and the integration tests
-//! (`tests/it/main.rs` includes this file), so both trace the same generated geometry.
+//! (`tests/it/main.rs` includes this file, and the integrator's `tests/it/terminator.rs`), so
+//! they trace the same generated geometry.
 #![allow(dead_code)] // each benchmark (and the tests) uses a part of it
 
 use std::io::Write;

@@ -523,62 +523,88 @@ fn hit_towards(scene: &Scene, target: Vec3) -> Hit {
 /// Hanika's lift on an icosahedron with its vertices' sphere normals, where the answer is known
 /// in closed form: at a facet's centroid c (distance |c| from the centre, so c·vᵢ = |c|²) each
 /// vertex plane lies 1 − |c|² above, the lift is c(2 − |c|²); at an edge midpoint m of vertices
-/// a, b it is m(1 + (1 − a·b)/2), whichever of the two triangles the ray hits; at a vertex,
-/// none. Flat-shaded, there is no lift.
+/// a, b it is m(1 + (1 − a·b)/2), from either of the two triangles; at a vertex, none. Wound the
+/// other way (geometric normals inward) and seen from outside, the same. Flat-shaded, there is
+/// no lift.
 #[test]
 fn lifted_points_are_hanikas_and_agree_along_shared_edges() {
-    let smooth = Scene::build(Vec::new(), vec![smooth_icosphere(0)]).unwrap();
     let mesh = icosphere(0, Vec3::ZERO, 1.0);
+    let smooth = Scene::build(Vec::new(), vec![smooth_icosphere(0)]).unwrap();
+    let reversed: Vec<[u32; 3]> = mesh.indices().iter().map(|&[a, b, c]| [a, c, b]).collect();
+    let inward = Scene::build(Vec::new(), vec![smooth_icosphere(0).with_indices(reversed).unwrap()]).unwrap();
     let flat = Scene::build(Vec::new(), vec![mesh.clone()]).unwrap();
     let v = mesh.positions();
-    for [a, b, c] in mesh.indices().iter().map(|t| t.map(|i| v[i as usize])) {
+    let mut edges = 0;
+    for scene in [&smooth, &inward] {
+        // Seen from outside: the side of the geometric normal facing away from the centre.
         let lifted = |target: Vec3| {
-            let hit = hit_towards(&smooth, target);
-            (hit, smooth.lifted_point(&hit).expect("smooth-shaded triangles lift"))
+            let hit = hit_towards(scene, target);
+            let side = if hit.n.dot(hit.p) > 0.0 { hit.n } else { -hit.n };
+            (hit, side, scene.lifted_point(&hit, side).expect("smooth-shaded triangles lift"))
         };
-        let centroid = (a + b + c) / 3.0;
-        let (hit, p) = lifted(centroid);
-        let expected = centroid * (2.0 - centroid.length_squared());
-        assert!((p - expected).length() < 1e-5, "centroid {centroid}: {p} ≠ {expected}");
-        assert!((p - hit.p).dot(hit.n) > 0.1, "the lift is up, and large at a coarse centroid");
-        let mid = (a + b) / 2.0;
-        let (_, p) = lifted(mid);
-        let expected = mid * (1.0 + (1.0 - a.dot(b)) / 2.0);
-        assert!((p - expected).length() < 1e-5, "edge midpoint {mid}: {p} ≠ {expected}");
-        let (hit, p) = lifted(a);
-        assert!((p - hit.p).length() < 1e-5, "vertex {a}: lifted to {p}");
-        assert_eq!(flat.lifted_point(&hit_towards(&flat, centroid)), None, "flat-shaded: no lift");
+        for [a, b, c] in mesh.indices().iter().map(|t| t.map(|i| v[i as usize])) {
+            let centroid = (a + b + c) / 3.0;
+            let (hit, side, p) = lifted(centroid);
+            let expected = centroid * (2.0 - centroid.length_squared());
+            assert!((p - expected).length() < 1e-5, "centroid {centroid}: {p} ≠ {expected}");
+            assert!((p - hit.p).dot(side) > 0.1, "the lift is up, and large at a coarse centroid");
+            // Each edge's midpoint approached from inside this triangle (1e-4 of the way to the
+            // opposite vertex): so every edge from both of its triangles.
+            for [e0, e1, opposite] in [[a, b, c], [b, c, a], [c, a, b]] {
+                let mid = (e0 + e1) / 2.0;
+                let (hit, _, p) = lifted(mid + 1e-4 * (opposite - mid));
+                assert!(hit.p.distance(mid) < 2e-4, "the ray hits near the midpoint");
+                let expected = mid * (1.0 + (1.0 - e0.dot(e1)) / 2.0);
+                assert!((p - expected).length() < 1e-3, "edge midpoint {mid}: {p} ≠ {expected}");
+                edges += 1;
+            }
+            let (hit, _, p) = lifted(a);
+            assert!((p - hit.p).length() < 1e-5, "vertex {a}: lifted to {p}");
+        }
     }
+    assert_eq!(edges, 2 * 20 * 3, "each of the 30 edges from both triangles, both windings");
+    let hit = hit_towards(&flat, v[0] + v[11] + v[5]);
+    assert_eq!(flat.lifted_point(&hit, hit.n), None, "flat-shaded: no lift");
 }
 
 /// Near the shadow terminator of a smooth-shaded icosahedron, light arriving below the flat
 /// facet's plane but above the shading normal's horizon: a plain shadow ray from the hit point
 /// enters the solid and is blocked by its far side, the one from the lifted point passes (to a
-/// direction and to a point). Outside that wedge no lifted ray is made.
+/// direction and to a point), on both windings. A sphere put in its way still blocks it, and is
+/// the blocker found.
 #[test]
 fn shadow_rays_from_lifted_points_clear_the_terminator() {
-    let smooth = Scene::build(Vec::new(), vec![smooth_icosphere(0)]).unwrap();
     let mesh = icosphere(0, Vec3::ZERO, 1.0);
+    let reversed: Vec<[u32; 3]> = mesh.indices().iter().map(|&[a, b, c]| [a, c, b]).collect();
     let v = mesh.positions();
     let mut cleared = 0;
-    for [a, b, c] in mesh.indices().iter().map(|t| t.map(|i| v[i as usize])) {
-        // A point toward vertex a, where the shading normal tilts towards a.
-        let hit = hit_towards(&smooth, 0.7 * a + 0.15 * b + 0.15 * c);
-        let (n, ns) = (hit.n, hit.ns);
-        let tangent = (ns - ns.dot(n) * n).normalize();
-        // Half-way (in slope) between the facet's horizon and the shading normal's.
-        let below = (tangent - 0.5 * tangent.dot(ns) / n.dot(ns) * n).normalize();
-        assert!(below.dot(n) < 0.0 && below.dot(ns) > 0.0, "in the terminator wedge");
-        assert!(smooth.occluded(&spawn_ray(&hit, below), f32::INFINITY), "the facet's own solid blocks a plain ray");
-        let lifted = smooth.terminator_shadow_ray(&hit, None, below).expect("a lifted ray in the wedge");
-        cleared += usize::from(!smooth.shadow_occluded(&lifted));
-        let target = hit.p + 10.0 * below;
-        let lifted = smooth.terminator_shadow_ray(&hit, Some(target), below).expect("a lifted ray to a point");
-        assert!(!smooth.shadow_occluded(&lifted), "to {target}");
-        // Outside the wedge the plain rays are right, and no lifted one is made.
-        for wi in [-ns, (n + ns).normalize()] {
-            assert!(smooth.terminator_shadow_ray(&hit, None, wi).is_none(), "towards {wi}");
+    for smooth_mesh in [smooth_icosphere(0), smooth_icosphere(0).with_indices(reversed).unwrap()] {
+        let smooth = Scene::build(Vec::new(), vec![smooth_mesh.clone()]).unwrap();
+        for [a, b, c] in mesh.indices().iter().map(|t| t.map(|i| v[i as usize])) {
+            // A point toward vertex a, where the shading normal tilts towards a; seen from outside.
+            let hit = hit_towards(&smooth, 0.7 * a + 0.15 * b + 0.15 * c);
+            let n = if hit.n.dot(hit.p) > 0.0 { hit.n } else { -hit.n };
+            let ns = if hit.ns.dot(n) > 0.0 { hit.ns } else { -hit.ns };
+            let tangent = (ns - ns.dot(n) * n).normalize();
+            // Half-way (in slope) between the facet's horizon and the shading normal's.
+            let below = (tangent - 0.5 * tangent.dot(ns) / n.dot(ns) * n).normalize();
+            assert!(below.dot(n) < 0.0 && below.dot(ns) > 0.0, "in the terminator wedge");
+            assert!(smooth.occluded(&spawn_ray(&hit, below), f32::INFINITY), "the solid blocks a plain ray");
+            let lifted = smooth.terminator_shadow_ray(&hit, n, None, below).expect("a lifted ray");
+            cleared += usize::from(!smooth.shadow_occluded(&lifted));
+            let target = hit.p + 10.0 * below;
+            let to_point = smooth.terminator_shadow_ray(&hit, n, Some(target), below).expect("a lifted ray");
+            assert!(!smooth.shadow_occluded(&to_point), "to {target}");
+            // The same light behind a sphere: hidden, by the sphere (primitive 0: spheres first).
+            let sphere = Sphere::new(hit.p + 3.0 * below, 0.5, None).unwrap();
+            let blocked = Scene::build(vec![sphere], vec![smooth_mesh.clone()]).unwrap();
+            let hit = hit_towards(&blocked, 0.7 * a + 0.15 * b + 0.15 * c);
+            let lifted = blocked.terminator_shadow_ray(&hit, n, Some(target), below).expect("a lifted ray");
+            assert!(blocked.shadow_occluded(&lifted), "the sphere blocks the lifted ray");
+            let blocker = blocked.shadow_blocker(&lifted).expect("a blocker");
+            assert_eq!(blocker.primitive, 0, "the blocker is the sphere");
+            assert!((blocker.p.distance(hit.p + 3.0 * below) - 0.5).abs() < 1e-3, "on the sphere");
         }
     }
-    assert_eq!(cleared, 20, "every facet's terminator ray clears the solid");
+    assert_eq!(cleared, 40, "every facet's terminator ray clears the solid, both windings");
 }

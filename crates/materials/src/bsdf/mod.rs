@@ -252,9 +252,10 @@ impl<const N: usize> Bsdf<N> {
     /// f(wo, wi), the BSDF value (0 for delta lobes, whose value at a given direction is zero
     /// with probability one).
     ///
-    /// A reflection has a value wherever `wi` is above the shading surface, as in pbrt-v4, even
-    /// below the geometric one: there, near the shadow terminator of a smooth-shaded low-poly
-    /// mesh, the shadow ray from the lifted point (the geometry crate's `Scene::shadow_ray`) decides
+    /// The reflection models (Lambertian, conductor, glTF metallic–roughness) have a value wherever
+    /// `wi` is above the shading surface, as in pbrt-v4, even below the geometric one: there, near
+    /// the shadow terminator of a smooth-shaded low-poly mesh, the shadow ray from the lifted point
+    /// (the geometry crate's `Scene::terminator_shadow_ray`) decides
     /// whether light arrives (without, each facet's horizon showed as a step in the shading).
     /// [`Bsdf::sample_f`] still returns only directions above the geometric surface (a
     /// bounce ray below it would start inside the object), and [`Bsdf::pdf`] is 0 where it does
@@ -420,8 +421,9 @@ impl<const N: usize> Bsdf<N> {
     }
 }
 
-/// |cos θ_i| of a Lambertian lobe: `wi` against the shading normal, or `None` unless both
-/// normals agree that `wi` is on `wo`'s side (no light leaks through the surface).
+/// |cos θ_i| of a Lambertian lobe for a sampled direction (and its density): `wi` against the
+/// shading normal, or `None` unless both normals agree that `wi` is on `wo`'s side (a bounce ray
+/// below the geometric surface would start inside the object).
 #[inline]
 fn lambert_cos(ng: Vec3, ns: Vec3, wi: Vec3) -> Option<f32> {
     let cos = ns.dot(wi);

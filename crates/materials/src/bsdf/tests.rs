@@ -576,6 +576,34 @@ fn shading_normals_never_leak_light_through_the_geometric_surface() {
     }
 }
 
+#[test]
+fn reflections_have_a_value_in_the_terminator_wedge_that_sampling_never_returns() {
+    // Shading normal tilted 40° from the geometric one: directions below the geometric surface but
+    // above the shading one (the shadow terminator's wedge) have a value for the reflection models
+    // (light sampling covers them; the shadow ray decides), a density of 0 (BSDF sampling never
+    // returns them: `shading_normals_never_leak_light_through_the_geometric_surface`), so MIS gives
+    // light sampling all the weight there. Below the shading surface: no value at all. Rough glass
+    // keeps no value in the wedge (its pair would be a transmission to the geometry).
+    let frame = Frame { n: Vec3::Z, ns: Vec3::new(0.64, 0.0, 0.77).normalize() };
+    let wo = Vec3::new(-0.3, 0.0, 0.95).normalize();
+    let wedge = Vec3::new(0.99, 0.0, -0.1).normalize();
+    let below = Vec3::new(-0.5, 0.0, -0.5).normalize();
+    assert!(wedge.dot(frame.n) < 0.0 && wedge.dot(frame.ns) > 0.0 && below.dot(frame.ns) < 0.0);
+    let reflections = [Bsdf::Lambertian { r: SampledSpectrum([0.8]) }, conductor(0.5, 0.5, true), gltf(0.8, 0.0, 0.5)];
+    for bsdf in &reflections {
+        let f = bsdf.f_cos(&frame, wo, wedge).0[0];
+        assert!(f > 0.0 && f.is_finite(), "{bsdf:?}: f cos in the wedge {f}");
+        assert!(bsdf.f(&frame, wo, wedge).0[0] > 0.0, "{bsdf:?}: f in the wedge");
+        assert_eq!(bsdf.pdf(&frame, wo, wedge), 0.0, "{bsdf:?}: pdf in the wedge");
+        assert_eq!(bsdf.f_cos(&frame, wo, below).0[0], 0.0, "{bsdf:?}: below the shading surface");
+        // Above both surfaces both are positive, as before.
+        let up = Vec3::new(0.2, 0.1, 0.97).normalize();
+        assert!(bsdf.f_cos(&frame, wo, up).0[0] > 0.0 && bsdf.pdf(&frame, wo, up) > 0.0, "{bsdf:?}");
+    }
+    let glass = rough_glass(0.5, 0.5, true);
+    assert_eq!(glass.f_cos(&frame, wo, wedge).0[0], 0.0, "rough glass in the wedge");
+}
+
 // ---------------------------------------------------------------------------------------
 // The glTF metallic–roughness BRDF.
 
