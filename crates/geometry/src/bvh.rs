@@ -309,6 +309,9 @@ impl Scene {
 
     /// The closest surface other than the primitive it leaves on a shadow ray from a lifted point
     /// ([`Scene::terminator_shadow_ray`]), for walking through cut-outs and transparent surfaces.
+    /// (The body repeats [`Scene::intersect`]'s, as [`Scene::shadow_occluded`] repeats
+    /// [`Scene::occluded`]'s: one generic body for both moved the compiler's inlining of the path
+    /// tracer, +2.1 % instructions on the Cornell box and −2.1 % on the paper's scene, callgrind.)
     #[inline(never)]
     pub fn shadow_blocker(&self, shadow: &ShadowRay) -> Option<Hit> {
         let (ray, t_max, skip) = (&shadow.ray, shadow.t_max, shadow.skip);
