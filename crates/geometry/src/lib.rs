@@ -33,7 +33,7 @@ mod wide;
 pub use bvh::{BvhStats, Primitive, Scene};
 pub use camera::Camera;
 pub use error::{Error, Result};
-pub use ray::{Hit, Ray, ShadowRay, spawn_ray, spawn_ray_to};
+pub use ray::{Hit, Ray, ShadowRay, spawn_ray, spawn_ray_to, spawn_shadow_ray};
 pub use shapes::{Instances, Mesh, Sphere};
 pub use simd::SimdLevel;
 

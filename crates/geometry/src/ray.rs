@@ -82,6 +82,17 @@ pub fn spawn_ray(hit: &Hit, dir: Vec3) -> Ray {
     Ray { origin: offset_ray_origin(hit.p, hit.p_error, hit.n, dir), dir }
 }
 
+/// A shadow ray from `hit` to the point `target` ([`spawn_ray_to`]) or, without one, along `wi`
+/// to infinity ([`spawn_ray`]), and the `t_max` to test occlusion against: a light sample's two
+/// kinds (area and point lights; directional lights and the environment).
+#[inline(always)]
+pub fn spawn_shadow_ray(hit: &Hit, target: Option<Vec3>, wi: Vec3) -> (Ray, f32) {
+    match target {
+        Some(q) => spawn_ray_to(hit, q),
+        None => (spawn_ray(hit, wi), f32::INFINITY),
+    }
+}
+
 /// A shadow ray from `hit` towards the point `target`, and the `t_max` to test occlusion
 /// against: just short of the target (pbrt-v4's `ShadowEpsilon` = 1e-4 of the segment), so a
 /// light at the target is not counted as its own occluder.

@@ -12,7 +12,7 @@
 //! `docs/path-tracer.md` documents the model and its choices.
 
 use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
-use geometry::{Hit, Ray, ShadowRay, spawn_ray, spawn_ray_to};
+use geometry::{Hit, Ray, ShadowRay, spawn_ray, spawn_shadow_ray};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{
     Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, ThinDielectricBxdf, TrowbridgeReitz,
@@ -388,10 +388,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let blocker = match lifted.filter(|_| segment == 0) {
                 Some(lifted) => geometry.shadow_blocker(lifted),
                 None => {
-                    let (shadow, t_max) = match target {
-                        Some(q) => spawn_ray_to(&from, q),
-                        None => (spawn_ray(&from, wi), f32::INFINITY),
-                    };
+                    let (shadow, t_max) = spawn_shadow_ray(&from, target, wi);
                     geometry.intersect(&shadow, t_max)
                 }
             };
@@ -760,10 +757,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let occluded = match &lifted {
                 Some(lifted) => geometry.shadow_occluded(lifted),
                 None => {
-                    let (shadow, t_max) = match ls.target {
-                        Some(q) => spawn_ray_to(hit, q),
-                        None => (spawn_ray(hit, ls.wi), f32::INFINITY),
-                    };
+                    let (shadow, t_max) = spawn_shadow_ray(hit, ls.target, ls.wi);
                     geometry.occluded(&shadow, t_max)
                 }
             };

@@ -7,7 +7,7 @@
 //! wavelength (the paper's IOR does not vary with λ), so one tree carries all lanes.
 
 use colorimetry::{SampledSpectrum, SampledWavelengths};
-use geometry::{Hit, Ray, spawn_ray, spawn_ray_to};
+use geometry::{Hit, Ray, spawn_ray, spawn_shadow_ray};
 use glam::{Vec2, Vec3};
 use materials::{hall, scattering};
 
@@ -317,10 +317,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
         count: &mut RayCount,
     ) -> Option<SampledSpectrum<N>> {
         count.rays += 1;
-        let (ray, t_max) = match target {
-            Some(q) => spawn_ray_to(hit, q),
-            None => (spawn_ray(hit, wi), f32::INFINITY),
-        };
+        let (ray, t_max) = spawn_shadow_ray(hit, target, wi);
         let start = start.filter(|m| m.sigma_a.is_some());
         if start.is_none() && !self.scene.geometry.occluded(&ray, t_max) {
             return Some(SampledSpectrum([1.0; N]));
