@@ -206,28 +206,47 @@ pub struct MaterialTextures {
     pub transmission: Option<TextureDesc>,
     /// Linear; A = the specular layer's strength (× `specularFactor`): `KHR_materials_specular.specularTexture`.
     pub specular: Option<TextureDesc>,
+    /// sRGB; RGB tints the layer's F0 (× `specularColorFactor`): `KHR_materials_specular.specularColorTexture`.
+    pub specular_color: Option<TextureDesc>,
     /// Linear; R = the coat's weight (× `clearcoatFactor`): `KHR_materials_clearcoat.clearcoatTexture`.
     pub clearcoat: Option<TextureDesc>,
     /// Linear; G = the coat's roughness (× its factor): `KHR_materials_clearcoat.clearcoatRoughnessTexture`.
     pub clearcoat_roughness: Option<TextureDesc>,
+    /// The coat's own tangent-space normal map (`scale` read): `KHR_materials_clearcoat.clearcoatNormalTexture`.
+    /// Without it the coat takes the interpolated normal, not the base's normal map (as the extension says).
+    pub clearcoat_normal: Option<TextureDesc>,
 }
 
 impl MaterialTextures {
+    /// Every role's texture, present or not.
+    pub fn roles(&self) -> [&Option<TextureDesc>; 11] {
+        [
+            &self.base_color,
+            &self.metallic_roughness,
+            &self.normal,
+            &self.emissive,
+            &self.alpha,
+            &self.transmission,
+            &self.specular,
+            &self.specular_color,
+            &self.clearcoat,
+            &self.clearcoat_roughness,
+            &self.clearcoat_normal,
+        ]
+    }
+
     /// Whether any role has a texture.
     pub fn any(&self) -> bool {
-        self.base_color.is_some()
-            || self.metallic_roughness.is_some()
-            || self.normal.is_some()
-            || self.emissive.is_some()
-            || self.alpha.is_some()
-            || self.transmission.is_some()
-            || self.specular.is_some()
-            || self.clearcoat.is_some()
-            || self.clearcoat_roughness.is_some()
+        self.roles().iter().any(|t| t.is_some())
+    }
+
+    /// Whether a normal map (the base's or the coat's) needs tangents.
+    pub fn has_normal_map(&self) -> bool {
+        self.normal.is_some() || self.clearcoat_normal.is_some()
     }
 }
 
-/// glTF `KHR_materials_specular`'s factors, as written (textures are not read: the loader warns).
+/// glTF `KHR_materials_specular`'s factors, as written (its textures are in [`MaterialTextures`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SpecularLayer {
     /// `specularFactor`: the strength of the layer (scales its Fresnel, F90 included).
@@ -241,9 +260,15 @@ impl SpecularLayer {
     pub fn is_default(&self) -> bool {
         self.factor == 1.0 && self.color == [1.0; 3]
     }
+
+    /// The largest component of `color` (0 for black): the colour is upsampled as a reflectance at this
+    /// scale, since it may exceed 1.
+    pub fn color_scale(&self) -> f32 {
+        self.color.into_iter().fold(0.0f32, f32::max)
+    }
 }
 
-/// glTF `KHR_materials_clearcoat`'s factors, as written (textures are not read: the loader warns).
+/// glTF `KHR_materials_clearcoat`'s factors, as written (its textures are in [`MaterialTextures`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Clearcoat {
     /// `clearcoatFactor`: the coat's weight.

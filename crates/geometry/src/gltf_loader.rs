@@ -35,7 +35,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_volume",
     "KHR_materials_emissive_strength",
     "KHR_materials_dispersion",
-    // Factors and textures (`specularColorTexture` and `clearcoatNormalTexture` are ignored with a warning).
+    // Factors and every texture.
     "KHR_materials_specular",
     "KHR_materials_clearcoat",
     // Read in full (offset, rotation, scale, texCoord); Blender marks it required whenever a Mapping
@@ -842,7 +842,7 @@ impl Loader<'_> {
             m.alpha = Some(a);
             m.metallic = Some(0.0);
             m.roughness = Some(1.0 - sg.get("glossinessFactor").and_then(number).unwrap_or(1.0).clamp(0.0, 1.0));
-            m.textures.base_color = self.raw_texture(sg.get("diffuseTexture"), document, &context);
+            m.textures.base_color = self.raw_texture(sg.get("diffuseTexture"), document, false, &context);
             self.warn(format!(
                 "{context}: KHR_materials_pbrSpecularGlossiness converted to metallic-roughness (diffuse → base colour, roughness = 1 − glossiness, metallic 0; specular colour and specularGlossinessTexture ignored)"
             ));
@@ -859,14 +859,17 @@ impl Loader<'_> {
         }
         if let Some(value) = material.extension_value("KHR_materials_specular") {
             m.specular_layer = Some(self.specular_layer(value, &context));
-            m.textures.specular = self.raw_texture(value.get("specularTexture"), document, &context);
+            m.textures.specular = self.raw_texture(value.get("specularTexture"), document, false, &context);
+            m.textures.specular_color = self.raw_texture(value.get("specularColorTexture"), document, false, &context);
         }
         if let Some(value) = material.extension_value("KHR_materials_clearcoat") {
             m.clearcoat = self.clearcoat(value, &context);
             if m.clearcoat.is_some() {
-                m.textures.clearcoat = self.raw_texture(value.get("clearcoatTexture"), document, &context);
+                m.textures.clearcoat = self.raw_texture(value.get("clearcoatTexture"), document, false, &context);
                 m.textures.clearcoat_roughness =
-                    self.raw_texture(value.get("clearcoatRoughnessTexture"), document, &context);
+                    self.raw_texture(value.get("clearcoatRoughnessTexture"), document, false, &context);
+                m.textures.clearcoat_normal =
+                    self.raw_texture(value.get("clearcoatNormalTexture"), document, true, &context);
             }
         }
         for (extension, what) in [
@@ -899,13 +902,14 @@ impl Loader<'_> {
         }
     }
 
-    /// A material extension's `textureInfo` (`index`, `texCoord`, `KHR_texture_transform`), read from its raw
-    /// JSON (the `gltf` crate types only the core roles); `None` where absent, and with a warning where it
-    /// names no texture of the file.
+    /// A material extension's `textureInfo` (`index`, `texCoord`, `KHR_texture_transform`; and `scale` for a
+    /// `normal` map's `normalTextureInfo`), read from its raw JSON (the `gltf` crate types only the core
+    /// roles); `None` where absent, and with a warning where it names no texture of the file.
     fn raw_texture(
         &mut self,
         info: Option<&serde_json::Value>,
         document: &gltf::Document,
+        normal: bool,
         context: &str,
     ) -> Option<TextureDesc> {
         let info = info?;
@@ -919,22 +923,27 @@ impl Loader<'_> {
         };
         let set = info.get("texCoord").and_then(serde_json::Value::as_u64).unwrap_or(0) as u32;
         let transform = info.get("extensions").and_then(|e| e.get("KHR_texture_transform")).and_then(transform_value);
-        self.texture(&texture, set, transform, 1.0, context)
-    }
-
-    /// Warn once per texture key of an extension that is present: its factors are read, its textures not.
-    fn warn_extension_textures(&mut self, value: &serde_json::Value, extension: &str, keys: &[&str], context: &str) {
-        let present: Vec<&str> = keys.iter().copied().filter(|k| value.get(*k).is_some()).collect();
-        if !present.is_empty() {
-            self.warn(format!("{context}: {extension} {} ignored (its factors are used)", present.join(", ")));
-        }
+        let scale = if normal {
+            match info.get("scale") {
+                None => 1.0,
+                Some(v) => match v.as_f64().filter(|x| x.is_finite()) {
+                    Some(x) => x as f32,
+                    None => {
+                        self.warn(format!("{context}: normal texture scale {v} is not a number; 1 is used"));
+                        1.0
+                    }
+                },
+            }
+        } else {
+            1.0
+        };
+        self.texture(&texture, set, transform, scale, context)
     }
 
     /// `KHR_materials_specular`: `specularFactor` (default 1) and `specularColorFactor` (default white, each
     /// component ≥ 0: the extension lets it exceed 1).
     fn specular_layer(&mut self, value: &serde_json::Value, context: &str) -> SpecularLayer {
         const EXT: &str = "KHR_materials_specular";
-        self.warn_extension_textures(value, EXT, &["specularColorTexture"], context);
         let factor = self.factor(value, "specularFactor", 1.0, 1.0, context);
         let color = match value.get("specularColorFactor") {
             None => [1.0; 3],
@@ -959,7 +968,6 @@ impl Loader<'_> {
     /// `KHR_materials_clearcoat`: `clearcoatFactor` (default 0: no coat) and `clearcoatRoughnessFactor`
     /// (default 0).
     fn clearcoat(&mut self, value: &serde_json::Value, context: &str) -> Option<Clearcoat> {
-        self.warn_extension_textures(value, "KHR_materials_clearcoat", &["clearcoatNormalTexture"], context);
         let factor = self.factor(value, "clearcoatFactor", 0.0, 1.0, context);
         let roughness = self.factor(value, "clearcoatRoughnessFactor", 0.0, 1.0, context);
         (factor > 0.0).then_some(Clearcoat { factor, roughness })
@@ -1160,14 +1168,9 @@ impl Loader<'_> {
             };
             // A mesh holds one UV set: the one its material's textures address.
             let textures = &self.desc.materials[material as usize].textures;
-            let sets: Vec<u32> =
-                [&textures.base_color, &textures.metallic_roughness, &textures.normal, &textures.emissive]
-                    .into_iter()
-                    .flatten()
-                    .map(|t| t.tex_coord)
-                    .collect();
+            let sets: Vec<u32> = textures.roles().into_iter().flatten().map(|t| t.tex_coord).collect();
             let set = sets.first().copied().unwrap_or(0);
-            let wants_tangents = textures.normal.is_some();
+            let wants_tangents = textures.has_normal_map();
             if sets.iter().any(|&s| s != set) {
                 self.warn(format!(
                     "{context}: the material's textures use several TEXCOORD sets {sets:?}; all are read with TEXCOORD_{set}"

@@ -1072,21 +1072,21 @@ fn material_model(
 /// `KHR_materials_specular` on a glTF dielectric layer of index `ior` (at n_d): F0(λ) = min(F0_ior ·
 /// colour(λ), 1) with F0_ior = ((n − 1)/(n + 1))² (1 in `KHR_materials_ior`'s mode 0). The colour may exceed 1:
 /// it is upsampled as a reflectance at its largest component's scale. `None` for the extension's defaults
-/// (factor 1, white, no `specularTexture`), which are the plain layer.
+/// (factor 1, white, no texture), which are the plain layer.
 fn dielectric_specular(layer: &geometry::SpecularLayer, ior: &Ior, textured: bool) -> Option<DielectricSpecular> {
     if layer.is_default() && !textured {
         return None;
     }
     let n = ior.eval(materials::LAMBDA_D);
     let f0_ior = if n > 0.0 { f64::from(((n - 1.0) / (n + 1.0)).powi(2)) } else { 1.0 };
-    let scale = layer.color.into_iter().fold(0.0f32, f32::max);
+    let scale = layer.color_scale();
     let color = if scale > 0.0 {
         materials::reflectance_from_rgb(layer.color.map(|c| c / scale))
     } else {
         DenselySampledSpectrum::constant(0.0)
     };
     let f0 = color.map(|c| (f0_ior * c * f64::from(scale)).clamp(0.0, 1.0));
-    Some(DielectricSpecular { weight: layer.factor, f0 })
+    Some(DielectricSpecular { weight: layer.factor, f0, f0_scale: (f0_ior * f64::from(scale)) as f32 })
 }
 
 /// A reflectance-like spectrum (values in [0, 1] expected): RGB is upsampled as a reflectance.
@@ -1259,10 +1259,9 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         // glTF's doubleSided defaults to false; the manifest's `double_sided` and OBJ default to both sides.
         two_sided: desc.double_sided.unwrap_or(desc.format != MaterialFormat::Gltf),
         multiple_scattering: desc.multiple_scattering.unwrap_or(true),
-        dielectric_specular: desc
-            .specular_layer
-            .as_ref()
-            .and_then(|l| dielectric_specular(l, &ior, desc.textures.specular.is_some())),
+        dielectric_specular: desc.specular_layer.as_ref().and_then(|l| {
+            dielectric_specular(l, &ior, desc.textures.specular.is_some() || desc.textures.specular_color.is_some())
+        }),
         coat: desc.clearcoat.map(|c| Coat { weight: c.factor, roughness: c.roughness }),
     };
     material.validate().map_err(wrap)?;

@@ -123,6 +123,16 @@ struct SpecularLayer {
     f0: SpecId,
     /// The largest F0 over the spectrum.
     f0_max: f32,
+    /// What a specular colour texture's texels are scaled by ([`materials::DielectricSpecular::f0_scale`]).
+    f0_scale: f32,
+}
+
+/// `KHR_materials_specular` at one hit, its textures applied.
+#[derive(Debug, Clone, Copy)]
+struct HitSpecular<const N: usize> {
+    weight: f32,
+    f0: SampledSpectrum<N>,
+    f0_max: f32,
 }
 
 #[derive(Debug, Clone)]
@@ -174,6 +184,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 weight: d.weight,
                 f0: add(d.f0.clone(), SpectrumKind::Reflectance),
                 f0_max: d.f0.max_value() as f32,
+                f0_scale: d.f0_scale,
             });
             let scattering = match m.model {
                 MaterialModel::Diffuse => {
@@ -565,27 +576,44 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             // its uses below rather than inside `base`, which would then capture `colors` (callgrind,
             // Cornell box, path, 4 spp at 128²: +0.069 % instructions folded into `base`, +0.029 % so).
             let last = &mut last_surface;
-            let ns = match textures.filter(|t| t.has_normal_map()) {
-                Some(t) => t.shading_normal(hit.uv, hit.ns, surface_tangent(&self.scene.geometry, &hit), hit.n),
-                None => hit.ns,
-            };
-            let frame = Frame { n: hit.n, ns };
-            // A clear coat is picked with its share of the light seen from `wo`, the material otherwise.
+            // A clear coat is picked with its share of the light seen from `wo`, the material otherwise. The
+            // coat has its own normal: its normal map's, else the interpolated one (not the base's map).
             let coated = if ROUGH {
-                let coat = m.coat.map(|c| textures.map_or(c, |t| t.coat(hit.uv, c)));
-                coat.filter(|c| rng.uniform() < c.probability(wo.dot(ns)))
+                m.coat
+                    .map(|c| match textures {
+                        Some(t) => {
+                            let ns = if t.has_coat_normal_map() {
+                                let tangent = surface_tangent(&self.scene.geometry, &hit);
+                                t.coat_normal(hit.uv, hit.ns, tangent, hit.n)
+                            } else {
+                                hit.ns
+                            };
+                            (t.coat(hit.uv, c), ns)
+                        }
+                        None => (c, hit.ns),
+                    })
+                    .filter(|(c, ns)| rng.uniform() < c.probability(wo.dot(*ns)))
             } else {
                 None
             };
-            // `KHR_materials_specular`'s strength at the hit.
-            let textured_specular = |s: Option<SpecularLayer>| {
-                s.map(|s| SpecularLayer {
-                    weight: textures.map_or(s.weight, |t| t.specular_weight(hit.uv, s.weight)),
-                    ..s
+            let ns = match (coated, textures.filter(|t| t.has_base_normal_map())) {
+                (Some((_, ns)), _) => ns,
+                (None, Some(t)) => t.shading_normal(hit.uv, hit.ns, surface_tangent(&self.scene.geometry, &hit), hit.n),
+                (None, None) => hit.ns,
+            };
+            let frame = Frame { n: hit.n, ns };
+            // `KHR_materials_specular` at the hit: its strength and F0 per texel where textured.
+            let hit_specular = |s: Option<SpecularLayer>| {
+                s.map(|s| {
+                    let weight = textures.map_or(s.weight, |t| t.specular_weight(hit.uv, s.weight));
+                    let (f0, f0_max) = textures
+                        .and_then(|t| t.specular_f0(hit.uv, lambda, self.rgb_lanes, s.f0_scale))
+                        .unwrap_or_else(|| (self.spectra.eval(s.f0, lambda), s.f0_max));
+                    HitSpecular { weight, f0, f0_max }
                 })
             };
             let bsdf = match m.scattering {
-                _ if let Some(c) = coated => Bsdf::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(c.roughness)),
+                _ if let Some((c, _)) = coated => Bsdf::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(c.roughness)),
                 PathScattering::Diffuse { r } => Bsdf::Lambertian {
                     r: match colors {
                         Some(c) => self.vertex_colored_base(&c, textures, hit.uv, r, lambda, last),
@@ -629,8 +657,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         Some(c) => self.vertex_colored_base(&c, textures, hit.uv, id, lambda, last),
                         None => base(id, lambda, last),
                     };
-                    let specular = textured_specular(specular);
-                    Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular, lambda))
+                    let specular = hit_specular(specular);
+                    Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular))
                 }
                 PathScattering::GltfTransmission {
                     base: id,
@@ -664,8 +692,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     } else {
                         // What is not glass: metallic / (1 − glass) of it is metal (glass < 1 here).
                         let metal = if glass < 1.0 { metallic / (1.0 - glass) } else { 1.0 };
-                        let specular = textured_specular(specular);
-                        Bsdf::GltfMetalRough(self.metal_rough(colour, metal.min(1.0), roughness, ior, specular, lambda))
+                        let specular = hit_specular(specular);
+                        Bsdf::GltfMetalRough(self.metal_rough(colour, metal.min(1.0), roughness, ior, specular))
                     }
                 }
             };
@@ -703,13 +731,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         metallic: f32,
         roughness: f32,
         ior: f32,
-        specular: Option<SpecularLayer>,
-        lambda: &SampledWavelengths<N>,
+        specular: Option<HitSpecular<N>>,
     ) -> GltfMetalRoughBxdf<N> {
         let g = GltfMetalRoughBxdf::new(base, metallic, roughness, ior);
         match specular {
             None => g,
-            Some(s) => g.with_specular(s.weight, self.spectra.eval(s.f0, lambda), s.f0_max),
+            Some(s) => g.with_specular(s.weight, s.f0, s.f0_max),
         }
         .conserving()
     }

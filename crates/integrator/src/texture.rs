@@ -269,6 +269,79 @@ impl ColorTexture {
     }
 }
 
+/// `KHR_materials_specular`'s colour texture: the texels × `specularColorFactor` ÷ its largest component
+/// (`SpecularLayer::color_scale`) as reflectance spectra, and each palette entry's largest value over
+/// 360–830 nm. At a hit, with k = F0 of the index × that largest component, F0(λ) = Σᵢ wᵢ min(k sᵢ(λ), 1)
+/// over the texels under uv and F0_max = Σᵢ wᵢ min(k maxᵢ, 1). The layer's Fresnel and the energy it takes
+/// from the base are linear in F0 and F0_max, so this is the blend of the texels' layers, as a colour
+/// texture's reflectance is the blend of its texels'; without the texture the layer is the factor's
+/// (`assembly::dielectric_specular`), which a white texel reproduces.
+#[derive(Debug)]
+pub(crate) struct SpecularColorTexture {
+    color: ColorTexture,
+    /// `max_value` of each palette entry's sigmoid.
+    max: Vec<f32>,
+}
+
+impl SpecularColorTexture {
+    fn new(
+        image: &Image8,
+        label: &str,
+        desc: &TextureDesc,
+        layer: &geometry::SpecularLayer,
+        memory: &mut MemoryBudget,
+    ) -> geometry::Result<(Self, bool)> {
+        let scale = layer.color_scale();
+        let factor = layer.color.map(|c| if scale > 0.0 { c / scale } else { 0.0 });
+        let (color, exact) = ColorTexture::new(image, label, desc, [factor[0], factor[1], factor[2], 1.0], memory)?;
+        memory.charge(
+            std::path::Path::new(label),
+            || format!("the largest F0 of each of {} specular colours", color.palette.len()),
+            (color.palette.len() * 4) as u64,
+        )?;
+        let max = color.palette.iter().map(|e| e.sigmoid.max_value() as f32).collect();
+        Ok((Self { color, max }, exact))
+    }
+
+    /// (F0 at the path's wavelengths, F0_max) at `uv`, `f0_scale` being k above (linear RGB on RGB lanes,
+    /// where F0_max is the largest channel's, as the extension computes it).
+    #[inline]
+    fn f0<const N: usize>(
+        &self,
+        uv: Vec2,
+        lambda: &SampledWavelengths<N>,
+        rgb_lanes: bool,
+        f0_scale: f32,
+    ) -> (SampledSpectrum<N>, f32) {
+        let mut f0 = SampledSpectrum([0.0; N]);
+        let mut f0_max = 0.0;
+        for (i, w) in self.color.sampler.footprint(uv) {
+            if w == 0.0 {
+                continue;
+            }
+            let entry = self.color.index[i] as usize;
+            let e = &self.color.palette[entry];
+            if rgb_lanes {
+                for c in 0..3.min(N) {
+                    f0.0[c] += w * (f0_scale * e.rgb[c]).min(1.0);
+                }
+                f0_max += w * (f0_scale * e.rgb[0].max(e.rgb[1]).max(e.rgb[2])).min(1.0);
+            } else {
+                let s = e.sigmoid.sample(lambda);
+                for (out, v) in f0.0.iter_mut().zip(s.0) {
+                    *out += w * (f0_scale * v).min(1.0);
+                }
+                f0_max += w * (f0_scale * self.max[entry]).min(1.0);
+            }
+        }
+        (f0, f0_max)
+    }
+
+    fn bytes(&self) -> usize {
+        self.color.bytes() + self.max.len() * 4
+    }
+}
+
 /// The linear RGB × factor of one colour, clamped to reflectances, fitted as texels are.
 fn palette_entry(rgb: [f32; 3], alpha: f32, exact: bool) -> PaletteEntry {
     let rgb = rgb.map(|c| c.clamp(0.0, 1.0));
@@ -439,9 +512,13 @@ pub(crate) struct MaterialTextures {
     transmission: Option<DataTexture>,
     /// `specularTexture`: A multiplies `specularFactor`.
     specular: Option<DataTexture>,
+    /// `specularColorTexture` × `specularColorFactor`: the layer's F0 colour per texel.
+    specular_color: Option<SpecularColorTexture>,
     /// `clearcoatTexture` (R × the coat's weight) and `clearcoatRoughnessTexture` (G × its roughness).
     clearcoat: Option<DataTexture>,
     clearcoat_roughness: Option<DataTexture>,
+    /// `clearcoatNormalTexture`: the coat's tangent-space normal map.
+    clearcoat_normal: Option<DataTexture>,
     /// How alpha is used; `Opaque` skips every alpha lookup.
     alpha_mode: AlphaMode,
     /// The material's alpha factor where no texture gives alpha.
@@ -513,32 +590,57 @@ impl MaterialTextures {
         }
     }
 
-    /// The shading normal with the normal map applied, given the interpolated normal `ns`, the
-    /// tangent (xyz) with the bitangent sign (w), and the geometric normal `n`; `ns` itself when
-    /// there is no map or the mapped normal would face away from `n`.
+    /// The F0 of `KHR_materials_specular` at `uv` and the path's wavelengths, and its largest value over
+    /// the spectrum (see [`SpecularColorTexture::f0`]); `None` without a specular colour texture.
     #[inline]
-    pub(crate) fn shading_normal(&self, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
-        let (Some(map), Some(tangent)) = (&self.normal, tangent) else { return ns };
-        // Gram–Schmidt: the interpolated tangent is not exactly orthogonal to `ns`.
-        let Some(t) = (tangent.truncate() - ns * ns.dot(tangent.truncate())).try_normalize() else { return ns };
-        let b = ns.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 };
-        let c = map.eval(uv);
-        let local = Vec3::new((2.0 * c.x - 1.0) * map.scale, (2.0 * c.y - 1.0) * map.scale, 2.0 * c.z - 1.0);
-        match (t * local.x + b * local.y + ns * local.z).try_normalize() {
-            Some(mapped) if mapped.dot(n) > 1e-4 => mapped,
-            _ => ns,
-        }
+    pub(crate) fn specular_f0<const N: usize>(
+        &self,
+        uv: Vec2,
+        lambda: &SampledWavelengths<N>,
+        rgb_lanes: bool,
+        f0_scale: f32,
+    ) -> Option<(SampledSpectrum<N>, f32)> {
+        self.specular_color.as_ref().map(|t| t.f0(uv, lambda, rgb_lanes, f0_scale))
     }
 
-    /// Whether a normal map is present (the tangent frame is needed only then).
-    pub(crate) fn has_normal_map(&self) -> bool {
+    /// The base's shading normal: `ns` with the normal map applied (see [`normal_mapped`]); `ns` itself
+    /// without a map.
+    #[inline]
+    pub(crate) fn shading_normal(&self, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
+        normal_mapped(&self.normal, uv, ns, tangent, n)
+    }
+
+    /// The coat's shading normal: `ns` with the coat's own normal map applied; `ns` itself without one,
+    /// even where the base has a map (`KHR_materials_clearcoat`: the coat is a separate surface).
+    #[inline]
+    pub(crate) fn coat_normal(&self, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
+        normal_mapped(&self.clearcoat_normal, uv, ns, tangent, n)
+    }
+
+    /// Whether the base has a normal map (its tangent frame is needed only then).
+    #[inline]
+    pub(crate) fn has_base_normal_map(&self) -> bool {
         self.normal.is_some()
+    }
+
+    /// Whether the coat has a normal map.
+    #[inline]
+    pub(crate) fn has_coat_normal_map(&self) -> bool {
+        self.clearcoat_normal.is_some()
+    }
+
+    /// Whether any normal map (the base's or the coat's) is present: the mesh then needs tangents.
+    pub(crate) fn has_normal_map(&self) -> bool {
+        self.normal.is_some() || self.clearcoat_normal.is_some()
     }
 
     /// Whether the material has a texture or a non-opaque alpha (what it would need an entry for
     /// without vertex colours).
     pub(crate) fn is_textured(&self) -> bool {
-        self.base_color.is_some() || self.data_images().next().is_some() || self.has_alpha()
+        self.base_color.is_some()
+            || self.specular_color.is_some()
+            || self.data_images().next().is_some()
+            || self.has_alpha()
     }
 
     /// Whether meshes with vertex colours use the material (hits then look their colour up).
@@ -555,6 +657,7 @@ impl MaterialTextures {
     /// Bytes of texel data held (for `info`) by colour textures.
     fn color_bytes(&self) -> usize {
         self.base_color.as_ref().map_or(0, ColorTexture::bytes)
+            + self.specular_color.as_ref().map_or(0, SpecularColorTexture::bytes)
     }
 
     /// The decoded images the data textures read (shared between roles and materials).
@@ -567,10 +670,28 @@ impl MaterialTextures {
             &self.specular,
             &self.clearcoat,
             &self.clearcoat_roughness,
+            &self.clearcoat_normal,
         ]
         .into_iter()
         .flatten()
         .map(|t| &t.image)
+    }
+}
+
+/// `ns` with the tangent-space normal map `map` applied, given the tangent (xyz) with the bitangent sign (w)
+/// and the geometric normal `n`; `ns` itself when there is no map or tangent, or the mapped normal would
+/// face away from `n`.
+#[inline]
+fn normal_mapped(map: &Option<DataTexture>, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
+    let (Some(map), Some(tangent)) = (map, tangent) else { return ns };
+    // Gram–Schmidt: the interpolated tangent is not exactly orthogonal to `ns`.
+    let Some(t) = (tangent.truncate() - ns * ns.dot(tangent.truncate())).try_normalize() else { return ns };
+    let b = ns.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 };
+    let c = map.eval(uv);
+    let local = Vec3::new((2.0 * c.x - 1.0) * map.scale, (2.0 * c.y - 1.0) * map.scale, 2.0 * c.z - 1.0);
+    match (t * local.x + b * local.y + ns * local.z).try_normalize() {
+        Some(mapped) if mapped.dot(n) > 1e-4 => mapped,
+        _ => ns,
     }
 }
 
@@ -669,13 +790,20 @@ pub(crate) fn load_material_textures(
                 let factor = [factor_rgb[0], factor_rgb[1], factor_rgb[2], alpha_factor];
                 let (texture, exact) = ColorTexture::new(&img, label, t, factor, memory)?;
                 if !exact {
-                    warnings.push(format!(
-                        "{}: {} distinct colours, more than {MAX_REFINED_COLOURS} fitted exactly: texels use the table lookup (ΔE00 mean 0.045, max 1.2)",
-                        label,
-                        texture.palette.len()
-                    ));
+                    warnings.push(table_lookup_warning(label, texture.palette.len()));
                 }
                 base_color = Some(texture);
+            }
+            let mut specular_color = None;
+            if let (Some(t), Some(layer)) = (&textures.specular_color, &m.specular_layer)
+                && let Some(img) = image(t.image, memory, warnings)?
+            {
+                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                let (texture, exact) = SpecularColorTexture::new(&img, label, t, layer, memory)?;
+                if !exact {
+                    warnings.push(table_lookup_warning(label, texture.color.palette.len()));
+                }
+                specular_color = Some(texture);
             }
             let mut data = |t: &Option<TextureDesc>,
                             memory: &mut MemoryBudget,
@@ -691,6 +819,7 @@ pub(crate) fn load_material_textures(
             let specular = data(&textures.specular, memory, warnings)?;
             let clearcoat = data(&textures.clearcoat, memory, warnings)?;
             let clearcoat_roughness = data(&textures.clearcoat_roughness, memory, warnings)?;
+            let clearcoat_normal = data(&textures.clearcoat_normal, memory, warnings)?;
             let set = MaterialTextures {
                 base_color,
                 metallic_roughness,
@@ -698,8 +827,10 @@ pub(crate) fn load_material_textures(
                 coverage,
                 transmission,
                 specular,
+                specular_color,
                 clearcoat,
                 clearcoat_roughness,
+                clearcoat_normal,
                 alpha_mode,
                 alpha_factor,
                 vertex_colors,
@@ -709,6 +840,13 @@ pub(crate) fn load_material_textures(
         out.push(entry);
     }
     Ok(out)
+}
+
+/// What a texture with more than [`MAX_REFINED_COLOURS`] (`count`) distinct colours says.
+fn table_lookup_warning(label: &str, count: usize) -> String {
+    format!(
+        "{label}: {count} distinct colours, more than {MAX_REFINED_COLOURS} fitted exactly: texels use the table lookup (ΔE00 mean 0.045, max 1.2)"
+    )
 }
 
 /// The mean linear sRGB of an sRGB-encoded image.
@@ -799,6 +937,70 @@ mod tests {
         // And a wrong decode (treating the bytes as linear) is far off: the test can fail.
         let grey = Vec2::new(4.5 / 8.0, 0.25);
         assert!(delta_e00_under_d65([128.0 / 255.0; 3], &texel_spectrum(&texture, grey)) > 5.0);
+    }
+
+    /// F0 and F0_max of a specular colour texture at `uv`, F0 sampled on the 1 nm grid.
+    fn specular_f0_spectrum(
+        texture: &SpecularColorTexture,
+        uv: Vec2,
+        f0_scale: f32,
+    ) -> (colorimetry::DenselySampledSpectrum, f32) {
+        let mut values = Vec::new();
+        let mut f0_max = 0.0;
+        for chunk in 0..30 {
+            let lambdas: [f32; 16] = std::array::from_fn(|i| (360 + chunk * 16 + i).min(830) as f32);
+            let (s, max) = texture.f0(uv, &SampledWavelengths::from_parts(lambdas, [1.0; 16]), false, f0_scale);
+            values.extend(s.0.iter().map(|&v| f64::from(v)));
+            f0_max = max;
+        }
+        values.truncate(471);
+        (colorimetry::DenselySampledSpectrum::new(360.0, 1.0, values).expect("1 nm grid"), f0_max)
+    }
+
+    #[test]
+    fn specular_colour_texels_tint_f0_by_their_colour_times_the_factor() {
+        // White and orange texels; `specularColorFactor` above 1 in red, as the extension allows.
+        let image = Image8 { width: 2, height: 1, texels: vec![[255, 255, 255, 255], [255, 128, 0, 255]] };
+        let layer = geometry::SpecularLayer { factor: 1.0, color: [2.0, 1.0, 0.5] };
+        let desc = TextureDesc { nearest: true, ..TextureDesc::new(0) };
+        let (texture, exact) =
+            SpecularColorTexture::new(&image, "test", &desc, &layer, &mut MemoryBudget::default()).unwrap();
+        assert!(exact);
+        // Index 1.5: F0 = 0.04 × colour; the colour is upsampled at its largest component, 2.
+        let k = 0.04 * layer.color_scale();
+        let linear = |t: [u8; 4]| [0, 1, 2].map(|c| srgb_decode(f64::from(t[c]) / 255.0));
+        for (i, uv) in [Vec2::new(0.25, 0.5), Vec2::new(0.75, 0.5)].into_iter().enumerate() {
+            let (f0, f0_max) = specular_f0_spectrum(&texture, uv, k);
+            // F0 / 0.04 / 2 has the colour texel × factor / 2 under D65.
+            let texel = linear(image.texels[i]);
+            let want = [0, 1, 2].map(|c| texel[c] * f64::from(layer.color[c]) / 2.0);
+            let scaled = f0.map(|v| v / f64::from(k));
+            let de = delta_e00_under_d65(want, &scaled);
+            assert!(de < 0.01, "texel {i}: ΔE00 {de}");
+            // F0_max is the largest F0 over the spectrum.
+            assert!((f64::from(f0_max) - f0.max_value()).abs() < 1e-4, "texel {i}: {f0_max} vs {}", f0.max_value());
+            // The factor alone (the texture ignored) is far from the orange texel.
+            if i == 1 {
+                assert!(delta_e00_under_d65([1.0, 0.5, 0.25], &scaled) > 5.0);
+            }
+        }
+        // Bilinear between the texels: the blend of their F0s and of their F0_max.
+        let bilinear =
+            SpecularColorTexture::new(&image, "test", &TextureDesc::new(0), &layer, &mut MemoryBudget::default())
+                .unwrap()
+                .0;
+        let (mid, mid_max) = specular_f0_spectrum(&bilinear, Vec2::new(0.5, 0.5), k);
+        let ((a, a_max), (b, b_max)) = (
+            specular_f0_spectrum(&texture, Vec2::new(0.25, 0.5), k),
+            specular_f0_spectrum(&texture, Vec2::new(0.75, 0.5), k),
+        );
+        for l in [400.0, 550.0, 700.0] {
+            assert!((mid.eval(l) - 0.5 * (a.eval(l) + b.eval(l))).abs() < 1e-6, "{l} nm");
+        }
+        assert!((mid_max - 0.5 * (a_max + b_max)).abs() < 1e-6);
+        // A scale past 1/F0 clamps F0 to 1 per texel, never beyond.
+        let (clamped, clamped_max) = specular_f0_spectrum(&texture, Vec2::new(0.25, 0.5), 40.0);
+        assert!(clamped.max_value() <= 1.0 && clamped_max == 1.0, "{} {clamped_max}", clamped.max_value());
     }
 
     #[test]

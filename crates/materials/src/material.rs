@@ -73,6 +73,9 @@ pub struct DielectricSpecular {
     pub weight: f32,
     /// F0(λ) in [0, 1], the colour and the index already applied.
     pub f0: DenselySampledSpectrum,
+    /// ((1 − ior)/(1 + ior))² × the colour's largest component: what a `specularColorTexture`'s texels,
+    /// upsampled with the colour divided by that component, are scaled by (`f0` is then per hit).
+    pub f0_scale: f32,
 }
 
 /// `KHR_materials_clearcoat`: `mix(material, specular_brdf(α = roughness²), weight · F(|N·V|))` with

@@ -409,7 +409,7 @@ fn gltf_required_volume_and_dispersion_are_accepted() {
 }
 
 #[test]
-fn gltf_specular_and_clearcoat_factors_are_read_and_their_textures_named() {
+fn gltf_specular_and_clearcoat_factors_and_textures_are_read() {
     let dir = temp_dir("specular-clearcoat");
     let uri = data_uri(&f32_bytes(&TRIANGLE));
     let mut doc = triangle_gltf(
@@ -417,11 +417,14 @@ fn gltf_specular_and_clearcoat_factors_are_read_and_their_textures_named() {
         36,
         json!({"extensionsUsed": ["KHR_materials_specular", "KHR_materials_clearcoat"],
         "extensionsRequired": ["KHR_materials_specular", "KHR_materials_clearcoat"],
+        "textures": [{"source": 0}, {"source": 1}],
+        "images": [{"uri": "data:image/png;base64,AAEC"}, {"uri": "data:image/png;base64,AAED"}],
         "materials": [
             {"name": "coated", "extensions": {
-                "KHR_materials_specular": {"specularFactor": 0.3, "specularColorFactor": [2.0, 1.0, 0.5]},
+                "KHR_materials_specular": {"specularFactor": 0.3, "specularColorFactor": [2.0, 1.0, 0.5],
+                                           "specularColorTexture": {"index": 1}},
                 "KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.2,
-                                            "clearcoatNormalTexture": {"index": 0}}}},
+                                            "clearcoatNormalTexture": {"index": 0, "scale": 0.5}}}},
             {"name": "defaults", "extensions": {"KHR_materials_specular": {},
                                                 "KHR_materials_clearcoat": {}}},
             {"name": "bad", "extensions": {"KHR_materials_specular": {"specularFactor": 4.0,
@@ -441,7 +444,13 @@ fn gltf_specular_and_clearcoat_factors_are_read_and_their_textures_named() {
     let said = |s: &str| d.warnings.iter().any(|w| w.contains(s));
     assert!(said("'bad': specularFactor 4"), "{:?}", d.warnings);
     assert!(said("'bad': KHR_materials_specular.specularColorFactor"), "{:?}", d.warnings);
-    assert!(said("'coated': KHR_materials_clearcoat clearcoatNormalTexture ignored"), "{:?}", d.warnings);
+    // Every texture of both extensions is read: the coat's normal map with its `scale`.
+    let textures = &m("coated").textures;
+    // (Images are numbered as first read: the specular colour's comes first.)
+    assert_eq!(textures.specular_color.as_ref().map(|t| t.image), Some(0));
+    assert_eq!(textures.clearcoat_normal.as_ref().map(|t| (t.image, t.scale)), Some((1, 0.5)));
+    assert!(textures.has_normal_map(), "the coat's map needs tangents");
+    assert!(!said("ignored"), "{:?}", d.warnings);
     assert!(!said("not rendered yet"), "{:?}", d.warnings);
 }
 

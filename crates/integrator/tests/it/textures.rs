@@ -46,12 +46,23 @@ fn write_obj_quad(dir: &Path, mtl: &str) -> PathBuf {
 /// The quad as glTF with one material (`material` is its JSON) and the given textures/samplers/images
 /// arrays (JSON text); positions, normals, uvs and indices in `quad.bin`.
 fn write_gltf_quad(dir: &Path, material: &str, textures: &str, extensions_used: &str) -> PathBuf {
+    write_gltf_quad_with_normal(dir, material, textures, extensions_used, [0.0, 0.0, 1.0])
+}
+
+/// [`write_gltf_quad`] with `normal` as every vertex's normal.
+fn write_gltf_quad_with_normal(
+    dir: &Path,
+    material: &str,
+    textures: &str,
+    extensions_used: &str,
+    normal: [f32; 3],
+) -> PathBuf {
     let mut bin = Vec::new();
     for p in [[-1.0f32, 1.0, 0.0], [1.0, 1.0, 0.0], [1.0, -1.0, 0.0], [-1.0, -1.0, 0.0]] {
         p.iter().for_each(|v| bin.extend_from_slice(&v.to_le_bytes()));
     }
     for _ in 0..4 {
-        [0.0f32, 0.0, 1.0].iter().for_each(|v| bin.extend_from_slice(&v.to_le_bytes()));
+        normal.iter().for_each(|v| bin.extend_from_slice(&v.to_le_bytes()));
     }
     for uv in [[0.0f32, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]] {
         uv.iter().for_each(|v| bin.extend_from_slice(&v.to_le_bytes()));
@@ -102,8 +113,13 @@ fn scene_around(dir: &Path, mesh: &Path, light_dir: [f64; 3], extra: &str) -> Re
 /// Linear sRGB of every pixel, path-traced with RGB lanes and direct light only (a delta light over
 /// one or two planes: each sample is exact up to rounding).
 fn render_rgb(scene: &RenderScene) -> Vec<Vec<[f64; 3]>> {
-    let opts = integrator::RenderOptions { spectral: SpectralMode::Rgb, spp: 4, ..options(8, 8) }
-        .path(|p| p.max_depth = Some(1));
+    render_rgb_spp(scene, 4)
+}
+
+/// [`render_rgb`] at `spp` samples per pixel (for stochastic layer choices such as the clear coat's).
+fn render_rgb_spp(scene: &RenderScene, spp: u32) -> Vec<Vec<[f64; 3]>> {
+    let opts =
+        integrator::RenderOptions { spectral: SpectralMode::Rgb, spp, ..options(8, 8) }.path(|p| p.max_depth = Some(1));
     let (image, stats) = render_with(scene, &opts);
     assert_all_finite(&image, &stats);
     let srgb = RgbColorSpace::srgb();
@@ -274,6 +290,97 @@ fn specular_and_clearcoat_textures_multiply_their_factors_per_texel() {
     eprintln!("coated / bare quad luminance: {}", with / without);
     assert!((with - without).abs() > 0.03 * without, "the coat must show: {with} vs {without}");
     halves_match(&textured, &coated, &bare, "clearcoat");
+}
+
+/// `specularColorTexture` × `specularColorFactor` tints F0 per texel: over a black base, where the specular
+/// layer is all the reflection, each half of a two-texel quad renders as the untextured material whose
+/// factor is that texel's linear colour × the factor. Before, the texture was ignored (a warning) and the
+/// orange half had the factor's colour.
+#[test]
+fn specular_colour_texture_tints_f0_per_texel() {
+    let dir = folder("specular-colour");
+    let (white, orange) = ([255, 255, 255, 255], [255, 128, 0, 255]);
+    write_png(&dir.join("tint.png"), 2, 1, &[white, orange]);
+    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "tint.png"}]"#;
+    let used = r#""extensionsUsed": ["KHR_materials_specular"],"#;
+    let render = |specular: &str| {
+        let m = format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0, "roughnessFactor": 0.6}},
+               "extensions": {{"KHR_materials_specular": {specular}}}}}"#
+        );
+        let gltf = write_gltf_quad(&dir, &m, textures, used);
+        render_rgb(&scene_around(&dir, &gltf, [0.2, 0.1, -1.0], ""))
+    };
+    // A factor above 1 in red (the extension allows it; F0 = 0.04 × 2 stays below 1).
+    let factor = [2.0, 1.0, 0.5];
+    let untextured = |texel: [u8; 4]| {
+        let c = linear(texel);
+        render(&format!(
+            r#"{{"specularColorFactor": [{}, {}, {}]}}"#,
+            c[0] * factor[0],
+            c[1] * factor[1],
+            c[2] * factor[2]
+        ))
+    };
+    let textured = render(r#"{"specularColorFactor": [2, 1, 0.5], "specularColorTexture": {"index": 0}}"#);
+    let (left, right) = (untextured(white), untextured(orange));
+    assert!(right[4][6][0] > 3.0 * right[4][6][2] + 1e-4, "the orange layer must be orange: {:?}", right[4][6]);
+    for y in 0..8 {
+        for x in 0..8 {
+            let want = if x < 4 { left[y][x] } else { right[y][x] };
+            let got = textured[y][x];
+            for c in 0..3 {
+                assert!((got[c] - want[c]).abs() <= 0.02 * want[c] + 1e-5, "pixel ({x}, {y}): {got:?} vs {want:?}");
+            }
+        }
+    }
+}
+
+/// `clearcoatNormalTexture` tilts the coat's normal, and only the coat's: over a base that reflects nothing
+/// (black, `specularFactor` 0), a coat with a map tilting 20° towards +x on a flat quad renders as the same
+/// coat on a quad whose vertex normals are the tilted normal; the base's normal map leaves the coat flat
+/// (`KHR_materials_clearcoat`: "If clearcoatNormalTexture is not given, no normal mapping is applied to the
+/// clear coat layer, even if normal mapping is applied to the base material"). Before, the coat map was
+/// ignored and the coat took the base's map.
+#[test]
+fn the_coat_has_its_own_normal_map_and_not_the_bases() {
+    let dir = folder("coat-normal");
+    let theta = 20f64.to_radians();
+    let encode = |v: f64| ((v + 1.0) * 0.5 * 255.0).round() as u8;
+    let texel = [encode(theta.sin()), encode(0.0), encode(theta.cos()), 255];
+    write_png(&dir.join("tilt.png"), 1, 1, &[texel]);
+    // The normal the renderer decodes from those bytes, for the vertex normals of the comparison quad.
+    let decoded = [0, 1, 2].map(|c| 2.0 * f32::from(texel[c]) / 255.0 - 1.0);
+    let len = decoded.iter().map(|v| v * v).sum::<f32>().sqrt();
+    let tilted = decoded.map(|v| v / len);
+    let textures = r#""textures": [{"source": 0}], "images": [{"uri": "tilt.png"}]"#;
+    let used = r#""extensionsUsed": ["KHR_materials_specular", "KHR_materials_clearcoat"],"#;
+    let render = |base_map: bool, coat_map: bool, normal: [f32; 3]| {
+        let normal_texture = if base_map { r#", "normalTexture": {"index": 0}"# } else { "" };
+        let coat_normal = if coat_map { r#", "clearcoatNormalTexture": {"index": 0}"# } else { "" };
+        let m = format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0}}{normal_texture},
+               "extensions": {{"KHR_materials_specular": {{"specularFactor": 0}},
+                              "KHR_materials_clearcoat": {{"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.3{coat_normal}}}}}}}"#
+        );
+        let gltf = write_gltf_quad_with_normal(&dir, &m, textures, used, normal);
+        // Light from 30° towards +x: the tilted coat's mirror direction is 10° from it, the flat one's 30°.
+        let phi = 30f64.to_radians();
+        let image = render_rgb_spp(&scene_around(&dir, &gltf, [-phi.sin(), 0.0, -phi.cos()], ""), 256);
+        image.iter().flatten().map(|p| p[1]).sum::<f64>()
+    };
+    let flat = render(false, false, [0.0, 0.0, 1.0]);
+    let coat_mapped = render(false, true, [0.0, 0.0, 1.0]);
+    let tilted_mesh = render(false, false, tilted);
+    let base_mapped = render(true, false, [0.0, 0.0, 1.0]);
+    eprintln!("coat: flat {flat}, coat map {coat_mapped}, tilted normals {tilted_mesh}, base map {base_mapped}");
+    assert!(flat > 0.0);
+    assert!(coat_mapped > 2.0 * flat, "the coat's map must tilt the coat: {coat_mapped} vs flat {flat}");
+    assert!((coat_mapped - tilted_mesh).abs() <= 0.02 * tilted_mesh, "{coat_mapped} vs {tilted_mesh}");
+    assert!(
+        (base_mapped - flat).abs() <= 0.02 * flat,
+        "the base's map must not tilt the coat: {base_mapped} vs {flat}"
+    );
 }
 
 #[test]
