@@ -797,7 +797,11 @@ impl Loader<'_> {
                 m.absorption = Some(AbsorptionDesc::Attenuation { color: v.attenuation_color(), distance });
             }
             if v.thickness_texture().is_some() {
-                self.warn(format!("material '{name}': thickness texture ignored"));
+                // Like the factor, it approximates the path length inside the volume for rasterisers; a path
+                // tracer follows the real one through the closed mesh.
+                self.warn(format!(
+                    "material '{name}': thickness texture ignored (absorption follows the path length inside the mesh)"
+                ));
             }
         }
         if let Some(value) = material.extension_value("KHR_materials_dispersion") {
