@@ -292,6 +292,17 @@ fn specular_and_clearcoat_textures_multiply_their_factors_per_texel() {
     halves_match(&textured, &coated, &bare, "clearcoat");
 }
 
+/// Writes a 1×1 tangent-space normal map tilting the normal by `theta` towards +u (+x on the quads here),
+/// 8-bit encoded, and returns the unit normal the renderer decodes from those bytes.
+fn write_tilted_normal_map(path: &Path, theta: f64) -> [f64; 3] {
+    let encode = |v: f64| ((v + 1.0) * 0.5 * 255.0).round() as u8;
+    let texel = [encode(theta.sin()), encode(0.0), encode(theta.cos()), 255];
+    write_png(path, 1, 1, &[texel]);
+    let decoded = [0, 1, 2].map(|c| 2.0 * f64::from(texel[c]) / 255.0 - 1.0);
+    let len = decoded.iter().map(|v| v * v).sum::<f64>().sqrt();
+    decoded.map(|v| v / len)
+}
+
 /// `specularColorTexture` × `specularColorFactor` tints F0 per texel: over a black base, where the specular
 /// layer is all the reflection, each half of a two-texel quad renders as the untextured material whose
 /// factor is that texel's linear colour × the factor. Before, the texture was ignored (a warning) and the
@@ -345,14 +356,8 @@ fn specular_colour_texture_tints_f0_per_texel() {
 #[test]
 fn the_coat_has_its_own_normal_map_and_not_the_bases() {
     let dir = folder("coat-normal");
-    let theta = 20f64.to_radians();
-    let encode = |v: f64| ((v + 1.0) * 0.5 * 255.0).round() as u8;
-    let texel = [encode(theta.sin()), encode(0.0), encode(theta.cos()), 255];
-    write_png(&dir.join("tilt.png"), 1, 1, &[texel]);
-    // The normal the renderer decodes from those bytes, for the vertex normals of the comparison quad.
-    let decoded = [0, 1, 2].map(|c| 2.0 * f32::from(texel[c]) / 255.0 - 1.0);
-    let len = decoded.iter().map(|v| v * v).sum::<f32>().sqrt();
-    let tilted = decoded.map(|v| v / len);
+    // The decoded normal is also the comparison quad's vertex normal.
+    let tilted = write_tilted_normal_map(&dir.join("tilt.png"), 20f64.to_radians()).map(|v| v as f32);
     let textures = r#""textures": [{"source": 0}], "images": [{"uri": "tilt.png"}]"#;
     let used = r#""extensionsUsed": ["KHR_materials_specular", "KHR_materials_clearcoat"],"#;
     let render = |base_map: bool, coat_map: bool, normal: [f32; 3]| {
@@ -412,15 +417,7 @@ fn mask_cut_outs_let_light_through_exactly_where_alpha_is_below_the_cutoff() {
 #[test]
 fn a_normal_map_tilts_the_shading_normal_by_the_encoded_angle() {
     let dir = folder("normal");
-    // A uniform normal map tilting the normal by 20° towards +u (+x here), 8-bit encoded.
-    let theta = 20f64.to_radians();
-    let encode = |v: f64| ((v + 1.0) * 0.5 * 255.0).round() as u8;
-    let texel = [encode(theta.sin()), encode(0.0), encode(theta.cos()), 255];
-    write_png(&dir.join("normal.png"), 1, 1, &[texel]);
-    // The normal the renderer decodes from those bytes.
-    let decoded = [0, 1, 2].map(|c| 2.0 * f64::from(texel[c]) / 255.0 - 1.0);
-    let len = decoded.iter().map(|v| v * v).sum::<f64>().sqrt();
-    let n = decoded.map(|v| v / len);
+    let n = write_tilted_normal_map(&dir.join("normal.png"), 20f64.to_radians());
     // Light arriving from 30° towards +x: towards the light is (sin 30°, 0, cos 30°).
     let phi = 30f64.to_radians();
     let light_dir = [-phi.sin(), 0.0, -phi.cos()];
