@@ -1,6 +1,6 @@
 //! Image textures: decoded once at assembly, looked up per hit.
 //!
-//! A colour texture (base colour) becomes spectra at load time: each distinct RGBA texel of
+//! A colour texture (base colour, specular colour) becomes spectra at load time: each distinct RGBA texel of
 //! the image, multiplied by the material's factor in linear RGB, is fitted once to a
 //! Jakob–Hanika sigmoid ([`RgbSigmoid::refined`], ΔE00 below 0.001 round trip under D65) and
 //! the image keeps a palette index per texel. A hit then reads up to four indices (bilinear)
@@ -275,7 +275,8 @@ impl ColorTexture {
 /// over the texels under uv and F0_max = Σᵢ wᵢ min(k maxᵢ, 1). The layer's Fresnel and the energy it takes
 /// from the base are linear in F0 and F0_max, so this is the blend of the texels' layers, as a colour
 /// texture's reflectance is the blend of its texels'; without the texture the layer is the factor's
-/// (`assembly::dielectric_specular`), which a white texel reproduces.
+/// (`assembly::dielectric_specular`), which a white texel reproduces (on RGB lanes up to F0_max, the
+/// largest channel here and the largest over the spectrum there).
 #[derive(Debug)]
 pub(crate) struct SpecularColorTexture {
     color: ColorTexture,
@@ -795,7 +796,9 @@ pub(crate) fn load_material_textures(
                 base_color = Some(texture);
             }
             let mut specular_color = None;
+            // A black factor makes F0 0 whatever the texels (no fit needed).
             if let (Some(t), Some(layer)) = (&textures.specular_color, &m.specular_layer)
+                && layer.color_scale() > 0.0
                 && let Some(img) = image(t.image, memory, warnings)?
             {
                 let label = images.get(t.image).map_or("?", |i| i.label.as_str());

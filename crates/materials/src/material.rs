@@ -73,7 +73,7 @@ pub struct DielectricSpecular {
     pub weight: f32,
     /// F0(λ) in [0, 1], the colour and the index already applied.
     pub f0: DenselySampledSpectrum,
-    /// ((1 − ior)/(1 + ior))² × the colour's largest component: what a `specularColorTexture`'s texels,
+    /// ((1 − ior)/(1 + ior))² (1 for `KHR_materials_ior`'s 0) × the colour's largest component: what a `specularColorTexture`'s texels,
     /// upsampled with the colour divided by that component, are scaled by (`f0` is then per hit).
     pub f0_scale: f32,
 }
@@ -175,7 +175,7 @@ impl MaterialModel {
 }
 
 impl Coat {
-    /// The coat's share of the light seen from a direction at `cos_o` to the shading normal:
+    /// The coat's share of the light seen from a direction at `cos_o` to the coat's normal:
     /// weight · F_Schlick(F0 = 0.04, |cos_o|), the probability with which the path tracer picks it.
     pub fn probability(&self, cos_o: f32) -> f32 {
         /// ((1 − 1.5) / (1 + 1.5))²: the coat's index is 1.5 (the extension fixes it).
