@@ -260,6 +260,13 @@ impl RgbUnboundedSpectrum {
         Self { sigmoid: RgbSigmoid::from_rgb(table, color), scale }
     }
 
+    /// Linear sRGB `rgb` by the exact fit (about 20 µs): [`RgbIlluminantSpectrum::fit`] without the
+    /// illuminant, so that `fit(rgb)(λ) · D65(λ)` (D65 at luminance 1, [`srgb_illuminant`]) is that light.
+    pub fn fit(rgb: [f64; 3]) -> Self {
+        let (polynomial, scale) = upsample_illuminant(rgb);
+        Self { sigmoid: polynomial.into(), scale: scale as f32 }
+    }
+
     /// The value at `lambda` nm.
     pub fn eval(&self, lambda: f64) -> f64 {
         f64::from(self.scale) * self.sigmoid.eval(lambda)

@@ -219,7 +219,7 @@ impl RenderScene {
         } else if textures.iter().flatten().any(MaterialTextures::is_textured) {
             let bytes = texture_bytes(&textures);
             warnings.push(format!(
-                "textures: {} images, {:.1} MiB of texel data, decoded and fitted to spectra in {:.2} s; rendered by the path integrator (whitted-hall uses the factors)",
+                "textures: {} images, {:.1} MiB of texel data, decoded and fitted to spectra in {:.2} s; rendered by the path integrator (whitted-hall uses the factors and an emissive texture's mean colour)",
                 images.len(),
                 bytes as f64 / (1024.0 * 1024.0),
                 started.elapsed().as_secs_f64()
@@ -237,7 +237,7 @@ impl RenderScene {
             let colors = fit_vertex_colors(&geometry, &textures, &material_descs, &mut memory, &mut warnings)?;
             let meshes = colors.iter().flatten().count();
             warnings.push(format!(
-                "vertex colours: {meshes} mesh(es), {:.1} MiB as spectra, fitted in {:.2} s; rendered by the path integrator (whitted-hall uses the factors)",
+                "vertex colours: {meshes} mesh(es), {:.1} MiB as spectra, fitted in {:.2} s; rendered by the path integrator (whitted-hall uses the factors and an emissive texture's mean colour)",
                 vertex_color_bytes(&colors) as f64 / (1024.0 * 1024.0),
                 started.elapsed().as_secs_f64()
             ));

@@ -12,7 +12,7 @@
 //! `docs/path-tracer.md` documents the model and its choices.
 
 use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
-use geometry::{Hit, Ray, ShadowRay, spawn_ray, spawn_shadow_ray};
+use geometry::{Hit, Primitive, Ray, ShadowRay, spawn_ray, spawn_shadow_ray};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{
     Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, ThinDielectricBxdf, TrowbridgeReitz,
@@ -148,6 +148,14 @@ struct PathMaterial {
     coat: Option<Coat>,
 }
 
+/// An area light whose radiance is read from its material's emissive texture.
+#[derive(Debug, Clone, Copy)]
+struct TexturedLight {
+    material: u32,
+    /// The uvs of the triangle's vertices (the barycentrics themselves for a mesh without uvs, as on hits).
+    uv: [Vec2; 3],
+}
+
 /// Everything a path-traced render needs, precomputed.
 pub(crate) struct PathTracer<'a, const N: usize> {
     scene: &'a RenderScene,
@@ -158,6 +166,11 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     light_spectra: Vec<SpecId>,
     /// The spectra the uniform environment sums (an environment map adds its radiance per direction).
     environment_spectra: Vec<SpecId>,
+    /// D65 at luminance 1, the illuminant of emissive textures' texels; `None` without such textures.
+    illuminant: Option<SpecId>,
+    /// For each light of `scene.emitters` (empty without emissive textures): where it is a triangle of
+    /// a material with an emissive texture, that material and its vertices' uvs.
+    textured_lights: Vec<Option<TexturedLight>>,
     /// Whether the lanes are RGB channels (an environment map then gives its texels' RGB).
     rgb_lanes: bool,
     max_depth: u32,
@@ -282,6 +295,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 .map(|i| add(scene.lights[i].spectrum.clone(), SpectrumKind::Emission)),
             _ => None,
         };
+        let emissive_textures = scene.textures.iter().flatten().any(MaterialTextures::has_emissive_texture);
+        let illuminant = emissive_textures.then(|| add(colorimetry::srgb_illuminant().clone(), SpectrumKind::Emission));
+        let textured_lights = if emissive_textures { textured_lights(scene) } else { Vec::new() };
         let rgb_lanes = fixed.as_ref().is_some_and(|lanes| lanes.rgb);
 
         let (spectra, sensor) = match fixed {
@@ -318,6 +334,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             default_material,
             light_spectra,
             environment_spectra,
+            illuminant,
+            textured_lights,
             rgb_lanes,
             max_depth,
             rr_depth,
@@ -557,7 +575,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     let light_pdf = self.scene.emitters.pdf_li_hit(hit.primitive, hit.n, wo, segment);
                     power_heuristic(prev_pdf, light_pdf)
                 };
-                radiance += beta * self.spectra.eval(e, lambda) * weight;
+                let le = match textures.filter(|t| t.has_emissive_texture()) {
+                    Some(t) => self.textured_emission(t, hit.uv, lambda),
+                    None => self.spectra.eval(e, lambda),
+                };
+                radiance += beta * le * weight;
             }
             if depth >= self.max_depth || beta.is_black() {
                 break;
@@ -698,7 +720,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 }
             };
             if !bsdf.is_specular() && !self.scene.emitters.is_empty() {
-                radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, &mut last_light, rng, count);
+                radiance +=
+                    beta * self.sample_light::<TEXTURED>(&hit, &frame, wo, &bsdf, lambda, &mut last_light, rng, count);
             }
             let Some(s) = bsdf.sample_f(&frame, wo, rng.uniform(), rng.uniform2()) else { break };
             beta *= s.weight;
@@ -724,6 +747,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         (radiance, first)
     }
 
+    /// The radiance of an emissive texture at `uv`. Out of line: only its emitters need it.
+    #[inline(never)]
+    fn textured_emission(&self, t: &MaterialTextures, uv: Vec2, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+        let illuminant = self.illuminant.map_or(SampledSpectrum([1.0; N]), |id| self.spectra.eval(id, lambda));
+        t.emission(uv, lambda, &illuminant, self.rgb_lanes).unwrap_or(SampledSpectrum([0.0; N]))
+    }
+
     /// The glTF metallic–roughness BRDF of a hit, with `KHR_materials_specular` where the material has it.
     fn metal_rough(
         &self,
@@ -744,7 +774,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// Next-event estimation: one light chosen by power, one point or direction on it, a
     /// shadow ray, MIS-weighted against BSDF sampling for lights that BSDF sampling can hit.
     #[allow(clippy::too_many_arguments)]
-    fn sample_light(
+    fn sample_light<const TEXTURED: bool>(
         &self,
         hit: &Hit,
         frame: &Frame,
@@ -799,6 +829,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 le += self.map_radiance(map, ls.wi, lambda);
             }
             le
+        } else if TEXTURED && let Some(textured) = self.textured_lights.get(light).and_then(Option::as_ref) {
+            let b = ls.barycentrics;
+            let uv = b.x * textured.uv[0] + b.y * textured.uv[1] + (1.0 - b.x - b.y) * textured.uv[2];
+            match self.textures(Some(textured.material)) {
+                Some(t) => self.textured_emission(t, uv, lambda),
+                None => black,
+            }
         } else {
             self.spectra.eval_memo(self.light_spectra[light], lambda, last_light)
         };
@@ -809,6 +846,28 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             f * le * (visible * weight / ls.pdf)
         }
     }
+}
+
+/// [`PathTracer::textured_lights`] of `scene`.
+fn textured_lights(scene: &RenderScene) -> Vec<Option<TexturedLight>> {
+    let geometry = &scene.geometry;
+    let mut lights = vec![None; scene.emitters.iter().count()];
+    for (primitive, light) in scene.emitters.area_lights() {
+        let Some(material) = scene.primitive_material(primitive) else { continue };
+        let textured = scene.textures.get(material as usize).and_then(Option::as_ref);
+        if !textured.is_some_and(MaterialTextures::has_emissive_texture) {
+            continue;
+        }
+        let Primitive::Triangle { mesh, triangle } = geometry.primitive(primitive) else { continue };
+        let mesh = &geometry.meshes()[mesh as usize];
+        let tri = mesh.indices()[triangle as usize];
+        let uv = match mesh.uvs() {
+            Some(uvs) => tri.map(|i| uvs[i as usize]),
+            None => [Vec2::ZERO, Vec2::X, Vec2::Y],
+        };
+        lights[light] = Some(TexturedLight { material, uv });
+    }
+    lights
 }
 
 impl<const N: usize> Kernel<N> for PathTracer<'_, N> {

@@ -15,7 +15,7 @@ use std::collections::HashMap;
 use std::io::Cursor;
 use std::sync::Arc;
 
-use colorimetry::{RgbSigmoid, SampledSpectrum, SampledWavelengths, srgb_decode};
+use colorimetry::{RgbSigmoid, RgbUnboundedSpectrum, SampledSpectrum, SampledWavelengths, srgb_decode};
 use geometry::{AlphaMode, ImageDesc, MaterialDesc, MemoryBudget, TextureDesc, WrapMode};
 use glam::{Vec2, Vec3, Vec4};
 use materials::Coat;
@@ -178,19 +178,20 @@ fn wrap(i: i64, n: i64, mode: WrapMode) -> usize {
 
 /// One distinct colour of a colour texture, times the material's factor.
 #[derive(Debug, Clone, Copy)]
-struct PaletteEntry {
+pub(crate) struct PaletteEntry {
     sigmoid: RgbSigmoid,
     /// Linear sRGB (the value RGB lanes carry).
     rgb: [f32; 3],
     alpha: f32,
 }
 
-/// A colour texture as spectra: a palette of fitted sigmoids and an index per texel.
+/// A colour texture as spectra: a palette of fitted sigmoids and an index per texel. The entries are
+/// reflectances ([`PaletteEntry`]) but for emissive textures ([`EmissiveEntry`]).
 #[derive(Debug)]
-pub(crate) struct ColorTexture {
+pub(crate) struct ColorTexture<E = PaletteEntry> {
     sampler: Sampler,
     index: Vec<u32>,
-    palette: Vec<PaletteEntry>,
+    palette: Vec<E>,
 }
 
 impl ColorTexture {
@@ -204,6 +205,23 @@ impl ColorTexture {
         factor: [f32; 4],
         memory: &mut MemoryBudget,
     ) -> geometry::Result<(Self, bool)> {
+        Self::with_palette(image, label, desc, memory, |linear, alpha, exact| {
+            let c = |i: usize| linear[i] * factor[i];
+            palette_entry([c(0), c(1), c(2)], alpha * factor[3], exact)
+        })
+    }
+}
+
+impl<E: Send> ColorTexture<E> {
+    /// From an sRGB-encoded image, each distinct texel's entry made by `entry` from its linear RGB, its
+    /// alpha and whether the exact fit is wanted (at most [`MAX_REFINED_COLOURS`] distinct colours).
+    fn with_palette(
+        image: &Image8,
+        label: &str,
+        desc: &TextureDesc,
+        memory: &mut MemoryBudget,
+        entry: impl Fn([f32; 3], f32, bool) -> E + Sync,
+    ) -> geometry::Result<(Self, bool)> {
         let path = std::path::Path::new(label);
         let texels = image.texels.len() as u64;
         let index_bytes = texels * 4;
@@ -213,7 +231,7 @@ impl ColorTexture {
             index_bytes.saturating_add(texels.saturating_mul(COLOUR_COUNT_BYTES_PER_TEXEL)),
         )?;
         let (index, distinct) = index_distinct(&image.texels, |t| *t);
-        let palette_bytes = (distinct.len() * std::mem::size_of::<PaletteEntry>()) as u64;
+        let palette_bytes = (distinct.len() * std::mem::size_of::<E>()) as u64;
         memory.charge(
             path,
             || format!("the {} colours of a {}×{} texture as spectra", distinct.len(), image.width, image.height),
@@ -223,13 +241,20 @@ impl ColorTexture {
         let palette = distinct
             .par_iter()
             .map(|t| {
-                let c = |i: usize| srgb_decode(f64::from(t[i]) / 255.0) as f32 * factor[i];
-                palette_entry([c(0), c(1), c(2)], f32::from(t[3]) / 255.0 * factor[3], exact)
+                let c = |i: usize| srgb_decode(f64::from(t[i]) / 255.0) as f32;
+                entry([c(0), c(1), c(2)], f32::from(t[3]) / 255.0, exact)
             })
             .collect();
         Ok((Self { sampler: Sampler::new(desc, image.width, image.height), index, palette }, exact))
     }
 
+    /// Bytes held: 4 per texel and the palette.
+    fn bytes(&self) -> usize {
+        self.index.len() * 4 + self.palette.len() * std::mem::size_of::<E>()
+    }
+}
+
+impl ColorTexture {
     /// The reflectance at `uv` at the path's wavelengths (linear RGB on RGB lanes), and the alpha.
     #[inline]
     pub(crate) fn eval<const N: usize>(
@@ -261,11 +286,6 @@ impl ColorTexture {
     #[inline]
     fn alpha(&self, uv: Vec2) -> f32 {
         self.sampler.footprint(uv).iter().map(|&(i, w)| w * self.palette[self.index[i] as usize].alpha).sum()
-    }
-
-    /// Bytes held: 4 per texel and the palette.
-    fn bytes(&self) -> usize {
-        self.index.len() * 4 + self.palette.len() * std::mem::size_of::<PaletteEntry>()
     }
 }
 
@@ -340,6 +360,73 @@ impl SpecularColorTexture {
 
     fn bytes(&self) -> usize {
         self.color.bytes() + self.max.len() * 4
+    }
+}
+
+/// One distinct colour of an emissive texture, times the material's emission (factor × strength): the
+/// light's colour without its illuminant, pbrt-v4's split of an unbounded RGB into a brightness and a
+/// sigmoid ([`RgbUnboundedSpectrum`]), so that with D65 at luminance 1 it is the RGB light
+/// `materials::illuminant_from_rgb` makes of the colour (before that function's luminance rescaling, a
+/// correction of the fit's own error: under 1e-3 for the exact fit).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct EmissiveEntry {
+    spectrum: RgbUnboundedSpectrum,
+    /// Linear sRGB (the value RGB lanes carry).
+    rgb: [f32; 3],
+}
+
+/// An emissive texture as light spectra: texel × `emissiveFactor` × `emissiveStrength` (MTL `map_Ke` ×
+/// `Ke`), so that emission varies over the surface as the image does. Light sampling chooses the surface
+/// by its mean emission (the material's spectrum) and points on it uniformly by area; the texel under
+/// the sampled point gives the radiance, so the estimate stays unbiased where the image is dark.
+#[derive(Debug)]
+pub(crate) struct EmissiveTexture(ColorTexture<EmissiveEntry>);
+
+impl EmissiveTexture {
+    fn new(
+        image: &Image8,
+        label: &str,
+        desc: &TextureDesc,
+        factor: [f32; 3],
+        memory: &mut MemoryBudget,
+    ) -> geometry::Result<(Self, bool)> {
+        let (texture, exact) = ColorTexture::with_palette(image, label, desc, memory, |linear, _, exact| {
+            let rgb = [0, 1, 2].map(|i| (linear[i] * factor[i]).max(0.0));
+            let spectrum = if exact {
+                RgbUnboundedSpectrum::fit(rgb.map(f64::from))
+            } else {
+                RgbUnboundedSpectrum::from_rgb(colorimetry::RgbToSpectrumTable::srgb(), rgb)
+            };
+            EmissiveEntry { spectrum, rgb }
+        })?;
+        Ok((Self(texture), exact))
+    }
+
+    /// The radiance at `uv` at the path's wavelengths, `illuminant` being D65 at luminance 1 there
+    /// (linear RGB on RGB lanes, where the illuminant is white).
+    #[inline]
+    fn eval<const N: usize>(
+        &self,
+        uv: Vec2,
+        lambda: &SampledWavelengths<N>,
+        illuminant: &SampledSpectrum<N>,
+        rgb_lanes: bool,
+    ) -> SampledSpectrum<N> {
+        let mut l = SampledSpectrum([0.0; N]);
+        for (i, w) in self.0.sampler.footprint(uv) {
+            if w == 0.0 {
+                continue;
+            }
+            let e = &self.0.palette[self.0.index[i] as usize];
+            if rgb_lanes {
+                for c in 0..3.min(N) {
+                    l.0[c] += w * e.rgb[c];
+                }
+            } else {
+                l += e.spectrum.sample(lambda) * w;
+            }
+        }
+        if rgb_lanes { l } else { l * *illuminant }
     }
 }
 
@@ -515,6 +602,8 @@ pub(crate) struct MaterialTextures {
     specular: Option<DataTexture>,
     /// `specularColorTexture` × `specularColorFactor`: the layer's F0 colour per texel.
     specular_color: Option<SpecularColorTexture>,
+    /// `emissiveTexture` × the material's emission: its radiance per texel.
+    emissive: Option<EmissiveTexture>,
     /// `clearcoatTexture` (R × the coat's weight) and `clearcoatRoughnessTexture` (G × its roughness).
     clearcoat: Option<DataTexture>,
     clearcoat_roughness: Option<DataTexture>,
@@ -618,6 +707,24 @@ impl MaterialTextures {
         normal_mapped(&self.clearcoat_normal, uv, ns, tangent, n)
     }
 
+    /// The emitted radiance at `uv` (see [`EmissiveTexture::eval`]); `None` without an emissive texture.
+    #[inline]
+    pub(crate) fn emission<const N: usize>(
+        &self,
+        uv: Vec2,
+        lambda: &SampledWavelengths<N>,
+        illuminant: &SampledSpectrum<N>,
+        rgb_lanes: bool,
+    ) -> Option<SampledSpectrum<N>> {
+        self.emissive.as_ref().map(|t| t.eval(uv, lambda, illuminant, rgb_lanes))
+    }
+
+    /// Whether the emission varies per texel.
+    #[inline]
+    pub(crate) fn has_emissive_texture(&self) -> bool {
+        self.emissive.is_some()
+    }
+
     /// Whether the base has a normal map (its tangent frame is needed only then).
     #[inline]
     pub(crate) fn has_base_normal_map(&self) -> bool {
@@ -640,6 +747,7 @@ impl MaterialTextures {
     pub(crate) fn is_textured(&self) -> bool {
         self.base_color.is_some()
             || self.specular_color.is_some()
+            || self.emissive.is_some()
             || self.data_images().next().is_some()
             || self.has_alpha()
     }
@@ -659,6 +767,7 @@ impl MaterialTextures {
     fn color_bytes(&self) -> usize {
         self.base_color.as_ref().map_or(0, ColorTexture::bytes)
             + self.specular_color.as_ref().map_or(0, SpecularColorTexture::bytes)
+            + self.emissive.as_ref().map_or(0, |t| t.0.bytes())
     }
 
     /// The decoded images the data textures read (shared between roles and materials).
@@ -714,8 +823,8 @@ pub(crate) fn texture_bytes(textures: &[Option<MaterialTextures>]) -> usize {
 
 /// The textures of each material (`None` where a material has none), decoded from `images`. An
 /// image that cannot be decoded is named in a warning and the material keeps its factor. An
-/// emissive texture is reduced to its mean colour (written into `desc.emission`): emission that
-/// varies over a surface would need the light sampler to know it. Materials marked in
+/// emissive texture also sets the material's emission (`desc.emission`) to its mean colour × factor, the
+/// surface's power for light sampling (the texels give the radiance per hit). Materials marked in
 /// `vertex_colored` (used by a mesh with vertex colours) get an entry even without textures: their
 /// base colour varies per hit as a texture's does.
 pub(crate) fn load_material_textures(
@@ -757,10 +866,10 @@ pub(crate) fn load_material_textures(
                 continue;
             }
             let textures = m.textures.clone();
+            let mut emissive = None;
             if let Some(t) = &textures.emissive
                 && let Some(img) = image(t.image, memory, warnings)?
             {
-                let mean = mean_linear_rgb(&img);
                 // glTF multiplies by `emissiveFactor`, whose default black means no emission (the
                 // loader leaves `emission` unset then); MTL's `map_Ke` without `Ke` stands alone.
                 let factor = match (&m.emission, m.format) {
@@ -768,13 +877,19 @@ pub(crate) fn load_material_textures(
                     (None, geometry::MaterialFormat::Mtl) => [1.0; 3],
                     _ => [0.0; 3],
                 };
-                if factor != [0.0; 3] {
+                let strength = m.emission_strength.unwrap_or(1.0).max(0.0);
+                if factor != [0.0; 3] && strength > 0.0 {
+                    // The material's own emission becomes the mean over the image: what light sampling
+                    // chooses the surface by, and what the hero wavelengths' density follows.
+                    let mean = mean_linear_rgb(&img);
                     m.emission = Some(geometry::SpectrumDesc::Rgb([0, 1, 2].map(|i| factor[i] * mean[i])));
+                    let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                    let (texture, exact) = EmissiveTexture::new(&img, label, t, factor.map(|f| f * strength), memory)?;
+                    if !exact {
+                        warnings.push(table_lookup_warning(label, texture.0.palette.len()));
+                    }
+                    emissive = Some(texture);
                 }
-                warnings.push(format!(
-                    "material '{}': emissive texture rendered as its mean colour ({:.3}, {:.3}, {:.3}) × factor",
-                    m.name, mean[0], mean[1], mean[2]
-                ));
             }
             let factor_rgb = match (&m.base_color, m.format) {
                 // MTL: `map_Kd` replaces `Kd` (as Blender's importer does; exporters write Kd 0.8 beside it).
@@ -831,6 +946,7 @@ pub(crate) fn load_material_textures(
                 transmission,
                 specular,
                 specular_color,
+                emissive,
                 clearcoat,
                 clearcoat_roughness,
                 clearcoat_normal,
@@ -873,16 +989,22 @@ mod tests {
         Sampler::new(&desc, w, h)
     }
 
-    /// The spectrum a colour texture gives at a texel centre, sampled on the 1 nm grid.
-    fn texel_spectrum(texture: &ColorTexture, uv: Vec2) -> colorimetry::DenselySampledSpectrum {
+    /// `f` (a spectrum at 16 wavelengths) on the 1 nm grid over 360–830 nm.
+    fn on_1nm_grid(
+        mut f: impl FnMut(&SampledWavelengths<16>) -> SampledSpectrum<16>,
+    ) -> colorimetry::DenselySampledSpectrum {
         let mut values = Vec::new();
         for chunk in 0..30 {
             let lambdas: [f32; 16] = std::array::from_fn(|i| (360 + chunk * 16 + i).min(830) as f32);
-            let (s, _) = texture.eval(uv, &SampledWavelengths::from_parts(lambdas, [1.0; 16]), false);
-            values.extend(s.0.iter().map(|&v| f64::from(v)));
+            values.extend(f(&SampledWavelengths::from_parts(lambdas, [1.0; 16])).0.iter().map(|&v| f64::from(v)));
         }
         values.truncate(471);
         colorimetry::DenselySampledSpectrum::new(360.0, 1.0, values).expect("1 nm grid")
+    }
+
+    /// The spectrum a colour texture gives at a texel centre, sampled on the 1 nm grid.
+    fn texel_spectrum(texture: &ColorTexture, uv: Vec2) -> colorimetry::DenselySampledSpectrum {
+        on_1nm_grid(|lambda| texture.eval(uv, lambda, false).0)
     }
 
     fn delta_e00_under_d65(rgb: [f64; 3], reflectance: &colorimetry::DenselySampledSpectrum) -> f64 {
@@ -948,16 +1070,60 @@ mod tests {
         uv: Vec2,
         f0_scale: f32,
     ) -> (colorimetry::DenselySampledSpectrum, f32) {
-        let mut values = Vec::new();
         let mut f0_max = 0.0;
-        for chunk in 0..30 {
-            let lambdas: [f32; 16] = std::array::from_fn(|i| (360 + chunk * 16 + i).min(830) as f32);
-            let (s, max) = texture.f0(uv, &SampledWavelengths::from_parts(lambdas, [1.0; 16]), false, f0_scale);
-            values.extend(s.0.iter().map(|&v| f64::from(v)));
+        let f0 = on_1nm_grid(|lambda| {
+            let (s, max) = texture.f0(uv, lambda, false, f0_scale);
             f0_max = max;
+            s
+        });
+        (f0, f0_max)
+    }
+
+    #[test]
+    fn emissive_texels_are_the_rgb_lights_of_their_colour_times_the_factor() {
+        // Saturated, dark and white texels; a factor × strength above 1, as `emissiveStrength` gives.
+        let image = Image8 {
+            width: 4,
+            height: 1,
+            texels: vec![[255, 255, 255, 255], [255, 0, 0, 255], [20, 90, 230, 255], [0, 0, 0, 255]],
+        };
+        let factor = [3.0, 2.0, 1.5];
+        let desc = TextureDesc { nearest: true, ..TextureDesc::new(0) };
+        let (texture, exact) =
+            EmissiveTexture::new(&image, "test", &desc, factor, &mut MemoryBudget::default()).unwrap();
+        assert!(exact);
+        let d65 = colorimetry::srgb_illuminant();
+        let srgb = colorimetry::RgbColorSpace::srgb();
+        for (i, t) in image.texels.iter().enumerate() {
+            let uv = Vec2::new((i as f32 + 0.5) / 4.0, 0.5);
+            let got = on_1nm_grid(|lambda| texture.eval(uv, lambda, &d65.sample(lambda), false));
+            let rgb = [0, 1, 2].map(|c| srgb_decode(f64::from(t[c]) / 255.0) as f32 * factor[c]);
+            // The untextured emission of that colour (`assembly`'s RGB lights) at every wavelength, within
+            // its luminance rescaling of the fit's error.
+            let want = materials::illuminant_from_rgb(rgb).unwrap();
+            let peak = want.max_value().max(1e-9);
+            for l in (360..=830).step_by(5) {
+                let (g, w) = (got.eval(f64::from(l)), want.eval(f64::from(l)));
+                assert!((g - w).abs() <= 2e-3 * peak, "texel {i} at {l} nm: {g} vs {w}");
+            }
+            // Its colour: XYZ relative to Σȳ back to linear sRGB is the texel × factor.
+            let back = srgb.xyz_to_rgb(colorimetry::relative_xyz(&got));
+            for (c, (b, r)) in [back.r, back.g, back.b].into_iter().zip(rgb).enumerate() {
+                assert!((b - f64::from(r)).abs() <= 2e-3 * f64::from(factor[0]), "texel {i} channel {c}: {b} vs {r}");
+            }
+            // RGB lanes carry the colour itself.
+            let lanes = texture.eval(
+                uv,
+                &SampledWavelengths::from_parts([550.0; 4], [1.0; 4]),
+                &SampledSpectrum([1.0; 4]),
+                true,
+            );
+            assert_eq!(&lanes.0[..3], &rgb[..], "texel {i} on RGB lanes");
         }
-        values.truncate(471);
-        (colorimetry::DenselySampledSpectrum::new(360.0, 1.0, values).expect("1 nm grid"), f0_max)
+        // The factor alone (the texel ignored, as the mean colour was before) is far from the red texel.
+        let red = on_1nm_grid(|lambda| texture.eval(Vec2::new(0.375, 0.5), lambda, &d65.sample(lambda), false));
+        let white = on_1nm_grid(|lambda| texture.eval(Vec2::new(0.125, 0.5), lambda, &d65.sample(lambda), false));
+        assert!((red.eval(450.0) / white.eval(450.0)) < 0.05, "a red texel emits little blue");
     }
 
     #[test]

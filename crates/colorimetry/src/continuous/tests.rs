@@ -404,3 +404,15 @@ fn every_variant_samples_what_it_evaluates() {
     assert!(variants[0].is_constant() && !variants[1].is_constant());
     assert!(Spectrum::DenselySampled(DenselySampledSpectrum::constant(0.9)).is_constant());
 }
+
+#[test]
+fn an_unbounded_fit_times_the_srgb_illuminant_is_the_illuminant_fit() {
+    // What emissive textures rely on: the light's colour and its illuminant factor apart.
+    for rgb in [[1.0, 1.0, 1.0], [3.0, 0.2, 0.1], [0.02, 0.3, 0.9], [0.0, 0.0, 0.0]] {
+        let (unbounded, light) = (RgbUnboundedSpectrum::fit(rgb), RgbIlluminantSpectrum::fit(rgb));
+        for l in (360..=830).step_by(10).map(f64::from) {
+            let (a, b) = (unbounded.eval(l) * srgb_illuminant().eval(l), light.eval(l));
+            assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{rgb:?} at {l} nm: {a} vs {b}");
+        }
+    }
+}

@@ -461,3 +461,100 @@ fn decoded_textures_are_charged_to_the_scene_memory_budget_before_decoding() {
     load(16 << 20).unwrap_or_else(|e| panic!("{e}"));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// An emissive texture's texels are seen at their pixels, each the RGB light of its colour × the factor ×
+/// `KHR_materials_emissive_strength`, on RGB lanes and on wavelengths alike. Before, the quad glowed in the
+/// image's mean colour everywhere.
+#[test]
+fn emissive_texels_are_seen_at_the_predicted_pixels() {
+    let dir = folder("emissive");
+    let texels: Vec<[u8; 4]> = (0..16).map(|i| CHECKER[(i % 4) / 2 + 2 * (i / 8)]).collect();
+    write_png(&dir.join("checker.png"), 4, 4, &texels);
+    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "checker.png"}]"#;
+    let material = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 0.5, 1],
+        "emissiveTexture": {"index": 0}, "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2}}}"#;
+    let used = r#""extensionsUsed": ["KHR_materials_emissive_strength"],"#;
+    let gltf = write_gltf_quad(&dir, material, textures, used);
+    // No light but the quad (the directional light's illuminance on a black surface adds nothing).
+    let scene = scene_around(&dir, &gltf, [0.0, 0.0, -1.0], "");
+    let factor = [2.0, 1.0, 2.0];
+    // RGB lanes carry the colour exactly (up to f32 rounding); 32 wavelength bins reproduce a saturated
+    // colour to 0.2 % of its largest channel (its weak channels are off by 0.002 of 1.15 for the blue texel).
+    for (mode, tolerance) in [(SpectralMode::Rgb, 1e-3), (SpectralMode::Bins(32), 5e-3)] {
+        let opts =
+            integrator::RenderOptions { spectral: mode, spp: 4, ..options(8, 8) }.path(|p| p.max_depth = Some(1));
+        let (image, stats) = render_with(&scene, &opts);
+        assert_all_finite(&image, &stats);
+        let srgb = RgbColorSpace::srgb();
+        for (t, texel) in CHECKER.iter().enumerate() {
+            let (tx, ty) = (t % 2, t / 2);
+            for (px, py) in [(1, 1), (2, 2), (1, 2), (2, 1)] {
+                let (x, y) = (4 * tx + px, 4 * ty + py);
+                let [x_, y_, z_] = image.xyz(x as u32, y as u32).map(f64::from);
+                let rgb = srgb.xyz_to_rgb(Xyz { x: x_, y: y_, z: z_ });
+                let want = [0, 1, 2].map(|c| linear(*texel)[c] * factor[c]);
+                let peak = want.iter().copied().fold(0.0, f64::max);
+                let got = [rgb.r, rgb.g, rgb.b];
+                let ok = (0..3).all(|c| (got[c] - want[c]).abs() <= tolerance * peak);
+                assert!(ok, "{mode:?}: texel {t} at pixel ({x}, {y}): got {got:?}, expected {want:?}");
+            }
+        }
+    }
+}
+
+/// Mean luminance of the pixels in columns `columns` of every row.
+fn mean_y(image: &integrator::Image, columns: std::ops::Range<u32>, height: u32) -> f64 {
+    let n = (columns.len() as u32 * height) as f64;
+    columns.flat_map(|x| (0..height).map(move |y| (x, y))).map(|(x, y)| f64::from(image.xyz(x, y)[1])).sum::<f64>() / n
+}
+
+/// Light sampling reads the emissive texture where it samples the light: a 2 × 2 quad lamp whose left half
+/// is white and right half black lights a floor as a lamp of only the left half does (same mean within
+/// Monte Carlo error, next-event estimation and BSDF sampling together), the floor below the black half
+/// lit only obliquely. Before, the whole lamp emitted the image's mean colour and the floor was lit
+/// evenly left and right.
+#[test]
+fn light_sampling_reads_the_emissive_texture_at_the_sampled_point() {
+    let dir = folder("emissive-lamp");
+    write_png(&dir.join("half.png"), 2, 1, &[[255, 255, 255, 255], [0, 0, 0, 255]]);
+    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "half.png"}]"#;
+    let material = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1], "emissiveTexture": {"index": 0}}"#;
+    let gltf = write_gltf_quad(&dir, material, textures, "");
+    // The camera looks down at the floor from below the lamp, which it does not see.
+    let manifest = |lamp: &str| {
+        format!(
+            r#"{{"camera": {{"position": [0, 0.7, 3], "look_at": [0, 0, 0], "up": [0, 1, 0], "vfov_deg": 24}},
+            "background": 0,
+            "materials": {{"white": {{"base_color": 0.8, "diffuse": 1, "ks": 0}},
+                           "lamp": {{"base_color": 0, "emission": "D65", "emission_strength": 1, "double_sided": false}}}},
+            "objects": [{{"type": "quad", "corner": [-3, 0, 3], "edge_u": [6, 0, 0], "edge_v": [0, 0, -6], "material": "white"}}, {lamp}]}}"#
+        )
+    };
+    // The glTF quad's front (+z) turned to face down, 1 above the floor; u < ½ (white) is x < 0.
+    let textured = format!(
+        r#"{{"type": "mesh", "file": "{}", "transform": {{"rotate": {{"axis": [1, 0, 0], "deg": 90}}, "translate": [0, 1, 0]}}}}"#,
+        gltf.file_name().and_then(|n| n.to_str()).expect("file name")
+    );
+    // The left half alone, facing down: corner and edges ordered so that edge_u × edge_v is −y.
+    let half =
+        r#"{"type": "quad", "corner": [-1, 1, -1], "edge_u": [1, 0, 0], "edge_v": [0, 0, 2], "material": "lamp"}"#;
+    let (w, h) = (32, 24);
+    let render = |lamp: &str, name: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, manifest(lamp)).expect("write manifest");
+        let scene = RenderScene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let opts = integrator::RenderOptions { spectral: SpectralMode::Rgb, spp: 64, ..options(w, h) }
+            .path(|p| p.max_depth = Some(1));
+        let (image, stats) = render_with(&scene, &opts);
+        assert_all_finite(&image, &stats);
+        let (left, right) = (mean_y(&image, 2..w / 2 - 2, h), mean_y(&image, w / 2 + 2..w - 2, h));
+        (left, right)
+    };
+    let (tex_left, tex_right) = render(&textured, "textured.json");
+    let (half_left, half_right) = render(half, "half.json");
+    // The floor below the black half is lit obliquely by the white half, at half the irradiance; the mean
+    // colour over the whole lamp would give both sides (0.5 · (left + right)) instead, 25 % and 50 % off.
+    assert!(half_left > 1.7 * half_right, "the reference is lit unevenly: {half_left} vs {half_right}");
+    assert!((tex_left / half_left - 1.0).abs() < 0.05, "below the white half: {tex_left} vs {half_left}");
+    assert!((tex_right / half_right - 1.0).abs() < 0.08, "below the black half: {tex_right} vs {half_right}");
+}
