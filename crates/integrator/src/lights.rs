@@ -85,9 +85,6 @@ pub(crate) struct LiSample {
     pub(crate) scale: f32,
     /// A point, spot or directional light: no other strategy can find it, so no MIS.
     pub(crate) delta: bool,
-    /// On a triangle, the sampled point's barycentric weights of its first two vertices (the
-    /// third's is the rest): where an emissive texture is read. Zero for other lights.
-    pub(crate) barycentrics: Vec2,
 }
 
 impl Light {
@@ -114,7 +111,7 @@ impl LightKind {
     #[inline]
     pub(crate) fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, pmf: f32) -> Option<LiSample> {
         let delta = self.is_delta();
-        let sample = |wi, target, pdf, scale| LiSample { wi, target, pdf, scale, delta, barycentrics: Vec2::ZERO };
+        let sample = |wi, target, pdf, scale| LiSample { wi, target, pdf, scale, delta };
         match *self {
             Self::Point { position } => {
                 let (wi, falloff) = towards_point(ctx.p, position)?;
@@ -132,7 +129,7 @@ impl LightKind {
                 (pdf > 0.0).then(|| sample(wi, None, pdf, 1.0))
             }
             Self::Triangle { area, two_sided, .. } | Self::Sphere { area, two_sided, .. } => {
-                let (q, n_light, barycentrics) = self.sample_area(u);
+                let (q, n_light) = self.sample_area(u);
                 let d = q - ctx.p;
                 let distance2 = d.length_squared();
                 if !(distance2 > 0.0) {
@@ -148,23 +145,22 @@ impl LightKind {
                 }
                 // Uniform by area, converted to solid angle: d² / (A |cos θ_light|).
                 let pdf = pmf * distance2 / (area * cos_light);
-                pdf.is_finite().then(|| LiSample { barycentrics, ..sample(wi, Some(q), pdf, 1.0) })
+                pdf.is_finite().then(|| sample(wi, Some(q), pdf, 1.0))
             }
         }
     }
 
-    /// A point on an area light, uniformly by area, the surface normal there and (triangles) the
-    /// point's barycentric weights of the first two vertices.
-    fn sample_area(&self, u: Vec2) -> (Vec3, Vec3, Vec2) {
+    /// A point on an area light, uniformly by area, and the surface normal there.
+    fn sample_area(&self, u: Vec2) -> (Vec3, Vec3) {
         match *self {
             Self::Sphere { center, radius, .. } => {
                 let n = uniform_sphere(u);
-                (center + radius * n, n, Vec2::ZERO)
+                (center + radius * n, n)
             }
             Self::Triangle { p: [p0, p1, p2], .. } => {
                 let (b0, b1) = uniform_triangle(u);
                 let q = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
-                (q, (p1 - p0).cross(p2 - p0).normalize_or_zero(), Vec2::new(b0, b1))
+                (q, (p1 - p0).cross(p2 - p0).normalize_or_zero())
             }
             _ => unreachable!("only area lights are sampled by area"),
         }
@@ -401,14 +397,7 @@ impl Emitters {
             cosine_hemisphere(ctx.ns, Vec2::new(((u.x - p) / (1.0 - p)).min(1.0 - f32::EPSILON / 2.0), u.y))
         };
         let pdf = pmf * self.environment_map_pdf(map, ctx, wi);
-        (pdf > 0.0 && pdf.is_finite()).then_some(LiSample {
-            wi,
-            target: None,
-            pdf,
-            scale: 1.0,
-            delta: false,
-            barycentrics: Vec2::ZERO,
-        })
+        (pdf > 0.0 && pdf.is_finite()).then_some(LiSample { wi, target: None, pdf, scale: 1.0, delta: false })
     }
 
     /// The density per steradian of [`Emitters::sample_environment_map`], without the light's pmf.

@@ -197,15 +197,17 @@ pub(crate) struct ColorTexture<E = PaletteEntry> {
 impl ColorTexture {
     /// From an sRGB-encoded image; `factor` (linear RGBA) multiplies every texel before the fit.
     /// `exact` is false when the image had more than [`MAX_REFINED_COLOURS`] distinct colours and
-    /// the table lookup was used.
+    /// the table lookup was used. Without `alpha`, texels differing only in alpha share an entry
+    /// (whose alpha is then one of theirs: the caller does not read it).
     fn new(
         image: &Image8,
         label: &str,
         desc: &TextureDesc,
         factor: [f32; 4],
+        alpha: bool,
         memory: &mut MemoryBudget,
     ) -> geometry::Result<(Self, bool)> {
-        Self::with_palette(image, label, desc, memory, |linear, alpha, exact| {
+        Self::with_palette(image, label, desc, alpha, memory, |linear, alpha, exact| {
             let c = |i: usize| linear[i] * factor[i];
             palette_entry([c(0), c(1), c(2)], alpha * factor[3], exact)
         })
@@ -214,11 +216,13 @@ impl ColorTexture {
 
 impl<E: Send> ColorTexture<E> {
     /// From an sRGB-encoded image, each distinct texel's entry made by `entry` from its linear RGB, its
-    /// alpha and whether the exact fit is wanted (at most [`MAX_REFINED_COLOURS`] distinct colours).
+    /// alpha and whether the exact fit is wanted (at most [`MAX_REFINED_COLOURS`] distinct colours);
+    /// texels are distinct by their RGBA, or by their RGB alone without `alpha`.
     fn with_palette(
         image: &Image8,
         label: &str,
         desc: &TextureDesc,
+        alpha: bool,
         memory: &mut MemoryBudget,
         entry: impl Fn([f32; 3], f32, bool) -> E + Sync,
     ) -> geometry::Result<(Self, bool)> {
@@ -230,7 +234,7 @@ impl<E: Send> ColorTexture<E> {
             || format!("finding the distinct colours of a {}×{} texture", image.width, image.height),
             index_bytes.saturating_add(texels.saturating_mul(COLOUR_COUNT_BYTES_PER_TEXEL)),
         )?;
-        let (index, distinct) = index_distinct(&image.texels, |t| *t);
+        let (index, distinct) = index_distinct(&image.texels, |t| if alpha { *t } else { [t[0], t[1], t[2], 0] });
         let palette_bytes = (distinct.len() * std::mem::size_of::<E>()) as u64;
         memory.charge(
             path,
@@ -314,7 +318,8 @@ impl SpecularColorTexture {
     ) -> geometry::Result<(Self, bool)> {
         let scale = layer.color_scale();
         let factor = layer.color.map(|c| if scale > 0.0 { c / scale } else { 0.0 });
-        let (color, exact) = ColorTexture::new(image, label, desc, [factor[0], factor[1], factor[2], 1.0], memory)?;
+        let (color, exact) =
+            ColorTexture::new(image, label, desc, [factor[0], factor[1], factor[2], 1.0], false, memory)?;
         memory.charge(
             std::path::Path::new(label),
             || format!("the largest F0 of each of {} specular colours", color.palette.len()),
@@ -390,7 +395,7 @@ impl EmissiveTexture {
         factor: [f32; 3],
         memory: &mut MemoryBudget,
     ) -> geometry::Result<(Self, bool)> {
-        let (texture, exact) = ColorTexture::with_palette(image, label, desc, memory, |linear, _, exact| {
+        let (texture, exact) = ColorTexture::with_palette(image, label, desc, false, memory, |linear, _, exact| {
             let rgb = [0, 1, 2].map(|i| (linear[i] * factor[i]).max(0.0));
             let spectrum = if exact {
                 RgbUnboundedSpectrum::fit(rgb.map(f64::from))
@@ -904,7 +909,7 @@ pub(crate) fn load_material_textures(
             {
                 let label = images.get(t.image).map_or("?", |i| i.label.as_str());
                 let factor = [factor_rgb[0], factor_rgb[1], factor_rgb[2], alpha_factor];
-                let (texture, exact) = ColorTexture::new(&img, label, t, factor, memory)?;
+                let (texture, exact) = ColorTexture::new(&img, label, t, factor, true, memory)?;
                 if !exact {
                     warnings.push(table_lookup_warning(label, texture.palette.len()));
                 }
@@ -1045,7 +1050,7 @@ mod tests {
         let image = Image8 { width: 8, height: 2, texels: texels.clone() };
         let desc = TextureDesc::new(0);
         let (texture, exact) =
-            ColorTexture::new(&image, "test", &desc, [1.0; 4], &mut MemoryBudget::default()).unwrap();
+            ColorTexture::new(&image, "test", &desc, [1.0; 4], true, &mut MemoryBudget::default()).unwrap();
         assert!(exact);
         let mut worst: f64 = 0.0;
         for (i, t) in texels.iter().enumerate() {
@@ -1056,7 +1061,7 @@ mod tests {
         assert!(worst < 0.01, "worst ΔE00 {worst}");
         // The factor multiplies in linear RGB before the fit: half of white is linear 0.5 grey.
         let (half, _) =
-            ColorTexture::new(&image, "test", &desc, [0.5, 0.5, 0.5, 1.0], &mut MemoryBudget::default()).unwrap();
+            ColorTexture::new(&image, "test", &desc, [0.5, 0.5, 0.5, 1.0], true, &mut MemoryBudget::default()).unwrap();
         let uv = Vec2::new(3.5 / 8.0, 0.25);
         assert!(delta_e00_under_d65([0.5; 3], &texel_spectrum(&half, uv)) < 0.01);
         // And a wrong decode (treating the bytes as linear) is far off: the test can fail.
@@ -1124,6 +1129,16 @@ mod tests {
         let red = on_1nm_grid(|lambda| texture.eval(Vec2::new(0.375, 0.5), lambda, &d65.sample(lambda), false));
         let white = on_1nm_grid(|lambda| texture.eval(Vec2::new(0.125, 0.5), lambda, &d65.sample(lambda), false));
         assert!((red.eval(450.0) / white.eval(450.0)) < 0.05, "a red texel emits little blue");
+        // Alpha plays no part in emission (nor in specular colour): texels differing only there share an entry.
+        let alpha_only = Image8 { width: 2, height: 1, texels: vec![[255, 128, 0, 255], [255, 128, 0, 10]] };
+        let mut memory = MemoryBudget::default();
+        let emissive = EmissiveTexture::new(&alpha_only, "test", &desc, factor, &mut memory).unwrap().0;
+        assert_eq!(emissive.0.palette.len(), 1);
+        let layer = geometry::SpecularLayer { factor: 1.0, color: [1.0; 3] };
+        let specular = SpecularColorTexture::new(&alpha_only, "test", &desc, &layer, &mut memory).unwrap().0;
+        assert_eq!(specular.color.palette.len(), 1);
+        let base = ColorTexture::new(&alpha_only, "test", &desc, [1.0; 4], true, &mut memory).unwrap().0;
+        assert_eq!(base.palette.len(), 2, "base colour keeps its alpha per texel");
     }
 
     #[test]
