@@ -215,11 +215,15 @@ pub struct MaterialTextures {
     /// The coat's own tangent-space normal map (`scale` read): `KHR_materials_clearcoat.clearcoatNormalTexture`.
     /// Without it the coat takes the interpolated normal, not the base's normal map (as the extension says).
     pub clearcoat_normal: Option<TextureDesc>,
+    /// sRGB; RGB × `sheenColorFactor`: `KHR_materials_sheen.sheenColorTexture`.
+    pub sheen_color: Option<TextureDesc>,
+    /// Linear; A = the sheen's roughness (× its factor): `KHR_materials_sheen.sheenRoughnessTexture`.
+    pub sheen_roughness: Option<TextureDesc>,
 }
 
 impl MaterialTextures {
     /// Every role's texture, present or not.
-    pub fn roles(&self) -> [&Option<TextureDesc>; 11] {
+    pub fn roles(&self) -> [&Option<TextureDesc>; 13] {
         [
             &self.base_color,
             &self.metallic_roughness,
@@ -232,6 +236,8 @@ impl MaterialTextures {
             &self.clearcoat,
             &self.clearcoat_roughness,
             &self.clearcoat_normal,
+            &self.sheen_color,
+            &self.sheen_roughness,
         ]
     }
 
@@ -274,6 +280,15 @@ pub struct Clearcoat {
     /// `clearcoatFactor`: the coat's weight.
     pub factor: f32,
     /// `clearcoatRoughnessFactor`: its perceptual roughness (GGX α = roughness²).
+    pub roughness: f32,
+}
+
+/// glTF `KHR_materials_sheen`'s factors, as written (its textures are in [`MaterialTextures`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SheenLayer {
+    /// `sheenColorFactor` (linear RGB in [0, 1]); black disables the layer.
+    pub color: [f32; 3],
+    /// `sheenRoughnessFactor` in [0, 1].
     pub roughness: f32,
 }
 
@@ -340,6 +355,8 @@ pub struct MaterialDesc {
     pub specular_layer: Option<SpecularLayer>,
     /// glTF `KHR_materials_clearcoat`: a clear varnish over the material.
     pub clearcoat: Option<Clearcoat>,
+    /// glTF `KHR_materials_sheen`: fibres over the material (beneath the coat).
+    pub sheen: Option<SheenLayer>,
     /// Manifest `multiple_scattering`: whether rough conductors and dielectrics are energy-compensated
     /// (default yes); `false` is the single-scattering GGX of pbrt-v4 and Mitsuba 3.
     pub multiple_scattering: Option<bool>,
@@ -384,6 +401,7 @@ impl MaterialDesc {
             double_sided: None,
             specular_layer: None,
             clearcoat: None,
+            sheen: None,
             multiple_scattering: None,
             dissolve: None,
             illum: None,

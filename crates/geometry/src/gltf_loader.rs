@@ -18,15 +18,15 @@ use gltf::mesh::{Mode, Semantic};
 
 use crate::desc::{
     AbsorptionDesc, AlphaMode, CameraDesc, Clearcoat, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit,
-    MaterialDesc, MaterialFormat, Projection, SceneDescription, SceneFormat, SpectrumDesc, SpecularLayer, TextureDesc,
-    TextureTransform, WrapMode,
+    MaterialDesc, MaterialFormat, Projection, SceneDescription, SceneFormat, SheenLayer, SpectrumDesc, SpecularLayer,
+    TextureDesc, TextureTransform, WrapMode,
 };
 use crate::error::{Error, Result};
 use crate::limits::{BYTES_PER_INSTANCE, BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
 use crate::shapes::{Instances, Mesh};
 
 /// Extensions whose data we read; a file that *requires* anything else is refused.
-/// `KHR_materials_dispersion`, `_specular` and `_clearcoat` are read from the raw extension map (the `gltf`
+/// `KHR_materials_dispersion`, `_specular`, `_clearcoat` and `_sheen` are read from the raw extension map (the `gltf`
 /// crate has no typed accessor).
 const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
@@ -38,6 +38,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     // Factors and every texture.
     "KHR_materials_specular",
     "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
     // Read in full (offset, rotation, scale, texCoord); Blender marks it required whenever a Mapping
     // node is used.
     "KHR_texture_transform",
@@ -876,8 +877,15 @@ impl Loader<'_> {
                     self.raw_texture(value.get("clearcoatNormalTexture"), document, true, &context);
             }
         }
+        if let Some(value) = material.extension_value("KHR_materials_sheen") {
+            m.sheen = self.sheen(value, &context);
+            if m.sheen.is_some() {
+                m.textures.sheen_color = self.raw_texture(value.get("sheenColorTexture"), document, false, &context);
+                m.textures.sheen_roughness =
+                    self.raw_texture(value.get("sheenRoughnessTexture"), document, false, &context);
+            }
+        }
         for (extension, what) in [
-            ("KHR_materials_sheen", "sheen"),
             ("KHR_materials_anisotropy", "anisotropy"),
             ("KHR_materials_iridescence", "iridescence"),
             ("KHR_materials_diffuse_transmission", "diffuse transmission"),
@@ -947,26 +955,43 @@ impl Loader<'_> {
     /// `KHR_materials_specular`: `specularFactor` (default 1) and `specularColorFactor` (default white, each
     /// component ≥ 0: the extension lets it exceed 1).
     fn specular_layer(&mut self, value: &serde_json::Value, context: &str) -> SpecularLayer {
-        const EXT: &str = "KHR_materials_specular";
         let factor = self.factor(value, "specularFactor", 1.0, 1.0, context);
-        let color = match value.get("specularColorFactor") {
-            None => [1.0; 3],
-            Some(v) => {
-                let parsed: Option<Vec<f32>> = v.as_array().filter(|a| a.len() == 3).and_then(|a| {
-                    a.iter().map(|c| c.as_f64().filter(|x| x.is_finite() && *x >= 0.0).map(|x| x as f32)).collect()
-                });
-                match parsed {
-                    Some(c) => [c[0], c[1], c[2]],
-                    None => {
-                        self.warn(format!(
-                            "{context}: {EXT}.specularColorFactor {v} is not three numbers ≥ 0; white is used"
-                        ));
-                        [1.0; 3]
-                    }
-                }
-            }
-        };
+        let color = self.color_factor(value, "KHR_materials_specular.specularColorFactor", [1.0; 3], f32::MAX, context);
         SpecularLayer { factor, color }
+    }
+
+    /// `KHR_materials_sheen`: `sheenColorFactor` (default black: no sheen) and `sheenRoughnessFactor`
+    /// (default 0).
+    fn sheen(&mut self, value: &serde_json::Value, context: &str) -> Option<SheenLayer> {
+        let color = self.color_factor(value, "KHR_materials_sheen.sheenColorFactor", [0.0; 3], 1.0, context);
+        let roughness = self.factor(value, "sheenRoughnessFactor", 0.0, 1.0, context);
+        (color != [0.0; 3]).then_some(SheenLayer { color, roughness })
+    }
+
+    /// A colour factor of a material extension (`key` is the extension and field, as a warning names it):
+    /// `default` where absent, else three numbers in [0, `max`] (a warning and `default` otherwise).
+    fn color_factor(
+        &mut self,
+        value: &serde_json::Value,
+        key: &str,
+        default: [f32; 3],
+        max: f32,
+        context: &str,
+    ) -> [f32; 3] {
+        let Some(v) = value.get(key.rsplit('.').next().unwrap_or(key)) else { return default };
+        let parsed: Option<Vec<f32>> = v.as_array().filter(|a| a.len() == 3).and_then(|a| {
+            a.iter()
+                .map(|c| c.as_f64().filter(|x| x.is_finite() && (0.0..=f64::from(max)).contains(x)).map(|x| x as f32))
+                .collect()
+        });
+        match parsed {
+            Some(c) => [c[0], c[1], c[2]],
+            None => {
+                let range = if max == f32::MAX { "≥ 0".to_string() } else { format!("in [0, {max}]") };
+                self.warn(format!("{context}: {key} {v} is not three numbers {range}; {default:?} is used"));
+                default
+            }
+        }
     }
 
     /// `KHR_materials_clearcoat`: `clearcoatFactor` (default 0: no coat) and `clearcoatRoughnessFactor`

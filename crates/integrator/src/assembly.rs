@@ -1263,6 +1263,11 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
             dielectric_specular(l, &ior, desc.textures.specular.is_some() || desc.textures.specular_color.is_some())
         }),
         coat: desc.clearcoat.map(|c| Coat { weight: c.factor, roughness: c.roughness }),
+        sheen: desc.sheen.map(|s| materials::Sheen {
+            color: materials::reflectance_from_rgb(s.color),
+            color_max: s.color[0].max(s.color[1]).max(s.color[2]),
+            roughness: s.roughness,
+        }),
     };
     material.validate().map_err(wrap)?;
     Ok(material)

@@ -15,7 +15,8 @@ use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Primitive, Ray, ShadowRay, spawn_ray, spawn_shadow_ray};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{
-    Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, ThinDielectricBxdf, TrowbridgeReitz,
+    Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, SheenBxdf, ThinDielectricBxdf,
+    TrowbridgeReitz, sheen_albedo,
 };
 use materials::{Coat, Ior, LAMBDA_D, MaterialModel};
 
@@ -146,6 +147,16 @@ struct PathMaterial {
     ior: Ior,
     /// `KHR_materials_clearcoat`, picked per hit with [`Coat::probability`].
     coat: Option<Coat>,
+    /// `KHR_materials_sheen`, picked per hit (beneath the coat) by [`PathTracer::pick_sheen`].
+    sheen: Option<PathSheen>,
+}
+
+/// [`materials::Sheen`] with its colour in the spectra table.
+#[derive(Debug, Clone, Copy)]
+struct PathSheen {
+    color: SpecId,
+    color_max: f32,
+    roughness: f32,
 }
 
 /// An area light whose radiance is read from its material's emissive texture.
@@ -277,12 +288,18 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 two_sided: m.two_sided,
                 ior: m.ior,
                 coat: m.coat,
+                sheen: m.sheen.as_ref().map(|s| PathSheen {
+                    color: add(s.color.clone(), SpectrumKind::Reflectance),
+                    color_max: s.color_max,
+                    roughness: s.roughness,
+                }),
             }
         };
         let materials: Vec<PathMaterial> = scene.materials.iter().map(&mut path_material).collect();
         let default_material = path_material(&scene.default_material);
         let rough = materials.iter().chain([&default_material]).any(|m| {
             m.coat.is_some()
+                || m.sheen.is_some()
                 || !matches!(
                     m.scattering,
                     PathScattering::Diffuse { .. } | PathScattering::Mirror { .. } | PathScattering::Dielectric { .. }
@@ -641,6 +658,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 (None, None) => hit.ns,
             };
             let frame = Frame { n: hit.n, ns };
+            // `KHR_materials_sheen`, beneath the coat: in place of the material with its share of the light.
+            let sheen = match m.sheen {
+                Some(s) if ROUGH && coated.is_none() => {
+                    self.pick_sheen(s, textures, hit.uv, frame.facing(wo).1.dot(wo), lambda, rng)
+                }
+                _ => None,
+            };
             // `KHR_materials_specular` at the hit: its strength and F0 per texel where textured.
             let hit_specular = |s: Option<SpecularLayer>| {
                 s.map(|s| {
@@ -653,6 +677,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             };
             let bsdf = match m.scattering {
                 _ if let Some((c, _)) = coated => Bsdf::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(c.roughness)),
+                _ if let Some(s) = sheen => Bsdf::Sheen(s),
                 PathScattering::Diffuse { r } => Bsdf::Lambertian {
                     r: match colors {
                         Some(c) => self.vertex_colored_base(&c, textures, hit.uv, r, lambda, last),
@@ -785,6 +810,28 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     fn textured_emission(&self, t: &MaterialTextures, uv: Vec2, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
         let illuminant = self.illuminant.map_or(SampledSpectrum([1.0; N]), |id| self.spectra.eval(id, lambda));
         t.emission(uv, lambda, &illuminant, self.rgb_lanes).unwrap_or(SampledSpectrum([0.0; N]))
+    }
+
+    /// The sheen lobe, with probability max₃(C) E(μ_o) (`mu_o` the cosine of the view direction to the
+    /// shading normal), its colour C / P then; `None` (the material beneath) otherwise. Out of line: only
+    /// sheen materials call it.
+    #[inline(never)]
+    fn pick_sheen(
+        &self,
+        s: PathSheen,
+        textures: Option<&MaterialTextures>,
+        uv: Vec2,
+        mu_o: f32,
+        lambda: &SampledWavelengths<N>,
+        rng: &mut Rng,
+    ) -> Option<SheenBxdf<N>> {
+        let roughness = textures.map_or(s.roughness, |t| t.sheen_roughness(uv, s.roughness));
+        let (color, color_max) = match textures.and_then(|t| t.sheen_color(uv, lambda, self.rgb_lanes)) {
+            Some(c) => c,
+            None => (self.spectra.eval(s.color, lambda), s.color_max),
+        };
+        let p = (color_max * sheen_albedo(mu_o, roughness)).min(1.0);
+        (p > 0.0 && rng.uniform() < p).then(|| SheenBxdf::new(color * (1.0 / p), roughness))
     }
 
     /// The glTF metallic–roughness BRDF of a hit, with `KHR_materials_specular` where the material has it.

@@ -286,6 +286,19 @@ impl ColorTexture {
         (r, alpha)
     }
 
+    /// The linear RGB at `uv` (the blend of the texels' colours × factor).
+    #[inline]
+    fn rgb(&self, uv: Vec2) -> [f32; 3] {
+        let mut rgb = [0.0; 3];
+        for (i, w) in self.sampler.footprint(uv) {
+            let e = &self.palette[self.index[i] as usize];
+            for c in 0..3 {
+                rgb[c] += w * e.rgb[c];
+            }
+        }
+        rgb
+    }
+
     /// Only the alpha at `uv` (shadow rays and cut-outs need no spectrum).
     #[inline]
     fn alpha(&self, uv: Vec2) -> f32 {
@@ -609,6 +622,9 @@ pub(crate) struct MaterialTextures {
     specular_color: Option<SpecularColorTexture>,
     /// `emissiveTexture` × the material's emission: its radiance per texel.
     emissive: Option<EmissiveTexture>,
+    /// `sheenColorTexture` × `sheenColorFactor` and `sheenRoughnessTexture` (A × its factor).
+    sheen_color: Option<ColorTexture>,
+    sheen_roughness: Option<DataTexture>,
     /// `clearcoatTexture` (R × the coat's weight) and `clearcoatRoughnessTexture` (G × its roughness).
     clearcoat: Option<DataTexture>,
     clearcoat_roughness: Option<DataTexture>,
@@ -712,6 +728,26 @@ impl MaterialTextures {
         normal_mapped(&self.clearcoat_normal, uv, ns, tangent, n)
     }
 
+    /// The sheen colour at `uv` at the path's wavelengths (linear RGB on RGB lanes) and its largest linear RGB
+    /// channel; `None` without a sheen colour texture.
+    #[inline]
+    pub(crate) fn sheen_color<const N: usize>(
+        &self,
+        uv: Vec2,
+        lambda: &SampledWavelengths<N>,
+        rgb_lanes: bool,
+    ) -> Option<(SampledSpectrum<N>, f32)> {
+        let t = self.sheen_color.as_ref()?;
+        let rgb = t.rgb(uv);
+        Some((t.eval(uv, lambda, rgb_lanes).0, rgb[0].max(rgb[1]).max(rgb[2])))
+    }
+
+    /// The sheen roughness `factor` at `uv`, times the texture's A where there is one.
+    #[inline]
+    pub(crate) fn sheen_roughness(&self, uv: Vec2, factor: f32) -> f32 {
+        scaled_by_channel(&self.sheen_roughness, uv, factor, 3)
+    }
+
     /// The emitted radiance at `uv` (see [`EmissiveTexture::eval`]); `None` without an emissive texture.
     #[inline]
     pub(crate) fn emission<const N: usize>(
@@ -753,6 +789,7 @@ impl MaterialTextures {
         self.base_color.is_some()
             || self.specular_color.is_some()
             || self.emissive.is_some()
+            || self.sheen_color.is_some()
             || self.data_images().next().is_some()
             || self.has_alpha()
     }
@@ -773,6 +810,7 @@ impl MaterialTextures {
         self.base_color.as_ref().map_or(0, ColorTexture::bytes)
             + self.specular_color.as_ref().map_or(0, SpecularColorTexture::bytes)
             + self.emissive.as_ref().map_or(0, |t| t.0.bytes())
+            + self.sheen_color.as_ref().map_or(0, ColorTexture::bytes)
     }
 
     /// The decoded images the data textures read (shared between roles and materials).
@@ -786,6 +824,7 @@ impl MaterialTextures {
             &self.clearcoat,
             &self.clearcoat_roughness,
             &self.clearcoat_normal,
+            &self.sheen_roughness,
         ]
         .into_iter()
         .flatten()
@@ -928,6 +967,18 @@ pub(crate) fn load_material_textures(
                 }
                 specular_color = Some(texture);
             }
+            let mut sheen_color = None;
+            if let (Some(t), Some(sheen)) = (&textures.sheen_color, &m.sheen)
+                && let Some(img) = image(t.image, memory, warnings)?
+            {
+                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                let c = sheen.color;
+                let (texture, exact) = ColorTexture::new(&img, label, t, [c[0], c[1], c[2], 1.0], false, memory)?;
+                if !exact {
+                    warnings.push(table_lookup_warning(label, texture.palette.len()));
+                }
+                sheen_color = Some(texture);
+            }
             let mut data = |t: &Option<TextureDesc>,
                             memory: &mut MemoryBudget,
                             warnings: &mut Vec<String>|
@@ -943,6 +994,7 @@ pub(crate) fn load_material_textures(
             let clearcoat = data(&textures.clearcoat, memory, warnings)?;
             let clearcoat_roughness = data(&textures.clearcoat_roughness, memory, warnings)?;
             let clearcoat_normal = data(&textures.clearcoat_normal, memory, warnings)?;
+            let sheen_roughness = data(&textures.sheen_roughness, memory, warnings)?;
             let set = MaterialTextures {
                 base_color,
                 metallic_roughness,
@@ -952,6 +1004,8 @@ pub(crate) fn load_material_textures(
                 specular,
                 specular_color,
                 emissive,
+                sheen_color,
+                sheen_roughness,
                 clearcoat,
                 clearcoat_roughness,
                 clearcoat_normal,

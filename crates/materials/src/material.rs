@@ -61,6 +61,21 @@ pub struct Material {
     pub dielectric_specular: Option<DielectricSpecular>,
     /// glTF `KHR_materials_clearcoat`: a clear GGX varnish over the model; `None`: none.
     pub coat: Option<Coat>,
+    /// glTF `KHR_materials_sheen`: a layer of fibres over the model (beneath the coat); `None`: none.
+    pub sheen: Option<Sheen>,
+}
+
+/// `KHR_materials_sheen`: f = f_sheen + f_material (1 − max₃(colour) E(μ_o)) (`bsdf::SheenBxdf`, the
+/// extension's albedo scaling in its view-only form), so the path tracer picks the sheen with probability
+/// max₃(colour) E(μ_o) at each hit and the material otherwise (an exact mixture).
+#[derive(Debug, Clone)]
+pub struct Sheen {
+    /// `sheenColorFactor` as a reflectance spectrum.
+    pub color: DenselySampledSpectrum,
+    /// The factor's largest channel (linear RGB), max₃ above.
+    pub color_max: f32,
+    /// `sheenRoughnessFactor` in [0, 1] (used directly as the distribution's r, as the extension says).
+    pub roughness: f32,
 }
 
 /// `KHR_materials_specular` as the glTF models use it: the dielectric specular layer's Fresnel is
@@ -204,6 +219,7 @@ impl Material {
             multiple_scattering: true,
             dielectric_specular: None,
             coat: None,
+            sheen: None,
             two_sided: true,
         }
     }

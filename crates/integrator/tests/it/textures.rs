@@ -558,3 +558,61 @@ fn light_sampling_reads_the_emissive_texture_at_the_sampled_point() {
     assert!((tex_left / half_left - 1.0).abs() < 0.05, "below the white half: {tex_left} vs {half_left}");
     assert!((tex_right / half_right - 1.0).abs() < 0.08, "below the black half: {tex_right} vs {half_right}");
 }
+
+/// `KHR_materials_sheen` end to end: a quad lit by a directional light 60° off its normal renders, per
+/// channel, E cos θ_i · (f_sheen + (1 − max₃(C) E(μ_o)) f_base) — the extension's albedo-scaled layering in
+/// its view-only form, the path tracer picking the sheen with probability max₃(C) E(μ_o) — computed here
+/// from the materials crate's public lobes; and a sheen colour texture's black texel leaves the base alone.
+/// Before, the sheen was ignored with a warning (the base alone everywhere).
+#[test]
+fn sheen_layers_over_the_base_as_the_extension_says() {
+    use colorimetry::SampledSpectrum;
+    use materials::bsdf::{Bsdf, Frame, GltfMetalRoughBxdf, SheenBxdf, sheen_albedo};
+    let dir = folder("sheen");
+    write_png(&dir.join("on_off.png"), 2, 1, &[[255, 255, 255, 255], [0, 0, 0, 255]]);
+    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "on_off.png"}]"#;
+    let used = r#""extensionsUsed": ["KHR_materials_sheen"],"#;
+    let (color, roughness, base) = ([0.9f32, 0.5, 0.2], 0.5f32, 0.3f32);
+    let material = |sheen: &str| {
+        format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [{base}, {base}, {base}, 1], "metallicFactor": 0, "roughnessFactor": 0.7}},
+               "extensions": {{"KHR_materials_sheen": {{"sheenColorFactor": [{}, {}, {}], "sheenRoughnessFactor": {roughness}{sheen}}}}}}}"#,
+            color[0], color[1], color[2]
+        )
+    };
+    let (theta, spp) = (60f64.to_radians(), 1024);
+    let light = [-theta.sin(), 0.0, -theta.cos()];
+    let render = |m: &str| {
+        let gltf = write_gltf_quad(&dir, m, textures, used);
+        render_rgb_spp(&scene_around(&dir, &gltf, light, ""), spp)
+    };
+    let sheen = render(&material(""));
+    let textured = render(&material(r#", "sheenColorTexture": {"index": 0}"#));
+    let bare = render(
+        &r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.3, 0.3, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 0.7}}"#,
+    );
+    // The model at pixel (x, y): wo towards the camera at z = 2 from the pixel's centre on the quad.
+    let wi = glam::Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32);
+    let frame = Frame { n: glam::Vec3::Z, ns: glam::Vec3::Z };
+    let expected = |x: usize, y: usize, with_sheen: bool| -> [f64; 3] {
+        let p = glam::Vec3::new(-1.0 + (x as f32 + 0.5) / 4.0, 1.0 - (y as f32 + 0.5) / 4.0, 0.0);
+        let wo = (glam::Vec3::new(0.0, 0.0, 2.0) - p).normalize();
+        let base =
+            Bsdf::GltfMetalRough(GltfMetalRoughBxdf::energy_conserving(SampledSpectrum([base; 3]), 0.0, 0.7, 1.5));
+        let f_base = base.f_cos(&frame, wo, wi);
+        let lobe = Bsdf::Sheen(SheenBxdf::new(SampledSpectrum(color), roughness)).f_cos(&frame, wo, wi);
+        let scale = 1.0 - color[0].max(color[1]).max(color[2]) * sheen_albedo(wo.z, roughness);
+        [0, 1, 2].map(|c| E * f64::from(if with_sheen { lobe.0[c] + scale * f_base.0[c] } else { f_base.0[c] }))
+    };
+    for (x, y) in [(2, 3), (3, 3), (3, 4), (2, 4), (5, 3), (5, 4)] {
+        let want = expected(x, y, true);
+        let plain = expected(x, y, false);
+        // Stochastic layer choice at 1024 samples and the pixel's footprint: 3 %.
+        assert_rgb(sheen[y][x], want, 0.03, &format!("sheen at pixel ({x}, {y})"));
+        assert_rgb(bare[y][x], plain, 0.01, &format!("base alone at pixel ({x}, {y})"));
+        assert!((want[0] - plain[0]).abs() > 0.15 * plain[0], "the sheen must show: {want:?} vs {plain:?}");
+        // Texture: white texels (x < 4) are the factor's sheen, black ones (x ≥ 4) no sheen at all.
+        let (t, what) = if x < 4 { (sheen[y][x], "white texel") } else { (bare[y][x], "black texel") };
+        assert_rgb(textured[y][x], t, 0.03, &format!("{what} at pixel ({x}, {y})"));
+    }
+}

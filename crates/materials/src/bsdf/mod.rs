@@ -28,6 +28,7 @@ mod conductor;
 mod dielectric;
 mod gltf;
 mod microfacet;
+mod sheen;
 mod spectral_ior;
 #[cfg(test)]
 pub(crate) mod test_support;
@@ -45,6 +46,7 @@ pub use dielectric::{RoughDielectricBxdf, ThinDielectricBxdf};
 pub use gltf::GltfMetalRoughBxdf;
 pub(crate) use gltf::schlick;
 pub use microfacet::TrowbridgeReitz;
+pub use sheen::{MIN_SHEEN_ROUGHNESS, SheenBxdf, sheen_albedo};
 pub use spectral_ior::{KNOWN_METALS, Metal};
 
 use crate::sampling::{basis, cosine_hemisphere};
@@ -196,6 +198,8 @@ pub enum Bsdf<const N: usize> {
     ThinDielectric(ThinDielectricBxdf<N>),
     /// The glTF 2.0 metallic–roughness BRDF.
     GltfMetalRough(GltfMetalRoughBxdf<N>),
+    /// `KHR_materials_sheen`'s lobe, picked in place of the material it layers (see `sheen.rs`).
+    Sheen(SheenBxdf<N>),
 }
 
 /// Local shading coordinates: `z` along `n`, `x`, `y` along [`basis`]`(n)`.
@@ -240,6 +244,7 @@ impl<const N: usize> Bsdf<N> {
             Self::RoughDielectric(d) => d.flags(),
             Self::ThinDielectric(d) => d.flags(),
             Self::GltfMetalRough(g) => g.flags(),
+            Self::Sheen(s) => s.flags(),
         }
     }
 
@@ -294,6 +299,7 @@ impl<const N: usize> Bsdf<N> {
             Self::Conductor(c) => c.pdf(wo_l, wi_l),
             Self::RoughDielectric(d) => d.pdf(wo_l, wi_l),
             Self::GltfMetalRough(g) => g.pdf(wo_l, wi_l),
+            Self::Sheen(s) => s.pdf(wo_l, wi_l),
             _ => 0.0,
         }
     }
@@ -307,6 +313,7 @@ impl<const N: usize> Bsdf<N> {
             Self::Conductor(c) => c.f(wo_l, wi_l),
             Self::RoughDielectric(d) => d.f(wo_l, wi_l),
             Self::GltfMetalRough(g) => g.f(wo_l, wi_l),
+            Self::Sheen(s) => s.f(wo_l, wi_l),
             _ => return None,
         };
         Some((f, wi_l.z.abs()))
@@ -323,7 +330,7 @@ impl<const N: usize> Bsdf<N> {
         match self {
             // Reflection only: wi must be on wo's side of the shading surface, and of the
             // geometric one for a sample.
-            Self::Conductor(_) | Self::GltfMetalRough(_) => {
+            Self::Conductor(_) | Self::GltfMetalRough(_) | Self::Sheen(_) => {
                 let (ng, ns) = frame.facing(wo);
                 if ns.dot(wi) <= 0.0 || (sampled && ng.dot(wi) <= 0.0) {
                     return None;
@@ -417,6 +424,10 @@ impl<const N: usize> Bsdf<N> {
                 reflection_sample(g.sample_f(l.local(wo), uc, u)?, &l, wo, ns, ng)
             }
             Self::ThinDielectric(d) => d.sample_f(frame.interface_normal(wo).dot(wo), uc, mirror(wo, ns, ng), -wo),
+            Self::Sheen(s) => {
+                let l = Local::new(ns);
+                reflection_sample(s.sample_f(l.local(wo), u)?, &l, wo, ns, ng)
+            }
         }
     }
 }
