@@ -292,8 +292,8 @@ impl ColorTexture {
         let mut rgb = [0.0; 3];
         for (i, w) in self.sampler.footprint(uv) {
             let e = &self.palette[self.index[i] as usize];
-            for c in 0..3 {
-                rgb[c] += w * e.rgb[c];
+            for (sum, &value) in rgb.iter_mut().zip(&e.rgb) {
+                *sum += w * value;
             }
         }
         rgb

@@ -589,7 +589,7 @@ fn sheen_layers_over_the_base_as_the_extension_says() {
     let sheen = render(&material(""));
     let textured = render(&material(r#", "sheenColorTexture": {"index": 0}"#));
     let bare = render(
-        &r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.3, 0.3, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 0.7}}"#,
+        r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.3, 0.3, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 0.7}}"#,
     );
     // The model at pixel (x, y): wo towards the camera at z = 2 from the pixel's centre on the quad.
     let wi = glam::Vec3::new(theta.sin() as f32, 0.0, theta.cos() as f32);

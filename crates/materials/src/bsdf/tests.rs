@@ -158,6 +158,20 @@ fn grid_cases(lobes: impl Fn(f32) -> Vec<(String, Bsdf<1>, f32, bool)>) -> Vec<(
     cases
 }
 
+/// The sheen lobe samples the hemisphere uniformly: χ² checks that `pdf` says so and that `sample_f`
+/// stays above the surface, at the sharpest and the broadest roughness.
+#[test]
+fn chi2_sheen() {
+    let cases: Vec<_> = [MIN_SHEEN_ROUGHNESS, 0.5, 1.0]
+        .iter()
+        .flat_map(|&r| {
+            let bsdf = Bsdf::Sheen(SheenBxdf::new(SampledSpectrum([0.8]), r));
+            ANGLES.iter().map(move |&t| (format!("sheen r {r} θ {t}"), bsdf, incident(t, false), 1.0))
+        })
+        .collect();
+    chi2_family(&cases);
+}
+
 #[test]
 fn chi2_rough_conductor_isotropic_anisotropic_compensated() {
     chi2_family(&grid_cases(|a| {
@@ -305,6 +319,8 @@ fn every_bsdf_reflects_no_more_than_it_receives() {
         (Bsdf::Conductor(ConductorBxdf::from_reflectance(white, TrowbridgeReitz::new(0.3, 0.9), true)), 0.01),
         (Bsdf::RoughDielectric(RoughDielectricBxdf::new(TrowbridgeReitz::isotropic(0.4), 1.5, white, false)), 0.0),
         (Bsdf::RoughDielectric(RoughDielectricBxdf::new(TrowbridgeReitz::isotropic(0.7), 1.5, white, true)), 0.01),
+        (Bsdf::Sheen(SheenBxdf::new(white, MIN_SHEEN_ROUGHNESS)), 0.0),
+        (Bsdf::Sheen(SheenBxdf::new(white, 1.0)), 0.0),
     ];
     for (bsdf, slack) in &models {
         for _ in 0..60 {
@@ -348,6 +364,7 @@ fn rough_lobes_sample_weights_equal_f_cos_over_pdf() {
             true,
         )),
         Bsdf::RoughDielectric(RoughDielectricBxdf::new(TrowbridgeReitz::new(0.3, 0.5), 1.5, white, true)),
+        Bsdf::Sheen(SheenBxdf::new(white, 0.3)),
     ];
     for bsdf in &lobes {
         let mut checked = 0;
@@ -451,6 +468,7 @@ fn reflection_lobes_are_reciprocal() {
         conductor(0.2, 0.6, false),
         conductor(0.5, 0.5, true),
         rough_glass(0.4, 0.2, false),
+        Bsdf::Sheen(SheenBxdf::new(SampledSpectrum([0.7]), 0.4)),
     ];
     for bsdf in &lobes {
         assert_reciprocal(bsdf, 2000, &mut rng);
