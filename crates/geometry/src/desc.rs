@@ -219,11 +219,14 @@ pub struct MaterialTextures {
     pub sheen_color: Option<TextureDesc>,
     /// Linear; A = the sheen's roughness (× its factor): `KHR_materials_sheen.sheenRoughnessTexture`.
     pub sheen_roughness: Option<TextureDesc>,
+    /// Linear; RG = the direction in tangent space ([0, 1] → [−1, 1]), B = strength (× `anisotropyStrength`):
+    /// `KHR_materials_anisotropy.anisotropyTexture`.
+    pub anisotropy: Option<TextureDesc>,
 }
 
 impl MaterialTextures {
     /// Every role's texture, present or not.
-    pub fn roles(&self) -> [&Option<TextureDesc>; 13] {
+    pub fn roles(&self) -> [&Option<TextureDesc>; 14] {
         [
             &self.base_color,
             &self.metallic_roughness,
@@ -238,6 +241,7 @@ impl MaterialTextures {
             &self.clearcoat_normal,
             &self.sheen_color,
             &self.sheen_roughness,
+            &self.anisotropy,
         ]
     }
 
@@ -290,6 +294,15 @@ pub struct SheenLayer {
     pub color: [f32; 3],
     /// `sheenRoughnessFactor` in [0, 1].
     pub roughness: f32,
+}
+
+/// glTF `KHR_materials_anisotropy`'s factors, as written (its texture is in [`MaterialTextures`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AnisotropyLayer {
+    /// `anisotropyStrength` in [0, 1]: how far the roughness along the direction is raised towards 1.
+    pub strength: f32,
+    /// `anisotropyRotation`: radians counter-clockwise from the tangent (also rotating the texture's directions).
+    pub rotation: f32,
 }
 
 /// The file format a material was read from. Its fields mean what that format says (a glTF roughness, an MTL
@@ -357,6 +370,8 @@ pub struct MaterialDesc {
     pub clearcoat: Option<Clearcoat>,
     /// glTF `KHR_materials_sheen`: fibres over the material (beneath the coat).
     pub sheen: Option<SheenLayer>,
+    /// glTF `KHR_materials_anisotropy`: the specular lobe stretched along a direction in the tangent plane.
+    pub anisotropy: Option<AnisotropyLayer>,
     /// Manifest `multiple_scattering`: whether rough conductors and dielectrics are energy-compensated
     /// (default yes); `false` is the single-scattering GGX of pbrt-v4 and Mitsuba 3.
     pub multiple_scattering: Option<bool>,
@@ -402,6 +417,7 @@ impl MaterialDesc {
             specular_layer: None,
             clearcoat: None,
             sheen: None,
+            anisotropy: None,
             multiple_scattering: None,
             dissolve: None,
             illum: None,
@@ -410,6 +426,11 @@ impl MaterialDesc {
             alpha: None,
             extras: None,
         }
+    }
+
+    /// Whether shading needs the surface's tangents: for a normal map, or for the direction of anisotropy.
+    pub fn needs_tangents(&self) -> bool {
+        self.textures.has_normal_map() || self.anisotropy.is_some()
     }
 
     /// A manifest material in which nothing is written (the renderer's defaults apply to every field).

@@ -17,16 +17,16 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::{Mode, Semantic};
 
 use crate::desc::{
-    AbsorptionDesc, AlphaMode, CameraDesc, Clearcoat, ImageDesc, IorDesc, LightAmount, LightDesc, LightUnit,
-    MaterialDesc, MaterialFormat, Projection, SceneDescription, SceneFormat, SheenLayer, SpectrumDesc, SpecularLayer,
-    TextureDesc, TextureTransform, WrapMode,
+    AbsorptionDesc, AlphaMode, AnisotropyLayer, CameraDesc, Clearcoat, ImageDesc, IorDesc, LightAmount, LightDesc,
+    LightUnit, MaterialDesc, MaterialFormat, Projection, SceneDescription, SceneFormat, SheenLayer, SpectrumDesc,
+    SpecularLayer, TextureDesc, TextureTransform, WrapMode,
 };
 use crate::error::{Error, Result};
 use crate::limits::{BYTES_PER_INSTANCE, BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
 use crate::shapes::{Instances, Mesh};
 
 /// Extensions whose data we read; a file that *requires* anything else is refused.
-/// `KHR_materials_dispersion`, `_specular`, `_clearcoat` and `_sheen` are read from the raw extension map (the `gltf`
+/// `KHR_materials_dispersion`, `_specular`, `_clearcoat`, `_sheen` and `_anisotropy` are read from the raw extension map (the `gltf`
 /// crate has no typed accessor).
 const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
@@ -39,6 +39,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_clearcoat",
     "KHR_materials_sheen",
+    "KHR_materials_anisotropy",
     // Read in full (offset, rotation, scale, texCoord); Blender marks it required whenever a Mapping
     // node is used.
     "KHR_texture_transform",
@@ -885,8 +886,13 @@ impl Loader<'_> {
                     self.raw_texture(value.get("sheenRoughnessTexture"), document, false, &context);
             }
         }
+        if let Some(value) = material.extension_value("KHR_materials_anisotropy") {
+            m.anisotropy = self.anisotropy(value, &context);
+            if m.anisotropy.is_some() {
+                m.textures.anisotropy = self.raw_texture(value.get("anisotropyTexture"), document, false, &context);
+            }
+        }
         for (extension, what) in [
-            ("KHR_materials_anisotropy", "anisotropy"),
             ("KHR_materials_iridescence", "iridescence"),
             ("KHR_materials_diffuse_transmission", "diffuse transmission"),
         ] {
@@ -966,6 +972,23 @@ impl Loader<'_> {
         let color = self.color_factor(value, "KHR_materials_sheen.sheenColorFactor", [0.0; 3], 1.0, context);
         let roughness = self.factor(value, "sheenRoughnessFactor", 0.0, 1.0, context);
         (color != [0.0; 3]).then_some(SheenLayer { color, roughness })
+    }
+
+    /// `KHR_materials_anisotropy`: `anisotropyStrength` (default 0: isotropic) and `anisotropyRotation`
+    /// (radians, any finite number; default 0).
+    fn anisotropy(&mut self, value: &serde_json::Value, context: &str) -> Option<AnisotropyLayer> {
+        let strength = self.factor(value, "anisotropyStrength", 0.0, 1.0, context);
+        let rotation = match value.get("anisotropyRotation") {
+            None => 0.0,
+            Some(v) => match v.as_f64().filter(|x| x.is_finite()) {
+                Some(x) => x as f32,
+                None => {
+                    self.warn(format!("{context}: anisotropyRotation {v} is not a number; 0 is used"));
+                    0.0
+                }
+            },
+        };
+        (strength > 0.0).then_some(AnisotropyLayer { strength, rotation })
     }
 
     /// A colour factor of a material extension (`key` is the extension and field, as a warning names it):
@@ -1199,7 +1222,7 @@ impl Loader<'_> {
             let textures = &self.desc.materials[material as usize].textures;
             let sets: Vec<u32> = textures.roles().into_iter().flatten().map(|t| t.tex_coord).collect();
             let set = sets.first().copied().unwrap_or(0);
-            let wants_tangents = textures.has_normal_map();
+            let wants_tangents = self.desc.materials[material as usize].needs_tangents();
             if sets.iter().any(|&s| s != set) {
                 self.warn(format!(
                     "{context}: the material's textures use several TEXCOORD sets {sets:?}; all are read with TEXCOORD_{set}"

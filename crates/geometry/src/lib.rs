@@ -51,9 +51,9 @@ mod obj_loader;
 mod overrides;
 mod prefilter;
 pub use desc::{
-    AbsorptionDesc, AlphaMode, CameraDesc, Clearcoat, EnvironmentMapDesc, ImageDesc, IorDesc, LightAmount, LightDesc,
-    LightUnit, MaterialDesc, MaterialFormat, MaterialTextures, Projection, SceneDescription, SceneFormat, SheenLayer,
-    SpectrumDesc, SpecularLayer, TextureDesc, TextureTransform, WrapMode,
+    AbsorptionDesc, AlphaMode, AnisotropyLayer, CameraDesc, Clearcoat, EnvironmentMapDesc, ImageDesc, IorDesc,
+    LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, MaterialTextures, Projection, SceneDescription,
+    SceneFormat, SheenLayer, SpectrumDesc, SpecularLayer, TextureDesc, TextureTransform, WrapMode,
 };
 pub use hash::xxh64;
 pub use limits::{DEFAULT_FLATTEN_TRIANGLES, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE, MemoryBudget};

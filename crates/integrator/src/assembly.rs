@@ -230,7 +230,8 @@ impl RenderScene {
         let mut background = background;
         let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
         warn_unused_keys(&material_descs, &mut warnings);
-        add_mikktspace_tangents(&mut meshes, &textures, &mut memory, &mut warnings)?;
+        warn_isotropic_parts(&material_descs, &materials, &mut warnings);
+        add_mikktspace_tangents(&mut meshes, &textures, &material_descs, &mut memory, &mut warnings)?;
         let geometry = Scene::build_with_instances(spheres, meshes, instances)?;
         let vertex_colors = if vertex_colored.contains(&true) {
             let started = std::time::Instant::now();
@@ -737,23 +738,31 @@ fn sky_lights(sky: &SkyOption, camera: &CameraDesc, lit: bool) -> Result<(Vec<Li
     Ok((lights, descs, note))
 }
 
-/// MikkTSpace tangents for every mesh whose material has a normal map and whose file gives no
+/// MikkTSpace tangents for every mesh whose material has a normal map or is anisotropic
+/// (`KHR_materials_anisotropy`, whose direction is given in tangent space) and whose file gives no
 /// `TANGENT` (`tangents.rs`), charged to the scene's memory budget (16 bytes per vertex, and each
-/// vertex a uv seam splits); one warning says how many meshes got them.
+/// vertex a uv seam splits); one warning says how many meshes got them, and one names the anisotropic
+/// meshes that have neither tangents nor UVs.
 fn add_mikktspace_tangents(
     meshes: &mut [geometry::Mesh],
     textures: &[Option<MaterialTextures>],
+    descs: &[MaterialDesc],
     memory: &mut geometry::MemoryBudget,
     warnings: &mut Vec<String>,
 ) -> Result<()> {
     let mut generated = 0;
+    let mut undirected = Vec::new();
     for (i, mesh) in meshes.iter_mut().enumerate() {
-        let normal_mapped = mesh
-            .material()
-            .and_then(|m| textures.get(m as usize))
-            .and_then(Option::as_ref)
-            .is_some_and(MaterialTextures::has_normal_map);
-        if !normal_mapped || mesh.tangents().is_some() || mesh.uvs().is_none() {
+        let Some(m) = mesh.material().map(|m| m as usize) else { continue };
+        let anisotropic = descs.get(m).is_some_and(|d| d.anisotropy.is_some());
+        let normal_mapped = textures.get(m).and_then(Option::as_ref).is_some_and(MaterialTextures::has_normal_map);
+        if !(normal_mapped || anisotropic) || mesh.tangents().is_some() {
+            continue;
+        }
+        if mesh.uvs().is_none() {
+            if anisotropic {
+                undirected.push(i);
+            }
             continue;
         }
         // Tangents (16 B) for every vertex, and at most one split vertex (position, normal, uv,
@@ -774,7 +783,31 @@ fn add_mikktspace_tangents(
             "normal maps: MikkTSpace tangents generated for {generated} mesh(es) the file gives none (glTF 2.0 §3.7.2.1)"
         ));
     }
+    if !undirected.is_empty() {
+        warnings.push(format!(
+            "KHR_materials_anisotropy: mesh(es) {undirected:?} have neither TANGENT nor UVs; their direction of anisotropy is an arbitrary one about the normal"
+        ));
+    }
     Ok(())
+}
+
+/// One line per anisotropic material (`KHR_materials_anisotropy`) whose model, or part of it, renders
+/// isotropic: the extension stretches the glTF metallic–roughness lobes, not a glass's.
+fn warn_isotropic_parts(descs: &[MaterialDesc], materials: &[Material], warnings: &mut Vec<String>) {
+    for (d, m) in descs.iter().zip(materials).filter(|(d, _)| d.anisotropy.is_some()) {
+        match m.model {
+            MaterialModel::GltfMetalRough { .. } => {}
+            MaterialModel::GltfTransmission { .. } => warnings.push(format!(
+                "material {:?}: KHR_materials_anisotropy stretches its reflection; its transmitting part renders isotropic",
+                d.name
+            )),
+            _ => warnings.push(format!(
+                "material {:?}: KHR_materials_anisotropy is not rendered by its {} model; ignored",
+                d.name,
+                m.model.name()
+            )),
+        }
+    }
 }
 
 /// A mesh's vertex colours unless every one is opaque white: exporters write those (Blender's for
@@ -1268,6 +1301,7 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
             color_max: s.color[0].max(s.color[1]).max(s.color[2]),
             roughness: s.roughness,
         }),
+        anisotropy: desc.anisotropy.map(|a| materials::Anisotropy { strength: a.strength, rotation: a.rotation }),
     };
     material.validate().map_err(wrap)?;
     Ok(material)

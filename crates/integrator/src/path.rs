@@ -18,7 +18,7 @@ use materials::bsdf::{
     Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, SheenBxdf, ThinDielectricBxdf,
     TrowbridgeReitz, sheen_albedo,
 };
-use materials::{Coat, Ior, LAMBDA_D, MaterialModel};
+use materials::{Anisotropy, Coat, Ior, LAMBDA_D, MaterialModel};
 
 use crate::assembly::RenderScene;
 use crate::envmap::EnvironmentMap;
@@ -149,6 +149,8 @@ struct PathMaterial {
     coat: Option<Coat>,
     /// `KHR_materials_sheen`, picked per hit (beneath the coat) by [`PathTracer::pick_sheen`].
     sheen: Option<PathSheen>,
+    /// `KHR_materials_anisotropy` of the glTF models' lobes, oriented per hit by [`PathTracer::anisotropy_at`].
+    anisotropy: Option<Anisotropy>,
 }
 
 /// [`materials::Sheen`] with its colour in the spectra table.
@@ -293,6 +295,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     color_max: s.color_max,
                     roughness: s.roughness,
                 }),
+                anisotropy: m.anisotropy,
             }
         };
         let materials: Vec<PathMaterial> = scene.materials.iter().map(&mut path_material).collect();
@@ -722,7 +725,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         None => base(id, lambda, last),
                     };
                     let specular = hit_specular(specular);
-                    Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular))
+                    let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, textures, &hit, ns));
+                    Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular, anisotropy))
                 }
                 PathScattering::GltfTransmission {
                     base: id,
@@ -757,7 +761,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         // What is not glass: metallic / (1 − glass) of it is metal (glass < 1 here).
                         let metal = if glass < 1.0 { metallic / (1.0 - glass) } else { 1.0 };
                         let specular = hit_specular(specular);
-                        Bsdf::GltfMetalRough(self.metal_rough(colour, metal.min(1.0), roughness, ior, specular))
+                        let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, textures, &hit, ns));
+                        let metal = metal.min(1.0);
+                        Bsdf::GltfMetalRough(self.metal_rough(colour, metal, roughness, ior, specular, anisotropy))
                     }
                 }
             };
@@ -834,7 +840,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         (p > 0.0 && rng.uniform() < p).then(|| SheenBxdf::new(color * (1.0 / p), roughness))
     }
 
-    /// The glTF metallic–roughness BRDF of a hit, with `KHR_materials_specular` where the material has it.
+    /// The glTF metallic–roughness BRDF of a hit, with `KHR_materials_specular` and `KHR_materials_anisotropy`
+    /// (its strength and world direction, [`Self::anisotropy_at`]) where the material has them.
     fn metal_rough(
         &self,
         base: SampledSpectrum<N>,
@@ -842,13 +849,37 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         roughness: f32,
         ior: f32,
         specular: Option<HitSpecular<N>>,
+        anisotropy: Option<(f32, Vec3)>,
     ) -> GltfMetalRoughBxdf<N> {
         let g = GltfMetalRoughBxdf::new(base, metallic, roughness, ior);
-        match specular {
+        let g = match specular {
             None => g,
             Some(s) => g.with_specular(s.weight, s.f0, s.f0_max),
+        };
+        match anisotropy {
+            None => g,
+            Some((strength, direction)) => g.with_anisotropy(strength, direction),
         }
         .conserving()
+    }
+
+    /// `KHR_materials_anisotropy` at a hit: the strength (× the texture's B) and the direction in world
+    /// space, the tangent frame's (the file's `TANGENT`, else MikkTSpace's or ∂p/∂u; about the shading normal
+    /// `ns`) rotated by `anisotropyRotation`, or the texture's direction rotated so. Without a tangent frame
+    /// (no TANGENT and no UVs: assembly warns; placed instances) an arbitrary one about `ns`. Out of line:
+    /// only anisotropic materials call it.
+    #[inline(never)]
+    fn anisotropy_at(&self, a: Anisotropy, textures: Option<&MaterialTextures>, hit: &Hit, ns: Vec3) -> (f32, Vec3) {
+        let (direction, scale) = textures.and_then(|t| t.anisotropy(hit.uv)).unwrap_or((Vec2::X, 1.0));
+        let (sin, cos) = a.rotation.sin_cos();
+        let d = Vec2::new(cos * direction.x - sin * direction.y, sin * direction.x + cos * direction.y);
+        let (t, b) = match surface_tangent(&self.scene.geometry, hit)
+            .and_then(|t| (t.truncate() - ns * ns.dot(t.truncate())).try_normalize().map(|u| (u, t.w)))
+        {
+            Some((t, w)) => (t, ns.cross(t) * if w < 0.0 { -1.0 } else { 1.0 }),
+            None => materials::sampling::basis(ns),
+        };
+        (a.strength * scale, t * d.x + b * d.y)
     }
 
     /// Next-event estimation: one light chosen by power, one point or direction on it, a

@@ -14,8 +14,9 @@ use crate::assembly::RenderScene;
 /// Keys: `triangles`, `spheres`, `meshes`, `materials` (each with `name`, `model` (the assembled
 /// [`materials::MaterialModel`]), `model_key` (the manifest's `model` as written, if any), `uses`: `transmission`,
 /// `absorption`, `dispersion`, `emission`, `vertex_colors` (a mesh's vertex colours multiply its base
-/// colour), `clearcoat`, `sheen` and `specular_layer` (glTF `KHR_materials_clearcoat`, `KHR_materials_sheen`,
-/// `KHR_materials_specular` other than its defaults), and its spectra), `lights`, `camera`, `bounds` (`min`, `max`),
+/// colour), `clearcoat`, `sheen`, `anisotropy` and `specular_layer` (glTF `KHR_materials_clearcoat`,
+/// `KHR_materials_sheen`, `KHR_materials_anisotropy`, `KHR_materials_specular` other than its defaults), and its
+/// spectra), `lights`, `camera`, `bounds` (`min`, `max`),
 /// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `memory` (`charged_bytes`, `budget_bytes`:
 /// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `warnings`, and `needs`:
 /// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
@@ -133,6 +134,7 @@ fn material_json(d: &MaterialDesc, m: &Material, used: bool, vertex_colors: bool
             "vertex_colors": vertex_colors,
             "clearcoat": m.coat.is_some(),
             "sheen": m.sheen.is_some(),
+            "anisotropy": m.anisotropy.is_some(),
             "specular_layer": m.dielectric_specular.is_some(),
         },
         "ior": d.ior.as_ref().map(ior_json),
@@ -216,6 +218,7 @@ mod tests {
         coated.clearcoat = Some(geometry::Clearcoat { factor: 0.5, roughness: 0.1 });
         coated.specular_layer = Some(geometry::SpecularLayer { factor: 0.5, color: [1.0; 3] });
         coated.sheen = Some(geometry::SheenLayer { color: [0.5, 0.2, 0.1], roughness: 0.5 });
+        coated.anisotropy = Some(geometry::AnisotropyLayer { strength: 0.5, rotation: 0.2 });
         let mut plain = MaterialDesc::new("plain", geometry::MaterialFormat::Gltf);
         plain.specular_layer = Some(geometry::SpecularLayer { factor: 1.0, color: [1.0; 3] });
         d.materials.extend([coated, plain]);
@@ -225,6 +228,8 @@ mod tests {
         assert_eq!(s["materials"][0]["uses"]["specular_layer"], json!(true));
         assert_eq!(s["materials"][0]["uses"]["sheen"], json!(true));
         assert_eq!(s["materials"][1]["uses"]["sheen"], json!(false));
+        assert_eq!(s["materials"][0]["uses"]["anisotropy"], json!(true));
+        assert_eq!(s["materials"][1]["uses"]["anisotropy"], json!(false));
         // The extension's defaults are the plain layer: nothing to report.
         assert_eq!(s["materials"][1]["uses"]["clearcoat"], json!(false));
         assert_eq!(s["materials"][1]["uses"]["specular_layer"], json!(false));

@@ -630,6 +630,8 @@ pub(crate) struct MaterialTextures {
     clearcoat_roughness: Option<DataTexture>,
     /// `clearcoatNormalTexture`: the coat's tangent-space normal map.
     clearcoat_normal: Option<DataTexture>,
+    /// `anisotropyTexture`: RG the direction in tangent space, B × `anisotropyStrength`.
+    anisotropy: Option<DataTexture>,
     /// How alpha is used; `Opaque` skips every alpha lookup.
     alpha_mode: AlphaMode,
     /// The material's alpha factor where no texture gives alpha.
@@ -748,6 +750,14 @@ impl MaterialTextures {
         scaled_by_channel(&self.sheen_roughness, uv, factor, 3)
     }
 
+    /// `KHR_materials_anisotropy`'s texel at `uv`: the direction in tangent space (RG mapped from [0, 1] to
+    /// [−1, 1], not normalised) and the strength's multiplier (B); `None` without the texture.
+    #[inline]
+    pub(crate) fn anisotropy(&self, uv: Vec2) -> Option<(Vec2, f32)> {
+        let c = self.anisotropy.as_ref()?.eval(uv);
+        Some((Vec2::new(2.0 * c.x - 1.0, 2.0 * c.y - 1.0), c.z))
+    }
+
     /// The emitted radiance at `uv` (see [`EmissiveTexture::eval`]); `None` without an emissive texture.
     #[inline]
     pub(crate) fn emission<const N: usize>(
@@ -825,6 +835,7 @@ impl MaterialTextures {
             &self.clearcoat_roughness,
             &self.clearcoat_normal,
             &self.sheen_roughness,
+            &self.anisotropy,
         ]
         .into_iter()
         .flatten()
@@ -995,6 +1006,7 @@ pub(crate) fn load_material_textures(
             let clearcoat_roughness = data(&textures.clearcoat_roughness, memory, warnings)?;
             let clearcoat_normal = data(&textures.clearcoat_normal, memory, warnings)?;
             let sheen_roughness = data(&textures.sheen_roughness, memory, warnings)?;
+            let anisotropy = data(&textures.anisotropy, memory, warnings)?;
             let set = MaterialTextures {
                 base_color,
                 metallic_roughness,
@@ -1009,6 +1021,7 @@ pub(crate) fn load_material_textures(
                 clearcoat,
                 clearcoat_roughness,
                 clearcoat_normal,
+                anisotropy,
                 alpha_mode,
                 alpha_factor,
                 vertex_colors,

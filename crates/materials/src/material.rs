@@ -63,6 +63,20 @@ pub struct Material {
     pub coat: Option<Coat>,
     /// glTF `KHR_materials_sheen`: a layer of fibres over the model (beneath the coat); `None`: none.
     pub sheen: Option<Sheen>,
+    /// glTF `KHR_materials_anisotropy` on the glTF models' specular lobes; `None`: isotropic.
+    pub anisotropy: Option<Anisotropy>,
+}
+
+/// `KHR_materials_anisotropy`: the GGX α along a direction in the tangent plane raised to
+/// mix(α, 1, strength²), α across it unchanged ([`crate::bsdf::GltfMetalRoughBxdf::with_anisotropy`]). The
+/// direction is the tangent rotated by `rotation` counter-clockwise (and, with a texture, its texel's
+/// direction rotated so).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Anisotropy {
+    /// `anisotropyStrength` in (0, 1].
+    pub strength: f32,
+    /// `anisotropyRotation` in radians.
+    pub rotation: f32,
 }
 
 /// `KHR_materials_sheen`: f = f_sheen + f_material (1 − max₃(colour) E(μ_o)) (`bsdf::SheenBxdf`, the
@@ -220,6 +234,7 @@ impl Material {
             dielectric_specular: None,
             coat: None,
             sheen: None,
+            anisotropy: None,
             two_sided: true,
         }
     }

@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use geometry::{
-    AbsorptionDesc, Clearcoat, Error, IorDesc, LightDesc, LoadOptions, MaterialDesc, MaterialFormat, Scene,
-    SceneDescription, SpectrumDesc, SpecularLayer, load_scene, load_scene_with, parse_manifest,
+    AbsorptionDesc, AnisotropyLayer, Clearcoat, Error, IorDesc, LightDesc, LoadOptions, MaterialDesc, MaterialFormat,
+    Scene, SceneDescription, SpectrumDesc, SpecularLayer, load_scene, load_scene_with, parse_manifest,
 };
 use glam::Vec3;
 use serde_json::json;
@@ -451,6 +451,38 @@ fn gltf_specular_and_clearcoat_factors_and_textures_are_read() {
     assert_eq!(textures.clearcoat_normal.as_ref().map(|t| (t.image, t.scale)), Some((1, 0.5)));
     assert!(textures.has_normal_map(), "the coat's map needs tangents");
     assert!(!said("ignored"), "{:?}", d.warnings);
+    assert!(!said("not rendered yet"), "{:?}", d.warnings);
+}
+
+/// `KHR_materials_anisotropy` (required, as Blender writes it): strength, rotation and texture are read, a
+/// strength of 0 is no anisotropy, and a bad rotation falls back to 0 with a warning.
+#[test]
+fn gltf_anisotropy_factors_and_texture_are_read() {
+    let dir = temp_dir("anisotropy");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let mut doc = triangle_gltf(
+        Some(&uri),
+        36,
+        json!({"extensionsUsed": ["KHR_materials_anisotropy"], "extensionsRequired": ["KHR_materials_anisotropy"],
+        "textures": [{"source": 0}], "images": [{"uri": "data:image/png;base64,AAEC"}],
+        "materials": [
+            {"name": "brushed", "extensions": {"KHR_materials_anisotropy": {
+                "anisotropyStrength": 0.6, "anisotropyRotation": 1.57, "anisotropyTexture": {"index": 0}}}},
+            {"name": "none", "extensions": {"KHR_materials_anisotropy": {}}},
+            {"name": "bad", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 1, "anisotropyRotation": "x"}}}
+        ]}),
+    );
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let d = load_scene(&write_gltf(&dir, "brushed.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    let m = |name: &str| d.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("{name}"));
+    assert_eq!(m("brushed").anisotropy, Some(AnisotropyLayer { strength: 0.6, rotation: 1.57 }));
+    assert_eq!(m("brushed").textures.anisotropy.as_ref().map(|t| t.image), Some(0));
+    assert!(m("brushed").needs_tangents(), "the direction is given in tangent space");
+    assert_eq!(m("none").anisotropy, None);
+    assert!(!m("none").needs_tangents());
+    assert_eq!(m("bad").anisotropy, Some(AnisotropyLayer { strength: 1.0, rotation: 0.0 }));
+    let said = |s: &str| d.warnings.iter().any(|w| w.contains(s));
+    assert!(said("'bad': anisotropyRotation \"x\""), "{:?}", d.warnings);
     assert!(!said("not rendered yet"), "{:?}", d.warnings);
 }
 

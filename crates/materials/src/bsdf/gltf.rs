@@ -63,14 +63,41 @@ pub struct GltfMetalRoughBxdf<const N: usize> {
     /// `KHR_materials_specular`'s `specularFactor` (1 without it): scales the dielectric layer's Fresnel.
     specular_weight: f32,
     /// `KHR_materials_specular`'s F0(λ) per lane, where the material has the extension (the scalar
-    /// arithmetic otherwise: per-lane Fresnel cost a glTF scene without it 0.3 % of its instructions).
-    f0_lanes: Option<SampledSpectrum<N>>,
+    /// arithmetic otherwise: per-lane Fresnel cost a glTF scene without it 0.3 % of its instructions); lane 0
+    /// negative ([`NO_F0_LANES`]) where it has not. (Not an `Option`, whose tag would make the model larger
+    /// than the conductor: see `coupling_avg`.)
+    f0_lanes: SampledSpectrum<N>,
     /// The diffuse coupling: with albedo scaling, the specular layer's cosine-weighted average albedo
     /// E_s,avg in [0, 1] (its tables read at α = √(α_x α_y)); [`SPEC_COUPLING`] for the spec's
     /// `fresnel_mix`. (A plain number, not an `Option`: with the tag the model would be larger than the
     /// conductor, and so every [`super::Bsdf`].)
     coupling_avg: f32,
+    /// `KHR_materials_anisotropy`'s direction in world space (the local x axis, along which α is `distrib`'s
+    /// α_x), octahedrally encoded (Cigolle et al. 2014) as two snorm16: four bytes keep the model no larger
+    /// than the conductor (`bsdf_size_is_the_conductors`). Read only where `distrib` is anisotropic; an
+    /// isotropic lobe's frame is any basis about the normal.
+    tangent: [i16; 2],
 }
+
+/// `w` (unit) on the octahedron, unfolded onto [−1, 1]² and quantised to snorm16.
+fn octahedral(w: Vec3) -> [i16; 2] {
+    let p = w.truncate() / (w.x.abs() + w.y.abs() + w.z.abs());
+    let p = if w.z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
+    let q = |v: f32| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16;
+    [q(p.x), q(p.y)]
+}
+
+/// The unit vector [`octahedral`] encoded.
+#[inline]
+fn from_octahedral(e: [i16; 2]) -> Vec3 {
+    let p = Vec2::new(f32::from(e[0]), f32::from(e[1])) / 32767.0;
+    let z = 1.0 - p.x.abs() - p.y.abs();
+    let xy = if z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
+    xy.extend(z).normalize()
+}
+
+/// [`GltfMetalRoughBxdf::f0_lanes`]' lanes without `KHR_materials_specular` (any negative value).
+const NO_F0_LANES: f32 = -1.0;
 
 /// [`GltfMetalRoughBxdf::coupling_avg`] of the spec's `fresnel_mix` (any negative value).
 const SPEC_COUPLING: f32 = -1.0;
@@ -89,9 +116,28 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
             distrib: TrowbridgeReitz::isotropic(roughness * roughness),
             f0,
             specular_weight: 1.0,
-            f0_lanes: None,
+            f0_lanes: SampledSpectrum([NO_F0_LANES; N]),
             coupling_avg: SPEC_COUPLING,
+            tangent: [0; 2],
         }
+    }
+
+    /// The same model with `KHR_materials_anisotropy`: α along `direction` (a world-space vector in, or
+    /// near, the tangent plane) raised to mix(α, 1, strength²), α across it unchanged, for the metal and
+    /// dielectric specular lobes alike. Call before [`Self::conserving`], whose coupling reads the
+    /// distribution. A zero direction or strength leaves the model isotropic.
+    pub fn with_anisotropy(self, strength: f32, direction: Vec3) -> Self {
+        let strength = if strength.is_finite() { strength.clamp(0.0, 1.0) } else { 0.0 };
+        let Some(direction) = direction.try_normalize().filter(|_| strength > 0.0) else { return self };
+        let alpha = self.distrib.alpha_iso();
+        let along = alpha + (1.0 - alpha) * strength * strength;
+        Self { distrib: TrowbridgeReitz::new(along, alpha), tangent: octahedral(direction), ..self }
+    }
+
+    /// The anisotropic direction ([`Self::with_anisotropy`]), unit; `None` if the lobe is isotropic.
+    #[inline]
+    pub(crate) fn tangent(&self) -> Option<Vec3> {
+        self.distrib.is_anisotropic().then(|| from_octahedral(self.tangent))
     }
 
     /// `KHR_materials_clearcoat`'s layer: `specular_brdf(α = roughness²)` alone, D · V_smith with no
@@ -108,7 +154,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         Self {
             f0: f0_max.clamp(0.0, 1.0),
             specular_weight: weight.clamp(0.0, 1.0),
-            f0_lanes: Some(f0.map(|v| v.clamp(0.0, 1.0))),
+            f0_lanes: f0.map(|v| if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) }),
             ..self
         }
     }
@@ -121,8 +167,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
 
     /// This model with the diffuse layer coupled by albedo scaling (see [`Self::energy_conserving`]).
     pub fn conserving(self) -> Self {
-        let alpha = self.distrib.alpha_iso();
-        Self { coupling_avg: self.specular_albedo_avg(alpha), ..self }
+        Self { coupling_avg: self.specular_albedo_avg(self.distrib.alpha_min()), ..self }
     }
 
     /// The dielectric layer's Fresnel weight at `cos` for the diffuse coupling and sampling: its strongest
@@ -174,7 +219,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     #[inline]
     fn specular_fresnel(&self, vh: f32) -> SampledSpectrum<N> {
         let conductor = self.base + (SampledSpectrum([1.0; N]) - self.base) * schlick_weight(vh);
-        match self.f0_lanes {
+        match (self.f0_lanes.0[0] >= 0.0).then_some(self.f0_lanes) {
             None => conductor * self.metallic + (1.0 - self.metallic) * self.dielectric_fresnel(vh),
             Some(f0) => {
                 let dielectric = f0 + (SampledSpectrum([1.0; N]) - f0) * schlick_weight(vh);
@@ -193,7 +238,10 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         } else if avg >= 1.0 {
             0.0
         } else {
-            let alpha = self.distrib.alpha_iso();
+            // The tables are isotropic: a lobe `KHR_materials_anisotropy` stretched reads them at its smaller α,
+            // the material's own (its albedo is at most that of the unstretched lobe, so the diffuse layer
+            // never gets more than the specular one leaves).
+            let alpha = self.distrib.alpha_min();
             let (eo, ei) = (self.specular_albedo(wo.z, alpha), self.specular_albedo(wi.z, alpha));
             ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - avg)
         };

@@ -216,6 +216,15 @@ impl Local {
         let (t, b) = basis(n);
         Self { t, b, n }
     }
+    /// The frame about `n` whose x axis is `tangent` made orthogonal to `n` (Gram–Schmidt); [`Local::new`]'s
+    /// where `tangent` is zero or parallel to `n`.
+    #[inline]
+    fn oriented(n: Vec3, tangent: Vec3) -> Self {
+        match (tangent - n * n.dot(tangent)).try_normalize() {
+            Some(t) => Self { t, b: n.cross(t), n },
+            None => Self::new(n),
+        }
+    }
     #[inline]
     fn local(&self, w: Vec3) -> Vec3 {
         Vec3::new(w.dot(self.t), w.dot(self.b), w.dot(self.n))
@@ -223,6 +232,17 @@ impl Local {
     #[inline]
     fn world(&self, w: Vec3) -> Vec3 {
         w.x * self.t + w.y * self.b + w.z * self.n
+    }
+}
+
+impl<const N: usize> GltfMetalRoughBxdf<N> {
+    /// The lobe's local frame about `ns`: oriented along its anisotropic direction where it has one.
+    #[inline]
+    fn local(&self, ns: Vec3) -> Local {
+        match self.tangent() {
+            None => Local::new(ns),
+            Some(t) => Local::oriented(ns, t),
+        }
     }
 }
 
@@ -335,7 +355,10 @@ impl<const N: usize> Bsdf<N> {
                 if ns.dot(wi) <= 0.0 || (sampled && ng.dot(wi) <= 0.0) {
                     return None;
                 }
-                let l = Local::new(ns);
+                let l = match self {
+                    Self::GltfMetalRough(g) => g.local(ns),
+                    _ => Local::new(ns),
+                };
                 Some((l.local(wo), l.local(wi)))
             }
             Self::RoughDielectric(_) => {
@@ -420,7 +443,7 @@ impl<const N: usize> Bsdf<N> {
                 frame.agrees_with_geometry(wo, wi, wo_l.z * s.wi.z > 0.0).then(|| world_sample(s, wi))
             }
             Self::GltfMetalRough(g) => {
-                let l = Local::new(ns);
+                let l = g.local(ns);
                 reflection_sample(g.sample_f(l.local(wo), uc, u)?, &l, wo, ns, ng)
             }
             Self::ThinDielectric(d) => d.sample_f(frame.interface_normal(wo).dot(wo), uc, mirror(wo, ns, ng), -wo),
