@@ -245,6 +245,26 @@ impl MaterialTextures {
         ]
     }
 
+    /// Every role's texture, present or not, to change in place (the same order as [`Self::roles`]).
+    pub fn roles_mut(&mut self) -> [&mut Option<TextureDesc>; 14] {
+        [
+            &mut self.base_color,
+            &mut self.metallic_roughness,
+            &mut self.normal,
+            &mut self.emissive,
+            &mut self.alpha,
+            &mut self.transmission,
+            &mut self.specular,
+            &mut self.specular_color,
+            &mut self.clearcoat,
+            &mut self.clearcoat_roughness,
+            &mut self.clearcoat_normal,
+            &mut self.sheen_color,
+            &mut self.sheen_roughness,
+            &mut self.anisotropy,
+        ]
+    }
+
     /// Whether any role has a texture.
     pub fn any(&self) -> bool {
         self.roles().iter().any(|t| t.is_some())

@@ -175,12 +175,10 @@ fn include_file(desc: &mut SceneDescription, include: Include, budget: &Budget) 
     if use_file_materials {
         // The file's images follow the manifest's, so its textures' image indices shift too.
         let image_offset = desc.images.len();
+        // Every role: before, only the five core ones were shifted, so an extension's texture (transmission,
+        // specular, clear coat, sheen, anisotropy) of a second included file read the first file's image.
         for mut m in sub.materials {
-            let t = &mut m.textures;
-            for texture in [&mut t.base_color, &mut t.metallic_roughness, &mut t.normal, &mut t.emissive, &mut t.alpha]
-                .into_iter()
-                .flatten()
-            {
+            for texture in m.textures.roles_mut().into_iter().flatten() {
                 texture.image += image_offset;
             }
             desc.materials.push(m);

@@ -212,6 +212,7 @@ impl RenderScene {
             }
         }
         warn_unrendered_vertex_colors(&instances, &mut warnings);
+        warn_tangentless_instances(&instances, &material_descs, &mut warnings);
         let mut textures =
             load_material_textures(&images, &mut material_descs, &vertex_colored, &mut memory, &mut warnings)?;
         if textures.iter().all(Option::is_none) {
@@ -862,6 +863,21 @@ fn warn_unrendered_vertex_colors(instances: &[geometry::Instances], warnings: &m
     if placed > 0 {
         warnings.push(format!(
             "vertex colours of {placed} instanced mesh(es) (placed several times) are not rendered yet; the base colour is used"
+        ));
+    }
+}
+
+/// One warning for the tangent frames no hit has: hits on objects placed several times carry no primitive,
+/// so their normal maps and directions of anisotropy are not applied.
+fn warn_tangentless_instances(instances: &[geometry::Instances], descs: &[MaterialDesc], warnings: &mut Vec<String>) {
+    let placed = instances
+        .iter()
+        .flat_map(geometry::Instances::meshes)
+        .filter(|m| m.material().and_then(|i| descs.get(i as usize)).is_some_and(MaterialDesc::needs_tangents))
+        .count();
+    if placed > 0 {
+        warnings.push(format!(
+            "normal maps and anisotropy directions of {placed} instanced mesh(es) (placed several times) are not rendered yet: the interpolated normal and an arbitrary direction about it are used"
         ));
     }
 }

@@ -179,9 +179,14 @@ impl TexturedLight {
         let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
         let (d1, d2) = (d.dot(e1), d.dot(e2));
         let denom = d11 * d22 - d12 * d12;
-        // Area lights have positive area, so `denom` > 0; clamped so that rounding stays on the triangle.
+        // Area lights have positive area, but on a sliver `denom` can cancel (or underflow) to 0: the first
+        // vertex's uv then. Clamped so that rounding stays on the triangle (`b2`'s upper bound by `min`, as a
+        // NaN bound would make `clamp` panic).
+        if !(denom > 0.0 && denom.is_finite()) {
+            return self.uv[0];
+        }
         let b1 = ((d22 * d1 - d12 * d2) / denom).clamp(0.0, 1.0);
-        let b2 = ((d11 * d2 - d12 * d1) / denom).clamp(0.0, 1.0 - b1);
+        let b2 = ((d11 * d2 - d12 * d1) / denom).max(0.0).min(1.0 - b1);
         (1.0 - b1 - b2) * self.uv[0] + b1 * self.uv[1] + b2 * self.uv[2]
     }
 }
@@ -1001,5 +1006,31 @@ impl<const N: usize> Kernel<N> for PathTracer<'_, N> {
         };
         debug_assert!(l.is_finite(), "non-finite radiance {l:?}");
         Radiance { l, first, lane }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The uv at a light sample: the barycentric blend on a proper triangle, and a finite uv (no panic) on
+    /// slivers whose Gram determinant cancels or underflows to 0.
+    #[test]
+    fn textured_light_uv_is_the_barycentric_blend_and_finite_on_slivers() {
+        let uv = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)];
+        let light = TexturedLight { material: 0, p: [Vec3::ZERO, Vec3::X, Vec3::Y], uv };
+        let got = light.uv_at(Vec3::new(0.25, 0.5, 0.0));
+        assert!((got - Vec2::new(0.25, 0.5)).length() < 1e-6, "{got}");
+        // Rounding off the triangle is clamped back onto it.
+        let got = light.uv_at(Vec3::new(1.5, -0.1, 0.0));
+        assert!(got.x <= 1.0 && got.y >= 0.0 && got.x + got.y <= 1.0 + 1e-6, "{got}");
+        for p in [
+            [Vec3::ZERO, Vec3::X * 1e-12, Vec3::Y * 1e-12],
+            [Vec3::ZERO, Vec3::X, Vec3::new(2.0, 1e-7, 0.0)],
+            [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
+        ] {
+            let got = TexturedLight { material: 0, p, uv }.uv_at(Vec3::ZERO);
+            assert!(got.is_finite(), "{p:?}: {got}");
+        }
     }
 }

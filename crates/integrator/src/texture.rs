@@ -878,8 +878,9 @@ pub(crate) fn texture_bytes(textures: &[Option<MaterialTextures>]) -> usize {
 
 /// The textures of each material (`None` where a material has none), decoded from `images`. An
 /// image that cannot be decoded is named in a warning and the material keeps its factor. An
-/// emissive texture also sets the material's emission (`desc.emission`) to its mean colour × factor, the
-/// surface's power for light sampling (the texels give the radiance per hit). Materials marked in
+/// emissive texture over an RGB emission factor (or an MTL `map_Ke` without `Ke`) also sets the material's
+/// emission (`desc.emission`) to its mean colour × factor, the surface's power for light sampling (the
+/// texels give the radiance per hit); over a spectral emission it is not applied (a warning). Materials marked in
 /// `vertex_colored` (used by a mesh with vertex colours) get an entry even without textures: their
 /// base colour varies per hit as a texture's does.
 pub(crate) fn load_material_textures(
@@ -930,7 +931,17 @@ pub(crate) fn load_material_textures(
                 let factor = match (&m.emission, m.format) {
                     (Some(geometry::SpectrumDesc::Rgb(c)), _) => *c,
                     (None, geometry::MaterialFormat::Mtl) => [1.0; 3],
-                    _ => [0.0; 3],
+                    (Some(spectrum), _) => {
+                        // A spectral emission (an MTL `Ke` spectrum, a glTF `extras` override) has no RGB for
+                        // the texels to multiply: the spectrum is kept, uniform over the surface.
+                        warnings.push(format!(
+                            "material {:?}: its emission is the spectrum {}, so the emissive texture is not applied (the surface emits it uniformly)",
+                            m.name,
+                            spectrum.label()
+                        ));
+                        [0.0; 3]
+                    }
+                    (None, _) => [0.0; 3],
                 };
                 let strength = m.emission_strength.unwrap_or(1.0).max(0.0);
                 if factor != [0.0; 3] && strength > 0.0 {

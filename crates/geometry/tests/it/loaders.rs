@@ -551,6 +551,45 @@ fn manifest_mesh_reference_with_matrix_and_file_materials() {
     assert_eq!(d.materials[m].base_color, Some(SpectrumDesc::Rgb([1.0, 0.0, 0.0])));
 }
 
+/// Two textured glTF files in one manifest: the second file's images follow the first's, and every texture
+/// role of its materials (the extensions' too) points to its own images.
+#[test]
+fn manifest_includes_shift_every_texture_role_to_their_own_images() {
+    let dir = temp_dir("manifest-two-gltf");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let textured = |name: &str| {
+        let mut doc = triangle_gltf(
+            Some(&uri),
+            36,
+            json!({"extensionsUsed": ["KHR_materials_sheen", "KHR_materials_anisotropy", "KHR_materials_clearcoat"],
+            "textures": [{"source": 0}, {"source": 1}],
+            "images": [{"uri": "data:image/png;base64,AAEC"}, {"uri": "data:image/png;base64,AAED"}],
+            "materials": [{"name": name, "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}},
+                "extensions": {
+                    "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1], "sheenRoughnessTexture": {"index": 1}},
+                    "KHR_materials_anisotropy": {"anisotropyStrength": 1, "anisotropyTexture": {"index": 1}},
+                    "KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatTexture": {"index": 1}}}}]}),
+        );
+        doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+        doc
+    };
+    write_gltf(&dir, "a.gltf", &textured("a"));
+    write_gltf(&dir, "b.gltf", &textured("b"));
+    let text = r#"{"objects": [{"type": "mesh", "file": "a.gltf"}, {"type": "mesh", "file": "b.gltf"}]}"#;
+    let d = parse_manifest(text, &dir, "m.json").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.images.len(), 4);
+    let m = |name: &str| d.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("{name}"));
+    for (name, first) in [("a", 0), ("b", 2)] {
+        let t = &m(name).textures;
+        assert_eq!(t.base_color.as_ref().map(|t| t.image), Some(first), "{name}");
+        for (role, texture) in
+            [("sheen roughness", &t.sheen_roughness), ("anisotropy", &t.anisotropy), ("clearcoat", &t.clearcoat)]
+        {
+            assert_eq!(texture.as_ref().map(|t| t.image), Some(first + 1), "{name}: {role}");
+        }
+    }
+}
+
 #[test]
 fn mtl_one_component_kd_loads_as_grey() {
     let dir = temp_dir("kd-one");

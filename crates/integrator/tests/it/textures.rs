@@ -621,7 +621,7 @@ fn sheen_layers_over_the_base_as_the_extension_says() {
 /// +x and its bitangent +y): each pixel is E cos θ_i f(wo, wi) of the glTF lobe stretched along the direction
 /// the extension gives, computed here from the materials crate's public lobe — the tangent rotated 30°
 /// counter-clockwise by `anisotropyRotation`, or, with a texture, each texel's direction (left texel along
-/// the tangent, right along the bitangent) times its strength. Before, the extension was ignored with a
+/// the tangent, right along the bitangent) so rotated, times its strength. Before, the extension was ignored with a
 /// warning: the isotropic lobe everywhere, which the test tells apart (and a rotation of −30°, so the
 /// direction's sign is seen too).
 #[test]
@@ -646,7 +646,8 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
         render_rgb_spp(&scene_around(&dir, &gltf, light, ""), spp)
     };
     let rotated = render(&material(&format!(r#", "anisotropyRotation": {rotation}"#)));
-    let textured = render(&material(r#", "anisotropyTexture": {"index": 0}"#));
+    let textured =
+        render(&material(&format!(r#", "anisotropyRotation": {rotation}, "anisotropyTexture": {{"index": 0}}"#)));
     let wi = -glam::Vec3::new(light[0] as f32, light[1] as f32, light[2] as f32).normalize();
     let frame = Frame { n: glam::Vec3::Z, ns: glam::Vec3::Z };
     // The lobe with the direction `d` (xy in the tangent frame) and strength `s`, averaged over pixel (x, y)
@@ -665,6 +666,8 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
     let half = 2.0 * 128.0 / 255.0 - 1.0;
     let (along_u, along_v) = (glam::Vec2::new(1.0, half), glam::Vec2::new(half, 1.0));
     let at = |a: f32| glam::Vec2::new(a.cos(), a.sin());
+    // The texel's direction turned by the rotation, as the extension says.
+    let turned = |d: glam::Vec2| glam::Vec2::from_angle(rotation).rotate(d);
     let mut distinct = 0;
     for y in 1..7 {
         for x in 1..7 {
@@ -673,6 +676,7 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
             // largest deviation measured 1.1 %).
             assert_rgb(rotated[y][x], [want; 3], 0.02, &format!("rotated 30° at pixel ({x}, {y})"));
             let (d, s) = if x < 4 { (along_u, strength) } else { (along_v, strength * 128.0 / 255.0) };
+            let d = turned(d);
             let want_texture = expected(x, y, d, s);
             assert_rgb(textured[y][x], [want_texture; 3], 0.02, &format!("textured at pixel ({x}, {y})"));
             let (isotropic, mirrored) = (expected(x, y, at(0.0), 0.0), expected(x, y, at(-rotation), strength));

@@ -80,7 +80,7 @@ pub struct GltfMetalRoughBxdf<const N: usize> {
 }
 
 /// `w` (unit) on the octahedron, unfolded onto [−1, 1]² and quantised to snorm16.
-fn octahedral(w: Vec3) -> [i16; 2] {
+pub(super) fn octahedral(w: Vec3) -> [i16; 2] {
     let p = w.truncate() / (w.x.abs() + w.y.abs() + w.z.abs());
     let p = if w.z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
     let q = |v: f32| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16;
@@ -89,7 +89,7 @@ fn octahedral(w: Vec3) -> [i16; 2] {
 
 /// The unit vector [`octahedral`] encoded.
 #[inline]
-fn from_octahedral(e: [i16; 2]) -> Vec3 {
+pub(super) fn from_octahedral(e: [i16; 2]) -> Vec3 {
     let p = Vec2::new(f32::from(e[0]), f32::from(e[1])) / 32767.0;
     let z = 1.0 - p.x.abs() - p.y.abs();
     let xy = if z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
@@ -240,7 +240,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         } else {
             // The tables are isotropic: a lobe `KHR_materials_anisotropy` stretched reads them at its smaller α,
             // the material's own (its albedo is at most that of the unstretched lobe, so the diffuse layer
-            // never gets more than the specular one leaves).
+            // never gets more than the specular one leaves: no energy is gained, a little is lost).
             let alpha = self.distrib.alpha_min();
             let (eo, ei) = (self.specular_albedo(wo.z, alpha), self.specular_albedo(wi.z, alpha));
             ((1.0 - eo) * (1.0 - ei)).max(0.0) / (1.0 - avg)

@@ -644,6 +644,28 @@ fn anisotropy_direction() -> Vec3 {
     Vec3::new(30f32.to_radians().cos(), 30f32.to_radians().sin(), 0.0)
 }
 
+/// The anisotropic direction's 16-bit octahedral code (`gltf::octahedral`) round-trips every unit vector,
+/// both hemispheres and the poles and axes, to within 1e-4 rad.
+#[test]
+fn octahedral_directions_round_trip() {
+    use super::gltf::{from_octahedral, octahedral};
+    let mut rng = TestRng::new(11);
+    let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z, Vec3::new(1.0, -1.0, -1.0).normalize()];
+    let random = (0..10_000).map(|_| {
+        let (u, v) = (rng.uniform(), rng.uniform());
+        let z = 1.0 - 2.0 * u;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * (2.0 * PI * v).cos(), r * (2.0 * PI * v).sin(), z)
+    });
+    for w in axes.into_iter().chain(random) {
+        let back = from_octahedral(octahedral(w));
+        assert!((back.length() - 1.0).abs() < 1e-5, "{w} → {back}");
+        // (The angle from the cross product: its cosine rounds to 1 in f32.)
+        let angle = w.cross(back).length().atan2(w.dot(back));
+        assert!(angle < 1e-4, "{w} → {back}: {angle} rad");
+    }
+}
+
 #[test]
 fn chi2_gltf_anisotropic() {
     chi2_family(&grid_cases(|a| {
