@@ -31,6 +31,15 @@ fn write_png(path: &Path, width: u32, height: u32, texels: &[[u8; 4]]) {
     img.save(path).expect("write PNG");
 }
 
+/// `texels` written as `dir/name` (a `width` × `height` PNG) and the glTF `textures`, `samplers` and `images`
+/// arrays (JSON text) that read it as texture 0 with nearest filtering.
+fn nearest_texture(dir: &Path, name: &str, width: u32, height: u32, texels: &[[u8; 4]]) -> String {
+    write_png(&dir.join(name), width, height, texels);
+    format!(
+        r#""textures": [{{"source": 0, "sampler": 0}}], "samplers": [{{"magFilter": 9728}}], "images": [{{"uri": "{name}"}}]"#
+    )
+}
+
 /// The quad as OBJ (OBJ's vt has v up, so the top-left corner is vt (0, 1)) with `mtl` as its material.
 fn write_obj_quad(dir: &Path, mtl: &str) -> PathBuf {
     std::fs::write(dir.join("quad.mtl"), format!("newmtl m\n{mtl}\n")).expect("write MTL");
@@ -176,8 +185,7 @@ fn checkerboard_texels_render_their_colours_at_the_predicted_pixels() {
 fn texture_transform_offset_moves_texels_as_the_extension_says() {
     let dir = folder("transform");
     // Left texel red, right texel green.
-    write_png(&dir.join("two.png"), 2, 1, &[[220, 20, 20, 255], [20, 220, 20, 255]]);
-    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "two.png"}]"#;
+    let textures = &nearest_texture(&dir, "two.png", 2, 1, &[[220, 20, 20, 255], [20, 220, 20, 255]]);
     let dominant = |rgb: &[f64; 3]| {
         if rgb[0] > 3.0 * rgb[1] {
             'r'
@@ -210,9 +218,7 @@ fn texture_transform_offset_moves_texels_as_the_extension_says() {
 #[test]
 fn transmission_texture_multiplies_the_factor_per_texel() {
     let dir = folder("transmission");
-    write_png(&dir.join("t.png"), 2, 1, &[[255, 0, 0, 255], [0, 0, 0, 255]]);
-    let textures =
-        r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "t.png"}]"#;
+    let textures = &nearest_texture(&dir, "t.png", 2, 1, &[[255, 0, 0, 255], [0, 0, 0, 255]]);
     let used = r#""extensionsUsed": ["KHR_materials_transmission"],"#;
     let material = |transmission: &str| {
         format!(
@@ -247,8 +253,7 @@ fn transmission_texture_multiplies_the_factor_per_texel() {
 #[test]
 fn specular_and_clearcoat_textures_multiply_their_factors_per_texel() {
     let dir = folder("specular-coat");
-    write_png(&dir.join("on_off.png"), 2, 1, &[[255, 0, 0, 255], [0, 0, 0, 0]]);
-    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "on_off.png"}]"#;
+    let textures = &nearest_texture(&dir, "on_off.png", 2, 1, &[[255, 0, 0, 255], [0, 0, 0, 0]]);
     let used = r#""extensionsUsed": ["KHR_materials_specular", "KHR_materials_clearcoat"],"#;
     let material = |base: &str, extensions: &str| {
         format!(
@@ -311,8 +316,7 @@ fn write_tilted_normal_map(path: &Path, theta: f64) -> [f64; 3] {
 fn specular_colour_texture_tints_f0_per_texel() {
     let dir = folder("specular-colour");
     let (white, orange) = ([255, 255, 255, 255], [255, 128, 0, 255]);
-    write_png(&dir.join("tint.png"), 2, 1, &[white, orange]);
-    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "tint.png"}]"#;
+    let textures = &nearest_texture(&dir, "tint.png", 2, 1, &[white, orange]);
     let used = r#""extensionsUsed": ["KHR_materials_specular"],"#;
     let render = |specular: &str| {
         let m = format!(
@@ -469,8 +473,7 @@ fn decoded_textures_are_charged_to_the_scene_memory_budget_before_decoding() {
 fn emissive_texels_are_seen_at_the_predicted_pixels() {
     let dir = folder("emissive");
     let texels: Vec<[u8; 4]> = (0..16).map(|i| CHECKER[(i % 4) / 2 + 2 * (i / 8)]).collect();
-    write_png(&dir.join("checker.png"), 4, 4, &texels);
-    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "checker.png"}]"#;
+    let textures = &nearest_texture(&dir, "checker.png", 4, 4, &texels);
     let material = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 0.5, 1],
         "emissiveTexture": {"index": 0}, "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2}}}"#;
     let used = r#""extensionsUsed": ["KHR_materials_emissive_strength"],"#;
@@ -516,8 +519,7 @@ fn mean_y(image: &integrator::Image, columns: std::ops::Range<u32>, height: u32)
 #[test]
 fn light_sampling_reads_the_emissive_texture_at_the_sampled_point() {
     let dir = folder("emissive-lamp");
-    write_png(&dir.join("half.png"), 2, 1, &[[255, 255, 255, 255], [0, 0, 0, 255]]);
-    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "half.png"}]"#;
+    let textures = &nearest_texture(&dir, "half.png", 2, 1, &[[255, 255, 255, 255], [0, 0, 0, 255]]);
     let material = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1], "emissiveTexture": {"index": 0}}"#;
     let gltf = write_gltf_quad(&dir, material, textures, "");
     // The camera looks down at the floor from below the lamp, which it does not see.
@@ -569,8 +571,7 @@ fn sheen_layers_over_the_base_as_the_extension_says() {
     use colorimetry::SampledSpectrum;
     use materials::bsdf::{Bsdf, Frame, GltfMetalRoughBxdf, SheenBxdf, sheen_albedo};
     let dir = folder("sheen");
-    write_png(&dir.join("on_off.png"), 2, 1, &[[255, 255, 255, 255], [0, 0, 0, 255]]);
-    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "on_off.png"}]"#;
+    let textures = &nearest_texture(&dir, "on_off.png", 2, 1, &[[255, 255, 255, 255], [0, 0, 0, 255]]);
     let used = r#""extensionsUsed": ["KHR_materials_sheen"],"#;
     let (color, roughness, base) = ([0.9f32, 0.5, 0.2], 0.5f32, 0.3f32);
     let material = |sheen: &str| {
@@ -629,8 +630,7 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
     use colorimetry::SampledSpectrum;
     use materials::bsdf::{Bsdf, Frame, GltfMetalRoughBxdf};
     let dir = folder("anisotropy");
-    write_png(&dir.join("directions.png"), 2, 1, &[[255, 128, 255, 255], [128, 255, 128, 255]]);
-    let textures = r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "directions.png"}]"#;
+    let textures = &nearest_texture(&dir, "directions.png", 2, 1, &[[255, 128, 255, 255], [128, 255, 128, 255]]);
     let used = r#""extensionsUsed": ["KHR_materials_anisotropy"],"#;
     let (roughness, strength, rotation) = (0.5f32, 0.8f32, 30f32.to_radians());
     let material = |anisotropy: &str| {
