@@ -55,16 +55,20 @@ fn write_obj_quad(dir: &Path, mtl: &str) -> PathBuf {
 /// The quad as glTF with one material (`material` is its JSON) and the given textures/samplers/images
 /// arrays (JSON text); positions, normals, uvs and indices in `quad.bin`.
 fn write_gltf_quad(dir: &Path, material: &str, textures: &str, extensions_used: &str) -> PathBuf {
-    write_gltf_quad_with_normal(dir, material, textures, extensions_used, [0.0, 0.0, 1.0])
+    write_gltf_quad_with_normal(dir, material, textures, extensions_used, [0.0, 0.0, 1.0], QUAD_UVS)
 }
 
-/// [`write_gltf_quad`] with `normal` as every vertex's normal.
+/// The quad's uvs, corner by corner (top-left, top-right, bottom-right, bottom-left): u along +x, v down.
+const QUAD_UVS: [[f32; 2]; 4] = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+
+/// [`write_gltf_quad`] with `normal` as every vertex's normal and `uvs` as the corners' uvs.
 fn write_gltf_quad_with_normal(
     dir: &Path,
     material: &str,
     textures: &str,
     extensions_used: &str,
     normal: [f32; 3],
+    uvs: [[f32; 2]; 4],
 ) -> PathBuf {
     let mut bin = Vec::new();
     for p in [[-1.0f32, 1.0, 0.0], [1.0, 1.0, 0.0], [1.0, -1.0, 0.0], [-1.0, -1.0, 0.0]] {
@@ -73,7 +77,7 @@ fn write_gltf_quad_with_normal(
     for _ in 0..4 {
         normal.iter().for_each(|v| bin.extend_from_slice(&v.to_le_bytes()));
     }
-    for uv in [[0.0f32, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]] {
+    for uv in uvs {
         uv.iter().for_each(|v| bin.extend_from_slice(&v.to_le_bytes()));
     }
     for i in [0u16, 3, 2, 0, 2, 1] {
@@ -372,7 +376,7 @@ fn the_coat_has_its_own_normal_map_and_not_the_bases() {
                "extensions": {{"KHR_materials_specular": {{"specularFactor": 0}},
                               "KHR_materials_clearcoat": {{"clearcoatFactor": 1, "clearcoatRoughnessFactor": 0.3{coat_normal}}}}}}}"#
         );
-        let gltf = write_gltf_quad_with_normal(&dir, &m, textures, used, normal);
+        let gltf = write_gltf_quad_with_normal(&dir, &m, textures, used, normal, QUAD_UVS);
         // Light from 30° towards +x: the tilted coat's mirror direction is 10° from it, the flat one's 30°.
         let phi = 30f64.to_radians();
         let image = render_rgb_spp(&scene_around(&dir, &gltf, [-phi.sin(), 0.0, -phi.cos()], ""), 256);
@@ -646,6 +650,18 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
         render_rgb_spp(&scene_around(&dir, &gltf, light, ""), spp)
     };
     let rotated = render(&material(&format!(r#", "anisotropyRotation": {rotation}"#)));
+    // The same quad with u mirrored (u along −x): its tangent is −x and its bitangent sign w = −1, so the
+    // bitangent stays +y and the rotated direction is mirrored about the y axis.
+    let mirrored_uvs = QUAD_UVS.map(|[u, v]| [1.0 - u, v]);
+    let mirrored_quad = write_gltf_quad_with_normal(
+        &dir,
+        &material(&format!(r#", "anisotropyRotation": {rotation}"#)),
+        textures,
+        used,
+        [0.0, 0.0, 1.0],
+        mirrored_uvs,
+    );
+    let mirrored_uv = render_rgb_spp(&scene_around(&dir, &mirrored_quad, light, ""), spp);
     let textured =
         render(&material(&format!(r#", "anisotropyRotation": {rotation}, "anisotropyTexture": {{"index": 0}}"#)));
     let wi = -glam::Vec3::new(light[0] as f32, light[1] as f32, light[2] as f32).normalize();
@@ -675,6 +691,9 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
             // A single lobe and a delta light: only the sample's place in the pixel varies (512 of them: the
             // largest deviation measured 1.1 %).
             assert_rgb(rotated[y][x], [want; 3], 0.02, &format!("rotated 30° at pixel ({x}, {y})"));
+            let mirror = |d: glam::Vec2| glam::Vec2::new(-d.x, d.y);
+            let want_mirrored = expected(x, y, mirror(at(rotation)), strength);
+            assert_rgb(mirrored_uv[y][x], [want_mirrored; 3], 0.02, &format!("mirrored uvs at pixel ({x}, {y})"));
             let (d, s) = if x < 4 { (along_u, strength) } else { (along_v, strength * 128.0 / 255.0) };
             let d = turned(d);
             let want_texture = expected(x, y, d, s);
