@@ -448,6 +448,7 @@ impl RenderScene {
                 Some((m.emission.as_ref()?, m.two_sided))
             },
         );
+        weigh_textured_lights(&mut scene);
         Ok(scene)
     }
 
@@ -790,6 +791,49 @@ fn add_mikktspace_tangents(
         ));
     }
     Ok(())
+}
+
+/// Light choice over the triangles of emissive textures: each triangle's power is its area × the mean
+/// emission of its material (all the light knows), so its share is redistributed by the texels it covers.
+/// Its weight is 0.1 + 0.9 · Y_t / Ȳ, where Y_t is the mean texel luminance over the triangle (16 stratified
+/// points) and Ȳ the area-weighted mean of Y_t over the material's emissive triangles. The material's total
+/// power is unchanged, and every triangle keeps a positive probability (16 points can miss bright texels:
+/// the estimate stays unbiased however wrong the weight).
+fn weigh_textured_lights(scene: &mut RenderScene) {
+    if scene.textures.iter().flatten().all(|t| !t.has_emissive_texture()) {
+        return;
+    }
+    let mut mean_luminance = Vec::new();
+    for (primitive, _) in scene.emitters.area_lights() {
+        let Some(material) = scene.primitive_material(primitive) else { continue };
+        let Some(t) = scene.textures.get(material as usize).and_then(Option::as_ref) else { continue };
+        let geometry::Primitive::Triangle { mesh, triangle } = scene.geometry.primitive(primitive) else { continue };
+        let mesh = &scene.geometry.meshes()[mesh as usize];
+        let uv = crate::surface::triangle_uvs(mesh, triangle as usize);
+        let mut sum = 0.0f64;
+        for k in 0..16 {
+            // A 4 × 4 grid on the unit square, mapped to uniform barycentrics (√u warp).
+            let (u1, u2) = ((k % 4) as f32 * 0.25 + 0.125, (k / 4) as f32 * 0.25 + 0.125);
+            let s = u1.sqrt();
+            let (b1, b2) = (s * (1.0 - u2), s * u2);
+            sum += f64::from(t.emissive_luminance((1.0 - b1 - b2) * uv[0] + b1 * uv[1] + b2 * uv[2]).unwrap_or(0.0));
+        }
+        mean_luminance.push((primitive, material, sum / 16.0, f64::from(scene.geometry.primitive_area(primitive))));
+    }
+    let mut totals: std::collections::HashMap<u32, (f64, f64)> = std::collections::HashMap::new();
+    for &(_, material, y, area) in &mean_luminance {
+        let entry = totals.entry(material).or_default();
+        entry.0 += y * area;
+        entry.1 += area;
+    }
+    let mut weight = vec![None; scene.geometry.primitive_count()];
+    for &(primitive, material, y, _) in &mean_luminance {
+        let (sum, area) = totals[&material];
+        if sum > 0.0 && area > 0.0 {
+            weight[primitive as usize] = Some(0.1 + 0.9 * y * area / sum);
+        }
+    }
+    scene.emitters.reweight_area_lights(|primitive| weight[primitive as usize]);
 }
 
 /// One line per anisotropic material (`KHR_materials_anisotropy`) whose model, or part of it, renders
@@ -1329,6 +1373,45 @@ mod tests {
 
     fn assemble(json: &str) -> RenderScene {
         RenderScene::from_description(geometry::parse_manifest(json, Path::new("."), "<test>").unwrap()).unwrap()
+    }
+
+    /// Two lamp quads share an emissive texture (white texel, black texel), one under each texel: light
+    /// choice gives the white quad's triangles 0.1 + 0.9 · 2 of the shared power each and the black one's 0.1
+    /// (0.95 and 0.05 of the lamp, from 0.5 and 0.5 by the material's mean alone); the weights average 1
+    /// over the lamp, so the point light's share is what the material's mean gives it.
+    #[test]
+    fn textured_lamp_triangles_are_chosen_by_the_texels_they_cover() {
+        let dir = std::env::temp_dir().join(format!("spectrace-weigh-lights-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut img = image::RgbaImage::new(2, 1);
+        img.put_pixel(0, 0, image::Rgba([255, 255, 255, 255]));
+        img.put_pixel(1, 0, image::Rgba([0, 0, 0, 255]));
+        img.save(dir.join("lamp.png")).unwrap();
+        std::fs::write(dir.join("lamp.mtl"), "newmtl lamp\nKd 0 0 0\nKe 1 1 1\nmap_Ke lamp.png\n").unwrap();
+        // Quad A (x in [0, 1]) at the white texel's centre u = 0.25, quad B (x in [2, 3]) at the black one's.
+        let obj = "mtllib lamp.mtl\nusemtl lamp\n\
+                   v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 3 0 0\nv 3 1 0\nv 2 1 0\n\
+                   vt 0.25 0.5\nvt 0.75 0.5\n\
+                   f 1/1 2/1 3/1\nf 1/1 3/1 4/1\nf 5/2 6/2 7/2\nf 5/2 7/2 8/2\n";
+        std::fs::write(dir.join("lamp.obj"), obj).unwrap();
+        let manifest = r#"{"lights": [{"type": "point", "position": [0, 0, 5], "spectrum": "D65", "intensity": 1}],
+            "objects": [{"type": "mesh", "file": "lamp.obj"}]}"#;
+        let scene = RenderScene::from_description(geometry::parse_manifest(manifest, &dir, "m.json").unwrap()).unwrap();
+        let e = &scene.emitters;
+        let triangles: Vec<(u32, f32)> = e.area_lights().map(|(p, l)| (p, e.probability(l))).collect();
+        assert_eq!(triangles.len(), 4);
+        let lamp: f32 = triangles.iter().map(|t| t.1).sum();
+        let point = e.probability(0);
+        assert!((lamp + point - 1.0).abs() < 1e-5, "{triangles:?} + {point}");
+        for (primitive, p) in &triangles {
+            // Triangles 0, 1 are quad A's (the OBJ's face order).
+            let share = if *primitive < 2 { 0.95 / 2.0 } else { 0.05 / 2.0 };
+            assert!(
+                (p / lamp - share).abs() < 1e-4,
+                "triangle {primitive}: {} of the lamp, expected {share}",
+                p / lamp
+            );
+        }
     }
 
     /// The world around a file's lamps: Blender's 0.050876 × 683 = 34.748 nits, at most E_max / 8π.

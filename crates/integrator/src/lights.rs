@@ -337,6 +337,41 @@ impl Emitters {
         self.kinds.is_empty()
     }
 
+    /// The area lights' powers multiplied by `weight(primitive)` where it is `Some` (positive: a light that
+    /// emits must keep a positive probability), the choice probabilities renormalised. Assembly weighs the
+    /// triangles of an emissive texture by the texels they cover, which the material's mean emission cannot
+    /// tell apart.
+    pub(crate) fn reweight_area_lights(&mut self, weight: impl Fn(u32) -> Option<f64>) {
+        let mut changed = false;
+        let mut power: Vec<f64> = self.pmf.iter().map(|&p| f64::from(p)).collect();
+        for (primitive, light) in self.area_lights() {
+            if let Some(w) = weight(primitive).filter(|w| *w > 0.0 && w.is_finite()) {
+                power[light] *= w;
+                changed = true;
+            }
+        }
+        let total: f64 = power.iter().sum();
+        if !changed || !(total > 0.0) {
+            return;
+        }
+        self.pmf = power.iter().map(|p| (p / total) as f32).collect();
+        let mut acc = 0.0f32;
+        self.cdf = self
+            .pmf
+            .iter()
+            .map(|p| {
+                acc += p;
+                acc
+            })
+            .collect();
+    }
+
+    /// The probability of choosing light `light`.
+    #[cfg(test)]
+    pub(crate) fn probability(&self, light: usize) -> f32 {
+        self.pmf[light]
+    }
+
     /// The primitives that are area lights, each with its index in the set ([`Emitters::iter`] order).
     pub(crate) fn area_lights(&self) -> impl Iterator<Item = (u32, usize)> + '_ {
         self.area_light_of

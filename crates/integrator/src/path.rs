@@ -27,7 +27,7 @@ use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
 use crate::sampling::{Rng, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
-use crate::surface::surface_tangent;
+use crate::surface::{surface_tangent, triangle_uvs};
 use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, VertexColorHit};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
@@ -973,12 +973,8 @@ fn textured_lights(scene: &RenderScene) -> Vec<Option<TexturedLight>> {
         }
         let Primitive::Triangle { mesh, triangle } = geometry.primitive(primitive) else { continue };
         let mesh = &geometry.meshes()[mesh as usize];
-        let tri = mesh.indices()[triangle as usize];
-        let uv = match mesh.uvs() {
-            Some(uvs) => tri.map(|i| uvs[i as usize]),
-            None => [Vec2::ZERO, Vec2::X, Vec2::Y],
-        };
-        let p = tri.map(|i| mesh.positions()[i as usize]);
+        let uv = triangle_uvs(mesh, triangle as usize);
+        let p = mesh.indices()[triangle as usize].map(|i| mesh.positions()[i as usize]);
         lights[light] = Some(TexturedLight { material, p, uv });
     }
     lights

@@ -1,8 +1,18 @@
 //! Per-hit surface data the hit record does not carry, read back from the mesh only where a
 //! material needs it: tangents for normal maps.
 
-use geometry::{Hit, Primitive, Scene};
-use glam::Vec4;
+use geometry::{Hit, Mesh, Primitive, Scene};
+use glam::{Vec2, Vec4};
+
+/// The uvs of triangle `triangle`'s vertices: the mesh's, else the barycentric corners (0, 0), (1, 0),
+/// (0, 1) (what a hit's uv is without them).
+pub(crate) fn triangle_uvs(mesh: &Mesh, triangle: usize) -> [Vec2; 3] {
+    let tri = mesh.indices()[triangle];
+    match mesh.uvs() {
+        Some(uvs) => tri.map(|i| uvs[i as usize]),
+        None => [Vec2::ZERO, Vec2::X, Vec2::Y],
+    }
+}
 
 /// The tangent at a triangle hit, with the sign of the bitangent that points "up" the image (glTF:
 /// +Y of a normal map, towards decreasing v) in w: the mesh's `TANGENT` interpolated, else the

@@ -395,8 +395,9 @@ pub(crate) struct EmissiveEntry {
 
 /// An emissive texture as light spectra: texel × `emissiveFactor` × `emissiveStrength` (MTL `map_Ke` ×
 /// `Ke`), so that emission varies over the surface as the image does. Light sampling chooses the surface
-/// by its mean emission (the material's spectrum) and points on it uniformly by area; the texel under
-/// the sampled point gives the radiance, so the estimate stays unbiased where the image is dark.
+/// by its mean emission (the material's spectrum), its triangles by the texels they cover (assembly's
+/// `weigh_textured_lights`), and points on a triangle uniformly by area; the texel under the sampled point
+/// gives the radiance, so the estimate stays unbiased where the image is dark.
 #[derive(Debug)]
 pub(crate) struct EmissiveTexture(ColorTexture<EmissiveEntry>);
 
@@ -445,6 +446,20 @@ impl EmissiveTexture {
             }
         }
         if rgb_lanes { l } else { l * *illuminant }
+    }
+
+    /// The luminance (linear sRGB's Y, per unit of the D65 illuminant's) at `uv`: what light sampling weighs
+    /// the surface's triangles by.
+    fn luminance(&self, uv: Vec2) -> f32 {
+        self.0
+            .sampler
+            .footprint(uv)
+            .iter()
+            .map(|&(i, w)| {
+                let c = self.0.palette[self.0.index[i] as usize].rgb;
+                w * (0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
+            })
+            .sum()
     }
 }
 
@@ -756,6 +771,12 @@ impl MaterialTextures {
     pub(crate) fn anisotropy(&self, uv: Vec2) -> Option<(Vec2, f32)> {
         let c = self.anisotropy.as_ref()?.eval(uv);
         Some((Vec2::new(2.0 * c.x - 1.0, 2.0 * c.y - 1.0), c.z))
+    }
+
+    /// The emitted luminance at `uv` (relative: the texel's linear sRGB Y × factor); `None` without an
+    /// emissive texture.
+    pub(crate) fn emissive_luminance(&self, uv: Vec2) -> Option<f32> {
+        self.emissive.as_ref().map(|t| t.luminance(uv))
     }
 
     /// The emitted radiance at `uv` (see [`EmissiveTexture::eval`]); `None` without an emissive texture.
