@@ -568,7 +568,8 @@ fn light_sampling_reads_the_emissive_texture_at_the_sampled_point() {
 /// `KHR_materials_sheen` end to end: a quad lit by a directional light 60° off its normal renders, per
 /// channel, E cos θ_i · (f_sheen + (1 − max₃(C) E(μ_o)) f_base) — the extension's albedo-scaled layering in
 /// its view-only form, the path tracer picking the sheen with probability max₃(C) E(μ_o) — computed here
-/// from the materials crate's public lobes; and a sheen colour texture's black texel leaves the base alone.
+/// from the materials crate's public lobes; a sheen colour texture's black texel leaves the base alone; and
+/// under a clear coat the sheen stays beneath it (c F of the coat's lobe, the rest the sheen over the base).
 /// Before, the sheen was ignored with a warning (the base alone everywhere).
 #[test]
 fn sheen_layers_over_the_base_as_the_extension_says() {
@@ -576,7 +577,7 @@ fn sheen_layers_over_the_base_as_the_extension_says() {
     use materials::bsdf::{Bsdf, Frame, GltfMetalRoughBxdf, SheenBxdf, sheen_albedo};
     let dir = folder("sheen");
     let textures = &nearest_texture(&dir, "on_off.png", 2, 1, &[[255, 255, 255, 255], [0, 0, 0, 255]]);
-    let used = r#""extensionsUsed": ["KHR_materials_sheen"],"#;
+    let used = r#""extensionsUsed": ["KHR_materials_sheen", "KHR_materials_clearcoat"],"#;
     let (color, roughness, base) = ([0.9f32, 0.5, 0.2], 0.5f32, 0.3f32);
     let material = |sheen: &str| {
         format!(
@@ -593,6 +594,12 @@ fn sheen_layers_over_the_base_as_the_extension_says() {
     };
     let sheen = render(&material(""));
     let textured = render(&material(r#", "sheenColorTexture": {"index": 0}"#));
+    // The same with a clear coat on top (the extension's order: coat over sheen over base).
+    let coat = materials::Coat { weight: 0.8, roughness: 0.3 };
+    let coated = render(&material("").replace(
+        r#""extensions": {"#,
+        r#""extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 0.8, "clearcoatRoughnessFactor": 0.3}, "#,
+    ));
     let bare = render(
         r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.3, 0.3, 0.3, 1], "metallicFactor": 0, "roughnessFactor": 0.7}}"#,
     );
@@ -619,6 +626,17 @@ fn sheen_layers_over_the_base_as_the_extension_says() {
         // Texture: white texels (x < 4) are the factor's sheen, black ones (x ≥ 4) no sheen at all.
         let (t, what) = if x < 4 { (sheen[y][x], "white texel") } else { (bare[y][x], "black texel") };
         assert_rgb(textured[y][x], t, 0.03, &format!("{what} at pixel ({x}, {y})"));
+        // Coated: c F(μ_o) of the coat's lobe, the rest the sheen layered over the base.
+        let p = glam::Vec3::new(-1.0 + (x as f32 + 0.5) / 4.0, 1.0 - (y as f32 + 0.5) / 4.0, 0.0);
+        let wo = (glam::Vec3::new(0.0, 0.0, 2.0) - p).normalize();
+        let share = f64::from(coat.probability(wo.z));
+        let f_coat = Bsdf::<3>::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(coat.roughness)).f_cos(&frame, wo, wi);
+        let want_coated = [0, 1, 2].map(|c| share * E * f64::from(f_coat.0[c]) + (1.0 - share) * want[c]);
+        assert_rgb(coated[y][x], want_coated, 0.03, &format!("coated sheen at pixel ({x}, {y})"));
+        // (What this tells apart: the sheen beneath the coat, not the coat itself, which at these angles
+        // takes 3–4 % of the light.)
+        let without_sheen = share * E * f64::from(f_coat.0[0]) + (1.0 - share) * plain[0];
+        assert!((want_coated[0] - without_sheen).abs() > 0.1 * without_sheen, "{want_coated:?} vs {without_sheen}");
     }
 }
 
