@@ -318,19 +318,38 @@ impl DenselySampledSpectrum {
     /// The value at `lambda` nm: linear interpolation, 0 outside the grid.
     #[inline]
     pub fn eval(&self, lambda: f64) -> f64 {
+        if self.values.len() == 1 {
+            return if self.locate(lambda).is_some() { self.values[0] } else { 0.0 };
+        }
+        self.locate(lambda).map_or(0.0, |(i, f)| self.interpolate(i, f))
+    }
+
+    /// Where `lambda` falls on the grid: the interval `i` and the fraction `f` within it (`i` + 1 a valid
+    /// index for grids of two or more points); `None` outside the grid. Spectra on the same grid share it
+    /// (`SampledSpectrum::to_xyz` locates once for x̄, ȳ, z̄).
+    #[inline]
+    fn locate(&self, lambda: f64) -> Option<(usize, f64)> {
         let pos = (lambda - self.lambda_min) / self.step;
         let last = (self.values.len() - 1) as f64;
         // A hair of tolerance so the last grid point is inside despite rounding of `pos`.
         if !(pos >= -1e-9 && pos <= last + 1e-9) {
-            return 0.0;
-        }
-        if self.values.len() == 1 {
-            return self.values[0];
+            return None;
         }
         let pos = pos.clamp(0.0, last);
-        let i = (pos as usize).min(self.values.len() - 2);
-        let f = pos - i as f64;
+        let i = (pos as usize).min(self.values.len().saturating_sub(2));
+        Some((i, pos - i as f64))
+    }
+
+    /// The linear interpolation at [`Self::locate`]'s (`i`, `f`) (a grid of two or more points).
+    #[inline]
+    fn interpolate(&self, i: usize, f: f64) -> f64 {
         self.values[i] * (1.0 - f) + self.values[i + 1] * f
+    }
+
+    /// Whether `other` has the same grid (first wavelength, step and length), so that one
+    /// [`Self::locate`] serves both.
+    fn same_grid(&self, other: &Self) -> bool {
+        self.lambda_min == other.lambda_min && self.step == other.step && self.values.len() == other.values.len()
     }
 
     /// Values at the sampled wavelengths.
@@ -677,6 +696,9 @@ impl<const N: usize> SampledSpectrum<N> {
     /// density skipped, so an equal-energy spectrum of value 1 has Y = 1 in expectation.
     pub fn to_xyz(&self, lambda: &SampledWavelengths<N>, observer: Observer) -> [f32; 3] {
         let cmf = observer.cmf();
+        // The three functions share one grid (the CIE tables do): each wavelength is located once, the
+        // same arithmetic as three `eval`s (bit for bit).
+        let shared = cmf.x.values.len() >= 2 && cmf.x.same_grid(&cmf.y) && cmf.x.same_grid(&cmf.z);
         let mut xyz = [0.0f64; 3];
         for i in 0..N {
             let p = lambda.pdf[i];
@@ -685,9 +707,20 @@ impl<const N: usize> SampledSpectrum<N> {
             }
             let l = f64::from(lambda.lambda[i]);
             let w = f64::from(self.0[i]) / f64::from(p);
-            xyz[0] += cmf.x.eval(l) * w;
-            xyz[1] += cmf.y.eval(l) * w;
-            xyz[2] += cmf.z.eval(l) * w;
+            if shared {
+                if let Some((j, f)) = cmf.x.locate(l) {
+                    xyz[0] += cmf.x.interpolate(j, f) * w;
+                    xyz[1] += cmf.y.interpolate(j, f) * w;
+                    xyz[2] += cmf.z.interpolate(j, f) * w;
+                } else {
+                    // `eval` is 0 there: adding 0 · w keeps a NaN or infinite w as three evals would.
+                    xyz.iter_mut().for_each(|v| *v += 0.0 * w);
+                }
+            } else {
+                xyz[0] += cmf.x.eval(l) * w;
+                xyz[1] += cmf.y.eval(l) * w;
+                xyz[2] += cmf.z.eval(l) * w;
+            }
         }
         let norm = N as f64 * y_integral(observer);
         xyz.map(|v| (v / norm) as f32)
