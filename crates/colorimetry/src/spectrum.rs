@@ -803,6 +803,45 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// `to_xyz` locates each wavelength once for x̄, ȳ, z̄; it must give, bit for bit, the sums of three
+    /// `eval`s, at grid points, between them, at and beyond both ends, at NaN, and for infinite, NaN,
+    /// zero and negative values (the lanes of zero density are skipped by both).
+    #[test]
+    fn to_xyz_is_three_evals_bit_for_bit() {
+        let lambda = [360.0, 555.5, 829.99, 830.0, 830.0001, 300.0, f32::NAN, 471.25];
+        let values = [
+            [1.0, 0.5, 2.0, 0.25, 1.0, 3.0, 1.0, 0.75],
+            [f32::INFINITY, 1.0, f32::NAN, 1.0, f32::INFINITY, f32::NAN, f32::INFINITY, -2.0],
+            [0.0, -0.0, 1e-30, 1e30, 0.5, 0.0, 0.0, 1.0],
+        ];
+        for observer in [Observer::Cie1931, Observer::Cie1964] {
+            let cmf = observer.cmf();
+            for pdf in [[1.0 / 470.0; 8], [0.003, 0.0, 0.002, 0.001, 0.0, 0.004, 0.002, 0.001]] {
+                let l = SampledWavelengths { lambda, pdf };
+                for v in values {
+                    let got = SampledSpectrum(v).to_xyz(&l, observer);
+                    let mut xyz = [0.0f64; 3];
+                    for i in 0..8 {
+                        if pdf[i] == 0.0 {
+                            continue;
+                        }
+                        let (w, at) = (f64::from(v[i]) / f64::from(pdf[i]), f64::from(lambda[i]));
+                        xyz[0] += cmf.x.eval(at) * w;
+                        xyz[1] += cmf.y.eval(at) * w;
+                        xyz[2] += cmf.z.eval(at) * w;
+                    }
+                    let norm = 8.0 * y_integral(observer);
+                    let want = xyz.map(|c| (c / norm) as f32);
+                    assert_eq!(
+                        got.map(f32::to_bits),
+                        want.map(f32::to_bits),
+                        "{observer:?} {v:?} {pdf:?}: {got:?} vs {want:?}"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn interpolates_linearly_and_is_zero_outside() {
         let s = DenselySampledSpectrum::new(400.0, 10.0, vec![0.0, 1.0, 3.0]).unwrap();

@@ -804,9 +804,12 @@ fn weigh_textured_lights(scene: &mut RenderScene) {
         return;
     }
     let mut mean_luminance = Vec::new();
-    for (primitive, _) in scene.emitters.area_lights() {
+    for (primitive, light) in scene.emitters.area_lights() {
         let Some(material) = scene.primitive_material(primitive) else { continue };
         let Some(t) = scene.textures.get(material as usize).and_then(Option::as_ref) else { continue };
+        if !t.has_emissive_texture() {
+            continue;
+        }
         let geometry::Primitive::Triangle { mesh, triangle } = scene.geometry.primitive(primitive) else { continue };
         let mesh = &scene.geometry.meshes()[mesh as usize];
         let uv = crate::surface::triangle_uvs(mesh, triangle as usize);
@@ -818,7 +821,7 @@ fn weigh_textured_lights(scene: &mut RenderScene) {
             let (b1, b2) = (s * (1.0 - u2), s * u2);
             sum += f64::from(t.emissive_luminance((1.0 - b1 - b2) * uv[0] + b1 * uv[1] + b2 * uv[2]).unwrap_or(0.0));
         }
-        mean_luminance.push((primitive, material, sum / 16.0, f64::from(scene.geometry.primitive_area(primitive))));
+        mean_luminance.push((light, material, sum / 16.0, f64::from(scene.geometry.primitive_area(primitive))));
     }
     let mut totals: std::collections::HashMap<u32, (f64, f64)> = std::collections::HashMap::new();
     for &(_, material, y, area) in &mean_luminance {
@@ -826,14 +829,16 @@ fn weigh_textured_lights(scene: &mut RenderScene) {
         entry.0 += y * area;
         entry.1 += area;
     }
-    let mut weight = vec![None; scene.geometry.primitive_count()];
-    for &(primitive, material, y, _) in &mean_luminance {
-        let (sum, area) = totals[&material];
-        if sum > 0.0 && area > 0.0 {
-            weight[primitive as usize] = Some(0.1 + 0.9 * y * area / sum);
-        }
-    }
-    scene.emitters.reweight_area_lights(|primitive| weight[primitive as usize]);
+    // A material whose texels overflow (an infinite luminance) keeps its triangles as they were, all of them,
+    // so that its total power stays what its mean emission says.
+    let weights: Vec<(usize, f64)> = mean_luminance
+        .iter()
+        .filter_map(|&(light, material, y, _)| {
+            let (sum, area) = totals[&material];
+            (sum > 0.0 && sum.is_finite() && area > 0.0).then(|| (light, 0.1 + 0.9 * y * area / sum))
+        })
+        .collect();
+    scene.emitters.reweight(&weights);
 }
 
 /// One line per anisotropic material (`KHR_materials_anisotropy`) whose model, or part of it, renders
@@ -1412,6 +1417,14 @@ mod tests {
                 p / lamp
             );
         }
+        // The lamp's total is its mean emission's: an untextured lamp of the image's mean (0.5) leaves the
+        // point light the same share.
+        std::fs::write(dir.join("lamp.mtl"), "newmtl lamp\nKd 0 0 0\nKe 0.5 0.5 0.5\n").unwrap();
+        let plain = RenderScene::from_description(geometry::parse_manifest(manifest, &dir, "m.json").unwrap()).unwrap();
+        let plain_point = plain.emitters.probability(0);
+        assert!((point - plain_point).abs() < 1e-6, "point light {point} textured, {plain_point} untextured");
+        let plain_shares: Vec<f32> = plain.emitters.area_lights().map(|(_, l)| plain.emitters.probability(l)).collect();
+        assert!(plain_shares.iter().all(|p| (p - plain_shares[0]).abs() < 1e-7), "{plain_shares:?}");
     }
 
     /// The world around a file's lamps: Blender's 0.050876 × 683 = 34.748 nits, at most E_max / 8π.

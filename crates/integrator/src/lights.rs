@@ -337,15 +337,15 @@ impl Emitters {
         self.kinds.is_empty()
     }
 
-    /// The area lights' powers multiplied by `weight(primitive)` where it is `Some` (positive: a light that
-    /// emits must keep a positive probability), the choice probabilities renormalised. Assembly weighs the
-    /// triangles of an emissive texture by the texels they cover, which the material's mean emission cannot
-    /// tell apart.
-    pub(crate) fn reweight_area_lights(&mut self, weight: impl Fn(u32) -> Option<f64>) {
+    /// The powers of the lights in `weights` (light index, weight) multiplied by their weight (positive
+    /// and finite, else ignored: a light that emits must keep a positive probability), the choice
+    /// probabilities renormalised. Assembly weighs the triangles of an emissive texture by the texels they
+    /// cover, which the material's mean emission cannot tell apart.
+    pub(crate) fn reweight(&mut self, weights: &[(usize, f64)]) {
         let mut changed = false;
         let mut power: Vec<f64> = self.pmf.iter().map(|&p| f64::from(p)).collect();
-        for (primitive, light) in self.area_lights() {
-            if let Some(w) = weight(primitive).filter(|w| *w > 0.0 && w.is_finite()) {
+        for &(light, w) in weights {
+            if w > 0.0 && w.is_finite() && light < power.len() {
                 power[light] *= w;
                 changed = true;
             }
