@@ -1183,6 +1183,43 @@ mod tests {
         (f0, f0_max)
     }
 
+    /// An emissive texture over a spectral emission (no RGB for the texels to multiply) is not applied,
+    /// and says so; over an RGB factor it is, and the material's emission becomes the mean × factor.
+    #[test]
+    fn an_emissive_texture_over_a_spectral_emission_is_named_in_a_warning() {
+        let mut png = Vec::new();
+        image::RgbaImage::from_pixel(2, 1, image::Rgba([255, 255, 255, 255]))
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        let images = [ImageDesc { label: "lamp.png".into(), mime: None, bytes: png.into() }];
+        let material = |emission: geometry::SpectrumDesc| {
+            let mut m = MaterialDesc::new("lamp", geometry::MaterialFormat::Gltf);
+            m.emission = Some(emission);
+            m.textures.emissive = Some(TextureDesc::new(0));
+            m
+        };
+        let mut materials = [
+            material(geometry::SpectrumDesc::Named("D65".into())),
+            material(geometry::SpectrumDesc::Rgb([0.5, 0.25, 1.0])),
+        ];
+        let mut warnings = Vec::new();
+        let textures =
+            load_material_textures(&images, &mut materials, &[false; 2], &mut MemoryBudget::default(), &mut warnings)
+                .unwrap();
+        assert!(textures[0].as_ref().is_none_or(|t| !t.has_emissive_texture()), "spectral: not applied");
+        assert!(
+            warnings.iter().any(|w| w.contains("\"lamp\"") && w.contains("emissive texture is not applied")),
+            "{warnings:?}"
+        );
+        assert!(textures[1].as_ref().is_some_and(MaterialTextures::has_emissive_texture), "RGB: applied");
+        assert_eq!(
+            materials[1].emission,
+            Some(geometry::SpectrumDesc::Rgb([0.5, 0.25, 1.0])),
+            "white texels: mean = factor"
+        );
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+    }
+
     #[test]
     fn emissive_texels_are_the_rgb_lights_of_their_colour_times_the_factor() {
         // Saturated, dark and white texels; a factor × strength above 1, as `emissiveStrength` gives.
