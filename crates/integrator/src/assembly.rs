@@ -842,13 +842,16 @@ fn weigh_textured_lights(scene: &mut RenderScene) {
 }
 
 /// One line per anisotropic material (`KHR_materials_anisotropy`) whose model, or part of it, renders
-/// isotropic: the extension stretches the glTF metallic–roughness lobes, not a glass's.
+/// isotropic: the extension stretches the glTF metallic–roughness lobes and rough glass, not the thin-walled
+/// slab (which has no roughness) or the other models.
 fn warn_isotropic_parts(descs: &[MaterialDesc], materials: &[Material], warnings: &mut Vec<String>) {
     for (d, m) in descs.iter().zip(materials).filter(|(d, _)| d.anisotropy.is_some()) {
         match m.model {
-            MaterialModel::GltfMetalRough { .. } => {}
-            MaterialModel::GltfTransmission { .. } => warnings.push(format!(
-                "material {:?}: KHR_materials_anisotropy stretches its reflection; its transmitting part renders isotropic",
+            MaterialModel::GltfMetalRough { .. }
+            | MaterialModel::Dielectric { .. }
+            | MaterialModel::GltfTransmission { thin: false, .. } => {}
+            MaterialModel::GltfTransmission { thin: true, .. } => warnings.push(format!(
+                "material {:?}: KHR_materials_anisotropy stretches its reflection; its thin-walled transmitting part has no roughness and renders unstretched",
                 d.name
             )),
             _ => warnings.push(format!(

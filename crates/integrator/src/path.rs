@@ -149,7 +149,8 @@ struct PathMaterial {
     coat: Option<Coat>,
     /// `KHR_materials_sheen`, picked per hit (beneath the coat) by [`PathTracer::pick_sheen`].
     sheen: Option<PathSheen>,
-    /// `KHR_materials_anisotropy` of the glTF models' lobes, oriented per hit by [`PathTracer::anisotropy_at`].
+    /// `KHR_materials_anisotropy` of the glTF models' lobes and rough glass, oriented per hit by
+    /// [`PathTracer::anisotropy_at`].
     anisotropy: Option<Anisotropy>,
 }
 
@@ -243,7 +244,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 }
                 MaterialModel::Dielectric { roughness } => {
                     let tint = add(clamp01(&m.transmittance, m.kt), SpectrumKind::Reflectance);
-                    if roughness > 0.0 {
+                    // (`KHR_materials_anisotropy` stretches even a smooth interface: the rough lobe then.)
+                    if roughness > 0.0 || m.anisotropy.is_some() {
                         PathScattering::RoughDielectric {
                             tint,
                             alpha: roughness * roughness,
@@ -701,9 +703,16 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 _ if !ROUGH => Bsdf::Lambertian { r: SampledSpectrum([0.0; N]) },
                 PathScattering::RoughDielectric { tint, alpha, compensate } => {
                     let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
-                    let distrib = TrowbridgeReitz::isotropic(alpha);
                     let tint = self.spectra.eval_memo(tint, lambda, last);
-                    Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, tint, compensate))
+                    match m.anisotropy {
+                        None => Bsdf::RoughDielectric(RoughDielectricBxdf::new(
+                            TrowbridgeReitz::isotropic(alpha),
+                            eta,
+                            tint,
+                            compensate,
+                        )),
+                        Some(a) => self.anisotropic_glass(a, textures, &hit, ns, alpha, eta, tint, compensate),
+                    }
                 }
                 PathScattering::ThinDielectric { tint, eta } => {
                     Bsdf::ThinDielectric(ThinDielectricBxdf::new(eta, self.spectra.eval_memo(tint, lambda, last)))
@@ -755,11 +764,16 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                             Bsdf::ThinDielectric(ThinDielectricBxdf::new(ior, colour))
                         } else {
                             let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
-                            if roughness > 0.0 {
-                                let distrib = TrowbridgeReitz::isotropic(roughness * roughness);
-                                Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, colour, true))
-                            } else {
-                                Bsdf::Dielectric { eta, tint: colour }
+                            let alpha = roughness * roughness;
+                            match m.anisotropy {
+                                Some(a) => self.anisotropic_glass(a, textures, &hit, ns, alpha, eta, colour, true),
+                                None if roughness > 0.0 => Bsdf::RoughDielectric(RoughDielectricBxdf::new(
+                                    TrowbridgeReitz::isotropic(alpha),
+                                    eta,
+                                    colour,
+                                    true,
+                                )),
+                                None => Bsdf::Dielectric { eta, tint: colour },
                             }
                         }
                     } else {
@@ -866,6 +880,28 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             Some((strength, direction)) => g.with_anisotropy(strength, direction),
         }
         .conserving()
+    }
+
+    /// A rough dielectric of roughness α stretched by `KHR_materials_anisotropy` along its direction at the
+    /// hit ([`Self::anisotropy_at`]). Out of line:
+    /// only anisotropic glass calls it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn anisotropic_glass(
+        &self,
+        a: Anisotropy,
+        textures: Option<&MaterialTextures>,
+        hit: &Hit,
+        ns: Vec3,
+        alpha: f32,
+        eta: f32,
+        tint: SampledSpectrum<N>,
+        compensate: bool,
+    ) -> Bsdf<N> {
+        let (strength, direction) = self.anisotropy_at(a, textures, hit, ns);
+        let distrib = TrowbridgeReitz::stretched(alpha, strength);
+        // (A distribution the stretch leaves smooth samples as the smooth interface: `Bsdf::sample_f`.)
+        Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, tint, compensate).along(direction))
     }
 
     /// `KHR_materials_anisotropy` at a hit: the strength (× the texture's B) and the direction in world

@@ -63,7 +63,7 @@ pub struct Material {
     pub coat: Option<Coat>,
     /// glTF `KHR_materials_sheen`: a layer of fibres over the model (beneath the coat); `None`: none.
     pub sheen: Option<Sheen>,
-    /// glTF `KHR_materials_anisotropy` on the glTF models' specular lobes; `None`: isotropic.
+    /// glTF `KHR_materials_anisotropy` on the glTF models' specular lobes and rough glass; `None`: isotropic.
     pub anisotropy: Option<Anisotropy>,
 }
 

@@ -679,10 +679,11 @@ fn sheen_layers_over_the_base_as_the_extension_says() {
 #[test]
 fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
     use colorimetry::SampledSpectrum;
-    use materials::bsdf::{Bsdf, Frame, GltfMetalRoughBxdf};
+    use materials::bsdf::{Bsdf, Frame, GltfMetalRoughBxdf, RoughDielectricBxdf, TrowbridgeReitz};
     let dir = folder("anisotropy");
     let textures = &nearest_texture(&dir, "directions.png", 2, 1, &[[255, 128, 255, 255], [128, 255, 128, 255]]);
-    let used = r#""extensionsUsed": ["KHR_materials_anisotropy"],"#;
+    let used =
+        r#""extensionsUsed": ["KHR_materials_anisotropy", "KHR_materials_transmission", "KHR_materials_volume"],"#;
     let (roughness, strength, rotation) = (0.5f32, 0.8f32, 30f32.to_radians());
     let material = |anisotropy: &str| {
         format!(
@@ -711,13 +712,18 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
     let mirrored_uv = render_rgb_spp(&scene_around(&dir, &mirrored_quad, light, ""), spp);
     let textured =
         render(&material(&format!(r#", "anisotropyRotation": {rotation}, "anisotropyTexture": {{"index": 0}}"#)));
+    // Rough glass (transmission with a volume: the dielectric model) stretched the same way; seen from the
+    // light's side, its reflection.
+    let glass = render(&format!(
+        r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0, "roughnessFactor": {roughness}}},
+           "extensions": {{"KHR_materials_transmission": {{"transmissionFactor": 1}}, "KHR_materials_volume": {{"thicknessFactor": 1}},
+                          "KHR_materials_anisotropy": {{"anisotropyStrength": {strength}, "anisotropyRotation": {rotation}}}}}}}"#
+    ));
     let wi = -glam::Vec3::new(light[0] as f32, light[1] as f32, light[2] as f32).normalize();
     let frame = Frame { n: glam::Vec3::Z, ns: glam::Vec3::Z };
     // The lobe with the direction `d` (xy in the tangent frame) and strength `s`, averaged over pixel (x, y)
     // (8 × 8 points: the lobe varies across a pixel by several per cent).
-    let expected = |x: usize, y: usize, d: glam::Vec2, s: f32| -> f64 {
-        let g = GltfMetalRoughBxdf::new(SampledSpectrum([1.0]), 1.0, roughness, 1.5);
-        let lobe = Bsdf::GltfMetalRough(if s > 0.0 { g.with_anisotropy(s, d.extend(0.0)) } else { g }.conserving());
+    let averaged = |x: usize, y: usize, lobe: &Bsdf<1>| -> f64 {
         let mut sum = 0.0;
         for (i, j) in (0..64).map(|k| (k % 8, k / 8)) {
             let (u, v) = ((x as f32 + (i as f32 + 0.5) / 8.0) / 4.0, (y as f32 + (j as f32 + 0.5) / 8.0) / 4.0);
@@ -726,12 +732,24 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
         }
         E * sum / 64.0
     };
+    let expected = |x: usize, y: usize, d: glam::Vec2, s: f32| -> f64 {
+        let g = GltfMetalRoughBxdf::new(SampledSpectrum([1.0]), 1.0, roughness, 1.5);
+        averaged(
+            x,
+            y,
+            &Bsdf::GltfMetalRough(if s > 0.0 { g.with_anisotropy(s, d.extend(0.0)) } else { g }.conserving()),
+        )
+    };
+    let glass_lobe = |d: glam::Vec2| {
+        let distrib = TrowbridgeReitz::stretched(roughness * roughness, strength);
+        Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, 1.5, SampledSpectrum([1.0]), true).along(d.extend(0.0)))
+    };
     let half = 2.0 * 128.0 / 255.0 - 1.0;
     let (along_u, along_v) = (glam::Vec2::new(1.0, half), glam::Vec2::new(half, 1.0));
     let at = |a: f32| glam::Vec2::new(a.cos(), a.sin());
     // The texel's direction turned by the rotation, as the extension says.
     let turned = |d: glam::Vec2| glam::Vec2::from_angle(rotation).rotate(d);
-    let mut distinct = 0;
+    let (mut distinct, mut glass_distinct) = (0, 0);
     for y in 1..7 {
         for x in 1..7 {
             let want = expected(x, y, at(rotation), strength);
@@ -745,6 +763,17 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
             let d = turned(d);
             let want_texture = expected(x, y, d, s);
             assert_rgb(textured[y][x], [want_texture; 3], 0.02, &format!("textured at pixel ({x}, {y})"));
+            let want_glass = averaged(x, y, &glass_lobe(at(rotation)));
+            assert_rgb(glass[y][x], [want_glass; 3], 0.02, &format!("glass at pixel ({x}, {y})"));
+            let plain_glass = RoughDielectricBxdf::new(
+                TrowbridgeReitz::isotropic(roughness * roughness),
+                1.5,
+                SampledSpectrum([1.0]),
+                true,
+            );
+            if (want_glass - averaged(x, y, &Bsdf::RoughDielectric(plain_glass))).abs() > 0.1 * want_glass {
+                glass_distinct += 1;
+            }
             let (isotropic, mirrored) = (expected(x, y, at(0.0), 0.0), expected(x, y, at(-rotation), strength));
             if (want - isotropic).abs() > 0.1 * want && (want - mirrored).abs() > 0.1 * want {
                 distinct += 1;
@@ -752,4 +781,5 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
         }
     }
     assert!(distinct >= 12, "only {distinct} pixels tell the rotated lobe from the isotropic and the mirrored one");
+    assert!(glass_distinct >= 12, "only {glass_distinct} pixels tell the stretched glass from the isotropic");
 }

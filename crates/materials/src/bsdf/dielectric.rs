@@ -26,14 +26,36 @@ pub struct RoughDielectricBxdf<const N: usize> {
     tint: SampledSpectrum<N>,
     /// With energy compensation: α the albedo table is read at, min(1, √(α_x α_y)).
     compensation_alpha: Option<f32>,
+    /// The world direction of the local x axis (α_x), octahedrally encoded as in the glTF model; the
+    /// sentinel [`NO_DIRECTION`] where the lobe's frame is any basis about the normal.
+    direction: [i16; 2],
 }
+
+/// [`RoughDielectricBxdf::direction`] of a lobe without one (outside the encoder's range).
+const NO_DIRECTION: [i16; 2] = [i16::MIN; 2];
 
 impl<const N: usize> RoughDielectricBxdf<N> {
     /// An interface of index `eta` (inside over outside, > 0) with roughness `distrib`,
     /// transmission filtered by `tint`; `compensate` scales the lobe by the inverse albedo.
     pub fn new(distrib: TrowbridgeReitz, eta: f32, tint: SampledSpectrum<N>, compensate: bool) -> Self {
         let compensation_alpha = compensate.then(|| distrib.alpha_iso().min(1.0));
-        Self { distrib, eta, tint, compensation_alpha }
+        Self { distrib, eta, tint, compensation_alpha, direction: NO_DIRECTION }
+    }
+
+    /// The same lobe with its local x axis (where α is `distrib`'s α_x) along `direction`, a world-space
+    /// vector in or near the tangent plane (`KHR_materials_anisotropy`); a zero or non-finite one leaves
+    /// the frame as it was.
+    pub fn along(self, direction: Vec3) -> Self {
+        match direction.try_normalize() {
+            Some(d) => Self { direction: super::octahedral(d), ..self },
+            None => self,
+        }
+    }
+
+    /// The direction of [`Self::along`]; `None` without one.
+    #[inline]
+    pub(crate) fn direction(&self) -> Option<Vec3> {
+        (self.direction != NO_DIRECTION).then(|| super::from_octahedral(self.direction))
     }
 
     /// Index inside over outside.

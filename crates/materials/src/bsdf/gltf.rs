@@ -34,7 +34,7 @@ use glam::{Vec2, Vec3};
 
 use super::compensation::conductor_table;
 use super::microfacet::TrowbridgeReitz;
-use super::{BxdfFlags, LocalSample};
+use super::{BxdfFlags, LocalSample, from_octahedral, octahedral};
 use crate::sampling::cosine_hemisphere;
 use crate::scattering::reflect;
 
@@ -79,23 +79,6 @@ pub struct GltfMetalRoughBxdf<const N: usize> {
     tangent: [i16; 2],
 }
 
-/// `w` (unit) on the octahedron, unfolded onto [−1, 1]² and quantised to snorm16.
-pub(super) fn octahedral(w: Vec3) -> [i16; 2] {
-    let p = w.truncate() / (w.x.abs() + w.y.abs() + w.z.abs());
-    let p = if w.z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
-    let q = |v: f32| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16;
-    [q(p.x), q(p.y)]
-}
-
-/// The unit vector [`octahedral`] encoded.
-#[inline]
-pub(super) fn from_octahedral(e: [i16; 2]) -> Vec3 {
-    let p = Vec2::new(f32::from(e[0]), f32::from(e[1])) / 32767.0;
-    let z = 1.0 - p.x.abs() - p.y.abs();
-    let xy = if z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
-    xy.extend(z).normalize()
-}
-
 /// [`GltfMetalRoughBxdf::f0_lanes`]' lanes without `KHR_materials_specular` (any negative value).
 const NO_F0_LANES: f32 = -1.0;
 
@@ -129,9 +112,8 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     pub fn with_anisotropy(self, strength: f32, direction: Vec3) -> Self {
         let strength = if strength.is_finite() { strength.clamp(0.0, 1.0) } else { 0.0 };
         let Some(direction) = direction.try_normalize().filter(|_| strength > 0.0) else { return self };
-        let alpha = self.distrib.alpha_iso();
-        let along = alpha + (1.0 - alpha) * strength * strength;
-        Self { distrib: TrowbridgeReitz::new(along, alpha), tangent: octahedral(direction), ..self }
+        let distrib = TrowbridgeReitz::stretched(self.distrib.alpha_iso(), strength);
+        Self { distrib, tangent: octahedral(direction), ..self }
     }
 
     /// The anisotropic direction ([`Self::with_anisotropy`]), unit; `None` if the lobe is isotropic.

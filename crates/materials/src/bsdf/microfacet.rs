@@ -38,6 +38,13 @@ impl TrowbridgeReitz {
         Self::new(alpha, alpha)
     }
 
+    /// `KHR_materials_anisotropy`'s stretch of the isotropic `alpha` by `strength` ∈ [0, 1]: α_x =
+    /// mix(α, 1, strength²) along the direction (local x), α_y = α across it.
+    pub fn stretched(alpha: f32, strength: f32) -> Self {
+        let strength = if strength.is_finite() { strength.clamp(0.0, 1.0) } else { 0.0 };
+        Self::new(alpha + (1.0 - alpha) * strength * strength, alpha)
+    }
+
     /// Whether the surface is so smooth that it is handled as a delta lobe.
     #[inline]
     pub(crate) fn effectively_smooth(&self) -> bool {

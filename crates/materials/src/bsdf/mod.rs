@@ -235,6 +235,34 @@ impl Local {
     }
 }
 
+/// `w` (unit) on the octahedron, unfolded onto [−1, 1]² and quantised to snorm16.
+fn octahedral(w: Vec3) -> [i16; 2] {
+    let p = w.truncate() / (w.x.abs() + w.y.abs() + w.z.abs());
+    let p = if w.z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
+    let q = |v: f32| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16;
+    [q(p.x), q(p.y)]
+}
+
+/// The unit vector [`octahedral`] encoded.
+#[inline]
+fn from_octahedral(e: [i16; 2]) -> Vec3 {
+    let p = Vec2::new(f32::from(e[0]), f32::from(e[1])) / 32767.0;
+    let z = 1.0 - p.x.abs() - p.y.abs();
+    let xy = if z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
+    xy.extend(z).normalize()
+}
+
+impl<const N: usize> RoughDielectricBxdf<N> {
+    /// The lobe's local frame about `n`: oriented along its direction where it has one.
+    #[inline]
+    fn local(&self, n: Vec3) -> Local {
+        match self.direction() {
+            None => Local::new(n),
+            Some(t) => Local::oriented(n, t),
+        }
+    }
+}
+
 impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// The lobe's local frame about `ns`: oriented along its anisotropic direction where it has one.
     #[inline]
@@ -361,8 +389,8 @@ impl<const N: usize> Bsdf<N> {
                 };
                 Some((l.local(wo), l.local(wi)))
             }
-            Self::RoughDielectric(_) => {
-                let l = Local::new(frame.interface_normal(wo));
+            Self::RoughDielectric(d) => {
+                let l = d.local(frame.interface_normal(wo));
                 let (wo_l, wi_l) = (l.local(wo), l.local(wi));
                 frame.agrees_with_geometry(wo, wi, wo_l.z * wi_l.z > 0.0).then_some((wo_l, wi_l))
             }
@@ -436,7 +464,7 @@ impl<const N: usize> Bsdf<N> {
                 if d.is_smooth() {
                     return Bsdf::Dielectric { eta: d.eta(), tint: d.tint() }.sample_f(frame, wo, uc, u);
                 }
-                let l = Local::new(frame.interface_normal(wo));
+                let l = d.local(frame.interface_normal(wo));
                 let wo_l = l.local(wo);
                 let s = d.sample_f(wo_l, uc, u)?;
                 let wi = l.world(s.wi);

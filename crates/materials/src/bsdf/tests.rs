@@ -473,6 +473,7 @@ fn reflection_lobes_are_reciprocal() {
         rough_glass(0.4, 0.2, false),
         Bsdf::Sheen(SheenBxdf::new(SampledSpectrum([0.7]), 0.4)),
         gltf_anisotropic(0.7, 0.5, 0.3, 0.7),
+        oriented_glass(0.5, 0.15),
     ];
     for bsdf in &lobes {
         assert_reciprocal(bsdf, 2000, &mut rng);
@@ -648,7 +649,6 @@ fn anisotropy_direction() -> Vec3 {
 /// both hemispheres and the poles and axes, to within 1e-4 rad.
 #[test]
 fn octahedral_directions_round_trip() {
-    use super::gltf::{from_octahedral, octahedral};
     let mut rng = TestRng::new(11);
     let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z, Vec3::new(1.0, -1.0, -1.0).normalize()];
     let random = (0..10_000).map(|_| {
@@ -664,6 +664,48 @@ fn octahedral_directions_round_trip() {
         let angle = w.cross(back).length().atan2(w.dot(back));
         assert!(angle < 1e-4, "{w} → {back}: {angle} rad");
     }
+}
+
+/// Rough glass stretched along a direction (`KHR_materials_anisotropy` on a transmitting glTF material).
+fn oriented_glass(ax: f32, ay: f32) -> Bsdf<1> {
+    let glass = RoughDielectricBxdf::new(TrowbridgeReitz::new(ax, ay), 1.5, SampledSpectrum([1.0]), false);
+    Bsdf::RoughDielectric(glass.along(anisotropy_direction()))
+}
+
+#[test]
+fn chi2_oriented_rough_dielectric_from_both_sides() {
+    chi2_family(&grid_cases(|a| {
+        vec![(format!("oriented glass α ({a}, {})", 0.4 * a), oriented_glass(a, 0.4 * a), 0.4 * a, true)]
+    }));
+}
+
+/// An oriented lobe is the default-frame lobe turned: f of the glass stretched along direction t, at (wo, wi),
+/// equals f of the same distribution in the default basis at (wo, wi) rotated so that t lands on that
+/// basis' x axis (here the basis about +z is (x, y), so the rotation is −30° about z).
+#[test]
+fn an_oriented_dielectric_is_the_default_lobe_turned_to_its_direction() {
+    let (ax, ay) = (0.6, 0.1);
+    let oriented = oriented_glass(ax, ay);
+    let plain = rough_glass(ax, ay, false);
+    let (x, y) = crate::sampling::basis(Vec3::Z);
+    assert!((x - Vec3::X).length() < 1e-6 && (y - Vec3::Y).length() < 1e-6, "the default basis about +z");
+    let turn = glam::Quat::from_rotation_z(-30f32.to_radians());
+    let mut rng = TestRng::new(5);
+    let mut differs = 0;
+    for _ in 0..2000 {
+        let wo = cosine_hemisphere(Vec3::Z, rng.uniform2());
+        let below = cosine_hemisphere(Vec3::Z, rng.uniform2());
+        for wi in [cosine_hemisphere(Vec3::Z, rng.uniform2()), -below] {
+            let got = oriented.f(&FRAME, wo, wi).0[0];
+            let want = plain.f(&FRAME, turn * wo, turn * wi).0[0];
+            assert!((got - want).abs() <= 2e-3 * want.max(1.0), "f({wo}, {wi}) = {got}, turned {want}");
+            let unturned = plain.f(&FRAME, wo, wi).0[0];
+            if (unturned - want).abs() > 0.1 * want.max(1e-3) {
+                differs += 1;
+            }
+        }
+    }
+    assert!(differs > 500, "only {differs} pairs where the orientation matters");
 }
 
 #[test]
