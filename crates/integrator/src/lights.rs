@@ -313,15 +313,21 @@ impl Emitters {
             set.emission.push(Emission::Material(material));
             power.push(kind.phi(colorimetry::relative_luminance(e), radius));
         }
-        // pbrt-v4 `PowerLightSampler`; uniform if no light has power.
+        set.choose_by_power(&power);
+        set
+    }
+
+    /// Light choice in proportion to `power` (one entry per light), as pbrt-v4's `PowerLightSampler`;
+    /// uniform if no light has power.
+    fn choose_by_power(&mut self, power: &[f64]) {
         let total: f64 = power.iter().sum();
-        set.pmf = if total > 0.0 {
+        self.pmf = if total > 0.0 {
             power.iter().map(|p| (p / total) as f32).collect()
         } else {
-            vec![1.0 / set.kinds.len().max(1) as f32; set.kinds.len()]
+            vec![1.0 / self.kinds.len().max(1) as f32; self.kinds.len()]
         };
         let mut acc = 0.0f32;
-        set.cdf = set
+        self.cdf = self
             .pmf
             .iter()
             .map(|p| {
@@ -329,7 +335,6 @@ impl Emitters {
                 acc
             })
             .collect();
-        set
     }
 
     /// Whether the scene has no light at all.
@@ -350,20 +355,9 @@ impl Emitters {
                 changed = true;
             }
         }
-        let total: f64 = power.iter().sum();
-        if !changed || !(total > 0.0) {
-            return;
+        if changed && power.iter().sum::<f64>() > 0.0 {
+            self.choose_by_power(&power);
         }
-        self.pmf = power.iter().map(|p| (p / total) as f32).collect();
-        let mut acc = 0.0f32;
-        self.cdf = self
-            .pmf
-            .iter()
-            .map(|p| {
-                acc += p;
-                acc
-            })
-            .collect();
     }
 
     /// The probability of choosing light `light`.
