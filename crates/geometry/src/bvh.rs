@@ -574,21 +574,8 @@ impl Scene {
         let Primitive::Triangle { mesh, triangle } = self.primitive(hit.primitive) else { return None };
         let m = self.meshes.get(mesh as usize)?;
         let tri = m.indices().get(triangle as usize)?;
-        let v = tri.map(|i| m.positions()[i as usize]);
-        let (e0, e1, e2) = (v[1] - v[0], v[2] - v[0], hit.p - v[0]);
-        let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
-        let (d20, d21) = (e2.dot(e0), e2.dot(e1));
-        let denom = d00 * d11 - d01 * d01;
-        if denom == 0.0 || !denom.is_finite() {
-            return None;
-        }
-        let b1 = (d11 * d20 - d01 * d21) / denom;
-        let b2 = (d00 * d21 - d01 * d20) / denom;
-        // A point rounded just outside the triangle gives a weight of about −1e-7: clamped, so that
-        // an interpolated colour stays within its vertices' range.
-        let b = [1.0 - b1 - b2, b1, b2].map(|w| w.max(0.0));
-        let sum = b[0] + b[1] + b[2];
-        (sum > 0.0 && sum.is_finite()).then(|| (mesh as usize, triangle as usize, b.map(|w| w / sum)))
+        let b = barycentrics(tri.map(|i| m.positions()[i as usize]), hit.p)?;
+        Some((mesh as usize, triangle as usize, b))
     }
 
     /// The mesh's vertex colour (linear RGBA) interpolated at `hit` as UVs are; `None` for spheres,
@@ -799,6 +786,26 @@ impl<const CLOSEST: bool> Kernel for TopQuery<'_, CLOSEST> {
         );
         best
     }
+}
+
+/// The barycentric weights of `p`, a point on the triangle `v` up to rounding (its projection onto the
+/// triangle's plane otherwise), each ≥ 0 and summing to 1: a point rounded just outside gives a weight of
+/// about −1e-7, clamped, so that an interpolated value stays within its vertices' range. `None` for a
+/// triangle whose Gram determinant is 0 or not finite (a sliver can cancel or underflow to 0 though its
+/// area is positive).
+pub fn barycentrics(v: [Vec3; 3], p: Vec3) -> Option<[f32; 3]> {
+    let (e0, e1, e2) = (v[1] - v[0], v[2] - v[0], p - v[0]);
+    let (d00, d01, d11) = (e0.dot(e0), e0.dot(e1), e1.dot(e1));
+    let (d20, d21) = (e2.dot(e0), e2.dot(e1));
+    let denom = d00 * d11 - d01 * d01;
+    if denom == 0.0 || !denom.is_finite() {
+        return None;
+    }
+    let b1 = (d11 * d20 - d01 * d21) / denom;
+    let b2 = (d00 * d21 - d01 * d20) / denom;
+    let b = [1.0 - b1 - b2, b1, b2].map(|w| w.max(0.0));
+    let sum = b[0] + b[1] + b[2];
+    (sum > 0.0 && sum.is_finite()).then(|| b.map(|w| w / sum))
 }
 
 #[cfg(test)]

@@ -920,6 +920,21 @@ impl Loader<'_> {
         }
     }
 
+    /// Any finite number at `key` of `value` (`what` naming it in the warning): `default` where absent, and
+    /// with a warning where it is not a finite number.
+    fn finite(&mut self, value: &serde_json::Value, key: &str, what: &str, default: f32, context: &str) -> f32 {
+        match value.get(key) {
+            None => default,
+            Some(v) => match v.as_f64().filter(|x| x.is_finite()) {
+                Some(x) => x as f32,
+                None => {
+                    self.warn(format!("{context}: {what} {v} is not a number; {default} is used"));
+                    default
+                }
+            },
+        }
+    }
+
     /// A material extension's `textureInfo` (`index`, `texCoord`, `KHR_texture_transform`; and `scale` for a
     /// `normal` map's `normalTextureInfo`), read from its raw JSON (the `gltf` crate types only the core
     /// roles); `None` where absent, and with a warning where it names no texture of the file.
@@ -941,20 +956,7 @@ impl Loader<'_> {
         };
         let set = info.get("texCoord").and_then(serde_json::Value::as_u64).unwrap_or(0) as u32;
         let transform = info.get("extensions").and_then(|e| e.get("KHR_texture_transform")).and_then(transform_value);
-        let scale = if normal {
-            match info.get("scale") {
-                None => 1.0,
-                Some(v) => match v.as_f64().filter(|x| x.is_finite()) {
-                    Some(x) => x as f32,
-                    None => {
-                        self.warn(format!("{context}: normal texture scale {v} is not a number; 1 is used"));
-                        1.0
-                    }
-                },
-            }
-        } else {
-            1.0
-        };
+        let scale = if normal { self.finite(info, "scale", "normal texture scale", 1.0, context) } else { 1.0 };
         self.texture(&texture, set, transform, scale, context)
     }
 
@@ -978,16 +980,7 @@ impl Loader<'_> {
     /// (radians, any finite number; default 0).
     fn anisotropy(&mut self, value: &serde_json::Value, context: &str) -> Option<AnisotropyLayer> {
         let strength = self.factor(value, "anisotropyStrength", 0.0, 1.0, context);
-        let rotation = match value.get("anisotropyRotation") {
-            None => 0.0,
-            Some(v) => match v.as_f64().filter(|x| x.is_finite()) {
-                Some(x) => x as f32,
-                None => {
-                    self.warn(format!("{context}: anisotropyRotation {v} is not a number; 0 is used"));
-                    0.0
-                }
-            },
-        };
+        let rotation = self.finite(value, "anisotropyRotation", "anisotropyRotation", 0.0, context);
         (strength > 0.0).then_some(AnisotropyLayer { strength, rotation })
     }
 

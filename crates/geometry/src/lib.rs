@@ -30,7 +30,7 @@ mod sphere;
 mod triangle;
 mod wide;
 
-pub use bvh::{BvhStats, Primitive, Scene};
+pub use bvh::{BvhStats, Primitive, Scene, barycentrics};
 pub use camera::Camera;
 pub use error::{Error, Result};
 pub use ray::{Hit, Ray, ShadowRay, spawn_ray, spawn_ray_to, spawn_shadow_ray};

@@ -10,7 +10,7 @@ use geometry::{
     AbsorptionDesc, Camera, CameraDesc, EnvironmentMapDesc, IorDesc, LightAmount, LightDesc, LightUnit, LoadOptions,
     MaterialDesc, MaterialFormat, Projection, Scene, SceneDescription, SceneFormat, SpectrumDesc,
 };
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use materials::bsdf::Metal;
 use materials::{Absorption, Coat, DielectricSpecular, Ior, Material, MaterialModel};
 
@@ -815,17 +815,17 @@ fn weigh_textured_lights(scene: &mut RenderScene) {
         let uv = crate::surface::triangle_uvs(mesh, triangle as usize);
         let mut sum = 0.0f64;
         for k in 0..16 {
-            // A 4 × 4 grid on the unit square, mapped to uniform barycentrics (√u warp).
-            let (u1, u2) = ((k % 4) as f32 * 0.25 + 0.125, (k / 4) as f32 * 0.25 + 0.125);
-            let s = u1.sqrt();
-            let (b1, b2) = (s * (1.0 - u2), s * u2);
-            sum += f64::from(t.emissive_luminance((1.0 - b1 - b2) * uv[0] + b1 * uv[1] + b2 * uv[2]).unwrap_or(0.0));
+            // A 4 × 4 grid on the unit square, mapped to the triangle as light sampling maps its points.
+            let u = Vec2::new((k % 4) as f32 * 0.25 + 0.125, (k / 4) as f32 * 0.25 + 0.125);
+            let (b0, b1) = crate::sampling::uniform_triangle(u);
+            sum += f64::from(t.emissive_luminance(b0 * uv[0] + b1 * uv[1] + (1.0 - b0 - b1) * uv[2]).unwrap_or(0.0));
         }
         mean_luminance.push((light, material, sum / 16.0, f64::from(scene.geometry.primitive_area(primitive))));
     }
-    let mut totals: std::collections::HashMap<u32, (f64, f64)> = std::collections::HashMap::new();
+    // Per material: Σ Y_t A_t and Σ A_t.
+    let mut totals = vec![(0.0f64, 0.0f64); scene.materials.len()];
     for &(_, material, y, area) in &mean_luminance {
-        let entry = totals.entry(material).or_default();
+        let entry = &mut totals[material as usize];
         entry.0 += y * area;
         entry.1 += area;
     }
@@ -834,7 +834,7 @@ fn weigh_textured_lights(scene: &mut RenderScene) {
     let weights: Vec<(usize, f64)> = mean_luminance
         .iter()
         .filter_map(|&(light, material, y, _)| {
-            let (sum, area) = totals[&material];
+            let (sum, area) = totals[material as usize];
             (sum > 0.0 && sum.is_finite() && area > 0.0).then(|| (light, 0.1 + 0.9 * y * area / sum))
         })
         .collect();

@@ -27,7 +27,7 @@ use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
 use crate::sampling::{Rng, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
-use crate::surface::{surface_tangent, triangle_uvs};
+use crate::surface::{surface_tangent, tangent_frame, triangle_uvs};
 use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, VertexColorHit};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
@@ -173,22 +173,14 @@ struct TexturedLight {
 }
 
 impl TexturedLight {
-    /// The uv at `q`, a point on the triangle (up to rounding).
+    /// The uv at `q`, a point on the triangle (up to rounding): its barycentrics' blend of the vertices' uvs
+    /// (`geometry::barycentrics`, as hits interpolate vertex data); the first vertex's on a sliver whose Gram
+    /// determinant cancels to 0.
     fn uv_at(&self, q: Vec3) -> Vec2 {
-        let [p0, p1, p2] = self.p;
-        let (e1, e2, d) = (p1 - p0, p2 - p0, q - p0);
-        let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-        let (d1, d2) = (d.dot(e1), d.dot(e2));
-        let denom = d11 * d22 - d12 * d12;
-        // Area lights have positive area, but on a sliver `denom` can cancel (or underflow) to 0: the first
-        // vertex's uv then. Clamped so that rounding stays on the triangle (`b2`'s upper bound by `min`, as a
-        // NaN bound would make `clamp` panic).
-        if !(denom > 0.0 && denom.is_finite()) {
-            return self.uv[0];
+        match geometry::barycentrics(self.p, q) {
+            Some([b0, b1, b2]) => b0 * self.uv[0] + b1 * self.uv[1] + b2 * self.uv[2],
+            None => self.uv[0],
         }
-        let b1 = ((d22 * d1 - d12 * d2) / denom).clamp(0.0, 1.0);
-        let b2 = ((d11 * d2 - d12 * d1) / denom).max(0.0).min(1.0 - b1);
-        (1.0 - b1 - b2) * self.uv[0] + b1 * self.uv[1] + b2 * self.uv[2]
     }
 }
 
@@ -914,12 +906,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let (direction, scale) = textures.and_then(|t| t.anisotropy(hit.uv)).unwrap_or((Vec2::X, 1.0));
         let (sin, cos) = a.rotation.sin_cos();
         let d = Vec2::new(cos * direction.x - sin * direction.y, sin * direction.x + cos * direction.y);
-        let (t, b) = match surface_tangent(&self.scene.geometry, hit)
-            .and_then(|t| (t.truncate() - ns * ns.dot(t.truncate())).try_normalize().map(|u| (u, t.w)))
-        {
-            Some((t, w)) => (t, ns.cross(t) * if w < 0.0 { -1.0 } else { 1.0 }),
-            None => materials::sampling::basis(ns),
-        };
+        let (t, b) = surface_tangent(&self.scene.geometry, hit)
+            .and_then(|t| tangent_frame(t, ns))
+            .unwrap_or_else(|| materials::sampling::basis(ns));
         (a.strength * scale, t * d.x + b * d.y)
     }
 

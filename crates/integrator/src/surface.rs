@@ -2,7 +2,16 @@
 //! material needs it: tangents for normal maps.
 
 use geometry::{Hit, Mesh, Primitive, Scene};
-use glam::{Vec2, Vec4};
+use glam::{Vec2, Vec3, Vec4};
+
+/// The tangent frame (T, B) about the unit shading normal `ns` of a tangent with its bitangent's sign in w
+/// ([`surface_tangent`]): T the tangent made orthogonal to `ns` (Gram–Schmidt: the interpolated tangent is
+/// not exactly orthogonal), B = `ns` × T · sign(w), as glTF defines it. `None` for a tangent along `ns`.
+#[inline]
+pub(crate) fn tangent_frame(tangent: Vec4, ns: Vec3) -> Option<(Vec3, Vec3)> {
+    let t = (tangent.truncate() - ns * ns.dot(tangent.truncate())).try_normalize()?;
+    Some((t, ns.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 }))
+}
 
 /// The uvs of triangle `triangle`'s vertices: the mesh's, else the barycentric corners (0, 0), (1, 0),
 /// (0, 1) (what a hit's uv is without them).

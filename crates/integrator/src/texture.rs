@@ -185,6 +185,23 @@ pub(crate) struct PaletteEntry {
     alpha: f32,
 }
 
+/// A palette entry's linear sRGB, whatever else it holds: what [`ColorTexture::rgb`] blends.
+pub(crate) trait EntryRgb {
+    fn rgb(&self) -> [f32; 3];
+}
+
+impl EntryRgb for PaletteEntry {
+    fn rgb(&self) -> [f32; 3] {
+        self.rgb
+    }
+}
+
+impl EntryRgb for EmissiveEntry {
+    fn rgb(&self) -> [f32; 3] {
+        self.rgb
+    }
+}
+
 /// A colour texture as spectra: a palette of fitted sigmoids and an index per texel. The entries are
 /// reflectances ([`PaletteEntry`]) but for emissive textures ([`EmissiveEntry`]).
 #[derive(Debug)]
@@ -258,6 +275,21 @@ impl<E: Send> ColorTexture<E> {
     }
 }
 
+impl<E: EntryRgb> ColorTexture<E> {
+    /// The linear RGB at `uv` (the blend of the texels' colours × factor).
+    #[inline]
+    fn rgb(&self, uv: Vec2) -> [f32; 3] {
+        let mut rgb = [0.0; 3];
+        for (i, w) in self.sampler.footprint(uv) {
+            let e = self.palette[self.index[i] as usize].rgb();
+            for (sum, value) in rgb.iter_mut().zip(e) {
+                *sum += w * value;
+            }
+        }
+        rgb
+    }
+}
+
 impl ColorTexture {
     /// The reflectance at `uv` at the path's wavelengths (linear RGB on RGB lanes), and the alpha.
     #[inline]
@@ -284,19 +316,6 @@ impl ColorTexture {
             alpha += w * e.alpha;
         }
         (r, alpha)
-    }
-
-    /// The linear RGB at `uv` (the blend of the texels' colours × factor).
-    #[inline]
-    fn rgb(&self, uv: Vec2) -> [f32; 3] {
-        let mut rgb = [0.0; 3];
-        for (i, w) in self.sampler.footprint(uv) {
-            let e = &self.palette[self.index[i] as usize];
-            for (sum, &value) in rgb.iter_mut().zip(&e.rgb) {
-                *sum += w * value;
-            }
-        }
-        rgb
     }
 
     /// Only the alpha at `uv` (shadow rays and cut-outs need no spectrum).
@@ -451,15 +470,8 @@ impl EmissiveTexture {
     /// The luminance (linear sRGB's Y, per unit of the D65 illuminant's) at `uv`: what light sampling weighs
     /// the surface's triangles by.
     fn luminance(&self, uv: Vec2) -> f32 {
-        self.0
-            .sampler
-            .footprint(uv)
-            .iter()
-            .map(|&(i, w)| {
-                let c = self.0.palette[self.0.index[i] as usize].rgb;
-                w * (0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
-            })
-            .sum()
+        let rgb = self.0.rgb(uv);
+        (0..3).map(|c| materials::REC709_LUMINANCE[c] * rgb[c]).sum()
     }
 }
 
@@ -870,9 +882,7 @@ impl MaterialTextures {
 #[inline]
 fn normal_mapped(map: &Option<DataTexture>, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
     let (Some(map), Some(tangent)) = (map, tangent) else { return ns };
-    // Gram–Schmidt: the interpolated tangent is not exactly orthogonal to `ns`.
-    let Some(t) = (tangent.truncate() - ns * ns.dot(tangent.truncate())).try_normalize() else { return ns };
-    let b = ns.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 };
+    let Some((t, b)) = crate::surface::tangent_frame(tangent, ns) else { return ns };
     let c = map.eval(uv);
     let local = Vec3::new((2.0 * c.x - 1.0) * map.scale, (2.0 * c.y - 1.0) * map.scale, 2.0 * c.z - 1.0);
     match (t * local.x + b * local.y + ns * local.z).try_normalize() {

@@ -15,7 +15,7 @@ use glam::{Vec2, Vec3};
 
 use super::compensation::dielectric_table;
 use super::microfacet::TrowbridgeReitz;
-use super::{BsdfSample, BxdfFlags, LocalSample};
+use super::{BsdfSample, BxdfFlags, Direction, LocalSample};
 use crate::scattering::{fr_dielectric, reflect, refract};
 
 /// A rough dielectric interface.
@@ -26,36 +26,32 @@ pub struct RoughDielectricBxdf<const N: usize> {
     tint: SampledSpectrum<N>,
     /// With energy compensation: α the albedo table is read at, min(1, √(α_x α_y)).
     compensation_alpha: Option<f32>,
-    /// The world direction of the local x axis (α_x), octahedrally encoded as in the glTF model; the
-    /// sentinel [`NO_DIRECTION`] where the lobe's frame is any basis about the normal.
-    direction: [i16; 2],
+    /// The world direction of the local x axis (α_x), where [`Self::along`] gave one.
+    direction: Direction,
 }
-
-/// [`RoughDielectricBxdf::direction`] of a lobe without one (outside the encoder's range).
-const NO_DIRECTION: [i16; 2] = [i16::MIN; 2];
 
 impl<const N: usize> RoughDielectricBxdf<N> {
     /// An interface of index `eta` (inside over outside, > 0) with roughness `distrib`,
     /// transmission filtered by `tint`; `compensate` scales the lobe by the inverse albedo.
     pub fn new(distrib: TrowbridgeReitz, eta: f32, tint: SampledSpectrum<N>, compensate: bool) -> Self {
         let compensation_alpha = compensate.then(|| distrib.alpha_iso().min(1.0));
-        Self { distrib, eta, tint, compensation_alpha, direction: NO_DIRECTION }
+        Self { distrib, eta, tint, compensation_alpha, direction: Direction::NONE }
     }
 
     /// The same lobe with its local x axis (where α is `distrib`'s α_x) along `direction`, a world-space
     /// vector in or near the tangent plane (`KHR_materials_anisotropy`); a zero or non-finite one leaves
     /// the frame as it was.
     pub fn along(self, direction: Vec3) -> Self {
-        match direction.try_normalize() {
-            Some(d) => Self { direction: super::octahedral(d), ..self },
-            None => self,
+        match Direction::new(direction) {
+            Direction::NONE => self,
+            direction => Self { direction, ..self },
         }
     }
 
-    /// The direction of [`Self::along`]; `None` without one.
+    /// The direction of [`Self::along`].
     #[inline]
-    pub(crate) fn direction(&self) -> Option<Vec3> {
-        (self.direction != NO_DIRECTION).then(|| super::from_octahedral(self.direction))
+    pub(crate) fn direction(&self) -> Direction {
+        self.direction
     }
 
     /// Index inside over outside.

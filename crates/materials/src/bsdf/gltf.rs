@@ -34,7 +34,7 @@ use glam::{Vec2, Vec3};
 
 use super::compensation::conductor_table;
 use super::microfacet::TrowbridgeReitz;
-use super::{BxdfFlags, LocalSample, from_octahedral, octahedral};
+use super::{BxdfFlags, Direction, LocalSample};
 use crate::sampling::cosine_hemisphere;
 use crate::scattering::reflect;
 
@@ -72,11 +72,8 @@ pub struct GltfMetalRoughBxdf<const N: usize> {
     /// `fresnel_mix`. (A plain number, not an `Option`: with the tag the model would be larger than the
     /// conductor, and so every [`super::Bsdf`].)
     coupling_avg: f32,
-    /// `KHR_materials_anisotropy`'s direction in world space (the local x axis, along which α is `distrib`'s
-    /// α_x), octahedrally encoded (Cigolle et al. 2014) as two snorm16: four bytes keep the model no larger
-    /// than the conductor (`bsdf_size_is_the_conductors`). Read only where `distrib` is anisotropic; an
-    /// isotropic lobe's frame is any basis about the normal.
-    tangent: [i16; 2],
+    /// `KHR_materials_anisotropy`'s direction (the local x axis, along which α is `distrib`'s α_x).
+    direction: Direction,
 }
 
 /// [`GltfMetalRoughBxdf::f0_lanes`]' lanes without `KHR_materials_specular` (any negative value).
@@ -101,7 +98,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
             specular_weight: 1.0,
             f0_lanes: SampledSpectrum([NO_F0_LANES; N]),
             coupling_avg: SPEC_COUPLING,
-            tangent: [0; 2],
+            direction: Direction::NONE,
         }
     }
 
@@ -111,15 +108,17 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
     /// distribution. A zero direction or strength leaves the model isotropic.
     pub fn with_anisotropy(self, strength: f32, direction: Vec3) -> Self {
         let strength = if strength.is_finite() { strength.clamp(0.0, 1.0) } else { 0.0 };
-        let Some(direction) = direction.try_normalize().filter(|_| strength > 0.0) else { return self };
-        let distrib = TrowbridgeReitz::stretched(self.distrib.alpha_iso(), strength);
-        Self { distrib, tangent: octahedral(direction), ..self }
+        let direction = Direction::new(direction);
+        if strength == 0.0 || direction == Direction::NONE {
+            return self;
+        }
+        Self { distrib: TrowbridgeReitz::stretched(self.distrib.alpha_iso(), strength), direction, ..self }
     }
 
-    /// The anisotropic direction ([`Self::with_anisotropy`]), unit; `None` if the lobe is isotropic.
+    /// The anisotropic direction ([`Self::with_anisotropy`]).
     #[inline]
-    pub(crate) fn tangent(&self) -> Option<Vec3> {
-        self.distrib.is_anisotropic().then(|| from_octahedral(self.tangent))
+    pub(crate) fn direction(&self) -> Direction {
+        self.direction
     }
 
     /// `KHR_materials_clearcoat`'s layer: `specular_brdf(α = roughness²)` alone, D · V_smith with no

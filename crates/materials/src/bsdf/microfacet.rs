@@ -70,12 +70,6 @@ impl TrowbridgeReitz {
         self.alpha_x.min(self.alpha_y)
     }
 
-    /// Whether α_x ≠ α_y.
-    #[inline]
-    pub(crate) fn is_anisotropic(&self) -> bool {
-        self.alpha_x != self.alpha_y
-    }
-
     /// Density of microfacet normals per unit projected area, D(ω_m) = 1 / (π α_x α_y
     /// ((x/α_x)² + (y/α_y)² + z²)²), the form without tan θ that stays finite at grazing.
     #[inline]

@@ -235,41 +235,44 @@ impl Local {
     }
 }
 
-/// `w` (unit) on the octahedron, unfolded onto [−1, 1]² and quantised to snorm16.
-fn octahedral(w: Vec3) -> [i16; 2] {
-    let p = w.truncate() / (w.x.abs() + w.y.abs() + w.z.abs());
-    let p = if w.z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
-    let q = |v: f32| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16;
-    [q(p.x), q(p.y)]
-}
+/// A lobe's direction in world space (the local x axis of an anisotropic lobe), octahedrally encoded
+/// (Cigolle et al. 2014) in two snorm16: four bytes keep the rough lobes no larger than the conductor
+/// (`bsdf_size_is_the_conductors`). [`Direction::NONE`] where the lobe's frame is any basis about the
+/// normal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Direction([i16; 2]);
 
-/// The unit vector [`octahedral`] encoded.
-#[inline]
-fn from_octahedral(e: [i16; 2]) -> Vec3 {
-    let p = Vec2::new(f32::from(e[0]), f32::from(e[1])) / 32767.0;
-    let z = 1.0 - p.x.abs() - p.y.abs();
-    let xy = if z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
-    xy.extend(z).normalize()
-}
+impl Direction {
+    /// No direction (outside the encoder's range).
+    pub(crate) const NONE: Self = Self([i16::MIN; 2]);
 
-impl<const N: usize> RoughDielectricBxdf<N> {
-    /// The lobe's local frame about `n`: oriented along its direction where it has one.
+    /// `w` on the octahedron, unfolded onto [−1, 1]² and quantised; [`Self::NONE`] for a zero or non-finite `w`.
+    pub(crate) fn new(w: Vec3) -> Self {
+        let Some(w) = w.try_normalize() else { return Self::NONE };
+        let p = w.truncate() / (w.x.abs() + w.y.abs() + w.z.abs());
+        let p = if w.z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
+        let q = |v: f32| (v.clamp(-1.0, 1.0) * 32767.0).round() as i16;
+        Self([q(p.x), q(p.y)])
+    }
+
+    /// The unit vector encoded; `None` for [`Self::NONE`].
     #[inline]
-    fn local(&self, n: Vec3) -> Local {
-        match self.direction() {
+    pub(crate) fn get(self) -> Option<Vec3> {
+        if self == Self::NONE {
+            return None;
+        }
+        let p = Vec2::new(f32::from(self.0[0]), f32::from(self.0[1])) / 32767.0;
+        let z = 1.0 - p.x.abs() - p.y.abs();
+        let xy = if z >= 0.0 { p } else { (Vec2::ONE - Vec2::new(p.y, p.x).abs()) * p.signum() };
+        Some(xy.extend(z).normalize())
+    }
+
+    /// The local frame about `n`: x along the direction made orthogonal to `n` where there is one.
+    #[inline]
+    fn frame(self, n: Vec3) -> Local {
+        match self.get() {
             None => Local::new(n),
             Some(t) => Local::oriented(n, t),
-        }
-    }
-}
-
-impl<const N: usize> GltfMetalRoughBxdf<N> {
-    /// The lobe's local frame about `ns`: oriented along its anisotropic direction where it has one.
-    #[inline]
-    fn local(&self, ns: Vec3) -> Local {
-        match self.tangent() {
-            None => Local::new(ns),
-            Some(t) => Local::oriented(ns, t),
         }
     }
 }
@@ -384,13 +387,13 @@ impl<const N: usize> Bsdf<N> {
                     return None;
                 }
                 let l = match self {
-                    Self::GltfMetalRough(g) => g.local(ns),
+                    Self::GltfMetalRough(g) => g.direction().frame(ns),
                     _ => Local::new(ns),
                 };
                 Some((l.local(wo), l.local(wi)))
             }
             Self::RoughDielectric(d) => {
-                let l = d.local(frame.interface_normal(wo));
+                let l = d.direction().frame(frame.interface_normal(wo));
                 let (wo_l, wi_l) = (l.local(wo), l.local(wi));
                 frame.agrees_with_geometry(wo, wi, wo_l.z * wi_l.z > 0.0).then_some((wo_l, wi_l))
             }
@@ -464,14 +467,14 @@ impl<const N: usize> Bsdf<N> {
                 if d.is_smooth() {
                     return Bsdf::Dielectric { eta: d.eta(), tint: d.tint() }.sample_f(frame, wo, uc, u);
                 }
-                let l = d.local(frame.interface_normal(wo));
+                let l = d.direction().frame(frame.interface_normal(wo));
                 let wo_l = l.local(wo);
                 let s = d.sample_f(wo_l, uc, u)?;
                 let wi = l.world(s.wi);
                 frame.agrees_with_geometry(wo, wi, wo_l.z * s.wi.z > 0.0).then(|| world_sample(s, wi))
             }
             Self::GltfMetalRough(g) => {
-                let l = g.local(ns);
+                let l = g.direction().frame(ns);
                 reflection_sample(g.sample_f(l.local(wo), uc, u)?, &l, wo, ns, ng)
             }
             Self::ThinDielectric(d) => d.sample_f(frame.interface_normal(wo).dot(wo), uc, mirror(wo, ns, ng), -wo),

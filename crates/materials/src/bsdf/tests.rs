@@ -645,8 +645,8 @@ fn anisotropy_direction() -> Vec3 {
     Vec3::new(30f32.to_radians().cos(), 30f32.to_radians().sin(), 0.0)
 }
 
-/// The anisotropic direction's 16-bit octahedral code (`gltf::octahedral`) round-trips every unit vector,
-/// both hemispheres and the poles and axes, to within 1e-4 rad.
+/// The anisotropic direction's 16-bit octahedral code ([`Direction`]) round-trips every unit vector, both
+/// hemispheres and the poles and axes, to within 1e-4 rad; zero and non-finite vectors are no direction.
 #[test]
 fn octahedral_directions_round_trip() {
     let mut rng = TestRng::new(11);
@@ -658,11 +658,14 @@ fn octahedral_directions_round_trip() {
         Vec3::new(r * (2.0 * PI * v).cos(), r * (2.0 * PI * v).sin(), z)
     });
     for w in axes.into_iter().chain(random) {
-        let back = from_octahedral(octahedral(w));
+        let back = Direction::new(w).get().expect("a unit vector has a direction");
         assert!((back.length() - 1.0).abs() < 1e-5, "{w} → {back}");
         // (The angle from the cross product: its cosine rounds to 1 in f32.)
         let angle = w.cross(back).length().atan2(w.dot(back));
         assert!(angle < 1e-4, "{w} → {back}: {angle} rad");
+    }
+    for w in [Vec3::ZERO, Vec3::NAN, Vec3::new(f32::INFINITY, 0.0, 0.0)] {
+        assert_eq!(Direction::new(w), Direction::NONE, "{w}");
     }
 }
 
