@@ -388,6 +388,9 @@ impl Scene {
             ray.origin.to_array(),
             ray.dir.to_array(),
             t_max,
+            // Always inlined: left to itself the compiler kept the leaf test out of line, a
+            // call per leaf (14 % of traversal time on the 100k-triangle terrain, perf).
+            #[inline(always)]
             |start, count, mut t_max| {
                 for (slot, ([p0, p1, p2], prim)) in self.ordered[start..start + count].iter().enumerate() {
                     // (Before the test: its result would be dropped.)

@@ -186,8 +186,21 @@ impl WideBvh {
                 }
                 // One child hit (the common case low in the tree): descend without the stack.
                 // (`mask & (mask − 1)` rather than count_ones: x86-64 has no POPCNT baseline.)
-                if mask & (mask - 1) == 0 {
-                    current = node.children[mask.trailing_zeros() as usize];
+                let first = mask.trailing_zeros() as usize;
+                let rest = mask & (mask - 1);
+                if rest == 0 {
+                    current = node.children[first];
+                    continue;
+                }
+                // Two children hit (the common case above that): visit the nearer, push the
+                // other, without the sort below; the same order as the sort (on a tie, or
+                // without sorting for any-hit, the higher slot is visited first).
+                if rest & (rest - 1) == 0 {
+                    let second = rest.trailing_zeros() as usize;
+                    let (a, b) = ((node.children[first], tn[first]), (node.children[second], tn[second]));
+                    let (near, far) = if CLOSEST && a.1 < b.1 { (a, b) } else { (b, a) };
+                    stack.push(far);
+                    current = near.0;
                     continue;
                 }
                 let mut entries = [(0u32, 0f32); 8];
