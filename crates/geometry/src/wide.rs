@@ -7,6 +7,9 @@
 //! Children are visited nearest first and stack entries carry their entry distance, so
 //! subtrees behind the closest hit so far are skipped when popped.
 //!
+//! Measured and rejected (session 13, `docs/perf.md`): software prefetch of pushed nodes and of
+//! hit leaves' triangles, and the reciprocals as one four-lane division, all within noise.
+//!
 //! Measured and rejected (1M-triangle benchmark, one thread, same-session A/B runs):
 //! re-quantising the child boxes to 8 bits per plane (108-byte nodes instead of 224, decoded
 //! with vectorised u8 → f32 conversion) was ~24 % slower on primary and incoherent rays: the
