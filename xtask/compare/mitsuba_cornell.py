@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Render scenes/reference/cornell_box.json with spectrace and with Mitsuba 3 (variant
-scalar_spectral) at equal spp, and report time and error for both.
+"""Render scenes/reference/cornell_box.json with spectrace and with Mitsuba 3 (variants
+scalar_spectral and llvm_ad_spectral) at equal spp, and report time and error for both, and
+each renderer's time to mean ΔE00 < 1 and to relative MSE < 1e-3.
 
 An optional comparison tool: the project does not need it. It needs `pip install mitsuba
 colour-science OpenEXR` and a release build (`cargo build --release -p cli`).
@@ -19,6 +20,19 @@ with each other (the systematic difference between the two renderers).
 
     python3 xtask/compare/mitsuba_cornell.py --out target/mitsuba-compare --threads 1 \
         --spp 4 16 64 --ref-spp 1024
+
+`llvm_ad_spectral` (Mitsuba's vectorised LLVM variant) needs an LLVM drjit can load: drjit's
+default LLVM 15 aborts on Debian 12, whose `libllvm19` package works; the script sets
+`DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1` when that file exists and the
+variable is unset. Its first render of a scene compiles kernels, so each variant renders once
+at the smallest spp before the timed runs (a warm-up, not counted).
+
+Time to an error: the spp ladder's errors are fitted as a power of spp (least squares in
+log-log; Monte Carlo noise gives MSE ∝ 1/spp) and its times as a line in spp (set-up
+included), and the fit's time at the threshold is reported, with `--score common` scoring
+every renderer against spectrace's converged reference (the same reference for all, as a
+user comparing the two would) and `--score own` each against its own. `--repeats K` renders
+each point K times, interleaving renderers, and takes the median time.
 """
 
 import argparse
@@ -29,9 +43,13 @@ import sys
 import time
 from pathlib import Path
 
-import drjit as dr
-import mitsuba as mi
-import numpy as np
+LLVM19 = "/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1"
+if "DRJIT_LIBLLVM_PATH" not in os.environ and os.path.exists(LLVM19):
+    os.environ["DRJIT_LIBLLVM_PATH"] = LLVM19
+
+import drjit as dr  # noqa: E402
+import mitsuba as mi  # noqa: E402
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mitsuba_common import GRID, ROOT, delta_e00, held, illuminant, read_csv, read_spectrace_exr, spectrum  # noqa: E402
@@ -118,12 +136,28 @@ def mitsuba_scene(manifest, spp, width, height):
     return scene
 
 
-def render_mitsuba(manifest, spp, width, height, seed):
+def render_mitsuba(manifest, spp, width, height, seed, variant="scalar_spectral"):
+    mi.set_variant(variant)
     scene = mi.load_dict(mitsuba_scene(manifest, spp, width, height))
     start = time.perf_counter()
     image = mi.render(scene, spp=spp, seed=seed)
+    image = np.array(image)  # waits for the LLVM variant's kernels to finish
     seconds = time.perf_counter() - start
-    return np.array(image)[:, :, :3].astype(np.float64), seconds
+    return image[:, :, :3].astype(np.float64), seconds
+
+
+def time_to(spps, errors_, seconds, threshold):
+    """Fitted time at which the error reaches `threshold` (see the module's docstring), and
+    the fitted spp there; None with fewer than two points or if the errors do not fall with spp."""
+    if len(spps) < 2:
+        return None
+    x = np.log(np.asarray(spps, dtype=np.float64))
+    slope, intercept = np.polyfit(x, np.log(np.asarray(errors_)), 1)
+    if slope >= 0:
+        return None
+    spp = float(np.exp((np.log(threshold) - intercept) / slope))
+    per, fixed = np.polyfit(np.asarray(spps, dtype=np.float64), np.asarray(seconds), 1)
+    return per * spp + fixed, spp
 
 
 def render_spectrace(binary, spp, width, height, seed, threads, spectral, out):
@@ -160,9 +194,11 @@ def main():
     p.add_argument("--spp", type=int, nargs="+", default=[4, 16, 64])
     p.add_argument("--ref-spp", type=int, default=1024)
     p.add_argument("--spectral", nargs="+", default=["auto", "hero:4"])
+    p.add_argument("--variants", nargs="+", default=["scalar_spectral", "llvm_ad_spectral"])
+    p.add_argument("--score", choices=["common", "own"], default="common")
+    p.add_argument("--repeats", type=int, default=1)
     args = p.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    dr.set_thread_count(args.threads)
     manifest = json.loads(SCENE.read_text())
     n = args.size
 
@@ -175,29 +211,81 @@ def main():
         return image
 
     dr.set_thread_count(os.cpu_count())
-    ref_m = cached(f"ref_mitsuba_{n}_{args.ref_spp}", lambda: render_mitsuba(manifest, args.ref_spp, n, n, 7))
     ref_s = cached(
         f"ref_spectrace_{n}_{args.ref_spp}",
         lambda: render_spectrace(args.spectrace, args.ref_spp, n, n, 7, os.cpu_count(), "bins:95", args.out),
     )
+    refs = {"spectrace": ref_s}
+    if args.variants:
+        # Mitsuba's own reference (its fastest variant): for `--score own`, and for the systematic
+        # difference between the two renderers' converged images.
+        v = "llvm_ad_spectral" if "llvm_ad_spectral" in args.variants else args.variants[0]
+        refs["mitsuba"] = cached(
+            f"ref_mitsuba_{n}_{args.ref_spp}", lambda: render_mitsuba(manifest, args.ref_spp, n, n, 7, v)
+        )
+        ratio = ref_s[:, :, 1].mean() / refs["mitsuba"][:, :, 1].mean()
+        print(f"converged references ({args.ref_spp} spp), spectrace vs Mitsuba: mean Y ratio {ratio:.4f}")
+        for block in (1, 4, 8):
+            # Block averages take the references' own remaining noise out of the comparison.
+            mean, p95, rmse = errors(downsample(ref_s, block), downsample(refs["mitsuba"], block))
+            print(f"  {block}x{block} blocks: ΔE00 mean {mean:.3f} p95 {p95:.3f}, relative MSE {rmse:.2e}")
     dr.set_thread_count(args.threads)
-    ratio = ref_s[:, :, 1].mean() / ref_m[:, :, 1].mean()
-    print(f"converged references ({args.ref_spp} spp), spectrace vs Mitsuba: mean Y ratio {ratio:.4f}")
-    for block in (1, 4, 8):
-        # Block averages take the references' own remaining noise out of the comparison.
-        mean, p95, rmse = errors(downsample(ref_s, block), downsample(ref_m, block))
-        print(f"  {block}x{block} blocks: ΔE00 mean {mean:.3f} p95 {p95:.3f}, relative MSE {rmse:.2e}")
-    print("renderer           spp  seconds  Msamples/s  ΔE00 mean  ΔE00 p95  rel.MSE")
-    rows = []
+
+    def reference(renderer):
+        return refs[renderer] if args.score == "own" else ref_s
+
+    renderers = [(f"mitsuba {v}", "mitsuba", v) for v in args.variants]
+    renderers += [(f"spectrace {s}", "spectrace", s) for s in args.spectral]
+    # Warm-up (the LLVM variant compiles its kernels on the first render of a scene).
+    for _, kind, mode in renderers:
+        if kind == "mitsuba":
+            render_mitsuba(manifest, min(args.spp), n, n, 3, mode)
+    results = {name: [] for name, _, _ in renderers}
     for spp in args.spp:
-        image, secs = render_mitsuba(manifest, spp, n, n, 1)
-        rows.append(("mitsuba scalar_spectral", spp, secs, *errors(image, ref_m)))
-        for spectral in args.spectral:
-            image, secs = render_spectrace(args.spectrace, spp, n, n, 1, args.threads, spectral, args.out)
-            rows.append((f"spectrace {spectral}", spp, secs, *errors(image, ref_s)))
-    for name, spp, secs, mean, p95, rmse in rows:
-        rate = n * n * spp / secs / 1e6
-        print(f"{name:24} {spp:4} {secs:8.2f} {rate:11.3f} {mean:10.3f} {p95:9.3f} {rmse:8.2e}")
+        times = {name: [] for name, _, _ in renderers}
+        images = {}
+        for _ in range(args.repeats):
+            for name, kind, mode in renderers:
+                if kind == "mitsuba":
+                    image, secs = render_mitsuba(manifest, spp, n, n, 1, mode)
+                else:
+                    image, secs = render_spectrace(args.spectrace, spp, n, n, 1, args.threads, mode, args.out)
+                times[name].append(secs)
+                images[name] = image
+        for name, kind, _ in renderers:
+            secs = float(np.median(times[name]))
+            results[name].append((spp, secs, *errors(images[name], reference(kind))))
+    print(f"scored against: {'each renderer’s own reference' if args.score == 'own' else 'spectrace’s reference'}")
+    print("renderer                    spp  seconds  Msamples/s  ΔE00 mean  ΔE00 p95  rel.MSE")
+    for name, rows in results.items():
+        for spp, secs, mean, p95, rmse in rows:
+            rate = n * n * spp / secs / 1e6
+            print(f"{name:27} {spp:4} {secs:8.2f} {rate:11.3f} {mean:10.3f} {p95:9.3f} {rmse:8.2e}")
+    # Equal-error time ratios at each spp against a baseline: Monte Carlo MSE falls as 1/spp, so
+    # the time to reach the baseline's error is t·(e/e_base) for relative MSE and t·(e/e_base)²
+    # for ΔE00 (a distance, ∝ spp^-1/2 while noise dominates). These need no extrapolation.
+    base = next((name for name, _, mode in renderers if mode == "llvm_ad_spectral"), renderers[0][0])
+    print(f"equal-error time ratio against {base} (below 1: faster to the same error)")
+    print("renderer                    spp   ΔE00 mean   rel.MSE")
+    for name, rows in results.items():
+        for (spp, secs, mean, _, rmse), (_, b_secs, b_mean, _, b_rmse) in zip(rows, results[base]):
+            de = (mean / b_mean) ** 2 * secs / b_secs
+            mse = rmse / b_rmse * secs / b_secs
+            print(f"{name:27} {spp:4} {de:11.3f} {mse:9.3f}")
+    if args.ref_spp < 8 * max(args.spp):
+        print(
+            f"note: the reference has {args.ref_spp} spp, under 8× the largest ladder point: its own noise is a floor "
+            "under every error, so the fitted times below (extrapolated beyond it) are not measurements"
+        )
+    print("renderer                    time to ΔE00 < 1 (spp)   time to relMSE < 1e-3 (spp)")
+    for name, rows in results.items():
+        spps = [r[0] for r in rows]
+        secs = [r[1] for r in rows]
+        cells = []
+        for column, threshold in ((2, 1.0), (4, 1e-3)):
+            fit = time_to(spps, [r[column] for r in rows], secs, threshold)
+            cells.append("—" if fit is None else f"{fit[0]:8.1f} s ({fit[1]:6.0f})")
+        print(f"{name:27} {cells[0]:>24} {cells[1]:>28}")
 
 
 if __name__ == "__main__":
