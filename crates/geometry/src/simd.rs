@@ -195,18 +195,20 @@ impl NodeTest for Avx2 {
     fn test(self, node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
         // SAFETY: an `Avx2` exists only inside `run_avx2`/`run_avx512`, which `dispatch` calls
         // only for a `Supported` AVX2 or AVX-512 level; `Supported::new` built that level after
-        // `SimdLevel::is_supported` confirmed AVX2 and FMA (and AVX-512 needs AVX2) on this CPU.
+        // `SimdLevel::is_supported` confirmed AVX2 (which implies AVX) on this CPU.
         unsafe { node_test_avx2(node, ray, t_max) }
     }
 }
 
-/// Always inlined and without `#[target_feature]` of its own (the two cannot be combined): it
-/// is compiled inside `run_avx2`/`run_avx512`, whose features its intrinsics then inline
+/// Always inlined and without `#[target_feature]` of its own (the two cannot be combined), so
+/// that it is compiled into `run_avx2`/`run_avx512`, whose features its intrinsics then inline
 /// into. As a `#[target_feature]` function it stayed out of line, a call per node: 13 % of
-/// the traversal's time, and the AVX2 level no faster than SSE2.
+/// the traversal's time, and the AVX2 level no faster than SSE2. Every function between
+/// `run_avx2` and here must be inlined too (closures included): one left out of line has no
+/// AVX features, and each intrinsic becomes a call of its own (slow, still correct).
 ///
 /// # Safety
-/// Only callable where AVX2 is available (inside `run_avx2`/`run_avx512`).
+/// The CPU must support AVX (the intrinsics are AVX's; the `Avx2` proof guarantees AVX2).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn node_test_avx2(node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
