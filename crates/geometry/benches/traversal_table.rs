@@ -15,10 +15,11 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use geometry::{Ray, Scene, SimdLevel};
+use geometry::{Instances, Ray, Scene, SimdLevel};
+use glam::{Mat4, Vec3};
 
 mod common;
-use common::{SCENES, export, rays, thread_cpu_seconds};
+use common::{SCENES, export, icosphere, rays, thread_cpu_seconds};
 
 fn seconds() -> f64 {
     thread_cpu_seconds().unwrap_or_else(|| {
@@ -73,36 +74,7 @@ fn main() {
             stats.bytes_per_primitive
         ));
         let (primary, incoherent) = rays(&scene);
-        let kinds: [(&str, &[Ray], bool); 3] = [
-            ("primary closest", &primary, false),
-            ("incoherent closest", &incoherent, false),
-            ("incoherent any", &incoherent, true),
-        ];
-        let mut rates = vec![vec![Vec::new(); levels.len()]; kinds.len()];
-        let mut hits = vec![vec![0; levels.len()]; kinds.len()];
-        for _ in 0..rounds {
-            for (k, &(_, rays, any)) in kinds.iter().enumerate() {
-                for (l, &level) in levels.iter().enumerate() {
-                    scene.set_simd_level(level);
-                    let (h, t) = pass(&scene, rays, any);
-                    hits[k][l] = h;
-                    rates[k][l].push(rays.len() as f64 / t / 1e6);
-                }
-            }
-        }
-        for (k, &(kind, rays, _)) in kinds.iter().enumerate() {
-            assert!(
-                hits[k].iter().all(|&h| h == hits[k][0]),
-                "{name} {kind}: hit counts differ by level: {:?}",
-                hits[k]
-            );
-            print!("| {name} | {kind} |");
-            for r in &rates[k] {
-                print!(" {:.2} |", median(r.clone()));
-            }
-            println!();
-            notes.push(format!("{name} {kind}: {} hits of {} rays at every level", hits[k][0], rays.len()));
-        }
+        let hits = rows(name, &mut scene, &primary, &incoherent, &levels, rounds, &mut notes);
         if let Ok(dir) = std::env::var("SPECTRACE_EXPORT_RAYS") {
             let json = format!(
                 "{{\"triangles\": {}, \"primary\": {}, \"incoherent\": {}, \"incoherent_any\": {}}}\n",
@@ -114,8 +86,65 @@ fn main() {
             export(&dir, name, &mesh, &primary, &incoherent, &json);
         }
     }
+    // Instances (the two-level BVH): an icosphere placed 64 times. Its object-level traversal
+    // runs inside the top level's leaf test, which must be compiled into the SIMD kernel too
+    // (out of line, the AVX2 node test became a call per intrinsic, ~2.8× slower).
+    let name = "instanced_64x5k";
+    if filter.as_ref().is_none_or(|f| name.contains(f.as_str())) {
+        let ball = icosphere(4, Vec3::ZERO, 0.09);
+        let transforms: Vec<Mat4> = (0..64)
+            .map(|i| {
+                Mat4::from_translation(Vec3::new((i % 8) as f32 * 0.25 - 0.875, 0.0, (i / 8) as f32 * 0.25 - 0.875))
+            })
+            .collect();
+        let instances = Instances::new(vec![ball], transforms).unwrap();
+        let mut scene = Scene::build_with_instances(Vec::new(), Vec::new(), vec![instances]).unwrap();
+        notes.push(format!("{name}: {} placements of {} triangles", scene.instance_count(), 20 * 4u32.pow(4)));
+        let (primary, incoherent) = rays(&scene);
+        rows(name, &mut scene, &primary, &incoherent, &levels, rounds, &mut notes);
+    }
     println!();
     for n in notes {
         println!("{n}");
     }
+}
+
+/// The table's three rows for one scene (interleaved rounds over every level); the hit counts
+/// per row, which must be equal at every level.
+fn rows(
+    name: &str,
+    scene: &mut Scene,
+    primary: &[Ray],
+    incoherent: &[Ray],
+    levels: &[SimdLevel],
+    rounds: usize,
+    notes: &mut Vec<String>,
+) -> Vec<Vec<usize>> {
+    let kinds: [(&str, &[Ray], bool); 3] = [
+        ("primary closest", primary, false),
+        ("incoherent closest", incoherent, false),
+        ("incoherent any", incoherent, true),
+    ];
+    let mut rates = vec![vec![Vec::new(); levels.len()]; kinds.len()];
+    let mut hits = vec![vec![0; levels.len()]; kinds.len()];
+    for _ in 0..rounds {
+        for (k, &(_, rays, any)) in kinds.iter().enumerate() {
+            for (l, &level) in levels.iter().enumerate() {
+                scene.set_simd_level(level);
+                let (h, t) = pass(scene, rays, any);
+                hits[k][l] = h;
+                rates[k][l].push(rays.len() as f64 / t / 1e6);
+            }
+        }
+    }
+    for (k, &(kind, rays, _)) in kinds.iter().enumerate() {
+        assert!(hits[k].iter().all(|&h| h == hits[k][0]), "{name} {kind}: hit counts differ by level: {:?}", hits[k]);
+        print!("| {name} | {kind} |");
+        for r in &rates[k] {
+            print!(" {:.2} |", median(r.clone()));
+        }
+        println!();
+        notes.push(format!("{name} {kind}: {} hits of {} rays at every level", hits[k][0], rays.len()));
+    }
+    hits
 }
