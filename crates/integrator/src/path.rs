@@ -27,7 +27,7 @@ use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
 use crate::sampling::{Rng, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
-use crate::surface::{surface_tangent, tangent_frame, triangle_uvs};
+use crate::surface::{HitTangent, tangent_frame, triangle_uvs};
 use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, VertexColorHit};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
@@ -636,13 +636,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let last = &mut last_surface;
             // A clear coat is picked with its share of the light seen from `wo`, the material otherwise. The
             // coat has its own normal: its normal map's, else the interpolated one (not the base's map).
+            let tangent = HitTangent::new(&self.scene.geometry, &hit);
             let coated = if ROUGH {
                 m.coat
                     .map(|c| match textures {
                         Some(t) => {
                             let ns = if t.has_coat_normal_map() {
-                                let tangent = surface_tangent(&self.scene.geometry, &hit);
-                                t.coat_normal(hit.uv, hit.ns, tangent, hit.n)
+                                t.coat_normal(hit.uv, hit.ns, tangent.get(), hit.n)
                             } else {
                                 hit.ns
                             };
@@ -656,7 +656,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             };
             let ns = match (coated, textures.filter(|t| t.has_base_normal_map())) {
                 (Some((_, ns)), _) => ns,
-                (None, Some(t)) => t.shading_normal(hit.uv, hit.ns, surface_tangent(&self.scene.geometry, &hit), hit.n),
+                (None, Some(t)) => t.shading_normal(hit.uv, hit.ns, tangent.get(), hit.n),
                 (None, None) => hit.ns,
             };
             let frame = Frame { n: hit.n, ns };
@@ -703,7 +703,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                             tint,
                             compensate,
                         )),
-                        Some(a) => self.anisotropic_glass(a, textures, &hit, ns, alpha, eta, tint, compensate),
+                        Some(a) => self.anisotropic_glass(a, textures, &tangent, ns, alpha, eta, tint, compensate),
                     }
                 }
                 PathScattering::ThinDielectric { tint, eta } => {
@@ -731,7 +731,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         None => base(id, lambda, last),
                     };
                     let specular = hit_specular(specular);
-                    let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, textures, &hit, ns));
+                    let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, textures, &tangent, ns));
                     Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular, anisotropy))
                 }
                 PathScattering::GltfTransmission {
@@ -758,7 +758,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                             let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                             let alpha = roughness * roughness;
                             match m.anisotropy {
-                                Some(a) => self.anisotropic_glass(a, textures, &hit, ns, alpha, eta, colour, true),
+                                Some(a) => self.anisotropic_glass(a, textures, &tangent, ns, alpha, eta, colour, true),
                                 None if roughness > 0.0 => Bsdf::RoughDielectric(RoughDielectricBxdf::new(
                                     TrowbridgeReitz::isotropic(alpha),
                                     eta,
@@ -772,7 +772,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         // What is not glass: metallic / (1 − glass) of it is metal (glass < 1 here).
                         let metal = if glass < 1.0 { metallic / (1.0 - glass) } else { 1.0 };
                         let specular = hit_specular(specular);
-                        let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, textures, &hit, ns));
+                        let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, textures, &tangent, ns));
                         let metal = metal.min(1.0);
                         Bsdf::GltfMetalRough(self.metal_rough(colour, metal, roughness, ior, specular, anisotropy))
                     }
@@ -875,22 +875,21 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     }
 
     /// A rough dielectric of roughness α stretched by `KHR_materials_anisotropy` along its direction at the
-    /// hit ([`Self::anisotropy_at`]). Out of line:
-    /// only anisotropic glass calls it.
+    /// hit ([`Self::anisotropy_at`]). Out of line: only anisotropic glass calls it.
     #[allow(clippy::too_many_arguments)]
     #[inline(never)]
     fn anisotropic_glass(
         &self,
         a: Anisotropy,
         textures: Option<&MaterialTextures>,
-        hit: &Hit,
+        tangent: &HitTangent,
         ns: Vec3,
         alpha: f32,
         eta: f32,
         tint: SampledSpectrum<N>,
         compensate: bool,
     ) -> Bsdf<N> {
-        let (strength, direction) = self.anisotropy_at(a, textures, hit, ns);
+        let (strength, direction) = self.anisotropy_at(a, textures, tangent, ns);
         let distrib = TrowbridgeReitz::stretched(alpha, strength);
         // (A distribution the stretch leaves smooth samples as the smooth interface: `Bsdf::sample_f`.)
         Bsdf::RoughDielectric(RoughDielectricBxdf::new(distrib, eta, tint, compensate).along(direction))
@@ -902,13 +901,17 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// (no TANGENT and no UVs: assembly warns; placed instances) an arbitrary one about `ns`. Out of line:
     /// only anisotropic materials call it.
     #[inline(never)]
-    fn anisotropy_at(&self, a: Anisotropy, textures: Option<&MaterialTextures>, hit: &Hit, ns: Vec3) -> (f32, Vec3) {
-        let (direction, scale) = textures.and_then(|t| t.anisotropy(hit.uv)).unwrap_or((Vec2::X, 1.0));
+    fn anisotropy_at(
+        &self,
+        a: Anisotropy,
+        textures: Option<&MaterialTextures>,
+        tangent: &HitTangent,
+        ns: Vec3,
+    ) -> (f32, Vec3) {
+        let (direction, scale) = textures.and_then(|t| t.anisotropy(tangent.hit().uv)).unwrap_or((Vec2::X, 1.0));
         let (sin, cos) = a.rotation.sin_cos();
         let d = Vec2::new(cos * direction.x - sin * direction.y, sin * direction.x + cos * direction.y);
-        let (t, b) = surface_tangent(&self.scene.geometry, hit)
-            .and_then(|t| tangent_frame(t, ns))
-            .unwrap_or_else(|| materials::sampling::basis(ns));
+        let (t, b) = tangent.get().and_then(|t| tangent_frame(t, ns)).unwrap_or_else(|| materials::sampling::basis(ns));
         (a.strength * scale, t * d.x + b * d.y)
     }
 

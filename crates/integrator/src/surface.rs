@@ -27,6 +27,29 @@ pub(crate) fn triangle_uvs(mesh: &Mesh, triangle: usize) -> [Vec2; 3] {
 /// +Y of a normal map, towards decreasing v) in w: the mesh's `TANGENT` interpolated, else the
 /// triangle's ∂p/∂u from its UVs (the per-face frame MikkTSpace starts from; it differs from
 /// MikkTSpace's per-vertex averaging only across faces). `None` for spheres, placed instances, or without UVs.
+/// [`surface_tangent`] of one hit, computed on first use and kept: the coat's normal map, the
+/// base's and the anisotropy direction may each ask for it at the same hit.
+pub(crate) struct HitTangent<'a> {
+    scene: &'a Scene,
+    hit: &'a Hit,
+    value: std::cell::OnceCell<Option<Vec4>>,
+}
+
+impl<'a> HitTangent<'a> {
+    pub(crate) fn new(scene: &'a Scene, hit: &'a Hit) -> Self {
+        Self { scene, hit, value: std::cell::OnceCell::new() }
+    }
+
+    /// The hit it is the tangent of.
+    pub(crate) fn hit(&self) -> &'a Hit {
+        self.hit
+    }
+
+    pub(crate) fn get(&self) -> Option<Vec4> {
+        *self.value.get_or_init(|| surface_tangent(self.scene, self.hit))
+    }
+}
+
 pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
     // Hits on placed instances carry no primitive id (u32::MAX): no tangent frame there yet, so a
     // normal map on an instanced mesh shades with the interpolated normal.

@@ -62,6 +62,14 @@ fn triangle_gltf(uri: Option<&str>, byte_length: usize, extra: serde_json::Value
     doc
 }
 
+/// [`triangle_gltf`] with its buffer inline and its primitive using material 0 of `extra`.
+fn material_triangle(extra: serde_json::Value) -> serde_json::Value {
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let mut doc = triangle_gltf(Some(&uri), 36, extra);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    doc
+}
+
 const TRIANGLE: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
 
 fn data_uri(bytes: &[u8]) -> String {
@@ -316,13 +324,9 @@ fn gltf_strips_are_triangulated_and_lines_skipped() {
 #[test]
 fn gltf_ior_zero_is_kept() {
     let dir = temp_dir("ior0");
-    let uri = data_uri(&f32_bytes(&TRIANGLE));
-    let mut doc = triangle_gltf(
-        Some(&uri),
-        36,
+    let doc = material_triangle(
         json!({"materials": [{"extensions": {"KHR_materials_ior": {"ior": 0.0}}}], "extensionsUsed": ["KHR_materials_ior"]}),
     );
-    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
     let d = load_scene(&write_gltf(&dir, "i.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(d.materials[0].ior, Some(IorDesc::Constant(0.0)));
 }
@@ -411,27 +415,21 @@ fn gltf_required_volume_and_dispersion_are_accepted() {
 #[test]
 fn gltf_specular_and_clearcoat_factors_and_textures_are_read() {
     let dir = temp_dir("specular-clearcoat");
-    let uri = data_uri(&f32_bytes(&TRIANGLE));
-    let mut doc = triangle_gltf(
-        Some(&uri),
-        36,
-        json!({"extensionsUsed": ["KHR_materials_specular", "KHR_materials_clearcoat"],
-        "extensionsRequired": ["KHR_materials_specular", "KHR_materials_clearcoat"],
-        "textures": [{"source": 0}, {"source": 1}],
-        "images": [{"uri": "data:image/png;base64,AAEC"}, {"uri": "data:image/png;base64,AAED"}],
-        "materials": [
-            {"name": "coated", "extensions": {
-                "KHR_materials_specular": {"specularFactor": 0.3, "specularColorFactor": [2.0, 1.0, 0.5],
-                                           "specularColorTexture": {"index": 1}},
-                "KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.2,
-                                            "clearcoatNormalTexture": {"index": 0, "scale": 0.5}}}},
-            {"name": "defaults", "extensions": {"KHR_materials_specular": {},
-                                                "KHR_materials_clearcoat": {}}},
-            {"name": "bad", "extensions": {"KHR_materials_specular": {"specularFactor": 4.0,
-                                                                       "specularColorFactor": [1, -1, 1]}}}
-        ]}),
-    );
-    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let doc = material_triangle(json!({"extensionsUsed": ["KHR_materials_specular", "KHR_materials_clearcoat"],
+    "extensionsRequired": ["KHR_materials_specular", "KHR_materials_clearcoat"],
+    "textures": [{"source": 0}, {"source": 1}],
+    "images": [{"uri": "data:image/png;base64,AAEC"}, {"uri": "data:image/png;base64,AAED"}],
+    "materials": [
+        {"name": "coated", "extensions": {
+            "KHR_materials_specular": {"specularFactor": 0.3, "specularColorFactor": [2.0, 1.0, 0.5],
+                                       "specularColorTexture": {"index": 1}},
+            "KHR_materials_clearcoat": {"clearcoatFactor": 0.7, "clearcoatRoughnessFactor": 0.2,
+                                        "clearcoatNormalTexture": {"index": 0, "scale": 0.5}}}},
+        {"name": "defaults", "extensions": {"KHR_materials_specular": {},
+                                            "KHR_materials_clearcoat": {}}},
+        {"name": "bad", "extensions": {"KHR_materials_specular": {"specularFactor": 4.0,
+                                                                   "specularColorFactor": [1, -1, 1]}}}
+    ]}));
     let d = load_scene(&write_gltf(&dir, "coat.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
     let m = |name: &str| d.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("{name}"));
     assert_eq!(m("coated").specular_layer, Some(SpecularLayer { factor: 0.3, color: [2.0, 1.0, 0.5] }));
@@ -459,10 +457,7 @@ fn gltf_specular_and_clearcoat_factors_and_textures_are_read() {
 #[test]
 fn gltf_anisotropy_factors_and_texture_are_read() {
     let dir = temp_dir("anisotropy");
-    let uri = data_uri(&f32_bytes(&TRIANGLE));
-    let mut doc = triangle_gltf(
-        Some(&uri),
-        36,
+    let doc = material_triangle(
         json!({"extensionsUsed": ["KHR_materials_anisotropy"], "extensionsRequired": ["KHR_materials_anisotropy"],
         "textures": [{"source": 0}], "images": [{"uri": "data:image/png;base64,AAEC"}],
         "materials": [
@@ -472,7 +467,6 @@ fn gltf_anisotropy_factors_and_texture_are_read() {
             {"name": "bad", "extensions": {"KHR_materials_anisotropy": {"anisotropyStrength": 1, "anisotropyRotation": "x"}}}
         ]}),
     );
-    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
     let d = load_scene(&write_gltf(&dir, "brushed.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
     let m = |name: &str| d.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("{name}"));
     assert_eq!(m("brushed").anisotropy, Some(AnisotropyLayer { strength: 0.6, rotation: 1.57 }));
@@ -528,13 +522,9 @@ fn manifest_bad_value_names_its_path() {
 #[test]
 fn manifest_mesh_reference_with_matrix_and_file_materials() {
     let dir = temp_dir("manifest-mesh");
-    let uri = data_uri(&f32_bytes(&TRIANGLE));
-    let mut doc = triangle_gltf(
-        Some(&uri),
-        36,
+    let doc = material_triangle(
         json!({"materials": [{"name": "red", "pbrMetallicRoughness": {"baseColorFactor": [1, 0, 0, 1]}}]}),
     );
-    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
     write_gltf(&dir, "tri.gltf", &doc);
     let text = r#"{
         "materials": {"white": {"base_color": 1}},
@@ -556,11 +546,8 @@ fn manifest_mesh_reference_with_matrix_and_file_materials() {
 #[test]
 fn manifest_includes_shift_every_texture_role_to_their_own_images() {
     let dir = temp_dir("manifest-two-gltf");
-    let uri = data_uri(&f32_bytes(&TRIANGLE));
     let textured = |name: &str| {
-        let mut doc = triangle_gltf(
-            Some(&uri),
-            36,
+        material_triangle(
             json!({"extensionsUsed": ["KHR_materials_sheen", "KHR_materials_anisotropy", "KHR_materials_clearcoat"],
             "textures": [{"source": 0}, {"source": 1}],
             "images": [{"uri": "data:image/png;base64,AAEC"}, {"uri": "data:image/png;base64,AAED"}],
@@ -569,9 +556,7 @@ fn manifest_includes_shift_every_texture_role_to_their_own_images() {
                     "KHR_materials_sheen": {"sheenColorFactor": [1, 1, 1], "sheenRoughnessTexture": {"index": 1}},
                     "KHR_materials_anisotropy": {"anisotropyStrength": 1, "anisotropyTexture": {"index": 1}},
                     "KHR_materials_clearcoat": {"clearcoatFactor": 1, "clearcoatTexture": {"index": 1}}}}]}),
-        );
-        doc["meshes"][0]["primitives"][0]["material"] = json!(0);
-        doc
+        )
     };
     write_gltf(&dir, "a.gltf", &textured("a"));
     write_gltf(&dir, "b.gltf", &textured("b"));
