@@ -30,6 +30,9 @@ pub(crate) const MAX_SPECTRUM_FILE_BYTES: u64 = 16 << 20;
 /// Memory charged per triangle that reaches the renderer: its indices in the mesh (12 B), its vertices in
 /// the BVH's leaf order (36 B + 4 B index), its padded bounds (32 B), and obvhs's build (Morton codes,
 /// PLOC's binary nodes and the compressed wide nodes: ≈ 120 B measured on a 2 M-triangle mesh), rounded up.
+/// Since the leaves became four-triangle packets (session 14: 2.4 triangles per 160-byte packet on
+/// average, and the collapse's cost tables during the build) the peak is ≈ 38 B per triangle higher
+/// (`/usr/bin/time` on `traversal_table terrain_1m`: 335 → 373 MB), still within this charge.
 pub(crate) const BYTES_PER_TRIANGLE: u64 = 256;
 
 /// Memory charged per vertex: position, normal and UV (32 B), twice (the file's copy and the world-space

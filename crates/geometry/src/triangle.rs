@@ -76,7 +76,10 @@ fn edge_f64(x0: f32, y1: f32, y0: f32, x1: f32) -> f32 {
 /// An edge function that is exactly 0 in f32 is recomputed in f64 — only that edge, so the
 /// decision for an edge never depends on the triangle's other edges and both neighbours
 /// always agree.
-#[inline(always)]
+///
+/// The scalar reference of [`intersect_packet`], which traversal uses (tested lane for lane
+/// against this one).
+#[cfg(test)]
 pub(crate) fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usize>(
     r: &TriangleRay,
     t_max: f32,
@@ -154,4 +157,245 @@ pub(crate) fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usi
 #[inline]
 pub(crate) fn triangle_point_error(b: [f32; 3], p0: Vec3, p1: Vec3, p2: Vec3) -> Vec3 {
     ((b[0] * p0).abs() + (b[1] * p1).abs() + (b[2] * p2).abs()) * gamma(7)
+}
+
+/// Up to four triangles of one leaf in structure-of-arrays form (`v[vertex][axis][lane]`) with
+/// their primitive indices, so that one leaf is one four-lane watertight test (as Embree's
+/// `triangle4v`): no index indirection, and the triangles of a leaf cost about one test.
+/// Unused lanes hold NaN vertices (never hit, and never reach the f64 edge path) and
+/// [`NO_LANE`].
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(16))]
+pub(crate) struct TrianglePacket {
+    pub(crate) v: [[[f32; 4]; 3]; 3],
+    pub(crate) prim: [u32; 4],
+}
+
+/// The primitive index of an unused packet lane.
+pub(crate) const NO_LANE: u32 = u32::MAX;
+
+impl TrianglePacket {
+    /// A packet of `tris` (at most four: vertices and primitive index).
+    pub(crate) fn new(tris: &[([Vec3; 3], u32)]) -> Self {
+        debug_assert!(tris.len() <= 4);
+        let mut p = Self { v: [[[f32::NAN; 4]; 3]; 3], prim: [NO_LANE; 4] };
+        for (lane, (vertices, prim)) in tris.iter().enumerate() {
+            for (k, v) in vertices.iter().enumerate() {
+                for axis in 0..3 {
+                    p.v[k][axis][lane] = v[axis];
+                }
+            }
+            p.prim[lane] = *prim;
+        }
+        p
+    }
+
+    /// The vertices of `lane`.
+    #[inline(always)]
+    pub(crate) fn vertices(&self, lane: usize) -> [Vec3; 3] {
+        self.v.map(|v| Vec3::new(v[0][lane], v[1][lane], v[2][lane]))
+    }
+}
+
+/// [`intersect_permuted`] on the four lanes of a packet at once: lane for lane the same IEEE
+/// operations in the same order (four-lane glam `Vec4`, plain products, the same f64 recompute
+/// of an edge function that is exactly 0), so each lane's decision, t and barycentrics are
+/// bit for bit those of the scalar test at the same `t_max`. Of the lanes that hit (and are not
+/// `skip`), the nearest wins, the lowest lane on a tie: (lane, hit).
+#[inline(always)]
+pub(crate) fn intersect_packet<const KX: usize, const KY: usize, const KZ: usize>(
+    r: &TriangleRay,
+    t_max: f32,
+    pk: &TrianglePacket,
+    skip: Option<u32>,
+) -> Option<(usize, TriangleHit)> {
+    use glam::{BVec4A, Vec4};
+    let o = r.origin.to_array();
+    let (ox, oy, oz) = (Vec4::splat(o[KX]), Vec4::splat(o[KY]), Vec4::splat(o[KZ]));
+    let (sx, sy, sz) = (Vec4::splat(r.sx), Vec4::splat(r.sy), Vec4::splat(r.sz));
+    let vertex = |k: usize| {
+        let z = Vec4::from_array(pk.v[k][KZ]) - oz;
+        let x = Vec4::from_array(pk.v[k][KX]) - ox + sx * z;
+        let y = Vec4::from_array(pk.v[k][KY]) - oy + sy * z;
+        (x, y, z)
+    };
+    let (p0x, p0y, p0z) = vertex(0);
+    let (p1x, p1y, p1z) = vertex(1);
+    let (p2x, p2y, p2z) = vertex(2);
+    let mut e0 = p1x * p2y - p1y * p2x;
+    let mut e1 = p2x * p0y - p2y * p0x;
+    let mut e2 = p0x * p1y - p0y * p1x;
+    let zero = Vec4::ZERO;
+    if (e0.cmpeq(zero) | e1.cmpeq(zero) | e2.cmpeq(zero)).any() {
+        // Rare (a ray through an edge or vertex, exactly): the scalar recompute, lane by lane.
+        let fix = |e: &mut Vec4, ax: Vec4, by: Vec4, ay: Vec4, bx: Vec4| {
+            let mut a = e.to_array();
+            for lane in 0..4 {
+                if a[lane] == 0.0 {
+                    a[lane] = edge_f64(ax[lane], by[lane], ay[lane], bx[lane]);
+                }
+            }
+            *e = Vec4::from_array(a);
+        };
+        fix(&mut e0, p1x, p2y, p1y, p2x);
+        fix(&mut e1, p2x, p0y, p2y, p0x);
+        fix(&mut e2, p0x, p1y, p0y, p1x);
+    }
+    let negative = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
+    let positive = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
+    let det = e0 + e1 + e2;
+    // `det.is_finite()` per lane: |det| < ∞ is false for ±∞ and NaN alike.
+    let mut hit = !(negative & positive) & det.cmpne(zero) & det.abs().cmplt(Vec4::INFINITY);
+    if let Some(skip) = skip {
+        hit &= BVec4A::from_array(pk.prim.map(|p| p != skip));
+    }
+    if !hit.any() {
+        return None;
+    }
+    let t_max_scaled = Vec4::splat(t_max * r.length);
+    let (p0z, p1z, p2z) = (p0z * sz, p1z * sz, p2z * sz);
+    let t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
+    let bound = t_max_scaled * det;
+    let behind_or_beyond_neg = t_scaled.cmpge(zero) | t_scaled.cmplt(bound);
+    let behind_or_beyond_pos = t_scaled.cmple(zero) | t_scaled.cmpgt(bound);
+    hit &= !(det.cmplt(zero) & behind_or_beyond_neg) & !(det.cmpgt(zero) & behind_or_beyond_pos);
+    if !hit.any() {
+        return None;
+    }
+    let inv_det = Vec4::ONE / det;
+    let t = t_scaled * inv_det;
+    hit &= t.abs().cmplt(Vec4::INFINITY);
+    // The error bound on t, as in the scalar test (same operations, same order).
+    let max_zt = p0z.abs().max(p1z.abs()).max(p2z.abs());
+    let delta_z = Vec4::splat(gamma(3)) * max_zt;
+    let max_xt = p0x.abs().max(p1x.abs()).max(p2x.abs());
+    let max_yt = p0y.abs().max(p1y.abs()).max(p2y.abs());
+    let delta_x = Vec4::splat(gamma(5)) * (max_xt + max_zt);
+    let delta_y = Vec4::splat(gamma(5)) * (max_yt + max_zt);
+    let delta_e = Vec4::splat(2.0) * (Vec4::splat(gamma(2)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_e = e0.abs().max(e1.abs()).max(e2.abs());
+    let delta_t = Vec4::splat(3.0)
+        * (Vec4::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+        * inv_det.abs();
+    let t_unit = t / Vec4::splat(r.length);
+    hit &= t.cmpgt(delta_t) & t_unit.cmplt(Vec4::splat(t_max));
+    let mut bits = hit.bitmask();
+    if bits == 0 {
+        return None;
+    }
+    let ts = t_unit.to_array();
+    let mut best = bits.trailing_zeros() as usize;
+    bits &= bits - 1;
+    while bits != 0 {
+        let lane = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        if ts[lane] < ts[best] {
+            best = lane;
+        }
+    }
+    let inv = inv_det[best];
+    Some((best, TriangleHit { t: ts[best], b: [e0[best] * inv, e1[best] * inv, e2[best] * inv] }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Dispatch of the scalar test's permutation, as `bvh.rs` does for the packet test.
+    fn scalar(r: &TriangleRay, t_max: f32, p: [Vec3; 3]) -> Option<TriangleHit> {
+        match r.axis() {
+            0 => intersect_permuted::<1, 2, 0>(r, t_max, p[0], p[1], p[2]),
+            1 => intersect_permuted::<2, 0, 1>(r, t_max, p[0], p[1], p[2]),
+            _ => intersect_permuted::<0, 1, 2>(r, t_max, p[0], p[1], p[2]),
+        }
+    }
+
+    fn packet(r: &TriangleRay, t_max: f32, pk: &TrianglePacket, skip: Option<u32>) -> Option<(usize, TriangleHit)> {
+        match r.axis() {
+            0 => intersect_packet::<1, 2, 0>(r, t_max, pk, skip),
+            1 => intersect_packet::<2, 0, 1>(r, t_max, pk, skip),
+            _ => intersect_packet::<0, 1, 2>(r, t_max, pk, skip),
+        }
+    }
+
+    #[test]
+    fn packet_lanes_decide_as_the_scalar_test_bit_for_bit() {
+        // Random rays at packets of 1–4 random triangles, half of them sharing vertices on a
+        // small grid so that rays through edges and vertices (the f64 edge path) occur. The
+        // packet's answer must be the scalar test's nearest hit (lowest lane on a tie), with the
+        // same bits of t and barycentrics; one lane is also tested alone in every lane slot.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let (mut hits, mut edge_hits) = (0, 0);
+        for case in 0..20_000 {
+            let grid = case % 2 == 0;
+            let point = |next: &mut dyn FnMut() -> f32| {
+                if grid {
+                    Vec3::new((next() * 4.0).floor(), (next() * 4.0).floor(), 0.0) * 0.25
+                } else {
+                    Vec3::new(next(), next(), next()) * 2.0 - 1.0
+                }
+            };
+            let n = 1 + case % 4;
+            let tris: Vec<([Vec3; 3], u32)> =
+                (0..n).map(|i| ([point(&mut next), point(&mut next), point(&mut next)], 10 + i as u32)).collect();
+            let origin = Vec3::new(next(), next(), 2.0 + next()) - Vec3::new(0.5, 0.5, 0.0);
+            let target = if grid { point(&mut next) } else { Vec3::new(next(), next(), 0.0) - 0.5 };
+            let dir = (target - origin) * (0.5 + next());
+            let r = TriangleRay::new(origin, dir);
+            let t_max = if case % 3 == 0 { f32::INFINITY } else { 1.0 + next() };
+            let skip = (case % 5 == 0).then_some(10);
+            let pk = TrianglePacket::new(&tris);
+            let mut expected: Option<(usize, TriangleHit)> = None;
+            for (lane, (p, prim)) in tris.iter().enumerate() {
+                if Some(*prim) == skip {
+                    continue;
+                }
+                if let Some(h) = scalar(&r, t_max, *p).filter(|h| h.t < t_max) {
+                    if h.b.contains(&0.0) {
+                        edge_hits += 1;
+                    }
+                    if expected.is_none_or(|(_, e)| h.t < e.t) {
+                        expected = Some((lane, h));
+                    }
+                }
+            }
+            let got = packet(&r, t_max, &pk, skip);
+            let bits = |x: Option<(usize, TriangleHit)>| x.map(|(l, h)| (l, h.t.to_bits(), h.b.map(f32::to_bits)));
+            assert_eq!(bits(got), bits(expected), "case {case}");
+            hits += usize::from(got.is_some());
+            // The first triangle alone in each lane of an otherwise empty packet.
+            for lane in 0..4 {
+                let mut alone = TrianglePacket::new(&[]);
+                for k in 0..3 {
+                    for axis in 0..3 {
+                        alone.v[k][axis][lane] = tris[0].0[k][axis];
+                    }
+                }
+                alone.prim[lane] = 7;
+                let want = scalar(&r, t_max, tris[0].0).filter(|h| h.t < t_max).map(|h| (lane, h));
+                assert_eq!(bits(packet(&r, t_max, &alone, None)), bits(want), "case {case}, lane {lane}");
+            }
+        }
+        // The cases must exercise both outcomes and the exact-edge path.
+        assert!(hits > 4_000 && hits < 16_000, "{hits} hits");
+        assert!(edge_hits > 50, "{edge_hits} hits on an edge");
+    }
+
+    #[test]
+    fn unused_lanes_never_hit() {
+        // A packet of one triangle: rays through the NaN lanes' "triangles" find nothing else.
+        let pk = TrianglePacket::new(&[([Vec3::ZERO, Vec3::X, Vec3::Y], 3)]);
+        let r = TriangleRay::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z);
+        let (lane, h) = intersect_packet::<0, 1, 2>(&r, f32::INFINITY, &pk, None).expect("the triangle");
+        assert_eq!((lane, h.t), (0, 1.0));
+        assert!(intersect_packet::<0, 1, 2>(&r, f32::INFINITY, &pk, Some(3)).is_none(), "skipped");
+        let miss = TriangleRay::new(Vec3::new(2.0, 2.0, 1.0), Vec3::NEG_Z);
+        assert!(intersect_packet::<0, 1, 2>(&miss, f32::INFINITY, &pk, None).is_none());
+    }
 }

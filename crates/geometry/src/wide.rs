@@ -1,35 +1,38 @@
-//! Our traversal of obvhs's eight-wide BVH: obvhs builds the compressed wide BVH (CWBVH,
-//! Ylitie et al. 2017) and we decode each node once into full-precision child boxes in
-//! structure-of-arrays form, so a node test is eight slab tests on rows of eight lanes (no
-//! per-node dequantisation of 48 bytes, as obvhs's own traversal does). The node test itself
-//! lives in `simd.rs` (SSE2 halves, or one AVX2 eight-lane test, picked per scene); this module
-//! is the layout and the traversal loop, generic over it.
-//! Children are visited nearest first and stack entries carry their entry distance, so
-//! subtrees behind the closest hit so far are skipped when popped.
+//! Our eight-wide BVH and its traversal. obvhs builds a binary BVH (PLOC and reinsertion),
+//! which we collapse into eight-wide nodes by a surface-area cost ([`WideBvh::from_bvh2`]):
+//! full-precision child boxes in structure-of-arrays form, so a node test is eight slab tests
+//! on rows of eight lanes, and leaves of up to four triangles that `bvh.rs` stores as one
+//! four-lane packet each (`triangle.rs` `TrianglePacket`). The node test itself lives in
+//! `simd.rs` (SSE2 halves, or one AVX2 eight-lane test, picked per scene); this module is the
+//! layout and the traversal loop, generic over it. Children are visited nearest first and
+//! stack entries carry their entry distance, so subtrees behind the closest hit so far are
+//! skipped when popped.
+//!
+//! Until session 14 the tree was obvhs's compressed wide BVH (CWBVH, Ylitie et al. 2017),
+//! decoded node by node. Its leaves hold at most three primitives (the format's limit) and were
+//! small (1M terrain: 1.49 triangles on average), and one scalar watertight test per triangle
+//! was cheaper than a four-lane test of so few. Our own collapse with the same cost
+//! reproduces obvhs's tree (10 673 nodes on the 100k terrain, both); costing a leaf as one
+//! four-lane test (`bvh.rs` `build_scaled`) gives a third fewer nodes (10 673 → 7 138; 1M
+//! terrain 106 224 → 70 844) and fuller leaves. Against the CWBVH, `traversal_table` at AVX2
+//! (1 thread, median ratio of 5–6 interleaved pairs of runs, session 14): primary/incoherent/
+//! any-hit ×1.18/1.25/1.23 on the 100k terrain, ×1.15/1.20/1.17 on 1M, ×1.16/1.32/1.33 on the
+//! 1.3M icosphere, ×1.05/1.19/1.15 instanced; 87–90 bytes per triangle instead of 63–64 (a
+//! packet is 160 bytes, 2.4 triangles on average).
 //!
 //! Measured and rejected (session 13, `docs/perf.md`): software prefetch of pushed nodes and of
 //! hit leaves' triangles, and the reciprocals as one four-lane division, all within noise.
 //!
-//! Measured and rejected (1M-triangle benchmark, one thread, same-session A/B runs):
-//! re-quantising the child boxes to 8 bits per plane (108-byte nodes instead of 224, decoded
-//! with vectorised u8 → f32 conversion) was ~24 % slower on primary and incoherent rays: the
-//! traversal is bound by instructions more than by memory here; visiting children in
+//! Measured and rejected on the CWBVH (1M-triangle benchmark, one thread, same-session A/B
+//! runs): re-quantising the child boxes to 8 bits per plane (108-byte nodes instead of 224,
+//! decoded with vectorised u8 → f32 conversion) was ~24 % slower on primary and incoherent
+//! rays: the traversal is bound by instructions more than by memory here; visiting children in
 //! obvhs's octant slot order instead of sorting by entry distance was equal within noise;
-//! obvhs's `slow_build` preset gave no faster traversal for 1.8× the build time.
-//!
-//! Also measured (callgrind instruction counts on a 100k-triangle terrain, 256² primary rays
-//! and their incoherent bounces; then the 1M benchmark): the leaves of obvhs's CWBVH are
-//! small here (1M terrain: 58 % one, 35 % two, 7 % three triangles, 1.49 on average), and
-//! node tests plus traversal bookkeeping are ~80 % of the instructions, triangle tests ~20 %.
-//! A four-lane SIMD Woop test of a leaf's triangles (bit-identical to the scalar test) cost
-//! 17 % *more* triangle-test instructions than one scalar test per triangle when used on
-//! every leaf (primary rays fell from 1.35× to 1.16× obvhs's own traversal); used only on
-//! leaves of two and three triangles it saved 1–2 % of all instructions, too little for its
-//! ~200 lines: rejected. A smaller inline stack (32 entries instead of 64: it is zeroed per
-//! ray, and a deeper stack spills to the heap) saved 1 %: kept. obvhs's
-//! `reinsertion_batch_ratio` 0.5 instead of medium_build's 0.05 cut traversal instructions by a further 5 % but tripled
-//! the build time (0.77 s → 2.7 s single-core on 1M triangles): rejected; PLOC search
-//! distance 24/32 and max_prims_per_leaf 1/2 were equal or worse. The SSE2 node test
+//! obvhs's `slow_build` preset gave no faster traversal for 1.8× the build time; its
+//! `reinsertion_batch_ratio` 0.5 instead of medium_build's 0.05 cut traversal instructions by
+//! 5 % but tripled the build time (0.77 s → 2.7 s single-core on 1M triangles); PLOC search
+//! distance 24/32 was equal or worse. A smaller inline stack (32 entries instead of 64: it is
+//! zeroed per ray, and a deeper stack spills to the heap) saved 1 %: kept. The SSE2 node test
 //! compiles to ~50 instructions for eight children. The `b·inv − o·inv` form is not used
 //! even at the AVX2 level, where FMA is available: every level must return bit-identical hits
 //! (`simd.rs`), and SSE2 has no FMA; without FMA that form saves nothing and would need a
@@ -38,18 +41,27 @@
 //! The slab test is made conservative as in Ize, "Robust BVH Ray Traversal" (JCGT 2(2), 2013):
 //! the far distance is scaled by 1 + 2γ(3), which covers the rounding of `(b − o) · (1/d)`,
 //! so a box test can never cull a ray that the watertight triangle test would hit. obvhs's own
-//! node test also clamps the entry distance to a scene-scale ε = 1e-4 (`cwbvh/node.rs`
+//! CWBVH node test also clamps the entry distance to a scene-scale ε = 1e-4 (`cwbvh/node.rs`
 //! `EPSILON`), which culls every box closer than 1e-4 along the ray; here entry is clamped to 0.
 
-use obvhs::cwbvh::CwBvh;
+use obvhs::bvh2::Bvh2;
 
 use crate::ray::gamma;
 use crate::simd::{NodeRay, NodeTest};
+use crate::triangle::NO_LANE;
+
+/// Slots per leaf in a packed tree.
+const PACKET: usize = 4;
 
 /// Ize 2013, §3: scaling the far distance by 1 + 2γ(3) covers the rounding of the slab
 /// distances (one subtraction, one product with a rounded reciprocal). Evaluated at compile
 /// time with the same IEEE operations as at run time, so the bits are those of the expression.
 const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// The left child's share of eight slots split between two children (their cost tables).
+fn split_share(left: &[f32; 8], right: &[f32; 8]) -> usize {
+    (1..8).min_by(|&a, &b| (left[a - 1] + right[7 - a]).total_cmp(&(left[b - 1] + right[7 - b]))).unwrap_or(1)
+}
 
 /// Marks an empty child slot (its bounds are inverted, so it is never hit either).
 const EMPTY: u32 = u32::MAX;
@@ -59,6 +71,8 @@ const LEAF: u32 = 1 << 31;
 const LEAF_START_BITS: u32 = 29;
 /// Largest primitive slot a leaf reference can address.
 pub(crate) const MAX_PRIMITIVES: usize = 1 << LEAF_START_BITS;
+/// Most primitives a leaf can hold (count − 1 in two bits).
+pub(crate) const MAX_LEAF: usize = 4;
 
 /// Eight children's boxes (min/max per axis, structure of arrays: one row of eight lanes per
 /// plane) and references.
@@ -83,65 +97,197 @@ pub(crate) struct WideBvh {
 }
 
 impl WideBvh {
-    /// Decode obvhs's CWBVH. Child boxes are dequantised (`p + q·2^e`, exact products) and
-    /// rounded outward, so each still contains its child's quantised (and thus conservative)
-    /// box. Leaves hold at most 3 primitives (obvhs clamps `max_prims_per_leaf` to 1..=3).
-    /// `scale` (1 or a power of two) multiplies every box: the factor the tree was built at
-    /// (`bvh.rs` `build_scaled`), undone exactly.
-    pub(crate) fn from_cwbvh(cwbvh: &CwBvh, scale: f32) -> Self {
-        let nodes = cwbvh
-            .nodes
-            .iter()
-            .map(|node| {
-                let mut bounds = [
-                    [f32::INFINITY; 8],
-                    [f32::NEG_INFINITY; 8],
-                    [f32::INFINITY; 8],
-                    [f32::NEG_INFINITY; 8],
-                    [f32::INFINITY; 8],
-                    [f32::NEG_INFINITY; 8],
-                ];
-                let mut children = [EMPTY; 8];
-                for child in 0..8 {
-                    if node.is_child_empty(child) {
-                        continue;
+    /// Collapse obvhs's binary BVH (one primitive per leaf) into eight-wide nodes by the
+    /// surface-area cost of Ylitie et al. 2017 (§3.1): for every binary node and every number
+    /// of slots i = 1..8 it may fill in its wide parent, the cheapest way to spend them (one
+    /// leaf, one wide node, or the slots split between its two children), bottom up; then the
+    /// tree is read off top down. A leaf of `count` primitives costs `area · leaf_cost(count)`
+    /// (∞ where `leaf_ok` refuses the subtree's primitives), a wide node `area · 1` plus its
+    /// children. Returns the tree and the primitives in leaf order (a leaf refers to
+    /// consecutive slots of it); `packed`, each leaf's primitives padded with [`NO_LANE`] to
+    /// four slots, and a leaf refers to its packet (slot / 4). `scale` multiplies every box:
+    /// the factor the tree was built at (`bvh.rs` `build_scaled`), undone exactly; each box is
+    /// then rounded outward by an ulp.
+    pub(crate) fn from_bvh2(
+        bvh2: &Bvh2,
+        scale: f32,
+        leaf_cost: impl Fn(usize) -> f32,
+        leaf_ok: impl Fn(&[u32]) -> bool,
+        packed: bool,
+    ) -> (Self, Vec<u32>) {
+        let bn = &bvh2.nodes;
+        // PLOC builds one leaf per primitive; the collapse forms every larger leaf itself.
+        assert!(bn.iter().all(|n| !n.is_leaf() || n.prim_count == 1), "a binary leaf of several primitives");
+        let children = |n: usize| {
+            let l = bn[n].first_index as usize;
+            (l, l + 1)
+        };
+        // Pre-order with an explicit stack (a degenerate tree is as deep as it is large);
+        // reversed, every node comes after its children.
+        let mut preorder = Vec::with_capacity(bn.len());
+        let mut stack = vec![0usize];
+        while let Some(n) = stack.pop() {
+            preorder.push(n);
+            if !bn[n].is_leaf() {
+                let (l, r) = children(n);
+                stack.push(r);
+                stack.push(l);
+            }
+        }
+        // Each node's primitives are consecutive in leaf order: `span[n]` = (first, count).
+        let mut span = vec![(0u32, 0u32); bn.len()];
+        let mut prims: Vec<u32> = Vec::with_capacity(bvh2.primitive_indices.len());
+        for &n in &preorder {
+            if bn[n].is_leaf() {
+                let (first, count) = (bn[n].first_index as usize, bn[n].prim_count as usize);
+                span[n] = (prims.len() as u32, count as u32);
+                prims.extend_from_slice(&bvh2.primitive_indices[first..first + count]);
+            }
+        }
+        for &n in preorder.iter().rev() {
+            if !bn[n].is_leaf() {
+                let (l, r) = children(n);
+                span[n] = (span[l].0, span[l].1 + span[r].1);
+            }
+        }
+        // cost[n][i − 1]: cheapest use of at most i slots; how[n][i − 1]: LEAF_SLOT / NODE_SLOT
+        // for one slot, SAME (as i − 1 slots) or the left child's share j of a split.
+        const LEAF_SLOT: u8 = 0xff;
+        const NODE_SLOT: u8 = 0xfe;
+        const SAME: u8 = 0xfd;
+        let mut cost = vec![[0f32; 8]; bn.len()];
+        let mut how = vec![[0u8; 8]; bn.len()];
+        for &n in preorder.iter().rev() {
+            let area = bn[n].aabb().half_area();
+            let (first, count) = (span[n].0 as usize, span[n].1 as usize);
+            // (Decided by `allowed`, not by an infinite cost: the costs cannot overflow at the
+            // magnitudes `build_scaled` hands over, but a leaf that does not fit must never be
+            // chosen even if they did.)
+            let allowed = count <= MAX_LEAF && leaf_ok(&prims[first..first + count]);
+            let leaf = if allowed { area * leaf_cost(count) } else { f32::INFINITY };
+            if bn[n].is_leaf() {
+                cost[n] = [leaf; 8];
+                how[n] = [LEAF_SLOT; 8];
+                continue;
+            }
+            let (l, r) = children(n);
+            // split[i − 1]: i slots shared by the children, each taking at least one.
+            let mut split = [(f32::INFINITY, 1u8); 8];
+            for i in 2..=8 {
+                for j in 1..i {
+                    let c = cost[l][j - 1] + cost[r][i - j - 1];
+                    if c < split[i - 1].0 {
+                        split[i - 1] = (c, j as u8);
                     }
-                    let aabb = node.child_aabb(child);
-                    for axis in 0..3 {
-                        bounds[2 * axis][child] = (aabb.min[axis] * scale).next_down();
-                        bounds[2 * axis + 1][child] = (aabb.max[axis] * scale).next_up();
-                    }
-                    children[child] = if node.is_leaf(child) {
-                        let (start, count) = node.child_primitives(child);
-                        debug_assert!((1..=3).contains(&count) && (start as usize) < MAX_PRIMITIVES);
-                        LEAF | ((count - 1) << LEAF_START_BITS) | start
-                    } else {
-                        node.child_node_index(child)
-                    };
                 }
-                WideNode { bounds, children }
-            })
-            .collect();
-        Self { nodes }
+            }
+            let node = area + split[7].0;
+            (cost[n][0], how[n][0]) = if allowed && leaf <= node { (leaf, LEAF_SLOT) } else { (node, NODE_SLOT) };
+            for i in 2..=8 {
+                (cost[n][i - 1], how[n][i - 1]) =
+                    if cost[n][i - 2] <= split[i - 1].0 { (cost[n][i - 2], SAME) } else { split[i - 1] };
+            }
+        }
+        // The slots subtree n fills with at most i of them.
+        let gather = |n: usize, i: usize, out: &mut Vec<usize>| {
+            let mut todo = vec![(n, i)];
+            while let Some((n, mut i)) = todo.pop() {
+                while how[n][i - 1] == SAME {
+                    i -= 1;
+                }
+                match how[n][i - 1] {
+                    LEAF_SLOT | NODE_SLOT => out.push(n),
+                    j => {
+                        let (l, r) = children(n);
+                        let j = j as usize;
+                        todo.push((r, i - j));
+                        todo.push((l, j));
+                    }
+                }
+            }
+        };
+        let empty = WideNode {
+            bounds: [
+                [f32::INFINITY; 8],
+                [f32::NEG_INFINITY; 8],
+                [f32::INFINITY; 8],
+                [f32::NEG_INFINITY; 8],
+                [f32::INFINITY; 8],
+                [f32::NEG_INFINITY; 8],
+            ],
+            children: [EMPTY; 8],
+        };
+        let mut nodes = vec![empty];
+        let mut order = Vec::with_capacity(prims.len());
+        // (wide node to fill, the binary node it stands for).
+        let mut work = vec![(0usize, 0usize)];
+        let mut slots = Vec::with_capacity(8);
+        while let Some((wide, n)) = work.pop() {
+            slots.clear();
+            if how[n][0] == LEAF_SLOT {
+                // Only the root of a tree of a few primitives: a wide node of that one leaf.
+                slots.push(n);
+            } else {
+                let (l, r) = children(n);
+                let j = how[n][7];
+                let j = if j == SAME { split_share(&cost[l], &cost[r]) } else { j as usize };
+                gather(l, j, &mut slots);
+                gather(r, 8 - j, &mut slots);
+            }
+            let mut node = empty;
+            let first_child = nodes.len();
+            for (slot, &item) in slots.iter().enumerate() {
+                let aabb = bn[item].aabb();
+                for axis in 0..3 {
+                    node.bounds[2 * axis][slot] = (aabb.min[axis] * scale).next_down();
+                    node.bounds[2 * axis + 1][slot] = (aabb.max[axis] * scale).next_up();
+                }
+                node.children[slot] = if how[item][0] == LEAF_SLOT {
+                    let (first, count) = (span[item].0 as usize, span[item].1 as usize);
+                    let mut start = order.len();
+                    order.extend_from_slice(&prims[first..first + count]);
+                    if packed {
+                        // One packet of four slots per leaf, the unused ones `NO_LANE`.
+                        order.resize(start + PACKET, NO_LANE);
+                        start /= PACKET;
+                    }
+                    debug_assert!((1..=MAX_LEAF).contains(&count) && start < MAX_PRIMITIVES);
+                    LEAF | (((count - 1) as u32) << LEAF_START_BITS) | start as u32
+                } else {
+                    nodes.push(empty);
+                    (nodes.len() - 1) as u32
+                };
+            }
+            nodes[wide] = node;
+            // Depth first, the first child's subtree next; siblings are allocated side by side.
+            let inner: Vec<(usize, usize)> = slots
+                .iter()
+                .filter(|&&item| how[item][0] != LEAF_SLOT)
+                .enumerate()
+                .map(|(k, &item)| (first_child + k, item))
+                .collect();
+            work.extend(inner.into_iter().rev());
+        }
+        (Self { nodes }, order)
     }
 
     pub(crate) fn node_count(&self) -> usize {
         self.nodes.len()
     }
 
-    /// Every primitive slot the leaves refer to, in node order (for tests of the tree's shape).
+    /// Every leaf as (first slot or packet, count), in node order (for tests of the tree's shape).
     #[cfg(test)]
-    pub(crate) fn leaf_slots(&self) -> Vec<usize> {
-        let mut slots = Vec::new();
+    pub(crate) fn leaves(&self) -> Vec<(usize, usize)> {
+        let mut leaves = Vec::new();
         for node in &self.nodes {
             for &c in &node.children {
                 if c != EMPTY && c & LEAF != 0 {
                     let start = (c & (MAX_PRIMITIVES as u32 - 1)) as usize;
-                    slots.extend(start..start + ((c >> LEAF_START_BITS) & 3) as usize + 1);
+                    leaves.push((start, ((c >> LEAF_START_BITS) & 3) as usize + 1));
                 }
             }
         }
-        slots
+        leaves
     }
 
     pub(crate) fn bytes(&self) -> usize {
