@@ -27,12 +27,14 @@ pub const MAX_COORDINATE: f32 = 1e18;
 /// ≈ 50 KB; 16 MiB leaves room for any measured data while keeping the CSV parser's working set small.
 pub(crate) const MAX_SPECTRUM_FILE_BYTES: u64 = 16 << 20;
 
-/// Memory charged per triangle that reaches the renderer: its indices in the mesh (12 B), its vertices in
-/// the BVH's leaf order (36 B + 4 B index), its padded bounds (32 B), and obvhs's build (Morton codes,
-/// PLOC's binary nodes and the compressed wide nodes: ≈ 120 B measured on a 2 M-triangle mesh), rounded up.
-/// Since the leaves became four-triangle packets (session 14: 2.4 triangles per 160-byte packet on
-/// average, and the collapse's cost tables during the build) the peak is ≈ 38 B per triangle higher
-/// (`/usr/bin/time` on `traversal_table terrain_1m`: 335 → 373 MB), still within this charge.
+/// Memory charged per triangle that reaches the renderer: its indices in the mesh (12 B), what the
+/// scene keeps of it (≈ 60 B: its share of the wide nodes and of the leaves, a 40-byte single or a
+/// share of a 160-byte four-triangle packet), and the build's transient peak (padded bounds, obvhs's
+/// Morton codes and binary nodes, the collapse's cost tables). Measured with a counting allocator
+/// on 1M-triangle meshes (a terrain and two triangle soups), session 14: peak 320 B per triangle
+/// above the mesh (372 B with obvhs's CWBVH before), kept 59–62 B (64 B before). So a mesh at this
+/// charge's limit can transiently need ≈ 25 % more than charged; the charge bounds hostile files,
+/// not exact use.
 pub(crate) const BYTES_PER_TRIANGLE: u64 = 256;
 
 /// Memory charged per vertex: position, normal and UV (32 B), twice (the file's copy and the world-space

@@ -77,9 +77,8 @@ fn edge_f64(x0: f32, y1: f32, y0: f32, x1: f32) -> f32 {
 /// decision for an edge never depends on the triangle's other edges and both neighbours
 /// always agree.
 ///
-/// The scalar reference of [`intersect_packet`], which traversal uses (tested lane for lane
-/// against this one).
-#[cfg(test)]
+/// Also the reference of [`intersect_packet`] (tested lane for lane against this one).
+#[inline(always)]
 pub(crate) fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usize>(
     r: &TriangleRay,
     t_max: f32,

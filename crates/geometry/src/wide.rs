@@ -50,13 +50,25 @@ use crate::ray::gamma;
 use crate::simd::{NodeRay, NodeTest};
 use crate::triangle::NO_LANE;
 
-/// Slots per leaf in a packed tree.
+/// Slots of a packed leaf.
 const PACKET: usize = 4;
 
 /// Ize 2013, §3: scaling the far distance by 1 + 2γ(3) covers the rounding of the slab
 /// distances (one subtraction, one product with a rounded reciprocal). Evaluated at compile
 /// time with the same IEEE operations as at run time, so the bits are those of the expression.
 const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// A collapsed tree ([`WideBvh::from_bvh2`]).
+pub(crate) struct Collapsed {
+    pub(crate) bvh: WideBvh,
+    /// The primitives of the leaves below `packed_from`, in leaf order.
+    pub(crate) singles: Vec<u32>,
+    /// The packed leaves' primitives, four slots per leaf (`NO_LANE` where unused).
+    pub(crate) packed: Vec<u32>,
+    /// The tree's surface-area cost, as the collapse computed it.
+    #[cfg_attr(not(test), allow(dead_code))]
+    pub(crate) cost: f32,
+}
 
 /// The left child's share of eight slots split between two children (their cost tables).
 fn split_share(left: &[f32; 8], right: &[f32; 8]) -> usize {
@@ -65,11 +77,11 @@ fn split_share(left: &[f32; 8], right: &[f32; 8]) -> usize {
 
 /// Marks an empty child slot (its bounds are inverted, so it is never hit either).
 const EMPTY: u32 = u32::MAX;
-/// Set in a child reference that is a leaf: bits 29–30 hold count − 1, bits 0–28 the first
-/// primitive slot.
+/// Set in a child reference that is a leaf: bits 29–30 hold count − 1, bits 0–28 where it
+/// starts (its first slot, or its packet: [`WideBvh::from_bvh2`]).
 const LEAF: u32 = 1 << 31;
 const LEAF_START_BITS: u32 = 29;
-/// Largest primitive slot a leaf reference can address.
+/// One past the largest start a leaf reference can address.
 pub(crate) const MAX_PRIMITIVES: usize = 1 << LEAF_START_BITS;
 /// Most primitives a leaf can hold (count − 1 in two bits).
 pub(crate) const MAX_LEAF: usize = 4;
@@ -103,9 +115,10 @@ impl WideBvh {
     /// leaf, one wide node, or the slots split between its two children), bottom up; then the
     /// tree is read off top down. A leaf of `count` primitives costs `area · leaf_cost(count)`
     /// (∞ where `leaf_ok` refuses the subtree's primitives), a wide node `area · 1` plus its
-    /// children. Returns the tree and the primitives in leaf order (a leaf refers to
-    /// consecutive slots of it); `packed`, each leaf's primitives padded with [`NO_LANE`] to
-    /// four slots, and a leaf refers to its packet (slot / 4). `scale` multiplies every box:
+    /// children. Returns the tree and the primitives of its leaves in two lists: a leaf of fewer
+    /// than `packed_from` primitives refers to consecutive slots of the first; a larger one to
+    /// a packet of the second, its primitives padded with [`NO_LANE`] to four slots (packet =
+    /// slot / 4). A leaf's count says which list it is in. `scale` multiplies every box:
     /// the factor the tree was built at (`bvh.rs` `build_scaled`), undone exactly; each box is
     /// then rounded outward by an ulp.
     pub(crate) fn from_bvh2(
@@ -113,8 +126,8 @@ impl WideBvh {
         scale: f32,
         leaf_cost: impl Fn(usize) -> f32,
         leaf_ok: impl Fn(&[u32]) -> bool,
-        packed: bool,
-    ) -> (Self, Vec<u32>) {
+        packed_from: usize,
+    ) -> Collapsed {
         let bn = &bvh2.nodes;
         // PLOC builds one leaf per primitive; the collapse forms every larger leaf itself.
         assert!(bn.iter().all(|n| !n.is_leaf() || n.prim_count == 1), "a binary leaf of several primitives");
@@ -219,6 +232,7 @@ impl WideBvh {
         };
         let mut nodes = vec![empty];
         let mut order = Vec::with_capacity(prims.len());
+        let mut packed = Vec::new();
         // (wide node to fill, the binary node it stands for).
         let mut work = vec![(0usize, 0usize)];
         let mut slots = Vec::with_capacity(8);
@@ -244,13 +258,16 @@ impl WideBvh {
                 }
                 node.children[slot] = if how[item][0] == LEAF_SLOT {
                     let (first, count) = (span[item].0 as usize, span[item].1 as usize);
-                    let mut start = order.len();
-                    order.extend_from_slice(&prims[first..first + count]);
-                    if packed {
+                    let start = if count >= packed_from {
                         // One packet of four slots per leaf, the unused ones `NO_LANE`.
-                        order.resize(start + PACKET, NO_LANE);
-                        start /= PACKET;
-                    }
+                        let start = packed.len();
+                        packed.extend_from_slice(&prims[first..first + count]);
+                        packed.resize(start + PACKET, NO_LANE);
+                        start / PACKET
+                    } else {
+                        order.extend_from_slice(&prims[first..first + count]);
+                        order.len() - count
+                    };
                     debug_assert!((1..=MAX_LEAF).contains(&count) && start < MAX_PRIMITIVES);
                     LEAF | (((count - 1) as u32) << LEAF_START_BITS) | start as u32
                 } else {
@@ -268,7 +285,9 @@ impl WideBvh {
                 .collect();
             work.extend(inner.into_iter().rev());
         }
-        (Self { nodes }, order)
+        // Grown by pushes: without this up to half the array would be spare capacity.
+        nodes.shrink_to_fit();
+        Collapsed { bvh: Self { nodes }, singles: order, packed, cost: cost[0][0] }
     }
 
     pub(crate) fn node_count(&self) -> usize {
@@ -295,7 +314,8 @@ impl WideBvh {
     }
 
     /// Visit the leaves a ray may hit in (0, `t_max`], nearest first when `closest`.
-    /// `leaf(start, count, t_max)` tests primitive slots `start..start + count` and returns
+    /// `leaf(start, count, t_max)` tests the leaf's `count` primitives (from slot or packet
+    /// `start`, as [`WideBvh::from_bvh2`] laid them out) and returns
     /// the new `t_max` (smaller after a hit), or `None` to stop traversal (any-hit found).
     #[inline(always)]
     pub(crate) fn traverse<const CLOSEST: bool, N: NodeTest>(
@@ -450,6 +470,64 @@ impl Stack {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Half the surface area of the box of child `slot` of `node`.
+    fn half_area(node: &WideNode, slot: usize) -> f32 {
+        let b = &node.bounds;
+        let d = [b[1][slot] - b[0][slot], b[3][slot] - b[2][slot], b[5][slot] - b[4][slot]];
+        (d[0] + d[1]) * d[2] + d[0] * d[1]
+    }
+
+    #[test]
+    fn the_tree_read_off_costs_what_the_collapse_computed() {
+        // Random boxes through obvhs's PLOC: the cost of the emitted tree (a wide node: its box's
+        // half area; a leaf: its box's times the leaf cost) must be the dynamic programme's
+        // optimum, and every wide node but the root must have two children or more.
+        let mut state = 99u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let boxes: Vec<obvhs::aabb::Aabb> = (0..3000)
+            .map(|_| {
+                let c = glam::Vec3A::new(next(), next(), next()) * 10.0;
+                let h = glam::Vec3A::new(next(), next(), next()) * 0.2 + 0.01;
+                obvhs::aabb::Aabb { min: c - h, max: c + h }
+            })
+            .collect();
+        let bvh2 = obvhs::ploc::PlocBuilder::with_capacity(boxes.len()).build(
+            obvhs::ploc::PlocSearchDistance::Medium,
+            &boxes,
+            (0..boxes.len() as u32).collect(),
+            obvhs::ploc::SortPrecision::U64,
+            3,
+        );
+        let leaf_cost = |n: usize| if n < 3 { 0.3 * n as f32 } else { 0.3 * (1.0 + 0.3 * (n as f32 - 1.0)) };
+        let c = WideBvh::from_bvh2(&bvh2, 1.0, leaf_cost, |_| true, 3);
+        let mut total = 0f64;
+        let mut children = vec![0usize; c.bvh.nodes.len()];
+        for (i, node) in c.bvh.nodes.iter().enumerate() {
+            let used: Vec<usize> = (0..8).filter(|&k| node.children[k] != EMPTY).collect();
+            children[i] = used.len();
+            let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+            for &k in &used {
+                for a in 0..3 {
+                    lo[a] = lo[a].min(node.bounds[2 * a][k]);
+                    hi[a] = hi[a].max(node.bounds[2 * a + 1][k]);
+                }
+                let r = node.children[k];
+                if r & LEAF != 0 {
+                    total += f64::from(half_area(node, k) * leaf_cost(((r >> LEAF_START_BITS) & 3) as usize + 1));
+                }
+            }
+            let d = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+            total += f64::from((d[0] + d[1]) * d[2] + d[0] * d[1]);
+        }
+        let relative = (total / f64::from(c.cost) - 1.0).abs();
+        assert!(relative < 1e-4, "emitted {total}, computed {}", c.cost);
+        assert!(children[1..].iter().all(|&n| n >= 2), "a wide node of one child");
+        assert!(children[0] >= 2 && c.bvh.nodes.len() < 3000 / 4, "{} nodes", c.bvh.nodes.len());
+    }
 
     #[test]
     fn stack_spills_to_the_heap_and_stays_last_in_first_out() {
