@@ -1,24 +1,23 @@
 //! Our eight-wide BVH and its traversal. obvhs builds a binary BVH (PLOC and reinsertion),
 //! which we collapse into eight-wide nodes by a surface-area cost ([`WideBvh::from_bvh2`]):
 //! full-precision child boxes in structure-of-arrays form, so a node test is eight slab tests
-//! on rows of eight lanes, and leaves of up to four triangles that `bvh.rs` stores as one
-//! four-lane packet each (`triangle.rs` `TrianglePacket`). The node test itself lives in
-//! `simd.rs` (SSE2 halves, or one AVX2 eight-lane test, picked per scene); this module is the
-//! layout and the traversal loop, generic over it. Children are visited nearest first and
-//! stack entries carry their entry distance, so subtrees behind the closest hit so far are
-//! skipped when popped.
+//! on rows of eight lanes, and leaves of up to four primitives; `bvh.rs` stores a leaf of three
+//! or four triangles as one four-lane packet (`triangle.rs` `TrianglePacket`), a smaller one as
+//! single triangles. The node test itself lives in `simd.rs` (SSE2 halves, or one AVX2
+//! eight-lane test, picked per scene); this module is the layout and the traversal loop,
+//! generic over it. Children are visited nearest first and stack entries carry their entry
+//! distance, so subtrees behind the closest hit so far are skipped when popped.
 //!
 //! Until session 14 the tree was obvhs's compressed wide BVH (CWBVH, Ylitie et al. 2017),
 //! decoded node by node. Its leaves hold at most three primitives (the format's limit) and were
 //! small (1M terrain: 1.49 triangles on average), and one scalar watertight test per triangle
 //! was cheaper than a four-lane test of so few. Our own collapse with the same cost
-//! reproduces obvhs's tree (10 673 nodes on the 100k terrain, both); costing a leaf as one
-//! four-lane test (`bvh.rs` `build_scaled`) gives a third fewer nodes (10 673 → 7 138; 1M
-//! terrain 106 224 → 70 844) and fuller leaves. Against the CWBVH, `traversal_table` at AVX2
-//! (1 thread, median ratio of 5–6 interleaved pairs of runs, session 14): primary/incoherent/
-//! any-hit ×1.18/1.25/1.23 on the 100k terrain, ×1.15/1.20/1.17 on 1M, ×1.16/1.32/1.33 on the
-//! 1.3M icosphere, ×1.05/1.19/1.15 instanced; 87–90 bytes per triangle instead of 63–64 (a
-//! packet is 160 bytes, 2.4 triangles on average).
+//! reproduces obvhs's tree (10 673 nodes on the 100k terrain, both); costing a leaf of three
+//! or four as one four-lane test (`bvh.rs` `build_scaled`) gives a third fewer nodes (10 673
+//! → 7 110; 1M terrain 106 224 → 70 488). Against the CWBVH, `traversal_table` at AVX2 (1
+//! thread, median ratio of 6 interleaved pairs of runs, session 14): primary/incoherent/any-hit
+//! ×1.08/1.19/1.19 on the 100k terrain, ×1.07/1.14/1.19 on 1M, ×1.13/1.23/1.25 on the 1.3M
+//! icosphere, ×1.07/1.16/1.11 instanced, for 60 bytes per triangle instead of 64.
 //!
 //! Measured and rejected (session 13, `docs/perf.md`): software prefetch of pushed nodes and of
 //! hit leaves' triangles, and the reciprocals as one four-lane division, all within noise.
