@@ -152,7 +152,8 @@ fn build_scaled(mut bounds: Vec<Bounds>, lo: Vec3, hi: Vec3, leaves: Leaves) -> 
 /// with the threshold switched, 5 interleaved pairs; ratios of this layout to that one,
 /// primary/incoherent/any-hit): terrain 100k 1.00/0.95/0.98, terrain 1M 1.03/1.08/1.08,
 /// icosphere 1.3M 0.95/0.94/0.93, instanced 0.93/0.91/0.93, for 60 instead of 90 bytes per
-/// triangle (the bound is 64). Leaves of one or two triangles are two thirds of all.
+/// triangle (the bound is 64). Leaves of one or two triangles were two thirds of all
+/// in the tree of packets only (1M terrain).
 const PACKED_FROM: usize = 3;
 
 /// Set in a hit's slot that is a packet lane (4 · packet + lane), clear in one of [`Scene::singles`].
