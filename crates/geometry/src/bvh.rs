@@ -287,9 +287,9 @@ impl Scene {
                 b.packed
                     .chunks(4)
                     .map(|lanes| {
-                        let tris: Vec<([Vec3; 3], u32)> =
-                            lanes.iter().take_while(|&&p| p != NO_LANE).map(|&prim| (vertices(prim), prim)).collect();
-                        TrianglePacket::new(&tris)
+                        TrianglePacket::new(
+                            lanes.iter().take_while(|&&p| p != NO_LANE).map(|&prim| (vertices(prim), prim)),
+                        )
                     })
                     .collect()
             })
@@ -471,9 +471,7 @@ impl Scene {
                             intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max)
                                 .map(|t| (t, [0.0; 3]))
                         } else {
-                            intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2)
-                                .filter(|h| h.t < t_max)
-                                .map(|h| (h.t, h.b))
+                            intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2).map(|h| (h.t, h.b))
                         };
                         if let Some((t, b)) = hit {
                             best = Some((start + slot, t, b));
@@ -994,11 +992,8 @@ mod tests {
         // The same random triangles at 1 and at 2⁵⁰ (beyond MAX_UNSCALED_MAGNITUDE): a power-of-two
         // scale is exact, so the trees decide alike and every decoded box scales by 2⁵⁰, up to the
         // one ulp outward rounding of the scaled path.
-        let mut state = 12345u64;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 40) as f32 / (1u64 << 24) as f32 - 0.5
-        };
+        let mut uniform = crate::test_uniform(12345);
+        let mut next = || uniform() - 0.5;
         let positions: Vec<Vec3> = (0..600).map(|_| Vec3::new(next(), next(), next())).collect();
         let indices: Vec<[u32; 3]> = (0..200).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
         let s = (1u64 << 50) as f32;

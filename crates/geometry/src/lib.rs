@@ -30,6 +30,16 @@ mod sphere;
 mod triangle;
 mod wide;
 
+/// Numbers for tests: a seeded LCG's uniform values in [0, 1), 24 bits each.
+#[cfg(test)]
+pub(crate) fn test_uniform(seed: u64) -> impl FnMut() -> f32 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
 pub use bvh::{BvhStats, Primitive, Scene, barycentrics};
 pub use camera::Camera;
 pub use error::{Error, Result};

@@ -63,7 +63,8 @@ fn edge_f64(x0: f32, y1: f32, y0: f32, x1: f32) -> f32 {
     (f64::from(x0) * f64::from(y1) - f64::from(y0) * f64::from(x1)) as f32
 }
 
-/// Intersect the triangle (p0, p1, p2) in (0, t_max], t in units of the ray's direction;
+/// Intersect the triangle (p0, p1, p2) in (0, t_max), t in units of the ray's direction (strictly
+/// before `t_max`, as traversal needs: a later triangle must be strictly closer to replace a hit);
 /// degenerate triangles never hit. The axis permutation (KX, KY, KZ) = ((k+1)%3, (k+2)%3, k)
 /// with k = [`TriangleRay::axis`] is fixed at compile time: the caller dispatches once per
 /// ray instead of paying nine run-time indexed loads per triangle.
@@ -117,15 +118,15 @@ pub(crate) fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usi
     if det == 0.0 || !det.is_finite() {
         return None;
     }
-    let t_max = t_max * r.length;
+    let t_max_scaled = t_max * r.length;
     p0t.z *= r.sz;
     p1t.z *= r.sz;
     p2t.z *= r.sz;
     let t_scaled = e0 * p0t.z + e1 * p1t.z + e2 * p2t.z;
-    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det) {
+    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max_scaled * det) {
         return None;
     }
-    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det) {
+    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max_scaled * det) {
         return None;
     }
     let inv_det = 1.0 / det;
@@ -149,7 +150,8 @@ pub(crate) fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usi
     if t <= delta_t {
         return None;
     }
-    Some(TriangleHit { t: t / r.length, b })
+    let t_unit = t / r.length;
+    (t_unit < t_max).then_some(TriangleHit { t: t_unit, b })
 }
 
 /// Absolute error bound of the barycentric hit point b0 p0 + b1 p1 + b2 p2 (pbrt-v4).
@@ -175,16 +177,16 @@ pub(crate) const NO_LANE: u32 = u32::MAX;
 
 impl TrianglePacket {
     /// A packet of `tris` (at most four: vertices and primitive index).
-    pub(crate) fn new(tris: &[([Vec3; 3], u32)]) -> Self {
-        debug_assert!(tris.len() <= 4);
+    pub(crate) fn new(tris: impl IntoIterator<Item = ([Vec3; 3], u32)>) -> Self {
         let mut p = Self { v: [[[f32::NAN; 4]; 3]; 3], prim: [NO_LANE; 4] };
-        for (lane, (vertices, prim)) in tris.iter().enumerate() {
+        for (lane, (vertices, prim)) in tris.into_iter().enumerate() {
+            assert!(lane < 4, "a packet holds four triangles");
             for (k, v) in vertices.iter().enumerate() {
                 for axis in 0..3 {
                     p.v[k][axis][lane] = v[axis];
                 }
             }
-            p.prim[lane] = *prim;
+            p.prim[lane] = prim;
         }
         p
     }
@@ -323,13 +325,7 @@ mod tests {
         // small grid so that rays through edges and vertices (the f64 edge path) occur. The
         // packet's answer must be the scalar test's nearest hit (lowest lane on a tie), with the
         // same bits of t and barycentrics; one lane is also tested alone in every lane slot.
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::test_uniform(0x2545_f491_4f6c_dd1d);
         let (mut hits, mut edge_hits) = (0, 0);
         for case in 0..20_000 {
             let grid = case % 2 == 0;
@@ -349,13 +345,13 @@ mod tests {
             let r = TriangleRay::new(origin, dir);
             let t_max = if case % 3 == 0 { f32::INFINITY } else { 1.0 + next() };
             let skip = (case % 5 == 0).then_some(10);
-            let pk = TrianglePacket::new(&tris);
+            let pk = TrianglePacket::new(tris.iter().copied());
             let mut expected: Option<(usize, TriangleHit)> = None;
             for (lane, (p, prim)) in tris.iter().enumerate() {
                 if Some(*prim) == skip {
                     continue;
                 }
-                if let Some(h) = scalar(&r, t_max, *p).filter(|h| h.t < t_max) {
+                if let Some(h) = scalar(&r, t_max, *p) {
                     if h.b.contains(&0.0) {
                         edge_hits += 1;
                     }
@@ -370,14 +366,14 @@ mod tests {
             hits += usize::from(got.is_some());
             // The first triangle alone in each lane of an otherwise empty packet.
             for lane in 0..4 {
-                let mut alone = TrianglePacket::new(&[]);
+                let mut alone = TrianglePacket::new([]);
                 for k in 0..3 {
                     for axis in 0..3 {
                         alone.v[k][axis][lane] = tris[0].0[k][axis];
                     }
                 }
                 alone.prim[lane] = 7;
-                let want = scalar(&r, t_max, tris[0].0).filter(|h| h.t < t_max).map(|h| (lane, h));
+                let want = scalar(&r, t_max, tris[0].0).map(|h| (lane, h));
                 assert_eq!(bits(packet(&r, t_max, &alone, None)), bits(want), "case {case}, lane {lane}");
             }
         }
@@ -389,7 +385,7 @@ mod tests {
     #[test]
     fn unused_lanes_never_hit() {
         // A packet of one triangle: rays through the NaN lanes' "triangles" find nothing else.
-        let pk = TrianglePacket::new(&[([Vec3::ZERO, Vec3::X, Vec3::Y], 3)]);
+        let pk = TrianglePacket::new([([Vec3::ZERO, Vec3::X, Vec3::Y], 3)]);
         let r = TriangleRay::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z);
         let (lane, h) = intersect_packet::<0, 1, 2>(&r, f32::INFINITY, &pk, None).expect("the triangle");
         assert_eq!((lane, h.t), (0, 1.0));

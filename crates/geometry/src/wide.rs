@@ -71,11 +71,6 @@ pub(crate) struct Collapsed {
     pub(crate) cost: f32,
 }
 
-/// The left child's share of eight slots split between two children (their cost tables).
-fn split_share(left: &[f32; 8], right: &[f32; 8]) -> usize {
-    (1..8).min_by(|&a, &b| (left[a - 1] + right[7 - a]).total_cmp(&(left[b - 1] + right[7 - b]))).unwrap_or(1)
-}
-
 /// Marks an empty child slot (its bounds are inverted, so it is never hit either).
 const EMPTY: u32 = u32::MAX;
 /// Set in a child reference that is a leaf: bits 29–30 hold count − 1, bits 0–28 where it
@@ -165,7 +160,10 @@ impl WideBvh {
             }
         }
         // cost[n][i − 1]: cheapest use of at most i slots; how[n][i − 1]: LEAF_SLOT / NODE_SLOT
-        // for one slot, SAME (as i − 1 slots) or the left child's share j of a split.
+        // for one slot, SAME (as i − 1 slots) or the left child's share j of a split. A child is
+        // never given all eight slots (its sibling takes one), so index 7 serves the node's own
+        // wide node instead: cost[n][7] is the cost of its eight slots split between its
+        // children, how[n][7] the left child's share of them.
         const LEAF_SLOT: u8 = 0xff;
         const NODE_SLOT: u8 = 0xfe;
         const SAME: u8 = 0xfd;
@@ -197,14 +195,15 @@ impl WideBvh {
             }
             let node = area + split[7].0;
             (cost[n][0], how[n][0]) = if allowed && leaf <= node { (leaf, LEAF_SLOT) } else { (node, NODE_SLOT) };
-            for i in 2..=8 {
+            (cost[n][7], how[n][7]) = split[7];
+            for i in 2..=7 {
                 (cost[n][i - 1], how[n][i - 1]) =
                     if cost[n][i - 2] <= split[i - 1].0 { (cost[n][i - 2], SAME) } else { split[i - 1] };
             }
         }
-        // The slots subtree n fills with at most i of them.
-        let gather = |n: usize, i: usize, out: &mut Vec<usize>| {
-            let mut todo = vec![(n, i)];
+        // The slots subtree n fills with at most i < 8 of them (`todo`: scratch, left empty).
+        let gather = |n: usize, i: usize, out: &mut Vec<usize>, todo: &mut Vec<(usize, usize)>| {
+            todo.push((n, i));
             while let Some((n, mut i)) = todo.pop() {
                 while how[n][i - 1] == SAME {
                     i -= 1;
@@ -236,7 +235,7 @@ impl WideBvh {
         let mut packed = Vec::new();
         // (wide node to fill, the binary node it stands for).
         let mut work = vec![(0usize, 0usize)];
-        let mut slots = Vec::with_capacity(8);
+        let (mut slots, mut todo) = (Vec::with_capacity(8), Vec::new());
         while let Some((wide, n)) = work.pop() {
             slots.clear();
             if how[n][0] == LEAF_SLOT {
@@ -244,10 +243,9 @@ impl WideBvh {
                 slots.push(n);
             } else {
                 let (l, r) = children(n);
-                let j = how[n][7];
-                let j = if j == SAME { split_share(&cost[l], &cost[r]) } else { j as usize };
-                gather(l, j, &mut slots);
-                gather(r, 8 - j, &mut slots);
+                let j = how[n][7] as usize;
+                gather(l, j, &mut slots, &mut todo);
+                gather(r, 8 - j, &mut slots, &mut todo);
             }
             let mut node = empty;
             let first_child = nodes.len();
@@ -278,13 +276,10 @@ impl WideBvh {
             }
             nodes[wide] = node;
             // Depth first, the first child's subtree next; siblings are allocated side by side.
-            let inner: Vec<(usize, usize)> = slots
-                .iter()
-                .filter(|&&item| how[item][0] != LEAF_SLOT)
-                .enumerate()
-                .map(|(k, &item)| (first_child + k, item))
-                .collect();
-            work.extend(inner.into_iter().rev());
+            let pending = work.len();
+            let inner = slots.iter().filter(|&&item| how[item][0] != LEAF_SLOT);
+            work.extend(inner.enumerate().map(|(k, &item)| (first_child + k, item)));
+            work[pending..].reverse();
         }
         // Grown by pushes: without this up to half the array would be spare capacity.
         nodes.shrink_to_fit();
@@ -484,11 +479,7 @@ mod tests {
         // Random boxes through obvhs's PLOC: the cost of the emitted tree (a wide node: its box's
         // half area; a leaf: its box's times the leaf cost) must be the dynamic programme's
         // optimum, and every wide node but the root must have two children or more.
-        let mut state = 99u64;
-        let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::test_uniform(99);
         let boxes: Vec<obvhs::aabb::Aabb> = (0..3000)
             .map(|_| {
                 let c = glam::Vec3A::new(next(), next(), next()) * 10.0;
