@@ -222,11 +222,15 @@ pub struct MaterialTextures {
     /// Linear; RG = the direction in tangent space ([0, 1] → [−1, 1]), B = strength (× `anisotropyStrength`):
     /// `KHR_materials_anisotropy.anisotropyTexture`.
     pub anisotropy: Option<TextureDesc>,
+    /// MTL `map_Bump`/`bump` (`scale` = `-bm`): a height field in classic MTL (and three.js, assimp), a
+    /// tangent-space normal map from Blender's exporter, which writes its normal maps there. The file
+    /// does not say which; the assembly decides from the texels.
+    pub bump: Option<TextureDesc>,
 }
 
 impl MaterialTextures {
     /// Every role's texture, present or not.
-    pub fn roles(&self) -> [&Option<TextureDesc>; 14] {
+    pub fn roles(&self) -> [&Option<TextureDesc>; 15] {
         [
             &self.base_color,
             &self.metallic_roughness,
@@ -242,11 +246,12 @@ impl MaterialTextures {
             &self.sheen_color,
             &self.sheen_roughness,
             &self.anisotropy,
+            &self.bump,
         ]
     }
 
     /// Every role's texture, present or not, to change in place (the same order as [`Self::roles`]).
-    pub fn roles_mut(&mut self) -> [&mut Option<TextureDesc>; 14] {
+    pub fn roles_mut(&mut self) -> [&mut Option<TextureDesc>; 15] {
         [
             &mut self.base_color,
             &mut self.metallic_roughness,
@@ -262,6 +267,7 @@ impl MaterialTextures {
             &mut self.sheen_color,
             &mut self.sheen_roughness,
             &mut self.anisotropy,
+            &mut self.bump,
         ]
     }
 
@@ -270,9 +276,10 @@ impl MaterialTextures {
         self.roles().iter().any(|t| t.is_some())
     }
 
-    /// Whether a normal map (the base's or the coat's) needs tangents.
+    /// Whether a normal map (the base's or the coat's, or an MTL bump map that may turn out to be one)
+    /// needs tangents.
     pub fn has_normal_map(&self) -> bool {
-        self.normal.is_some() || self.clearcoat_normal.is_some()
+        self.normal.is_some() || self.clearcoat_normal.is_some() || self.bump.is_some()
     }
 }
 

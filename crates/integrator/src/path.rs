@@ -656,7 +656,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             };
             let ns = match (coated, textures.filter(|t| t.has_base_normal_map())) {
                 (Some((_, ns)), _) => ns,
-                (None, Some(t)) => t.shading_normal(hit.uv, hit.ns, tangent.get(), hit.n),
+                (None, Some(t)) => t.shading_normal(hit.uv, hit.ns, &tangent, hit.n),
                 (None, None) => hit.ns,
             };
             let frame = Frame { n: hit.n, ns };

@@ -48,34 +48,56 @@ impl<'a> HitTangent<'a> {
     pub(crate) fn get(&self) -> Option<Vec4> {
         *self.value.get_or_init(|| surface_tangent(self.scene, self.hit))
     }
+
+    /// ∂p/∂u and ∂p/∂v at the hit ([`uv_derivatives`]), for a bump map (asked once per hit: not kept).
+    pub(crate) fn uv_derivatives(&self) -> Option<(Vec3, Vec3)> {
+        uv_derivatives(self.scene, self.hit)
+    }
 }
 
-pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
-    // Hits on placed instances carry no primitive id (u32::MAX): no tangent frame there yet, so a
-    // normal map on an instanced mesh shades with the interpolated normal.
+/// The hit's triangle: its mesh and the indices of its three vertices; `None` for spheres and placed
+/// instances (whose hits carry no primitive id).
+fn hit_triangle<'a>(scene: &'a Scene, hit: &Hit) -> Option<(&'a Mesh, [usize; 3])> {
     if hit.primitive as usize >= scene.primitive_count() {
         return None;
     }
     let Primitive::Triangle { mesh, triangle } = scene.primitive(hit.primitive) else { return None };
     let mesh = scene.meshes().get(mesh as usize)?;
     let tri = mesh.indices().get(triangle as usize)?.map(|i| i as usize);
-    let p = mesh.positions();
-    let (p0, p1, p2) = (p[tri[0]], p[tri[1]], p[tri[2]]);
-    if let Some(tangents) = mesh.tangents() {
-        let (_, _, [b0, b1, b2]) = scene.hit_barycentrics(hit)?;
-        let t = tangents[tri[0]] * b0 + tangents[tri[1]] * b1 + tangents[tri[2]] * b2;
-        return Some(t.truncate().extend(tangents[tri[0]].w));
-    }
-    let uv = mesh.uvs()?;
+    Some((mesh, tri))
+}
+
+/// ∂p/∂u and ∂p/∂v of the hit's triangle (constant over it) from its vertices' uvs: `None` for spheres,
+/// placed instances, meshes without uvs, and uvs that are collinear or give a non-finite derivative.
+pub(crate) fn uv_derivatives(scene: &Scene, hit: &Hit) -> Option<(Vec3, Vec3)> {
+    let (mesh, tri) = hit_triangle(scene, hit)?;
+    triangle_derivatives(mesh, tri)
+}
+
+fn triangle_derivatives(mesh: &Mesh, tri: [usize; 3]) -> Option<(Vec3, Vec3)> {
+    let (p, uv) = (mesh.positions(), mesh.uvs()?);
     let (d1, d2) = (uv[tri[1]] - uv[tri[0]], uv[tri[2]] - uv[tri[0]]);
     let det = d1.x * d2.y - d2.x * d1.y;
     if det == 0.0 || !det.is_finite() {
         return None;
     }
-    let (e1, e2) = (p1 - p0, p2 - p0);
+    let (e1, e2) = (p[tri[1]] - p[tri[0]], p[tri[2]] - p[tri[0]]);
     let dpdu = (e1 * d2.y - e2 * d1.y) / det;
     let dpdv = (e2 * d1.x - e1 * d2.x) / det;
+    (dpdu.is_finite() && dpdv.is_finite()).then_some((dpdu, dpdv))
+}
+
+pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
+    // Hits on placed instances carry no primitive id (u32::MAX): no tangent frame there yet, so a
+    // normal map on an instanced mesh shades with the interpolated normal.
+    let (mesh, tri) = hit_triangle(scene, hit)?;
+    if let Some(tangents) = mesh.tangents() {
+        let (_, _, [b0, b1, b2]) = scene.hit_barycentrics(hit)?;
+        let t = tangents[tri[0]] * b0 + tangents[tri[1]] * b1 + tangents[tri[2]] * b2;
+        return Some(t.truncate().extend(tangents[tri[0]].w));
+    }
+    let (dpdu, dpdv) = triangle_derivatives(mesh, tri)?;
     // Image up is −∂p/∂v in glTF's uv (v grows down the image).
     let sign = if hit.ns.cross(dpdu).dot(-dpdv) < 0.0 { -1.0 } else { 1.0 };
-    dpdu.is_finite().then(|| dpdu.extend(sign))
+    Some(dpdu.extend(sign))
 }

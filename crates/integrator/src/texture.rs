@@ -19,6 +19,8 @@ use colorimetry::{RgbSigmoid, RgbUnboundedSpectrum, SampledSpectrum, SampledWave
 use geometry::{AlphaMode, ImageDesc, MaterialDesc, MemoryBudget, TextureDesc, WrapMode};
 use glam::{Vec2, Vec3, Vec4};
 use materials::Coat;
+
+use crate::surface::HitTangent;
 use rayon::prelude::*;
 
 /// Largest image side decoded (pixels): 16 K, the largest texture GPUs address; beyond it a
@@ -135,6 +137,18 @@ impl Sampler {
 
     /// The texels under `uv` and their weights (bilinear; nearest puts all weight on one).
     #[inline]
+    /// The steps in u and in v that move one texel across the image (through the uv transform): where a
+    /// bump map's height is differenced.
+    fn texel_step(&self) -> (f32, f32) {
+        let [r0, r1] = self.transform;
+        let (w, h) = (self.width as f32, self.height as f32);
+        let step = |a: f32, b: f32| {
+            let texels = (w * a).hypot(h * b);
+            if texels > 0.0 && texels.is_finite() { 1.0 / texels } else { 1.0 / w.max(h) }
+        };
+        (step(r0[0], r1[0]), step(r0[1], r1[1]))
+    }
+
     fn footprint(&self, uv: Vec2) -> [(usize, f32); 4] {
         let [r0, r1] = self.transform;
         let u = r0[0] * uv.x + r0[1] * uv.y + r0[2];
@@ -639,6 +653,9 @@ pub(crate) struct MaterialTextures {
     metallic_roughness: Option<DataTexture>,
     /// Tangent-space normal map.
     normal: Option<DataTexture>,
+    /// MTL `map_Bump` read as a height field (luminance × `-bm`, in scene units): it tilts the shading
+    /// normal by the height's gradient ([`bumped`]). Never together with `normal`.
+    bump: Option<DataTexture>,
     /// MTL `map_d`: coverage from the R channel.
     coverage: Option<DataTexture>,
     /// glTF `transmissionTexture`: R multiplies the transmission factor.
@@ -746,8 +763,11 @@ impl MaterialTextures {
     /// The base's shading normal: `ns` with the normal map applied (see [`normal_mapped`]); `ns` itself
     /// without a map.
     #[inline]
-    pub(crate) fn shading_normal(&self, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
-        normal_mapped(&self.normal, uv, ns, tangent, n)
+    pub(crate) fn shading_normal(&self, uv: Vec2, ns: Vec3, tangent: &HitTangent, n: Vec3) -> Vec3 {
+        match &self.bump {
+            Some(bump) => bumped(bump, uv, ns, tangent.uv_derivatives(), n),
+            None => normal_mapped(&self.normal, uv, ns, tangent.get(), n),
+        }
     }
 
     /// The coat's shading normal: `ns` with the coat's own normal map applied; `ns` itself without one,
@@ -809,10 +829,11 @@ impl MaterialTextures {
         self.emissive.is_some()
     }
 
-    /// Whether the base has a normal map (its tangent frame is needed only then).
+    /// Whether the base has a normal map or a bump map (its tangent frame or uv derivatives are needed only
+    /// then).
     #[inline]
     pub(crate) fn has_base_normal_map(&self) -> bool {
-        self.normal.is_some()
+        self.normal.is_some() || self.bump.is_some()
     }
 
     /// Whether the coat has a normal map.
@@ -861,6 +882,7 @@ impl MaterialTextures {
         [
             &self.metallic_roughness,
             &self.normal,
+            &self.bump,
             &self.coverage,
             &self.transmission,
             &self.specular,
@@ -889,6 +911,66 @@ fn normal_mapped(map: &Option<DataTexture>, uv: Vec2, ns: Vec3, tangent: Option<
         Some(mapped) if mapped.dot(n) > 1e-4 => mapped,
         _ => ns,
     }
+}
+
+/// Rec. 709 luminance weights: an MTL bump map's height is the luminance of its texels (`-imfchan l`,
+/// the specification's default for `bump`).
+const LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
+
+/// `ns` tilted by the height field `map` at `uv` (pbrt-v4's `BumpMap`): the surface displaced by h along
+/// `ns` has tangents ∂p/∂u + (∂h/∂u) ns and ∂p/∂v + (∂h/∂v) ns, whose cross product is the bumped normal;
+/// the derivatives of h are central differences one texel apart. ∂p/∂u and ∂p/∂v are taken in the plane
+/// normal to `ns`, so that the bump tilts the smooth normal rather than the facet's, and the change of
+/// `ns` across the triangle (pbrt's h·∂n/∂u term) is left out. `ns` itself without uv derivatives, or
+/// where the bumped normal would face away from `n`.
+#[inline]
+fn bumped(map: &DataTexture, uv: Vec2, ns: Vec3, derivatives: Option<(Vec3, Vec3)>, n: Vec3) -> Vec3 {
+    let Some((dpdu, dpdv)) = derivatives else { return ns };
+    let (du, dv) = map.sampler.texel_step();
+    let height = |p: Vec2| map.eval(p).truncate().dot(LUMINANCE);
+    let gu = map.scale * (height(uv + Vec2::new(du, 0.0)) - height(uv - Vec2::new(du, 0.0))) / (2.0 * du);
+    let gv = map.scale * (height(uv + Vec2::new(0.0, dv)) - height(uv - Vec2::new(0.0, dv))) / (2.0 * dv);
+    bump_normal(dpdu, dpdv, ns, n, Vec2::new(gu, gv))
+}
+
+/// The normal of the surface through the hit displaced by a height with gradient `g` = (∂h/∂u, ∂h/∂v)
+/// along `ns` (see [`bumped`]), on the side of `ns`; `ns` where the uv derivatives are degenerate, the
+/// result is not finite, or it faces away from `n`.
+#[inline]
+fn bump_normal(dpdu: Vec3, dpdv: Vec3, ns: Vec3, n: Vec3, g: Vec2) -> Vec3 {
+    let t = dpdu - ns * ns.dot(dpdu);
+    let b = dpdv - ns * ns.dot(dpdv);
+    // The uv mapping's handedness: which way t × b points along ns.
+    let side = t.cross(b).dot(ns);
+    if !(side != 0.0 && side.is_finite()) {
+        return ns;
+    }
+    match ((t + ns * g.x).cross(b + ns * g.y) * side.signum()).try_normalize() {
+        Some(m) if m.dot(n) > 1e-4 => m,
+        _ => ns,
+    }
+}
+
+/// Whether an MTL `map_Bump` image is a tangent-space normal map rather than a height field: not grey
+/// (fewer than 99 % of texels with R = G = B within 2/255), blue-dominant (mean B ≥ 0.7, mean R and G
+/// within 0.15 of one half: a normal map's z is near 1 and its x, y average about 0) and with B ≥ ½
+/// (z ≥ 0) at ≥ 99 % of texels.
+fn reads_as_normal_map(img: &Image8) -> bool {
+    let count = img.texels.len().max(1) as f64;
+    let (mut grey, mut upward, mut sum) = (0usize, 0usize, [0u64; 3]);
+    for &[r, g, b, _] in &img.texels {
+        grey += usize::from(r.abs_diff(g) <= 2 && g.abs_diff(b) <= 2);
+        upward += usize::from(b >= 127);
+        for (s, v) in sum.iter_mut().zip([r, g, b]) {
+            *s += u64::from(v);
+        }
+    }
+    let mean = sum.map(|s| s as f64 / count / 255.0);
+    (grey as f64) < 0.99 * count
+        && mean[2] >= 0.7
+        && (mean[0] - 0.5).abs() <= 0.15
+        && (mean[1] - 0.5).abs() <= 0.15
+        && upward as f64 >= 0.99 * count
 }
 
 /// A material factor at `uv` times `channel` (0 R … 3 A) of its texture, or the factor alone without one.
@@ -1032,6 +1114,31 @@ pub(crate) fn load_material_textures(
                 }
                 sheen_color = Some(texture);
             }
+            // MTL `map_Bump`: a height field, or a normal map in Blender's files (decided from the texels).
+            let (mut bump, mut bump_as_normal) = (None, None);
+            if let Some(t) = &textures.bump
+                && let Some(img) = image(t.image, memory, warnings)?
+            {
+                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                let name = &m.name;
+                if textures.normal.is_some() {
+                    warnings.push(format!(
+                        "material {name:?}: `map_Bump` {label} not used: the material has a `norm` normal map"
+                    ));
+                } else if reads_as_normal_map(&img) {
+                    warnings.push(format!(
+                        "material {name:?}: `map_Bump` {label} read as a tangent-space normal map of strength {} (its texels are blue-dominant, as Blender's exporter writes normal maps there)",
+                        t.scale
+                    ));
+                    bump_as_normal = Some(DataTexture::new(img, t));
+                } else {
+                    warnings.push(format!(
+                        "material {name:?}: `map_Bump` {label} read as a height field: luminance × {} scene units",
+                        t.scale
+                    ));
+                    bump = Some(DataTexture::new(img, t));
+                }
+            }
             let mut data = |t: &Option<TextureDesc>,
                             memory: &mut MemoryBudget,
                             warnings: &mut Vec<String>|
@@ -1040,7 +1147,10 @@ pub(crate) fn load_material_textures(
                 Ok(image(t.image, memory, warnings)?.map(|img| DataTexture::new(img, t)))
             };
             let metallic_roughness = data(&textures.metallic_roughness, memory, warnings)?;
-            let normal = data(&textures.normal, memory, warnings)?;
+            let normal = match bump_as_normal {
+                Some(n) => Some(n),
+                None => data(&textures.normal, memory, warnings)?,
+            };
             let coverage = data(&textures.alpha, memory, warnings)?;
             let transmission = data(&textures.transmission, memory, warnings)?;
             let specular = data(&textures.specular, memory, warnings)?;
@@ -1053,6 +1163,7 @@ pub(crate) fn load_material_textures(
                 base_color,
                 metallic_roughness,
                 normal,
+                bump,
                 coverage,
                 transmission,
                 specular,
@@ -1130,6 +1241,47 @@ mod tests {
         let xyz = Xyz { x: xyz.x / 100.0, y: xyz.y / 100.0, z: xyz.z / 100.0 };
         let target = srgb.rgb_to_xyz(Rgb { r: rgb[0], g: rgb[1], b: rgb[2] });
         delta_e_2000(Lab::from_xyz(target, white), Lab::from_xyz(xyz, white))
+    }
+
+    #[test]
+    fn map_bump_images_read_as_normal_maps_only_when_they_look_like_one() {
+        let image = |texels: Vec<[u8; 4]>| Image8 { width: texels.len() as u32, height: 1, texels };
+        // A grey ramp (a height field), a typical normal map (x, y spread about 0, z near 1), a mid-grey
+        // image, a blue photograph whose red and green are far from one half, and a normal map with a
+        // tenth of its texels pointing below the surface (z < 0: not a tangent-space normal map).
+        let ramp = image((0..=255u8).map(|i| [i, i, i, 255]).collect());
+        let normal = image((0..256u32).map(|i| [(96 + i % 64) as u8, (160 - i % 64) as u8, 240, 255]).collect());
+        let blue_photo = image((0..256u32).map(|i| [20, 40, (180 + i % 60) as u8, 255]).collect());
+        let downward = image((0..256u32).map(|i| [128, 128, if i % 10 == 0 { 60 } else { 250 }, 255]).collect());
+        assert!(!reads_as_normal_map(&ramp));
+        assert!(!reads_as_normal_map(&image(vec![[128, 128, 128, 255]; 64])));
+        assert!(reads_as_normal_map(&normal));
+        assert!(!reads_as_normal_map(&blue_photo));
+        assert!(!reads_as_normal_map(&downward));
+    }
+
+    #[test]
+    fn bump_normals_tilt_against_the_gradient_and_stay_finite() {
+        let (n, dpdu, dpdv) = (Vec3::Z, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 3.0, 0.0));
+        // h rising by g per unit u: the surface z = g x / 2 (x = 2u), normal ∝ (−g/2, 0, 1).
+        for g in [0.5f32, -1.5] {
+            let m = bump_normal(dpdu, dpdv, n, n, Vec2::new(g, 0.0));
+            let want = Vec3::new(-g / 2.0, 0.0, 1.0).normalize();
+            assert!((m - want).length() < 1e-6, "{m} vs {want}");
+            // Along v: z = g y / 3, and a mirrored uv mapping (v flipped) tilts the same way in space.
+            let m = bump_normal(dpdu, dpdv, n, n, Vec2::new(0.0, g));
+            assert!((m - Vec3::new(0.0, -g / 3.0, 1.0).normalize()).length() < 1e-6, "{m}");
+            let m = bump_normal(dpdu, -dpdv, n, n, Vec2::new(0.0, -g));
+            assert!((m - Vec3::new(0.0, -g / 3.0, 1.0).normalize()).length() < 1e-6, "{m}");
+        }
+        // Degenerate or overflowing input keeps the shading normal; a bump past the horizon too.
+        let keeps = |dpdu: Vec3, dpdv: Vec3, g: Vec2| bump_normal(dpdu, dpdv, n, n, g) == n;
+        assert!(keeps(dpdu, 2.0 * dpdu, Vec2::new(1.0, 1.0)));
+        assert!(keeps(dpdu, dpdv, Vec2::new(f32::NAN, 0.0)));
+        assert!(keeps(dpdu, dpdv, Vec2::new(f32::INFINITY, 0.0)));
+        assert!(keeps(Vec3::splat(f32::MAX), dpdv, Vec2::new(1.0, 0.0)));
+        let steep = bump_normal(dpdu, dpdv, n, n, Vec2::new(1e30, 0.0));
+        assert!(steep.is_finite() && (steep == n || steep.dot(n) > 1e-4), "{steep}");
     }
 
     #[test]

@@ -444,6 +444,56 @@ fn a_normal_map_tilts_the_shading_normal_by_the_encoded_angle() {
     }
 }
 
+/// MTL `map_Bump` as a height field: a grey ramp in u (texel i = i/255, 256 wide, so a central difference
+/// one texel apart gives ∂h/∂u = 256/255 exactly) times `-bm 0.5` on the quad, whose ∂p/∂u is (2, 0, 0),
+/// tilts the normal towards −x by atan(0.5 · 256/255 / 2) = 14.1°; lit from 30° towards +x, the quad
+/// then reads k cos(44.1°). Before, `map_Bump` was ignored with a warning (the quad read k cos 30°).
+#[test]
+fn a_height_bump_map_tilts_the_normal_against_its_gradient() {
+    let dir = folder("bump");
+    let ramp: Vec<[u8; 4]> = (0..=255u8).map(|i| [i, i, i, 255]).collect();
+    write_png(&dir.join("ramp.png"), 256, 1, &ramp);
+    let phi = 30f64.to_radians();
+    let light_dir = [-phi.sin(), 0.0, -phi.cos()];
+    let k = E / std::f64::consts::PI;
+    for bm in [0.5f64, -0.5] {
+        let obj = write_obj_quad(&dir, &format!("Kd 1 1 1\nmap_Bump -bm {bm} ramp.png"));
+        let scene = scene_around(&dir, &obj, light_dir, "");
+        assert!(scene.warnings.iter().any(|w| w.contains("ramp.png read as a height field")), "{:?}", scene.warnings);
+        let rgb = render_rgb(&scene);
+        let theta = (bm * 256.0 / 255.0 / 2.0).atan();
+        // The normal (−sin θ, 0, cos θ) against the light (sin 30°, 0, cos 30°).
+        let cos = (phi + theta).cos();
+        assert!((theta.abs().to_degrees() - 14.09).abs() < 0.01);
+        for (x, y) in [(2, 1), (4, 4), (5, 6)] {
+            assert_rgb(rgb[y][x], [k * cos; 3], 1e-3, &format!("bump -bm {bm}, pixel ({x}, {y})"));
+        }
+    }
+}
+
+/// MTL `map_Bump` holding a tangent-space normal map (as Blender's exporter writes one) is read as `norm`:
+/// the same image through either statement renders the same quad, and not the flat one.
+#[test]
+fn a_normal_map_written_as_map_bump_renders_as_norm() {
+    let dir = folder("bump-normal");
+    write_tilted_normal_map(&dir.join("normal.png"), 10f64.to_radians());
+    let phi = 30f64.to_radians();
+    let light_dir = [-phi.sin(), 0.0, -phi.cos()];
+    let render = |mtl: &str| {
+        let obj = write_obj_quad(&dir, mtl);
+        let scene = scene_around(&dir, &obj, light_dir, "");
+        (render_rgb(&scene), scene.warnings)
+    };
+    let (norm, _) = render("Kd 1 1 1\nnorm normal.png");
+    let (bump, warnings) = render("Kd 1 1 1\nmap_Bump normal.png");
+    let (flat, _) = render("Kd 1 1 1");
+    assert!(warnings.iter().any(|w| w.contains("normal.png read as a tangent-space normal map")), "{warnings:?}");
+    assert!(norm[4][4][1] > 1.05 * flat[4][4][1], "the map must tilt: {:?} vs {:?}", norm[4][4], flat[4][4]);
+    for (x, y) in [(1, 1), (4, 4), (6, 2)] {
+        assert_rgb(bump[y][x], norm[y][x], 1e-6, &format!("pixel ({x}, {y})"));
+    }
+}
+
 #[test]
 fn decoded_textures_are_charged_to_the_scene_memory_budget_before_decoding() {
     let dir = folder("budget");
