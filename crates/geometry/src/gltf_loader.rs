@@ -58,12 +58,12 @@ const DEGRADED_EXTENSIONS: &[&str] = &["KHR_materials_variants", "KHR_animation_
 /// Extensions whose data we do not decode, with the way forward for the user. glTF Transform decodes Draco
 /// and meshopt when it reads a file and writes plain buffers (its maintainer: "decompression happens by
 /// default when loading a file", donmccurdy/glTF-Transform#150), and `ktxdecompress` turns KTX2 textures
-/// into PNG. A file that requires one of them loads only if nothing it needs is missing (see
+/// into PNG (the renderer decodes 8-bit KTX2 itself, raw or zstd; not Basis Universal or GPU block formats). A file that requires one of them loads only if nothing it needs is missing (see
 /// [`extension_notes`]).
 const UNDECODED_EXTENSIONS: &[(&str, &str)] = &[
     ("KHR_draco_mesh_compression", "decompress the file first, e.g. `gltf-transform cp IN OUT`"),
     ("EXT_meshopt_compression", "decompress the file first, e.g. `gltf-transform cp IN OUT`"),
-    ("KHR_texture_basisu", "convert them to PNG first, e.g. `gltf-transform ktxdecompress IN OUT`"),
+    ("KHR_texture_basisu", "for those, convert the file first, e.g. `gltf-transform ktxdecompress IN OUT`"),
 ];
 
 /// Bytes charged per accessor component read: the f64 staging value and the f32 it becomes.
@@ -225,8 +225,8 @@ fn patch_json(bytes: &[u8]) -> Option<(Vec<u8>, usize)> {
 ///   error naming the extension and the way forward.
 /// - meshopt (`EXT_meshopt_compression`): buffer views whose uncompressed fallback buffer has data load
 ///   from it (warning); a fallback buffer without data (no URI) is an error, likewise.
-/// - KTX2 (`KHR_texture_basisu`): a warning; a texture with only a KTX2 image points at it, so that the
-///   file validates (it is not decoded).
+/// - KTX2 (`KHR_texture_basisu`): a note; a texture with only a KTX2 image points at it, so that the
+///   file validates (the assembly decodes 8-bit KTX2 and warns per image about the rest).
 /// - `KHR_materials_variants`: each primitive's default material; the variants are named in a warning.
 /// - Animations (including `KHR_animation_pointer` ones): removed, one warning (the rest pose is drawn).
 fn extension_notes(root: &mut gltf::json::Root, dropped_animations: usize, path: &Path) -> Result<Vec<String>> {
@@ -303,7 +303,7 @@ fn extension_notes(root: &mut gltf::json::Root, dropped_animations: usize, path:
     }
     if ktx2 > 0 {
         notes.push(format!(
-            "{BASISU}: {ktx2} texture(s) in KTX2, not decoded ({only_ktx2} without a PNG/JPEG fallback, so missing); {}",
+            "{BASISU}: {ktx2} texture(s) in KTX2 ({only_ktx2} without a PNG/JPEG fallback): 8-bit ones are decoded, Basis Universal and block-compressed ones are not (a warning per image); {}",
             way(BASISU)
         ));
     }

@@ -34,6 +34,7 @@ mod error;
 mod exposure;
 mod film;
 mod film_file;
+mod ktx;
 mod lights;
 #[cfg(test)]
 mod material_tests;

@@ -45,10 +45,10 @@ pub(crate) const MAX_ALPHA_SKIPS: u32 = 256;
 
 /// An image decoded to 8-bit RGBA as stored (sRGB-encoded or linear, as its role says).
 #[derive(Debug)]
-struct Image8 {
-    width: u32,
-    height: u32,
-    texels: Vec<[u8; 4]>,
+pub(crate) struct Image8 {
+    pub(crate) width: u32,
+    pub(crate) height: u32,
+    pub(crate) texels: Vec<[u8; 4]>,
 }
 
 /// Working bytes per texel of the hash table that finds a colour texture's distinct colours, at most
@@ -60,7 +60,7 @@ const COLOUR_COUNT_BYTES_PER_TEXEL: u64 = 40;
 /// Bytes per texel of [`Image8`].
 const IMAGE8_BYTES_PER_TEXEL: u64 = 4;
 
-/// Decodes `image` (PNG or JPEG, chosen by content) with bounded dimensions and allocation; 16-bit
+/// Decodes `image` (PNG, JPEG or an 8-bit KTX2 ([`crate::ktx`]), chosen by content) with bounded dimensions and allocation; 16-bit
 /// channels are reduced to 8 bits (a warning names the image). The decoded size is read from the
 /// header and charged to `memory` before any texel is decoded: the decoder's output and the 8-bit
 /// copy as working memory, the kept texels for good. `Ok(None)` (with a warning) for an image that
@@ -71,6 +71,9 @@ fn decode(
     warnings: &mut Vec<String>,
 ) -> geometry::Result<Option<Image8>> {
     use image::ImageDecoder;
+    if crate::ktx::is_ktx2(&image.bytes) {
+        return crate::ktx::decode_ktx2(image, MAX_IMAGE_SIDE, memory, warnings);
+    }
     let skip = |e: &dyn std::fmt::Display, warnings: &mut Vec<String>| {
         warnings.push(format!("{}: cannot decode ({e}); the material's factor is used", image.label));
         Ok(None)
