@@ -172,6 +172,24 @@ fn include_file(desc: &mut SceneDescription, include: Include, budget: &Budget) 
         check_coordinates(mesh.positions(), &path, "after the manifest's transform")?;
         desc.meshes.push(if mirrored { reverse_winding(&mesh, &path)? } else { mesh });
     }
+    // Meshes the file places several times (instances) follow their placements under the include's matrix.
+    // (Before, they were dropped: a manifest including such a file rendered without them, silently.)
+    for mut instance in sub.instances {
+        for mesh in instance.meshes_mut() {
+            let m = if use_file_materials { mesh.material().map(|i| i + offset) } else { material_override };
+            mesh.set_material(m);
+        }
+        if matrix != Mat4::IDENTITY {
+            let transforms = instance.transforms().iter().map(|t| matrix * *t).collect();
+            instance =
+                crate::Instances::new(instance.take_meshes(), transforms).map_err(|e| Error::InvalidGeometry {
+                    path: path.clone(),
+                    context: "instances after the manifest's transform".to_owned(),
+                    cause: Box::new(e),
+                })?;
+        }
+        desc.instances.push(instance);
+    }
     if use_file_materials {
         // The file's images follow the manifest's, so its textures' image indices shift too.
         let image_offset = desc.images.len();

@@ -645,6 +645,31 @@ fn manifest_transform_that_makes_a_vertex_nan_is_refused() {
     assert!(msg.contains("objects[0]") && msg.contains("far.obj"), "{msg}");
 }
 
+/// A manifest including a glTF whose mesh is placed twice (kept once, as instances) keeps both placements,
+/// under the include's transform, with the file's material. Before, the include dropped them silently: the
+/// note said "instanced" and the render had nothing there.
+#[test]
+fn manifest_includes_keep_the_files_instances_under_their_transform() {
+    let dir = temp_dir("manifest-instances");
+    let mut doc = material_triangle(json!({"materials": [{"name": "placed"}]}));
+    doc["nodes"] = json!([{"mesh": 0, "translation": [1, 0, 0]}, {"mesh": 0, "translation": [0, 2, 0]}]);
+    doc["scenes"] = json!([{"nodes": [0, 1]}]);
+    write_gltf(&dir, "twice.gltf", &doc);
+    let text = r#"{"materials": {"own": {"base_color": 0.5}},
+        "objects": [{"type": "sphere", "center": [0, 0, -5], "radius": 1, "material": "own"},
+                    {"type": "mesh", "file": "twice.gltf", "transform": {"translate": [0, 0, 3], "scale": 2}}]}"#;
+    let path = write(&dir, "m.json", text.as_bytes());
+    let options = LoadOptions { flatten_triangles: 0, ..LoadOptions::default() };
+    let d = load_scene_with(&path, &options).unwrap_or_else(|e| panic!("{e}"));
+    assert!(d.meshes.is_empty(), "{} world-space meshes", d.meshes.len());
+    assert_eq!(d.instances.len(), 1);
+    let placed = &d.instances[0];
+    let origins: Vec<Vec3> = placed.transforms().iter().map(|m| m.transform_point3(Vec3::ZERO)).collect();
+    assert_eq!(origins, vec![Vec3::new(2.0, 0.0, 3.0), Vec3::new(0.0, 4.0, 3.0)]);
+    let material = placed.meshes()[0].material().map(|m| d.materials[m as usize].name.as_str());
+    assert_eq!(material, Some("placed"));
+}
+
 #[test]
 fn gltf_primitive_without_material_gets_an_empty_gltf_material() {
     // The loader transcribes: the file writes no material, so the description says nothing, and glTF's
