@@ -188,6 +188,38 @@ pub struct Scene {
     instances: Option<Box<InstanceSet>>,
 }
 
+/// The triangle a hit lies on ([`Scene::hit_triangle`]), for per-vertex data the hit record does not carry.
+#[derive(Debug, Clone, Copy)]
+pub struct HitTriangle<'a> {
+    /// The mesh, in its own space (a placed object's space on a placed instance).
+    pub mesh: &'a Mesh,
+    /// The mesh's id ([`Scene::mesh_by_id`]).
+    pub mesh_id: usize,
+    /// The triangle's index in the mesh.
+    pub triangle: usize,
+    /// The placement's object-to-world and world-to-object transforms; `None` for world-space meshes.
+    placement: Option<(&'a Affine3A, &'a Affine3A)>,
+}
+
+impl HitTriangle<'_> {
+    /// A world-space point in the mesh's space.
+    pub fn point_to_mesh(&self, p: Vec3) -> Vec3 {
+        self.placement.map_or(p, |(_, to_object)| to_object.transform_point3(p))
+    }
+
+    /// A tangent vector of the mesh (a tangent, ∂p/∂u) in world space: by the object-to-world transform's
+    /// linear part (not the inverse transpose, which is for normals).
+    pub fn vector_to_world(&self, v: Vec3) -> Vec3 {
+        self.placement.map_or(v, |(to_world, _)| to_world.transform_vector3(v))
+    }
+
+    /// Whether the placement mirrors (a negative determinant): a tangent frame's handedness then flips
+    /// in world space, since cross(M a, M b) = det(M) M⁻ᵀ (a × b).
+    pub fn mirrored(&self) -> bool {
+        self.placement.is_some_and(|(to_world, _)| to_world.matrix3.determinant() < 0.0)
+    }
+}
+
 /// The second level: one BVH per placed object (a [`Scene`] of its object-space meshes, the
 /// bottom level) and a top-level BVH over the placements' world bounds. A ray reaching a
 /// placement's leaf is transformed into object space and traced through the object's BVH with
@@ -195,6 +227,8 @@ pub struct Scene {
 #[derive(Debug)]
 struct InstanceSet {
     objects: Vec<Scene>,
+    /// The mesh id ([`Scene::mesh_by_id`]) of each object's first mesh.
+    mesh_offsets: Vec<usize>,
     /// Placements in the top-level BVH's leaf order.
     placements: Vec<Placement>,
     tlas: WideBvh,
@@ -228,7 +262,12 @@ impl Scene {
         let instances: Vec<Instances> = instances.into_iter().filter(|i| i.triangle_count() > 0).collect();
         if instances.iter().any(|i| !i.transforms().is_empty()) {
             let start = Instant::now();
-            let set = InstanceSet::build(instances)?;
+            let mut set = InstanceSet::build(instances)?;
+            let mut first = scene.meshes.len();
+            for object in &set.objects {
+                set.mesh_offsets.push(first);
+                first += object.meshes.len();
+            }
             let (lo, hi) = if scene.primitive_count() > 0 {
                 (scene.bounds.0.min(set.bounds.0), scene.bounds.1.max(set.bounds.1))
             } else {
@@ -524,7 +563,18 @@ impl Scene {
                 (phi / std::f32::consts::TAU).rem_euclid(1.0),
                 n.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
             );
-            return Hit { t, p, p_error, n, ns: n, uv, primitive: prim, material: s.material() };
+            return Hit {
+                t,
+                p,
+                p_error,
+                n,
+                ns: n,
+                uv,
+                primitive: prim,
+                placement: NO_PRIMITIVE,
+                object_primitive: NO_PRIMITIVE,
+                material: s.material(),
+            };
         }
         let index = prim as usize - n_spheres;
         let (mesh_index, tri_index) = self.triangle_source(index);
@@ -555,7 +605,18 @@ impl Scene {
             }
             None => Vec2::new(b[1], b[2]),
         };
-        Hit { t, p, p_error, n, ns, uv, primitive: prim, material: mesh.material() }
+        Hit {
+            t,
+            p,
+            p_error,
+            n,
+            ns,
+            uv,
+            primitive: prim,
+            placement: NO_PRIMITIVE,
+            object_primitive: NO_PRIMITIVE,
+            material: mesh.material(),
+        }
     }
 
     /// Hanika's lift of a hit on a smooth-shaded triangle, seen from the side `side` of its plane
@@ -567,6 +628,11 @@ impl Scene {
     /// same point along their shared edge. `None` for spheres, meshes without normals and placed
     /// instances (whose hits have no primitive id to pass through).
     pub fn lifted_point(&self, hit: &Hit, side: Vec3) -> Option<Vec3> {
+        // Not on placed instances: the shadow ray would have to skip its own triangle in that
+        // placement only, which the skip (a global primitive id) cannot say.
+        if hit.placement != NO_PRIMITIVE {
+            return None;
+        }
         let (mesh, triangle, b) = self.hit_barycentrics(hit)?;
         let mesh = &self.meshes[mesh];
         let normals = mesh.normals()?;
@@ -645,30 +711,76 @@ impl Scene {
         }
     }
 
-    /// Where a hit lies on its mesh: the mesh's index, the triangle's index within it and the hit
-    /// point's barycentric weights of the triangle's three vertices (non-negative, summing to 1).
-    /// Recomputed from `hit.p`, which lies on the triangle up to rounding: the hit record does not
-    /// carry them, so that queries on meshes without per-vertex data beyond normals and UVs pay
-    /// nothing for them. `None` for spheres, hits on placed instances (primitive id `u32::MAX`) and
-    /// degenerate triangles.
-    pub fn hit_barycentrics(&self, hit: &Hit) -> Option<(usize, usize, [f32; 3])> {
-        if hit.primitive as usize >= self.primitive_count() {
-            return None;
+    /// The triangle a hit lies on: its mesh (in the mesh's own space, an object's for a placed
+    /// instance), the mesh's id ([`Scene::mesh_by_id`]), the triangle's index and the placement's
+    /// transforms. `None` for spheres and for hits not made by this scene.
+    pub fn hit_triangle(&self, hit: &Hit) -> Option<HitTriangle<'_>> {
+        if hit.placement != NO_PRIMITIVE {
+            let set = self.instances.as_deref()?;
+            let placement = set.placements.get(hit.placement as usize)?;
+            let object = set.objects.get(placement.object as usize)?;
+            let Primitive::Triangle { mesh, triangle } = object.checked_primitive(hit.object_primitive)? else {
+                return None;
+            };
+            return Some(HitTriangle {
+                mesh: object.meshes.get(mesh as usize)?,
+                mesh_id: set.mesh_offsets.get(placement.object as usize)? + mesh as usize,
+                triangle: triangle as usize,
+                placement: Some((&placement.object_to_world, &placement.world_to_object)),
+            });
         }
-        let Primitive::Triangle { mesh, triangle } = self.primitive(hit.primitive) else { return None };
-        let m = self.meshes.get(mesh as usize)?;
-        let tri = m.indices().get(triangle as usize)?;
-        let b = barycentrics(tri.map(|i| m.positions()[i as usize]), hit.p)?;
-        Some((mesh as usize, triangle as usize, b))
+        let Primitive::Triangle { mesh, triangle } = self.checked_primitive(hit.primitive)? else { return None };
+        Some(HitTriangle {
+            mesh: self.meshes.get(mesh as usize)?,
+            mesh_id: mesh as usize,
+            triangle: triangle as usize,
+            placement: None,
+        })
     }
 
-    /// The mesh's vertex colour (linear RGBA) interpolated at `hit` as UVs are; `None` for spheres,
-    /// placed instances and meshes without vertex colours. The renderer interpolates the colours'
+    /// [`Scene::primitive`], `None` past the primitives.
+    fn checked_primitive(&self, id: u32) -> Option<Primitive> {
+        ((id as usize) < self.primitive_count()).then(|| self.primitive(id))
+    }
+
+    /// A mesh by id: the world-space meshes first ([`Scene::meshes`], ids 0, 1, …), then each placed
+    /// object's meshes, object by object (the ids [`Scene::hit_triangle`] gives).
+    pub fn mesh_by_id(&self, id: usize) -> Option<&Mesh> {
+        if let Some(mesh) = self.meshes.get(id) {
+            return Some(mesh);
+        }
+        let set = self.instances.as_deref()?;
+        // The last object whose first mesh id is at most `id`.
+        let object = set.mesh_offsets.partition_point(|&first| first <= id).checked_sub(1)?;
+        set.objects[object].meshes.get(id - set.mesh_offsets[object])
+    }
+
+    /// Every mesh in id order ([`Scene::mesh_by_id`]).
+    pub fn all_meshes(&self) -> impl Iterator<Item = &Mesh> {
+        let placed = self.instances.iter().flat_map(|set| set.objects.iter().flat_map(|o| o.meshes.iter()));
+        self.meshes.iter().chain(placed)
+    }
+
+    /// Where a hit lies on its mesh: the mesh's id ([`Scene::mesh_by_id`]), the triangle's index within
+    /// it and the hit point's barycentric weights of the triangle's three vertices (non-negative,
+    /// summing to 1). Recomputed from `hit.p` (taken to object space on a placed instance), which lies
+    /// on the triangle up to rounding: the hit record does not carry them, so that queries on meshes
+    /// without per-vertex data beyond normals and UVs pay nothing for them. `None` for spheres and
+    /// degenerate triangles.
+    pub fn hit_barycentrics(&self, hit: &Hit) -> Option<(usize, usize, [f32; 3])> {
+        let at = self.hit_triangle(hit)?;
+        let tri = at.mesh.indices().get(at.triangle)?;
+        let b = barycentrics(tri.map(|i| at.mesh.positions()[i as usize]), at.point_to_mesh(hit.p))?;
+        Some((at.mesh_id, at.triangle, b))
+    }
+
+    /// The mesh's vertex colour (linear RGBA) interpolated at `hit` as UVs are; `None` for spheres
+    /// and meshes without vertex colours. The renderer interpolates the colours'
     /// spectra instead (`integrator`'s `VertexColors`); this is the RGBA reference its tests check.
     #[cfg(test)]
     pub(crate) fn vertex_color(&self, hit: &Hit) -> Option<glam::Vec4> {
         let (mesh, triangle, b) = self.hit_barycentrics(hit)?;
-        self.meshes[mesh].color_at(triangle, b)
+        self.mesh_by_id(mesh)?.color_at(triangle, b)
     }
 
     /// Node count, build time and memory of the acceleration structure.
@@ -755,7 +867,7 @@ impl InstanceSet {
         }
         let Collapsed { bvh: tlas, singles: order, .. } = build_scaled(bounds_list, lo, hi, Leaves::Placements);
         let placements = order.iter().map(|&i| placements[i as usize]).collect();
-        Ok(Self { objects, placements, tlas, bounds: (lo, hi), triangles })
+        Ok(Self { objects, mesh_offsets: Vec::new(), placements, tlas, bounds: (lo, hi), triangles })
     }
 
     /// The closest hit on a placement strictly before `t_max`, in world space. Kept out of line
@@ -765,7 +877,7 @@ impl InstanceSet {
         let (index, object_ray, dt, slot, t, b) = dispatch(simd, TopQuery::<true> { set: self, ray, t_max })?;
         let placement = &self.placements[index];
         let local = self.objects[placement.object as usize].hit_record(&object_ray, slot, t, b);
-        Some(placement.hit_to_world(local, t + dt))
+        Some(placement.hit_to_world(local, t + dt, index as u32))
     }
 
     #[inline(never)]
@@ -794,9 +906,10 @@ impl Placement {
     /// An object-space hit in world space: the point and its error bound by the object-to-world
     /// transform (pbrt-v4 `Transform::ApplyError`: the transformed error box |M|·e(1 + γ(3)) plus
     /// γ(3)(|M||p| + |translation|) for the transform's own rounding), normals by the inverse
-    /// transpose. The primitive id is `u32::MAX`: placed instances are not light sources.
+    /// transpose. The primitive id is `u32::MAX` (placed instances are not light sources); the placement
+    /// (`index`) and the object's primitive id say where the hit lies.
     #[inline]
-    fn hit_to_world(&self, local: Hit, t: f32) -> Hit {
+    fn hit_to_world(&self, local: Hit, t: f32, index: u32) -> Hit {
         let m = &self.object_to_world;
         let abs = abs_linear(m);
         let p = m.transform_point3(local.p);
@@ -808,7 +921,18 @@ impl Placement {
             Some(s) => s,
             None => n,
         };
-        Hit { t, p, p_error, n, ns, uv: local.uv, primitive: NO_PRIMITIVE, material: local.material }
+        Hit {
+            t,
+            p,
+            p_error,
+            n,
+            ns,
+            uv: local.uv,
+            primitive: NO_PRIMITIVE,
+            placement: index,
+            object_primitive: local.primitive,
+            material: local.material,
+        }
     }
 }
 

@@ -40,7 +40,7 @@ pub(crate) fn test_uniform(seed: u64) -> impl FnMut() -> f32 {
     }
 }
 
-pub use bvh::{BvhStats, Primitive, Scene, barycentrics};
+pub use bvh::{BvhStats, HitTriangle, Primitive, Scene, barycentrics};
 pub use camera::Camera;
 pub use error::{Error, Result};
 pub use ray::{Hit, Ray, ShadowRay, spawn_ray, spawn_ray_to, spawn_shadow_ray};

@@ -29,6 +29,11 @@ pub struct Hit {
     pub uv: Vec2,
     /// Global primitive index in the [`crate::Scene`]; `u32::MAX` on placed instances.
     pub primitive: u32,
+    /// On a placed instance: the placement's index and the primitive's index in the placed object
+    /// ([`crate::Scene::hit_triangle`] reads the mesh back through them); `u32::MAX` for both elsewhere.
+    pub placement: u32,
+    /// See [`Hit::placement`].
+    pub object_primitive: u32,
     /// Material of the primitive.
     pub material: Option<u32>,
 }

@@ -238,6 +238,10 @@ impl Instances {
     pub fn meshes(&self) -> &[Mesh] {
         &self.meshes
     }
+    /// The object-space meshes, to change in place (the assembly adds tangents where normal maps need them).
+    pub fn meshes_mut(&mut self) -> &mut [Mesh] {
+        &mut self.meshes
+    }
     /// Replace the meshes (e.g. after removing unhittable triangles).
     pub fn set_meshes(&mut self, meshes: Vec<Mesh>) {
         self.meshes = meshes;

@@ -95,8 +95,9 @@ pub struct RenderScene {
     pub(crate) materials: Vec<Material>,
     /// The textures of each material, in its order (`None`: untextured); empty when no material has any.
     pub(crate) textures: Vec<Option<MaterialTextures>>,
-    /// The vertex colours of each mesh of `geometry`, in its order, as spectra (`None`: the mesh has none,
-    /// or its material does not take them); empty when no mesh has any.
+    /// The vertex colours of each mesh of `geometry` by mesh id (`Scene::mesh_by_id`: placed objects' meshes
+    /// after the others), as spectra (`None`: the mesh has none, or its material does not take them); empty
+    /// when no mesh has any.
     pub(crate) vertex_colors: Vec<Option<VertexColors>>,
     /// Whether some material has a cut-out or blended alpha: shadow rays then look through it.
     pub(crate) alpha_cutouts: bool,
@@ -175,7 +176,7 @@ impl RenderScene {
             format,
             spheres,
             mut meshes,
-            instances,
+            mut instances,
             materials: mut material_descs,
             images,
             lights: mut light_descs,
@@ -190,7 +191,12 @@ impl RenderScene {
         let started = std::time::Instant::now();
         // Decided once: a material used by a mesh with vertex colours has a base colour varying per hit,
         // as a textured one does (the path tracer's textured instantiation then reads them).
-        let without_material = meshes.iter().filter(|m| tinting_colors(m).is_some() && m.material().is_none()).count();
+        // Placed objects' meshes count as the others do: their hits find their vertex data too.
+        let without_material = meshes
+            .iter()
+            .chain(instances.iter().flat_map(geometry::Instances::meshes))
+            .filter(|m| tinting_colors(m).is_some() && m.material().is_none())
+            .count();
         if without_material > 0 {
             // An OBJ without MTL: its colours are the surface's as written, so they take a white diffuse
             // base rather than tinting the default grey.
@@ -198,7 +204,11 @@ impl RenderScene {
             let mut white = MaterialDesc::new("vertex colours", MaterialFormat::Manifest);
             white.base_color = Some(SpectrumDesc::Rgb([1.0; 3]));
             material_descs.push(white);
-            for m in meshes.iter_mut().filter(|m| tinting_colors(m).is_some() && m.material().is_none()) {
+            for m in meshes
+                .iter_mut()
+                .chain(placed_meshes(&mut instances))
+                .filter(|m| tinting_colors(m).is_some() && m.material().is_none())
+            {
                 m.set_material(Some(index));
             }
             warnings.push(format!(
@@ -206,13 +216,16 @@ impl RenderScene {
             ));
         }
         let mut vertex_colored = vec![false; material_descs.len()];
-        for m in meshes.iter().filter(|m| tinting_colors(m).is_some()).filter_map(geometry::Mesh::material) {
+        for m in meshes
+            .iter()
+            .chain(instances.iter().flat_map(geometry::Instances::meshes))
+            .filter(|m| tinting_colors(m).is_some())
+            .filter_map(geometry::Mesh::material)
+        {
             if let Some(flag) = vertex_colored.get_mut(m as usize) {
                 *flag = true;
             }
         }
-        warn_unrendered_vertex_colors(&instances, &mut warnings);
-        warn_tangentless_instances(&instances, &material_descs, &mut warnings);
         let mut textures =
             load_material_textures(&images, &mut material_descs, &vertex_colored, &mut memory, &mut warnings)?;
         if textures.iter().all(Option::is_none) {
@@ -232,7 +245,13 @@ impl RenderScene {
         let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
         warn_unused_keys(&material_descs, &mut warnings);
         warn_isotropic_parts(&material_descs, &materials, &mut warnings);
-        add_mikktspace_tangents(&mut meshes, &textures, &material_descs, &mut memory, &mut warnings)?;
+        add_mikktspace_tangents(
+            meshes.iter_mut().chain(placed_meshes(&mut instances)),
+            &textures,
+            &material_descs,
+            &mut memory,
+            &mut warnings,
+        )?;
         let geometry = Scene::build_with_instances(spheres, meshes, instances)?;
         let vertex_colors = if vertex_colored.contains(&true) {
             let started = std::time::Instant::now();
@@ -745,8 +764,8 @@ fn sky_lights(sky: &SkyOption, camera: &CameraDesc, lit: bool) -> Result<(Vec<Li
 /// `TANGENT` (`tangents.rs`), charged to the scene's memory budget (16 bytes per vertex, and each
 /// vertex a uv seam splits); one warning says how many meshes got them, and one names the anisotropic
 /// meshes that have neither tangents nor UVs.
-fn add_mikktspace_tangents(
-    meshes: &mut [geometry::Mesh],
+fn add_mikktspace_tangents<'a>(
+    meshes: impl Iterator<Item = &'a mut geometry::Mesh>,
     textures: &[Option<MaterialTextures>],
     descs: &[MaterialDesc],
     memory: &mut geometry::MemoryBudget,
@@ -754,7 +773,7 @@ fn add_mikktspace_tangents(
 ) -> Result<()> {
     let mut generated = 0;
     let mut undirected = Vec::new();
-    for (i, mesh) in meshes.iter_mut().enumerate() {
+    for (i, mesh) in meshes.enumerate() {
         let Some(m) = mesh.material().map(|m| m as usize) else { continue };
         let anisotropic = descs.get(m).is_some_and(|d| d.anisotropy.is_some());
         let normal_mapped = textures.get(m).and_then(Option::as_ref).is_some_and(MaterialTextures::has_normal_map);
@@ -870,7 +889,7 @@ fn tinting_colors(mesh: &geometry::Mesh) -> Option<&[glam::Vec4]> {
     mesh.colors().filter(|c| c.iter().any(|&v| v != glam::Vec4::ONE))
 }
 
-/// The vertex colours of each mesh of `geometry` whose material takes them, fitted to spectra
+/// The vertex colours of each mesh of `geometry` (by mesh id) whose material takes them, fitted to spectra
 /// ([`VertexColors`]). The material's base colour factor is folded into the fit where it is an RGB
 /// colour and no texture gives the base colour (glTF: factor × COLOR_0, an RGB product); otherwise
 /// the colours multiply the texture's or the spectrum's reflectance.
@@ -881,8 +900,8 @@ fn fit_vertex_colors(
     memory: &mut geometry::MemoryBudget,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Option<VertexColors>>> {
-    let mut out = Vec::with_capacity(geometry.meshes().len());
-    for (i, mesh) in geometry.meshes().iter().enumerate() {
+    let mut out = Vec::new();
+    for (i, mesh) in geometry.all_meshes().enumerate() {
         let material = mesh.material().map(|m| m as usize);
         let taken = material.and_then(|m| textures.get(m)).and_then(Option::as_ref);
         let (Some(colors), Some(m), Some(t)) = (tinting_colors(mesh), material, taken) else {
@@ -908,30 +927,9 @@ fn fit_vertex_colors(
     Ok(out)
 }
 
-/// One warning for vertex colours no hit reads: those of objects placed several times (their hits
-/// carry no mesh to look the colours up in).
-fn warn_unrendered_vertex_colors(instances: &[geometry::Instances], warnings: &mut Vec<String>) {
-    let placed = instances.iter().flat_map(geometry::Instances::meshes).filter(|m| tinting_colors(m).is_some()).count();
-    if placed > 0 {
-        warnings.push(format!(
-            "vertex colours of {placed} instanced mesh(es) (placed several times) are not rendered yet; the base colour is used"
-        ));
-    }
-}
-
-/// One warning for the tangent frames no hit has: hits on objects placed several times carry no primitive,
-/// so their normal maps and directions of anisotropy are not applied.
-fn warn_tangentless_instances(instances: &[geometry::Instances], descs: &[MaterialDesc], warnings: &mut Vec<String>) {
-    let placed = instances
-        .iter()
-        .flat_map(geometry::Instances::meshes)
-        .filter(|m| m.material().and_then(|i| descs.get(i as usize)).is_some_and(MaterialDesc::needs_tangents))
-        .count();
-    if placed > 0 {
-        warnings.push(format!(
-            "normal maps and anisotropy directions of {placed} instanced mesh(es) (placed several times) are not rendered yet: the interpolated normal and an arbitrary direction about it are used"
-        ));
-    }
+/// The object-space meshes of every placed object.
+fn placed_meshes(instances: &mut [geometry::Instances]) -> impl Iterator<Item = &mut geometry::Mesh> {
+    instances.iter_mut().flat_map(|i| i.meshes_mut().iter_mut())
 }
 
 /// One warning for the keys a scene writes that the renderer reads but does not honour yet.

@@ -396,9 +396,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// the textured instantiation calls it, for materials that take vertex colours.
     #[inline(never)]
     fn vertex_color(&self, hit: &Hit) -> Option<VertexColorHit<'_>> {
-        let (mesh, triangle, weights) = self.scene.geometry.hit_barycentrics(hit)?;
-        let colors = self.scene.vertex_colors.get(mesh)?.as_ref()?;
-        Some(colors.at(self.scene.geometry.meshes()[mesh].indices()[triangle], weights))
+        let at = self.scene.geometry.hit_triangle(hit)?;
+        let colors = self.scene.vertex_colors.get(at.mesh_id)?.as_ref()?;
+        let tri = *at.mesh.indices().get(at.triangle)?;
+        let weights = geometry::barycentrics(tri.map(|i| at.mesh.positions()[i as usize]), at.point_to_mesh(hit.p))?;
+        Some(colors.at(tri, weights))
     }
 
     /// The vertex colour at `hit` where `textures` (the hit material's) say its meshes have some.
@@ -898,7 +900,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// `KHR_materials_anisotropy` at a hit: the strength (× the texture's B) and the direction in world
     /// space, the tangent frame's (the file's `TANGENT`, else MikkTSpace's or ∂p/∂u; about the shading normal
     /// `ns`) rotated by `anisotropyRotation`, or the texture's direction rotated so. Without a tangent frame
-    /// (no TANGENT and no UVs: assembly warns; placed instances) an arbitrary one about `ns`. Out of line:
+    /// (no TANGENT and no UVs: assembly warns) an arbitrary one about `ns`. Out of line:
     /// only anisotropic materials call it.
     #[inline(never)]
     fn anisotropy_at(

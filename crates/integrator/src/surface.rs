@@ -1,7 +1,7 @@
 //! Per-hit surface data the hit record does not carry, read back from the mesh only where a
 //! material needs it: tangents for normal maps.
 
-use geometry::{Hit, Mesh, Primitive, Scene};
+use geometry::{Hit, HitTriangle, Mesh, Scene};
 use glam::{Vec2, Vec3, Vec4};
 
 /// The tangent frame (T, B) about the unit shading normal `ns` of a tangent with its bitangent's sign in w
@@ -23,10 +23,6 @@ pub(crate) fn triangle_uvs(mesh: &Mesh, triangle: usize) -> [Vec2; 3] {
     }
 }
 
-/// The tangent at a triangle hit, with the sign of the bitangent that points "up" the image (glTF:
-/// +Y of a normal map, towards decreasing v) in w: the mesh's `TANGENT` interpolated, else the
-/// triangle's ∂p/∂u from its UVs (the per-face frame MikkTSpace starts from; it differs from
-/// MikkTSpace's per-vertex averaging only across faces). `None` for spheres, placed instances, or without UVs.
 /// [`surface_tangent`] of one hit, computed on first use and kept: the coat's normal map, the
 /// base's and the anisotropy direction may each ask for it at the same hit.
 pub(crate) struct HitTangent<'a> {
@@ -55,23 +51,20 @@ impl<'a> HitTangent<'a> {
     }
 }
 
-/// The hit's triangle: its mesh and the indices of its three vertices; `None` for spheres and placed
-/// instances (whose hits carry no primitive id).
-fn hit_triangle<'a>(scene: &'a Scene, hit: &Hit) -> Option<(&'a Mesh, [usize; 3])> {
-    if hit.primitive as usize >= scene.primitive_count() {
-        return None;
-    }
-    let Primitive::Triangle { mesh, triangle } = scene.primitive(hit.primitive) else { return None };
-    let mesh = scene.meshes().get(mesh as usize)?;
-    let tri = mesh.indices().get(triangle as usize)?.map(|i| i as usize);
-    Some((mesh, tri))
+/// ∂p/∂u and ∂p/∂v of the hit's triangle (constant over it) from its vertices' uvs: `None` for spheres,
+/// meshes without uvs, and uvs that are collinear or give a non-finite derivative (in world space on a placed
+/// instance).
+pub(crate) fn uv_derivatives(scene: &Scene, hit: &Hit) -> Option<(Vec3, Vec3)> {
+    let (at, tri) = hit_vertices(scene, hit)?;
+    let (dpdu, dpdv) = triangle_derivatives(at.mesh, tri)?;
+    Some((at.vector_to_world(dpdu), at.vector_to_world(dpdv)))
 }
 
-/// ∂p/∂u and ∂p/∂v of the hit's triangle (constant over it) from its vertices' uvs: `None` for spheres,
-/// placed instances, meshes without uvs, and uvs that are collinear or give a non-finite derivative.
-pub(crate) fn uv_derivatives(scene: &Scene, hit: &Hit) -> Option<(Vec3, Vec3)> {
-    let (mesh, tri) = hit_triangle(scene, hit)?;
-    triangle_derivatives(mesh, tri)
+/// The hit's triangle and the indices of its three vertices; `None` for spheres.
+fn hit_vertices<'a>(scene: &'a Scene, hit: &Hit) -> Option<(HitTriangle<'a>, [usize; 3])> {
+    let at = scene.hit_triangle(hit)?;
+    let tri = at.mesh.indices().get(at.triangle)?.map(|i| i as usize);
+    Some((at, tri))
 }
 
 fn triangle_derivatives(mesh: &Mesh, tri: [usize; 3]) -> Option<(Vec3, Vec3)> {
@@ -87,16 +80,22 @@ fn triangle_derivatives(mesh: &Mesh, tri: [usize; 3]) -> Option<(Vec3, Vec3)> {
     (dpdu.is_finite() && dpdv.is_finite()).then_some((dpdu, dpdv))
 }
 
+/// The tangent at a triangle hit, with the sign of the bitangent that points "up" the image (glTF:
+/// +Y of a normal map, towards decreasing v) in w: the mesh's `TANGENT` interpolated, else the
+/// triangle's ∂p/∂u from its UVs (the per-face frame MikkTSpace starts from; it differs from
+/// MikkTSpace's per-vertex averaging only across faces); on a placed instance, taken to world space. `None` for
+/// spheres, or without UVs.
 pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
-    // Hits on placed instances carry no primitive id (u32::MAX): no tangent frame there yet, so a
-    // normal map on an instanced mesh shades with the interpolated normal.
-    let (mesh, tri) = hit_triangle(scene, hit)?;
-    if let Some(tangents) = mesh.tangents() {
+    let (at, tri) = hit_vertices(scene, hit)?;
+    if let Some(tangents) = at.mesh.tangents() {
         let (_, _, [b0, b1, b2]) = scene.hit_barycentrics(hit)?;
         let t = tangents[tri[0]] * b0 + tangents[tri[1]] * b1 + tangents[tri[2]] * b2;
-        return Some(t.truncate().extend(tangents[tri[0]].w));
+        // A mirroring placement flips the frame's handedness (B = N × T · w in world space).
+        let w = if at.mirrored() { -tangents[tri[0]].w } else { tangents[tri[0]].w };
+        return Some(at.vector_to_world(t.truncate()).extend(w));
     }
-    let (dpdu, dpdv) = triangle_derivatives(mesh, tri)?;
+    let (dpdu, dpdv) = triangle_derivatives(at.mesh, tri)?;
+    let (dpdu, dpdv) = (at.vector_to_world(dpdu), at.vector_to_world(dpdv));
     // Image up is −∂p/∂v in glTF's uv (v grows down the image).
     let sign = if hit.ns.cross(dpdu).dot(-dpdv) < 0.0 { -1.0 } else { 1.0 };
     Some(dpdu.extend(sign))

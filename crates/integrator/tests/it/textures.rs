@@ -494,6 +494,87 @@ fn a_normal_map_written_as_map_bump_renders_as_norm() {
     }
 }
 
+/// A mesh placed twice renders the same whether the placements are world-space copies or instances of a
+/// two-level BVH: its normal map (tilting towards +u and +v) and its vertex colours read through the placement
+/// (one mirrored in x, one rotated a quarter turn about z, both half size), so that the tangent frame is
+/// taken to world space with the right handedness. Before, instanced hits carried no mesh: their normal map
+/// and vertex colours were dropped (with a warning).
+#[test]
+fn instances_shade_as_their_world_space_copies() {
+    let dir = folder("instances");
+    // Tilted along both tangent axes, so that the bitangent's sign (mirroring) shows.
+    let encode = |v: f64| ((v + 1.0) * 0.5 * 255.0).round() as u8;
+    write_png(
+        &dir.join("tilt.png"),
+        1,
+        1,
+        &[[encode(0.3), encode(0.25), encode((1.0f64 - 0.3 * 0.3 - 0.25 * 0.25).sqrt()), 255]],
+    );
+    let textures = r#""textures": [{"source": 0}], "images": [{"uri": "tilt.png"}]"#;
+    let colors: [[f32; 4]; 4] =
+        [[1.0, 0.2, 0.2, 1.0], [0.2, 1.0, 0.2, 1.0], [0.2, 0.2, 1.0, 1.0], [1.0, 1.0, 1.0, 1.0]];
+    std::fs::write(
+        dir.join("colors.bin"),
+        colors.as_flattened().iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<_>>(),
+    )
+    .expect("write colours");
+    let write = |normal_map: bool| {
+        let m = if normal_map {
+            r#"{"pbrMetallicRoughness": {"metallicFactor": 0, "roughnessFactor": 1}, "normalTexture": {"index": 0}}"#
+        } else {
+            r#"{"pbrMetallicRoughness": {"metallicFactor": 0, "roughnessFactor": 1}}"#
+        };
+        let path = write_gltf_quad_with_normal(&dir, m, textures, "", [0.0, 0.0, 1.0], QUAD_UVS);
+        let gltf = std::fs::read_to_string(&path).expect("read glTF");
+        let q = std::f32::consts::FRAC_1_SQRT_2;
+        let patched = gltf
+            .replace(r#""byteLength": 140}]"#, r#""byteLength": 140}, {"uri": "colors.bin", "byteLength": 64}]"#)
+            .replace(r#""byteLength": 12}]"#, r#""byteLength": 12}, {"buffer": 1, "byteOffset": 0, "byteLength": 64}]"#)
+            .replace(
+                r#""type": "SCALAR"}]"#,
+                r#""type": "SCALAR"}, {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC4"}]"#,
+            )
+            .replace(r#""TEXCOORD_0": 2}"#, r#""TEXCOORD_0": 2, "COLOR_0": 4}"#)
+            .replace(
+                r#""nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}]"#,
+                &format!(
+                    r#""nodes": [{{"mesh": 0, "translation": [-0.5, 0, 0], "scale": [-0.5, 0.5, 1]}},
+                                 {{"mesh": 0, "translation": [0.5, 0, 0], "rotation": [0, 0, {q}, {q}], "scale": [0.5, 0.5, 1]}}],
+                       "scenes": [{{"nodes": [0, 1]}}]"#
+                ),
+            );
+        assert_ne!(patched, gltf);
+        std::fs::write(&path, patched).expect("write glTF");
+        path
+    };
+    let phi = 30f64.to_radians();
+    let render = |normal_map: bool, flatten_triangles: u64| {
+        let gltf = write(normal_map);
+        scene_around(&dir, &gltf, [-phi.sin(), 0.0, -phi.cos()], "");
+        let options = geometry::LoadOptions { flatten_triangles, ..geometry::LoadOptions::default() };
+        let scene = RenderScene::load_with(&dir.join("scene.json"), &options).unwrap_or_else(|e| panic!("{e}"));
+        let instanced = scene.warnings.iter().any(|w| w.contains("instanced (kept once"));
+        assert_eq!(instanced, flatten_triangles == 0, "{:?}", scene.warnings);
+        render_rgb(&scene)
+    };
+    let (copies, instances) = (render(true, 1 << 20), render(true, 0));
+    let unmapped = render(false, 0);
+    let mut tilted = 0;
+    for y in 0..8 {
+        for x in 0..8 {
+            assert_rgb(instances[y][x], copies[y][x], 1e-4, &format!("pixel ({x}, {y})"));
+            tilted += usize::from((instances[y][x][1] - unmapped[y][x][1]).abs() > 0.05 * unmapped[y][x][1]);
+        }
+    }
+    // Both placements are in view and coloured (the vertex colours differ from corner to corner).
+    assert!(tilted >= 16, "the normal map must show on the instances: {tilted} pixels");
+    let (left, right) = (instances[4][1], instances[4][6]);
+    assert!(
+        left[0] > 0.01 && right[0] > 0.01 && (left[0] - right[0]).abs() > 0.1 * left[0].max(right[0]),
+        "{left:?} {right:?}"
+    );
+}
+
 #[test]
 fn decoded_textures_are_charged_to_the_scene_memory_budget_before_decoding() {
     let dir = folder("budget");
