@@ -226,11 +226,15 @@ pub struct MaterialTextures {
     /// tangent-space normal map from Blender's exporter, which writes its normal maps there. The file
     /// does not say which; the assembly decides from the texels.
     pub bump: Option<TextureDesc>,
+    /// MTL `map_Ks`: the specular colour per texel (sRGB RGB, multiplying `Ks`).
+    pub specular_map: Option<TextureDesc>,
+    /// MTL `map_Ns`: a scalar map (the texels' luminance) multiplying `Ns`.
+    pub shininess: Option<TextureDesc>,
 }
 
 impl MaterialTextures {
     /// Every role's texture, present or not.
-    pub fn roles(&self) -> [&Option<TextureDesc>; 15] {
+    pub fn roles(&self) -> [&Option<TextureDesc>; 17] {
         [
             &self.base_color,
             &self.metallic_roughness,
@@ -247,11 +251,13 @@ impl MaterialTextures {
             &self.sheen_roughness,
             &self.anisotropy,
             &self.bump,
+            &self.specular_map,
+            &self.shininess,
         ]
     }
 
     /// Every role's texture, present or not, to change in place (the same order as [`Self::roles`]).
-    pub fn roles_mut(&mut self) -> [&mut Option<TextureDesc>; 15] {
+    pub fn roles_mut(&mut self) -> [&mut Option<TextureDesc>; 17] {
         [
             &mut self.base_color,
             &mut self.metallic_roughness,
@@ -268,6 +274,8 @@ impl MaterialTextures {
             &mut self.sheen_roughness,
             &mut self.anisotropy,
             &mut self.bump,
+            &mut self.specular_map,
+            &mut self.shininess,
         ]
     }
 

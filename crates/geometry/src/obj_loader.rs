@@ -5,7 +5,7 @@
 //! face indices like `f 1/-99999999999999`. So both files are pre-scanned here, line by line, with
 //! errors that name the file and line: OBJ vertex and face lines are checked, and the MTL text is rewritten
 //! into a canonical form (`Kd 0.5` → `Kd 0.5 0.5 0.5`, spectral and `xyz` colours and `Tf` taken out and
-//! kept aside, texture maps (`map_Kd`, `map_d`, `norm`, `map_Bump`/`bump`, `map_Ke` with `-s`/`-o`/`-clamp`) taken out and read
+//! kept aside, texture maps (`map_Kd`, `map_Ks`, `map_Ns`, `map_d`, `norm`, `map_Bump`/`bump`, `map_Ke` with `-s`/`-o`/`-clamp`) taken out and read
 //! here) before `tobj` sees it.
 //!
 //! OBJ texture coordinates have v up from the image's bottom edge; meshes hold glTF's convention (v down from
@@ -147,6 +147,8 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
                 "map_d" => &mut d.textures.alpha,
                 "norm" => &mut d.textures.normal,
                 "map_Bump" | "map_bump" | "bump" => &mut d.textures.bump,
+                "map_Ks" => &mut d.textures.specular_map,
+                "map_Ns" => &mut d.textures.shininess,
                 _ => &mut d.textures.emissive,
             };
             *slot = Some(texture);
@@ -555,7 +557,7 @@ fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, Has
                 Some(n) if n <= 10 => out.push_str(&format!("illum {n}\n")),
                 _ => warnings.push(format!("{}:{line_no}: `illum` needs an integer 0–10; ignored", path.display())),
             },
-            "map_Kd" | "map_d" | "norm" | "map_Ke" | "map_Bump" | "map_bump" | "bump" => {
+            "map_Kd" | "map_d" | "norm" | "map_Ke" | "map_Bump" | "map_bump" | "bump" | "map_Ks" | "map_Ns" => {
                 let mut ignored = Vec::new();
                 let (file, texture) =
                     texture_statement(&rest, &mut ignored).map_err(|m| err(line_no, format!("`{key}`: {m}")))?;

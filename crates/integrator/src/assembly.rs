@@ -981,7 +981,7 @@ pub(crate) fn roughness_from_shininess(n: f32) -> f32 {
 }
 
 /// Default roughness of manifest and MTL materials: a middle value, glossy but not a mirror.
-const DEFAULT_ROUGHNESS: f32 = 0.5;
+pub(crate) const DEFAULT_ROUGHNESS: f32 = 0.5;
 
 /// glTF's default index of refraction (KHR_materials_ior), also the manifest's and MTL's.
 const DEFAULT_IOR: f32 = 1.5;

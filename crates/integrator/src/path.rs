@@ -712,6 +712,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     Bsdf::ThinDielectric(ThinDielectricBxdf::new(eta, self.spectra.eval_memo(tint, lambda, last)))
                 }
                 PathScattering::Conductor { metal, r, alpha, compensate } => {
+                    // An MTL `map_Ns` varies the roughness per texel (α = roughness²).
+                    let alpha = textures.and_then(|t| t.roughness_map(hit.uv)).map_or(alpha, |r| r * r);
                     let distrib = TrowbridgeReitz::isotropic(alpha);
                     Bsdf::Conductor(match metal {
                         // RGB lanes are not wavelengths: there the metal is its reflectance colour.

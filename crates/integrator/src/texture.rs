@@ -654,6 +654,9 @@ pub(crate) struct MaterialTextures {
     pub(crate) base_color: Option<ColorTexture>,
     /// B = metalness, G = roughness (multiplying the factors).
     metallic_roughness: Option<DataTexture>,
+    /// MTL `map_Ns` turned into roughness at load: G is the roughness itself (of `Ns` × the texel's
+    /// luminance, by the exponent's mapping), in place of the material's.
+    roughness: Option<DataTexture>,
     /// Tangent-space normal map.
     normal: Option<DataTexture>,
     /// MTL `map_Bump` read as a height field (luminance × `-bm`, in scene units): it tilts the shading
@@ -719,6 +722,7 @@ impl MaterialTextures {
     /// (metallic, roughness) at `uv` from the factors.
     #[inline]
     pub(crate) fn metallic_roughness(&self, uv: Vec2, metallic: f32, roughness: f32) -> (f32, f32) {
+        let roughness = self.roughness_map(uv).unwrap_or(roughness);
         match &self.metallic_roughness {
             Some(t) => {
                 let v = t.eval(uv);
@@ -726,6 +730,12 @@ impl MaterialTextures {
             }
             None => (metallic, roughness),
         }
+    }
+
+    /// The roughness at `uv` of an MTL `map_Ns`, `None` without one.
+    #[inline]
+    pub(crate) fn roughness_map(&self, uv: Vec2) -> Option<f32> {
+        self.roughness.as_ref().map(|t| t.eval(uv).y)
     }
 
     /// The transmission factor `factor` at `uv`, times the texture's R where there is one.
@@ -884,6 +894,7 @@ impl MaterialTextures {
     fn data_images(&self) -> impl Iterator<Item = &Arc<Image8>> {
         [
             &self.metallic_roughness,
+            &self.roughness,
             &self.normal,
             &self.bump,
             &self.coverage,
@@ -1033,6 +1044,7 @@ pub(crate) fn load_material_textures(
                 (None, true) => AlphaMode::Mask(0.5),
                 (None, false) => AlphaMode::Opaque,
             };
+            mtl_specular_maps(m, warnings);
             if !m.textures.any() && matches!(alpha_mode, AlphaMode::Opaque) && !vertex_colors {
                 out.push(None);
                 continue;
@@ -1142,6 +1154,16 @@ pub(crate) fn load_material_textures(
                     bump = Some(DataTexture::new(img, t));
                 }
             }
+            let roughness = match &textures.shininess {
+                Some(t) => image(t.image, memory, warnings)?
+                    .map(|img| {
+                        let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                        roughness_from_shininess_map(&img, label, m.shininess, memory)
+                            .map(|img| DataTexture::new(Arc::new(img), t))
+                    })
+                    .transpose()?,
+                None => None,
+            };
             let mut data = |t: &Option<TextureDesc>,
                             memory: &mut MemoryBudget,
                             warnings: &mut Vec<String>|
@@ -1165,6 +1187,7 @@ pub(crate) fn load_material_textures(
             let set = MaterialTextures {
                 base_color,
                 metallic_roughness,
+                roughness,
                 normal,
                 bump,
                 coverage,
@@ -1187,6 +1210,59 @@ pub(crate) fn load_material_textures(
         out.push(entry);
     }
     Ok(out)
+}
+
+/// MTL `map_Ns` where it can apply (a material with a specular lobe; a warning otherwise), and `map_Ks` (the
+/// specular colour per texel) as the specular layer's colour texture: MTL's Kd + Ks is the
+/// glTF dielectric layer over the diffuse one (its Fresnel from `Ni`), so the texels tint its F0 as
+/// `KHR_materials_specular`'s `specularColorTexture` does (black: no highlight at normal incidence). A
+/// conductor (black `Kd`, or `illum 5`) reflects `Ks` itself, which is not textured: a warning.
+fn mtl_specular_maps(m: &mut MaterialDesc, warnings: &mut Vec<String>) {
+    if m.format != geometry::MaterialFormat::Mtl {
+        return;
+    }
+    let black = |c: &Option<geometry::SpectrumDesc>| match c {
+        Some(geometry::SpectrumDesc::Rgb(c)) => c.iter().all(|v| *v == 0.0),
+        Some(geometry::SpectrumDesc::Constant(v)) => *v == 0.0,
+        _ => false,
+    };
+    // No `Ks` (or a black one, or illum 0/1): a Lambertian surface, which neither map can change.
+    let lambertian = m.specular.is_none() || black(&m.specular) || m.illum.is_some_and(|i| i < 2);
+    if lambertian && m.textures.shininess.take().is_some() {
+        warnings.push(format!("material {:?}: `map_Ns` not used: the material has no specular lobe (no `Ks`)", m.name));
+    }
+    let Some(texture) = m.textures.specular_map.take() else { return };
+    if lambertian || m.illum == Some(5) || black(&m.base_color) {
+        warnings.push(format!(
+            "material {:?}: `map_Ks` not used: the material has no specular lobe (no `Ks`), or is a conductor reflecting `Ks` (black `Kd` or `illum 5`), whose colour is not textured",
+            m.name
+        ));
+        return;
+    }
+    m.textures.specular_color = Some(texture);
+    m.specular_layer.get_or_insert(geometry::SpecularLayer { factor: 1.0, color: [1.0; 3] });
+}
+
+/// MTL `map_Ns` (`Ns` × the texels' luminance) as an image of roughness in G, by the exponent's mapping
+/// (`assembly::roughness_from_shininess`); `ns` the material's `Ns` (without one, the exponent of the default
+/// roughness). The map's own image stays for other roles; this one is charged to `memory`.
+fn roughness_from_shininess_map(
+    img: &Image8,
+    label: &str,
+    ns: Option<f32>,
+    memory: &mut MemoryBudget,
+) -> geometry::Result<Image8> {
+    use crate::assembly::{DEFAULT_ROUGHNESS, roughness_from_shininess, shininess_from_roughness};
+    let ns = ns.map_or(shininess_from_roughness(DEFAULT_ROUGHNESS), |n| n.max(0.0));
+    let bytes = img.texels.len() as u64 * IMAGE8_BYTES_PER_TEXEL;
+    memory.charge(std::path::Path::new(label), || "`map_Ns` as roughness".to_owned(), bytes)?;
+    let table: Vec<u8> =
+        (0..=255u8).map(|v| (255.0 * roughness_from_shininess(ns * f32::from(v) / 255.0)).round() as u8).collect();
+    let luminance = |[r, g, b, _]: [u8; 4]| {
+        (LUMINANCE.dot(Vec3::new(f32::from(r), f32::from(g), f32::from(b)))).round().clamp(0.0, 255.0) as u8
+    };
+    let texels = img.texels.iter().map(|&t| [0, table[luminance(t) as usize], 0, 255]).collect();
+    Ok(Image8 { width: img.width, height: img.height, texels })
 }
 
 /// What a texture with more than [`MAX_REFINED_COLOURS`] (`count`) distinct colours says.

@@ -575,6 +575,68 @@ fn instances_shade_as_their_world_space_copies() {
     );
 }
 
+/// MTL `map_Ns` multiplies `Ns` per texel: each half of a quad whose map is white on the left and 16/255
+/// on the right renders as the untextured material of that half's exponent (the exponent whose roughness
+/// is the 8-bit value the map is turned into). Before, `map_Ns` was ignored with a warning (both halves had
+/// `Ns 100`).
+#[test]
+fn mtl_map_ns_varies_the_exponent_per_texel() {
+    let dir = folder("map-ns");
+    let grey = |v: u8| [v, v, v, 255];
+    write_png(&dir.join("ns.png"), 4, 1, &[grey(255), grey(255), grey(16), grey(16)]);
+    let phi = 30f64.to_radians();
+    let render =
+        |mtl: &str| render_rgb(&scene_around(&dir, &write_obj_quad(&dir, mtl), [-phi.sin(), 0.0, -phi.cos()], ""));
+    // The 8-bit roughness of Ns 100 × v, and the Ns whose roughness (2 / (Ns + 2))^¼ is exactly that.
+    let ns_of = |v: f64| {
+        let g = (255.0 * (2.0 / (100.0 * v + 2.0)).powf(0.25)).round();
+        2.0 / (g / 255.0).powi(4) - 2.0
+    };
+    // A dielectric layer over a dark diffuse one, and a conductor (black Kd) reflecting Ks.
+    for base in ["Kd 0.05 0.05 0.05\nKs 1 1 1", "Kd 0 0 0\nKs 0.9 0.9 0.9"] {
+        let textured = render(&format!("{base}\nNs 100\nmap_Ns ns.png"));
+        let left = render(&format!("{base}\nNs {}", ns_of(1.0)));
+        let right = render(&format!("{base}\nNs {}", ns_of(16.0 / 255.0)));
+        for y in [2, 4, 6] {
+            for x in [1, 2] {
+                assert_rgb(textured[y][x], left[y][x], 2e-3, &format!("{base}: left pixel ({x}, {y})"));
+            }
+            for x in [5, 6] {
+                let (l, r) = (left[y][x][1], right[y][x][1]);
+                assert!((l - r).abs() > 0.02 * l, "{base}: the halves must differ: {l} vs {r}");
+                assert_rgb(textured[y][x], right[y][x], 2e-3, &format!("{base}: right pixel ({x}, {y})"));
+            }
+        }
+    }
+}
+
+/// MTL `map_Ks` tints the specular layer per texel (as `specularColorTexture`): white texels render as the
+/// untextured material, black ones lose the highlight and keep the diffuse layer; on a conductor (black
+/// `Kd`), whose reflectance `Ks` is not textured, a warning says so. Before, `map_Ks` was ignored.
+#[test]
+fn mtl_map_ks_tints_the_specular_layer_per_texel() {
+    let dir = folder("map-ks");
+    let (white, black) = ([255; 4], [0, 0, 0, 255]);
+    write_png(&dir.join("ks.png"), 4, 1, &[white, white, black, black]);
+    let phi = 30f64.to_radians();
+    let scene = |mtl: &str| scene_around(&dir, &write_obj_quad(&dir, mtl), [-phi.sin(), 0.0, -phi.cos()], "");
+    let textured = render_rgb(&scene("Kd 0.3 0.3 0.3\nKs 1 1 1\nNs 100\nmap_Ks ks.png"));
+    let plain = render_rgb(&scene("Kd 0.3 0.3 0.3\nKs 1 1 1\nNs 100"));
+    let diffuse = render_rgb(&scene("Kd 0.3 0.3 0.3"));
+    for y in [2, 4, 6] {
+        for x in [1, 2] {
+            assert_rgb(textured[y][x], plain[y][x], 2e-3, &format!("white texel, pixel ({x}, {y})"));
+        }
+        for x in [5, 6] {
+            let (got, plain, diffuse) = (textured[y][x][1], plain[y][x][1], diffuse[y][x][1]);
+            assert!(got < plain - 0.02 * plain, "black texel keeps a highlight: {got} vs {plain}");
+            assert!((got - diffuse).abs() < 0.05 * diffuse, "black texel: {got} vs diffuse {diffuse}");
+        }
+    }
+    let conductor = scene("Kd 0 0 0\nKs 0.9 0.6 0.3\nNs 100\nmap_Ks ks.png");
+    assert!(conductor.warnings.iter().any(|w| w.contains("`map_Ks` not used")), "{:?}", conductor.warnings);
+}
+
 #[test]
 fn decoded_textures_are_charged_to_the_scene_memory_budget_before_decoding() {
     let dir = folder("budget");
