@@ -755,6 +755,31 @@ impl Scene {
         set.objects[object].meshes.get(id - set.mesh_offsets[object])
     }
 
+    /// Each placed object's mesh with the world-space box around all its placements (for sizes an
+    /// interpretation needs, such as the longest path through an absorbing object).
+    pub fn placed_mesh_bounds(&self) -> Vec<(&Mesh, (Vec3, Vec3))> {
+        let Some(set) = self.instances.as_deref() else { return Vec::new() };
+        let mut out: Vec<_> = set
+            .objects
+            .iter()
+            .flat_map(|o| o.meshes.iter())
+            .map(|m| (m, (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY))))
+            .collect();
+        for placement in &set.placements {
+            let object = &set.objects[placement.object as usize];
+            let first = set.mesh_offsets[placement.object as usize] - self.meshes.len();
+            let to_world = glam::Mat4::from(placement.object_to_world);
+            for (k, mesh) in object.meshes.iter().enumerate() {
+                let Some(&p0) = mesh.positions().first() else { continue };
+                let (lo, hi) = mesh.positions().iter().fold((p0, p0), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+                let (a, b) = crate::shapes::transform_bounds(to_world, lo, hi);
+                let slot = &mut out[first + k].1;
+                *slot = (slot.0.min(a), slot.1.max(b));
+            }
+        }
+        out
+    }
+
     /// Every mesh in id order ([`Scene::mesh_by_id`]).
     pub fn all_meshes(&self) -> impl Iterator<Item = &Mesh> {
         let placed = self.instances.iter().flat_map(|set| set.objects.iter().flat_map(|o| o.meshes.iter()));

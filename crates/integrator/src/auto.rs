@@ -212,6 +212,12 @@ fn material_extents(scene: &RenderScene) -> Vec<Option<(Vec3, Vec3)>> {
             grow(mesh.material(), lo, hi);
         }
     }
+    // Placed objects' meshes too (before, an absorber used only by instances was not checked at all).
+    for (mesh, (lo, hi)) in geometry.placed_mesh_bounds() {
+        if lo.cmple(hi).all() {
+            grow(mesh.material(), lo, hi);
+        }
+    }
     out
 }
 
@@ -286,6 +292,45 @@ mod tests {
         }
         // What the old rule chose is visibly off somewhere in the slab's range of lengths.
         assert!(beer_error(&green, clear, 4.0) > AUTO_MAX_DELTA_E, "{}", beer_error(&green, clear, 4.0));
+    }
+
+    /// An absorber used only by placed instances (a mesh placed several times) is checked as its
+    /// world-space copies are: same bins. Before, instanced meshes had no extent, so the absorber
+    /// was skipped and the scene got the bins of clear glass.
+    #[test]
+    fn absorbers_on_instances_are_checked_as_copies_are() {
+        let green = "{\"rgb\": [0.75, 0.1, 0.6]}";
+        let desc = || {
+            let json = format!(
+                r#"{{ "camera": {{"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 4}},
+                "materials": {{
+                  "glass": {{"model": "dielectric", "base_color": 0, "diffuse": 0, "transmission": 1, "transmittance": 1,
+                             "ior": 1.5, "absorption": {{"sigma_a": {green}}}}},
+                  "backdrop": {{"model": "diffuse", "base_color": 0, "emission": "D65"}} }},
+                "objects": [
+                  {{"type": "quad", "corner": [-3, -3, 0.5], "edge_u": [6, 0, 0], "edge_v": [0, 6, 0], "material": "glass"}},
+                  {{"type": "quad", "corner": [-3, -3, -0.5], "edge_u": [0, 6, 0], "edge_v": [6, 0, 0], "material": "glass"}},
+                  {{"type": "quad", "corner": [-50, -50, -5], "edge_u": [100, 0, 0], "edge_v": [0, 100, 0], "material": "backdrop"}}
+                ] }}"#
+            );
+            geometry::parse_manifest(&json, std::path::Path::new("."), "<test>").unwrap()
+        };
+        let placements = [glam::Mat4::IDENTITY, glam::Mat4::from_translation(Vec3::new(8.0, 0.0, 0.0))];
+        let mut copies = desc();
+        let glass: Vec<geometry::Mesh> = copies.meshes.drain(..2).collect();
+        for m in placements {
+            copies.meshes.extend(glass.iter().map(|g| g.transformed(m)));
+        }
+        let mut placed = desc();
+        let glass: Vec<geometry::Mesh> = placed.meshes.drain(..2).collect();
+        placed.instances.push(geometry::Instances::new(glass, placements.to_vec()).unwrap());
+        let (copies, placed) =
+            (RenderScene::from_description(copies).unwrap(), RenderScene::from_description(placed).unwrap());
+        assert_eq!(placed.geometry.instance_count(), 2);
+        let clear = auto_bins(&slab("0")).unwrap();
+        let n = auto_bins(&copies).unwrap();
+        assert!(n > clear, "bins:{n} vs bins:{clear}");
+        assert_eq!(auto_bins(&placed), Some(n));
     }
 
     #[test]
