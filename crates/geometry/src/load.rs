@@ -188,6 +188,9 @@ fn include_file(desc: &mut SceneDescription, include: Include, budget: &Budget) 
                     cause: Box::new(e),
                 })?;
         }
+        if let Some((lo, hi)) = instance.bounds() {
+            check_coordinates(&[lo, hi], &path, "instances after the manifest's transform (their placements' bounds)")?;
+        }
         desc.instances.push(instance);
     }
     if use_file_materials {

@@ -559,15 +559,27 @@ fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, Has
             },
             "map_Kd" | "map_d" | "norm" | "map_Ke" | "map_Bump" | "map_bump" | "bump" | "map_Ks" | "map_Ns" => {
                 let mut ignored = Vec::new();
-                let (file, texture) =
-                    texture_statement(&rest, &mut ignored).map_err(|m| err(line_no, format!("`{key}`: {m}")))?;
+                // The statements read since issue 12's last items (bump, specular colour and exponent maps)
+                // were warnings before: a bad one stays a warning, so no file that loaded fails now.
+                let lenient = matches!(key, "map_Bump" | "map_bump" | "bump" | "map_Ks" | "map_Ns");
+                let statement = texture_statement(&rest, &mut ignored)
+                    .map_err(|m| err(line_no, format!("`{key}`: {m}")))
+                    .and_then(|(file, texture)| Ok((budget.resolve(path, &folder, &file)?, texture)));
+                let (file, texture) = match statement {
+                    Ok(statement) => statement,
+                    Err(e) if lenient => {
+                        warnings
+                            .push(format!("{}:{line_no}: material '{name}': `{key}` not used: {e}", path.display()));
+                        continue;
+                    }
+                    Err(e) => return Err(e),
+                };
                 if !ignored.is_empty() {
                     warnings.push(format!(
                         "{}:{line_no}: material '{name}': `{key}` options {ignored:?} ignored",
                         path.display()
                     ));
                 }
-                let file = budget.resolve(path, &folder, &file)?;
                 info.textures.push((key.to_owned(), file, texture));
             }
             k if k.starts_with("map_") || k == "disp" || k == "decal" || k == "refl" => {

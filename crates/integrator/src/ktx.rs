@@ -5,47 +5,84 @@
 //! Universal (ETC1S/UASTC) and block-compressed formats are not decoded (a warning with a way forward): they
 //! need a transcoder, which has no maintained pure-Rust implementation.
 //!
-//! Only the base level of a 2D image is read (the renderer has no mip-maps). The container is parsed by the
-//! `ktx2` crate (bounds of every section checked) and zstd decoded by `ruzstd`, its output capped at the size
-//! the header implies, so a forged stream cannot expand past it.
+//! Only the base level of a 2D image is read (the renderer has no mip-maps). The header and level index are
+//! read here with checked arithmetic (the `ktx2` crate was tried first: it panics on a malformed data format
+//! descriptor, which this reader does not need); zstd is decoded by `ruzstd`, its output capped at the size
+//! the header implies and its window at that size, so a forged stream cannot expand past it.
 
 use std::io::Read;
 
 use geometry::{ImageDesc, MemoryBudget};
-use ktx2::{Format, SupercompressionScheme};
 
 use crate::texture::Image8;
 
 /// The KTX 2.0 file identifier (KTX 2.0 specification §3.1): «KTX 20»\r\n\x1A\n.
 const IDENTIFIER: [u8; 12] = [0xAB, b'K', b'T', b'X', b' ', b'2', b'0', 0xBB, b'\r', b'\n', 0x1A, b'\n'];
 
-/// Largest zstd window the decoder accepts (bytes): a frame that asks for more is refused before the window
-/// is allocated (zstd's own default limit for decoders is 128 MiB; the largest texture here is 16 384² × 4 B).
-const MAX_WINDOW: u64 = 64 << 20;
+/// Bytes of the header and its section index (§3.1–3.3), before the level index.
+const HEADER_BYTES: usize = 80;
+
+/// Smallest zstd window the decoder is allowed (bytes); a frame that asks for more than the level's own size
+/// (rounded up to a power of two, at least this) is refused before the window is allocated: an encoder never
+/// needs a window larger than its input.
+const MIN_WINDOW: u64 = 1 << 20;
 
 /// Whether `bytes` is a KTX 2.0 file.
 pub(crate) fn is_ktx2(bytes: &[u8]) -> bool {
     bytes.starts_with(&IDENTIFIER)
 }
 
-/// Channels per texel and whether they are stored blue first, for the 8-bit formats that are decoded.
-fn layout(format: Format) -> Option<(usize, bool)> {
-    Some(match format {
-        Format::R8_UNORM | Format::R8_SRGB => (1, false),
-        Format::R8G8_UNORM | Format::R8G8_SRGB => (2, false),
-        Format::R8G8B8_UNORM | Format::R8G8B8_SRGB => (3, false),
-        Format::B8G8R8_UNORM | Format::B8G8R8_SRGB => (3, true),
-        Format::R8G8B8A8_UNORM | Format::R8G8B8A8_SRGB => (4, false),
-        Format::B8G8R8A8_UNORM | Format::B8G8R8A8_SRGB => (4, true),
+/// Channels per texel and whether they are stored blue first, for the 8-bit VkFormats that are decoded
+/// (`_UNORM` and `_SRGB` alike: the bytes are kept as stored).
+fn layout(vk_format: u32) -> Option<(usize, bool)> {
+    Some(match vk_format {
+        9 | 15 => (1, false),  // R8
+        16 | 22 => (2, false), // R8G8
+        23 | 29 => (3, false), // R8G8B8
+        30 | 36 => (3, true),  // B8G8R8
+        37 | 43 => (4, false), // R8G8B8A8
+        44 | 50 => (4, true),  // B8G8R8A8
         _ => return None,
     })
+}
+
+/// The header fields and the base level this decoder reads; `None` for a file too short for them.
+struct Header {
+    vk_format: u32,
+    width: u32,
+    height: u32,
+    depth: u32,
+    layers: u32,
+    faces: u32,
+    supercompression: u32,
+    /// Byte offset and length of level 0 (the base level: the level index lists the largest first).
+    level: (u64, u64),
+}
+
+impl Header {
+    fn read(bytes: &[u8]) -> Option<Self> {
+        let u32_at = |at: usize| Some(u32::from_le_bytes(bytes.get(at..at + 4)?.try_into().ok()?));
+        let u64_at = |at: usize| Some(u64::from_le_bytes(bytes.get(at..at + 8)?.try_into().ok()?));
+        Some(Self {
+            vk_format: u32_at(12)?,
+            width: u32_at(20)?,
+            height: u32_at(24)?,
+            depth: u32_at(28)?,
+            layers: u32_at(32)?,
+            faces: u32_at(36)?,
+            supercompression: u32_at(44)?,
+            level: (u64_at(HEADER_BYTES)?, u64_at(HEADER_BYTES + 8)?),
+        })
+    }
 }
 
 /// The base level of the KTX2 image `image` as RGBA8 (one channel → grey, two → grey + alpha as PNG does;
 /// a missing alpha is 255). `Ok(None)` with a warning for what is not decoded or is malformed; an error only
 /// when the texels would pass the scene's memory budget (charged before decompression: the decompressed
-/// level as working memory, the kept texels for good). The bytes are kept as stored: whether they are sRGB
-/// is the texture role's decision, as for PNG (glTF defines it per role, not per file).
+/// level and the zstd window as working memory, the kept texels for good). The bytes are kept as stored:
+/// whether they are sRGB is the texture role's decision, as for PNG (glTF defines it per role, not per file).
+/// The header, the level index and the level's bounds are read here with checked arithmetic; the data
+/// format descriptor is not needed (the VkFormat says all) and not parsed.
 pub(crate) fn decode_ktx2(
     image: &ImageDesc,
     max_side: u32,
@@ -56,13 +93,15 @@ pub(crate) fn decode_ktx2(
         warnings.push(format!("{}: KTX2 {why}; the material's factor is used", image.label));
         Ok(None)
     };
-    let reader = match ktx2::Reader::new(&image.bytes[..]) {
-        Ok(reader) => reader,
-        Err(e) => return skip(format!("file cannot be read ({e:?})"), warnings),
+    let bytes = &image.bytes[..];
+    let Some(header) = Header::read(bytes).filter(|_| is_ktx2(bytes)) else {
+        return skip("file is too short for its header or not KTX 2.0".to_owned(), warnings);
     };
-    let header = reader.header();
-    let Some((channels, bgr)) = header.format.and_then(layout) else {
-        let format = header.format.map_or("Basis Universal (VK_FORMAT_UNDEFINED)".to_owned(), |f| format!("{f:?}"));
+    let Some((channels, bgr)) = layout(header.vk_format) else {
+        let format = match header.vk_format {
+            0 => "VK_FORMAT_UNDEFINED (Basis Universal)".to_owned(),
+            n => format!("VkFormat {n}"),
+        };
         return skip(
             format!(
                 "format {format} is not decoded (only 8-bit R, RG, RGB, BGR, RGBA, BGRA, raw or zstd); transcode it, e.g. `ktx transcode --target rgba8 IN OUT` or `gltf-transform ktxdecompress IN OUT`"
@@ -70,44 +109,48 @@ pub(crate) fn decode_ktx2(
             warnings,
         );
     };
-    if header.pixel_depth > 1 || header.layer_count > 1 || header.face_count > 1 {
+    if header.depth > 1 || header.layers > 1 || header.faces > 1 {
         return skip("3D, array or cube-map texture is not decoded".to_owned(), warnings);
     }
-    let (width, height) = (header.pixel_width, header.pixel_height.max(1));
-    if width > max_side || height > max_side {
-        return skip(format!("{width}×{height} texels: larger than {max_side} a side"), warnings);
+    let (width, height) = (header.width, header.height.max(1));
+    if width == 0 || width > max_side || height > max_side {
+        return skip(format!("{width}×{height} texels: not within 1–{max_side} a side"), warnings);
     }
-    let Some(level) = reader.levels().next() else {
-        return skip("file has no image data".to_owned(), warnings);
+    let (offset, length) = header.level;
+    let Some(data) =
+        offset.checked_add(length).and_then(|end| bytes.get(usize::try_from(offset).ok()?..usize::try_from(end).ok()?))
+    else {
+        return skip("base level lies outside the file".to_owned(), warnings);
     };
     let expected = u64::from(width) * u64::from(height) * channels as u64;
     let kept = u64::from(width) * u64::from(height) * 4;
+    let window = expected.next_power_of_two().max(MIN_WINDOW);
+    let zstd = header.supercompression == 2;
     let path = std::path::Path::new(&image.label);
-    let what = || format!("decoding a {width}×{height} KTX2 {:?} image", header.format);
-    memory.fits(path, what, expected.saturating_add(kept))?;
+    let what = || format!("decoding a {width}×{height} KTX2 image (VkFormat {})", header.vk_format);
+    memory.fits(path, what, expected.saturating_add(kept).saturating_add(if zstd { window } else { 0 }))?;
     memory.charge(path, what, kept)?;
-    let bytes = match header.supercompression_scheme {
-        None => level.data.get(..expected as usize).map(<[u8]>::to_vec),
-        Some(SupercompressionScheme::Zstandard) => {
-            match ruzstd::decoding::StreamingDecoder::new_with_max_window_size(level.data, MAX_WINDOW) {
-                Ok(decoder) => {
-                    // One byte past the expected length tells a stream that is too long.
-                    let mut out = Vec::with_capacity(expected as usize);
-                    match decoder.take(expected + 1).read_to_end(&mut out) {
-                        Ok(_) if out.len() as u64 == expected => Some(out),
-                        Ok(_) => None,
-                        Err(e) => return skip(format!("zstd data cannot be decoded ({e})"), warnings),
-                    }
+    let texels = match header.supercompression {
+        0 => data.get(..expected as usize).map(<[u8]>::to_vec),
+        2 => match ruzstd::decoding::StreamingDecoder::new_with_max_window_size(data, window) {
+            Ok(decoder) => {
+                // One byte past the expected length tells a stream that is too long.
+                let mut out = Vec::with_capacity(expected as usize);
+                match decoder.take(expected + 1).read_to_end(&mut out) {
+                    Ok(_) if out.len() as u64 == expected => Some(out),
+                    Ok(_) => None,
+                    Err(e) => return skip(format!("zstd data cannot be decoded ({e})"), warnings),
                 }
-                Err(e) => return skip(format!("zstd data cannot be decoded ({e})"), warnings),
             }
-        }
-        Some(other) => return skip(format!("supercompression {other:?} is not decoded"), warnings),
+            Err(e) => return skip(format!("zstd data cannot be decoded ({e})"), warnings),
+        },
+        1 => return skip("BasisLZ supercompression is not decoded (transcode it, as above)".to_owned(), warnings),
+        n => return skip(format!("supercompression scheme {n} is not decoded"), warnings),
     };
-    let Some(bytes) = bytes else {
+    let Some(texels) = texels else {
         return skip(format!("base level does not hold {width}×{height} texels of {channels} byte(s)"), warnings);
     };
-    let texels = bytes
+    let texels = texels
         .chunks_exact(channels)
         .map(|c| match (c, bgr) {
             ([g], _) => [*g, *g, *g, 255],
@@ -183,6 +226,18 @@ pub(crate) mod tests {
 
     #[test]
     fn undecoded_formats_and_malformed_files_are_warnings_not_panics() {
+        // A data format descriptor a reader would choke on (texel block dimensions of 255) is not read.
+        let mut odd = ktx2_file(23, 1, 1, &[1, 2, 3], false);
+        // A basic block's first words (vendor/type, version/size, model/primaries/transfer/flags), then texel
+        // block dimensions of 255 each and empty planes.
+        let block: Vec<u8> = [[0u8; 4], [2, 0, 40, 0], [1, 1, 0, 0], [255; 4], [0; 4], [0; 4]].concat();
+        let total = 4 + block.len() as u32;
+        odd.splice(104..108, total.to_le_bytes().into_iter().chain(block));
+        odd[52..56].copy_from_slice(&total.to_le_bytes());
+        let level = u64::from_le_bytes(odd[80..88].try_into().unwrap()) + u64::from(total) - 4;
+        odd[80..88].copy_from_slice(&level.to_le_bytes());
+        let (image, warnings) = decode(odd);
+        assert_eq!(image.map(|i| i.texels), Some(vec![[1, 2, 3, 255]]), "{warnings:?}");
         // Basis Universal (VK_FORMAT_UNDEFINED = 0) and BC7 (145) name a way forward.
         for format in [0, 145] {
             let (image, warnings) = decode(ktx2_file(format, 4, 4, &[0; 16], false));

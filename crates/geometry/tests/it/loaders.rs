@@ -668,6 +668,13 @@ fn manifest_includes_keep_the_files_instances_under_their_transform() {
     assert_eq!(origins, vec![Vec3::new(2.0, 0.0, 3.0), Vec3::new(0.0, 4.0, 3.0)]);
     let material = placed.meshes()[0].material().map(|m| d.materials[m as usize].name.as_str());
     assert_eq!(material, Some("placed"));
+    // The include's transform cannot carry the placements past the coordinate limit unchecked.
+    let far = text.replace(r#""translate": [0, 0, 3]"#, r#""translate": [2e18, 0, 3]"#);
+    assert_ne!(far, text);
+    let e =
+        load_scene_with(&write(&dir, "far.json", far.as_bytes()), &options).err().unwrap_or_else(|| panic!("loaded"));
+    let Error::IncludedFile { source, .. } = &e else { panic!("{e:?}") };
+    assert!(matches!(**source, Error::CoordinateTooLarge { .. }), "{source:?}");
 }
 
 #[test]
