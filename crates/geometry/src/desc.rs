@@ -279,6 +279,16 @@ impl MaterialTextures {
         ]
     }
 
+    /// The TEXCOORD sets the textures address: the primary one (a mesh's uvs, which hits interpolate and
+    /// tangents follow: the normal map's set where there is one, else the first role's) and another one
+    /// (a mesh's second uvs), if any role uses a different set. A third set is not read (the loader warns).
+    pub fn uv_sets(&self) -> (u32, Option<u32>) {
+        let mut sets = self.roles().into_iter().flatten().map(|t| t.tex_coord);
+        let normal = self.normal.as_ref().or(self.bump.as_ref()).map(|t| t.tex_coord);
+        let Some(primary) = normal.or_else(|| sets.next()) else { return (0, None) };
+        (primary, self.roles().into_iter().flatten().map(|t| t.tex_coord).find(|&s| s != primary))
+    }
+
     /// Whether any role has a texture.
     pub fn any(&self) -> bool {
         self.roles().iter().any(|t| t.is_some())

@@ -47,6 +47,8 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     // metallic-roughness with a warning (see `Loader::material`).
     "KHR_materials_pbrSpecularGlossiness",
     "EXT_mesh_gpu_instancing",
+    // The texture's WebP image is used (decoded by the `image` crate's pure-Rust WebP decoder).
+    "EXT_texture_webp",
 ];
 
 /// Extensions a file may require that we degrade gracefully: the file loads, with a warning (see
@@ -299,6 +301,15 @@ fn extension_notes(root: &mut gltf::json::Root, dropped_animations: usize, path:
             if let Some(i) = source.filter(|i| (*i as usize) < root.images.len()) {
                 texture.source = gltf::json::Index::new(i);
             }
+        }
+    }
+    // EXT_texture_webp: the WebP image is used, as the extension asks of a client that supports it (a
+    // PNG/JPEG `source` beside it is the fallback for those that do not).
+    for texture in &mut root.textures {
+        let webp = texture.extensions.as_ref().and_then(|e| e.others.get("EXT_texture_webp"));
+        let source = webp.and_then(|w| w.get("source")).and_then(serde_json::Value::as_u64);
+        if let Some(i) = source.and_then(|i| u32::try_from(i).ok()).filter(|i| (*i as usize) < root.images.len()) {
+            texture.source = gltf::json::Index::new(i);
         }
     }
     if ktx2 > 0 {
@@ -1211,16 +1222,37 @@ impl Loader<'_> {
                 Some(i) => i as u32,
                 None => self.default_material(),
             };
-            // A mesh holds one UV set: the one its material's textures address.
+            // A mesh holds the uv sets its material's textures address: a primary one and at most one other.
             let textures = &self.desc.materials[material as usize].textures;
             let sets: Vec<u32> = textures.roles().into_iter().flatten().map(|t| t.tex_coord).collect();
-            let set = sets.first().copied().unwrap_or(0);
+            let (set, second_set) = textures.uv_sets();
             let wants_tangents = self.desc.materials[material as usize].needs_tangents();
-            if sets.iter().any(|&s| s != set) {
+            if let Some(other) = second_set
+                && sets.iter().any(|&s| s != set && s != other)
+            {
                 self.warn(format!(
-                    "{context}: the material's textures use several TEXCOORD sets {sets:?}; all are read with TEXCOORD_{set}"
+                    "{context}: the material's textures use more than two TEXCOORD sets {sets:?}; those beyond TEXCOORD_{set} and TEXCOORD_{other} are read with TEXCOORD_{other}"
                 ));
             }
+            let second_uvs = match second_set.map(|s| (s, primitive.get(&Semantic::TexCoords(s)))) {
+                Some((s, Some(acc))) => {
+                    let uv = self.read_vec2(&acc, &format!("{context} TEXCOORD_{s}"))?;
+                    let name = format!("TEXCOORD_{s}");
+                    self.per_vertex(
+                        uv,
+                        vertex_count,
+                        Vec2::is_finite,
+                        &context,
+                        &name,
+                        "its textures read the first set",
+                    )
+                }
+                Some((s, None)) => {
+                    self.warn(format!("{context}: the material's textures use TEXCOORD_{s}, which is missing; they read TEXCOORD_{set}"));
+                    None
+                }
+                None => None,
+            };
             let uvs = match primitive.get(&Semantic::TexCoords(set)) {
                 Some(acc) => {
                     let uv = self.read_vec2(&acc, &format!("{context} TEXCOORD_{set}"))?;
@@ -1264,6 +1296,10 @@ impl Loader<'_> {
                 })
                 .and_then(|m| match colors {
                     Some(c) => m.with_colors(c),
+                    None => Ok(m),
+                })
+                .and_then(|m| match second_uvs {
+                    Some(s) => m.with_second_uvs(s),
                     None => Ok(m),
                 })
                 .map_err(|e| Error::InvalidGeometry {

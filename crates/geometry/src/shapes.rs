@@ -11,6 +11,9 @@ pub struct Mesh {
     positions: Vec<Vec3>,
     normals: Option<Vec<Vec3>>,
     uvs: Option<Vec<Vec2>>,
+    /// A second uv set: the other TEXCOORD set its material's textures address (glTF `texCoord` 1 beside
+    /// 0, say), for those textures.
+    second_uvs: Option<Vec<Vec2>>,
     /// Per-vertex tangents (xyz) and bitangent sign (w), as glTF's `TANGENT` gives them.
     tangents: Option<Vec<Vec4>>,
     /// Per-vertex linear RGBA (glTF `COLOR_0`, OBJ `v x y z r g b`), multiplying the base colour.
@@ -56,7 +59,25 @@ impl Mesh {
                 positions.len()
             )));
         }
-        Ok(Self { positions, normals, uvs, tangents: None, colors: None, indices, material })
+        Ok(Self { positions, normals, uvs, second_uvs: None, tangents: None, colors: None, indices, material })
+    }
+
+    /// The mesh with a second uv set ([`Mesh::second_uvs`]); rejects a count differing from the positions'
+    /// or a non-finite value.
+    pub fn with_second_uvs(mut self, uvs: Vec<Vec2>) -> Result<Self> {
+        if uvs.len() != self.positions.len() {
+            return Err(Error::Invalid(format!("{} second UVs for {} positions", uvs.len(), self.positions.len())));
+        }
+        if let Some(i) = uvs.iter().position(|v| !v.is_finite()) {
+            return Err(Error::Invalid(format!("vertex {i} second UV {:?} is not finite", uvs[i])));
+        }
+        self.second_uvs = Some(uvs);
+        Ok(self)
+    }
+
+    /// The second uv set, if the mesh has one: what textures on the material's other TEXCOORD set read.
+    pub fn second_uvs(&self) -> Option<&[Vec2]> {
+        self.second_uvs.as_deref()
     }
 
     /// The mesh with per-vertex tangents (xyz, and the bitangent sign in w: glTF `TANGENT`);
@@ -118,6 +139,7 @@ impl Mesh {
         let mut m = Self::new(self.positions.clone(), None, None, indices, self.material)?;
         m.normals.clone_from(&self.normals);
         m.uvs.clone_from(&self.uvs);
+        m.second_uvs.clone_from(&self.second_uvs);
         m.tangents.clone_from(&self.tangents);
         m.colors.clone_from(&self.colors);
         Ok(m)
@@ -162,6 +184,7 @@ impl Mesh {
             positions,
             normals,
             uvs: self.uvs.clone(),
+            second_uvs: self.second_uvs.clone(),
             tangents,
             colors: self.colors.clone(),
             indices: self.indices.clone(),

@@ -831,13 +831,14 @@ fn weigh_textured_lights(scene: &mut RenderScene) {
         }
         let geometry::Primitive::Triangle { mesh, triangle } = scene.geometry.primitive(primitive) else { continue };
         let mesh = &scene.geometry.meshes()[mesh as usize];
-        let uv = crate::surface::triangle_uvs(mesh, triangle as usize);
+        let uv = crate::surface::triangle_uvs(mesh, triangle as usize, t.emissive_reads_second_uvs());
         let mut sum = 0.0f64;
         for k in 0..16 {
             // A 4 × 4 grid on the unit square, mapped to the triangle as light sampling maps its points.
             let u = Vec2::new((k % 4) as f32 * 0.25 + 0.125, (k / 4) as f32 * 0.25 + 0.125);
             let (b0, b1) = crate::sampling::uniform_triangle(u);
-            sum += f64::from(t.emissive_luminance(b0 * uv[0] + b1 * uv[1] + (1.0 - b0 - b1) * uv[2]).unwrap_or(0.0));
+            let at = crate::texture::Uv::same(b0 * uv[0] + b1 * uv[1] + (1.0 - b0 - b1) * uv[2]);
+            sum += f64::from(t.emissive_luminance(at).unwrap_or(0.0));
         }
         mean_luminance.push((light, material, sum / 16.0, f64::from(scene.geometry.primitive_area(primitive))));
     }

@@ -28,7 +28,7 @@ use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
 use crate::sampling::{Rng, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
 use crate::surface::{HitTangent, tangent_frame, triangle_uvs};
-use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, VertexColorHit};
+use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, Uv, VertexColorHit};
 
 /// Bounces when neither the options nor the scene's `max_depth` setting say: deep enough
 /// that Russian roulette, not the limit, ends almost every path.
@@ -392,6 +392,19 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         self.scene.textures.get(index? as usize)?.as_ref()
     }
 
+    /// The hit's uvs in both of its mesh's sets, the second interpolated only where `textures` (the hit
+    /// material's) read it.
+    #[inline]
+    fn hit_uvs(&self, textures: Option<&MaterialTextures>, hit: &Hit) -> Uv {
+        match textures {
+            Some(t) if t.reads_second_uvs() => match crate::surface::second_uv(&self.scene.geometry, hit) {
+                Some(second) => Uv { primary: hit.uv, second },
+                None => Uv::same(hit.uv),
+            },
+            _ => Uv::same(hit.uv),
+        }
+    }
+
     /// The vertex colour at `hit`, if its mesh has vertex colours its material takes. Out of line: only
     /// the textured instantiation calls it, for materials that take vertex colours.
     #[inline(never)]
@@ -417,7 +430,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         &self,
         colors: &VertexColorHit<'_>,
         textures: Option<&MaterialTextures>,
-        uv: Vec2,
+        uv: Uv,
         id: SpecId,
         lambda: &SampledWavelengths<N>,
         last: &mut LastSpectrum<N>,
@@ -462,7 +475,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let Some(blocker) = blocker else { return visible };
             let textures = self.textures(blocker.material);
             let vertex_alpha = self.vertex_color_of(textures, &blocker).map_or(1.0, |c| c.alpha());
-            let coverage = textures.map_or(1.0, |t| t.coverage(blocker.uv, vertex_alpha));
+            let coverage = textures.map_or(1.0, |t| t.coverage(self.hit_uvs(Some(t), &blocker), vertex_alpha));
             visible *= 1.0 - coverage;
             if visible <= 0.0 {
                 return 0.0;
@@ -575,12 +588,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             };
             let textures = if TEXTURED { self.textures(hit.material) } else { None };
             let colors = if TEXTURED { self.vertex_color_of(textures, &hit) } else { None };
+            let uv = if TEXTURED { self.hit_uvs(textures, &hit) } else { Uv::same(hit.uv) };
             // A cut-out (or, with probability 1 − alpha, a blended surface) is not there: go on
             // through it in the same direction, the path's vertex unchanged.
             if let Some(t) = textures.filter(|t| t.has_alpha())
                 && skips < MAX_ALPHA_SKIPS
             {
-                let coverage = t.coverage(hit.uv, colors.map_or(1.0, |c| c.alpha()));
+                let coverage = t.coverage(uv, colors.map_or(1.0, |c| c.alpha()));
                 if coverage <= 0.0 || (coverage < 1.0 && rng.uniform() >= coverage) {
                     skipped += hit.t * ray.dir.length();
                     skips += 1;
@@ -614,7 +628,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     power_heuristic(prev_pdf, light_pdf)
                 };
                 let le = match textures.filter(|t| t.has_emissive_texture()) {
-                    Some(t) => self.textured_emission(t, hit.uv, lambda),
+                    Some(t) => self.textured_emission(t, uv, lambda),
                     None => self.spectra.eval(e, lambda),
                 };
                 radiance += beta * le * weight;
@@ -629,7 +643,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let base = |id: SpecId, lambda: &SampledWavelengths<N>, last: &mut LastSpectrum<N>| match textures
                 .and_then(|t| t.base_color.as_ref())
             {
-                Some(t) => t.eval(hit.uv, lambda, self.rgb_lanes).0,
+                Some(t) => t.eval(uv, lambda, self.rgb_lanes).0,
                 None => self.spectra.eval_memo(id, lambda, last),
             };
             // Where vertex colours apply, `vertex_colored_base` gives the base colour instead; chosen at
@@ -644,11 +658,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     .map(|c| match textures {
                         Some(t) => {
                             let ns = if t.has_coat_normal_map() {
-                                t.coat_normal(hit.uv, hit.ns, tangent.get(), hit.n)
+                                t.coat_normal(uv, hit.ns, tangent.get(), hit.n)
                             } else {
                                 hit.ns
                             };
-                            (t.coat(hit.uv, c), ns)
+                            (t.coat(uv, c), ns)
                         }
                         None => (c, hit.ns),
                     })
@@ -658,23 +672,23 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             };
             let ns = match (coated, textures.filter(|t| t.has_base_normal_map())) {
                 (Some((_, ns)), _) => ns,
-                (None, Some(t)) => t.shading_normal(hit.uv, hit.ns, &tangent, hit.n),
+                (None, Some(t)) => t.shading_normal(uv, hit.ns, &tangent, hit.n),
                 (None, None) => hit.ns,
             };
             let frame = Frame { n: hit.n, ns };
             // `KHR_materials_sheen`, beneath the coat: in place of the material with its share of the light.
             let sheen = match m.sheen {
                 Some(s) if ROUGH && coated.is_none() => {
-                    self.pick_sheen(s, textures, hit.uv, frame.facing(wo).1.dot(wo), lambda, rng)
+                    self.pick_sheen(s, textures, uv, frame.facing(wo).1.dot(wo), lambda, rng)
                 }
                 _ => None,
             };
             // `KHR_materials_specular` at the hit: its strength and F0 per texel where textured.
             let hit_specular = |s: Option<SpecularLayer>| {
                 s.map(|s| {
-                    let weight = textures.map_or(s.weight, |t| t.specular_weight(hit.uv, s.weight));
+                    let weight = textures.map_or(s.weight, |t| t.specular_weight(uv, s.weight));
                     let (f0, f0_max) = textures
-                        .and_then(|t| t.specular_f0(hit.uv, lambda, self.rgb_lanes, s.f0_scale))
+                        .and_then(|t| t.specular_f0(uv, lambda, self.rgb_lanes, s.f0_scale))
                         .unwrap_or_else(|| (self.spectra.eval(s.f0, lambda), s.f0_max));
                     HitSpecular { weight, f0, f0_max }
                 })
@@ -684,7 +698,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 _ if let Some(s) = sheen => Bsdf::Sheen(s),
                 PathScattering::Diffuse { r } => Bsdf::Lambertian {
                     r: match colors {
-                        Some(c) => self.vertex_colored_base(&c, textures, hit.uv, r, lambda, last),
+                        Some(c) => self.vertex_colored_base(&c, textures, uv, r, lambda, last),
                         None => base(r, lambda, last),
                     },
                 },
@@ -713,7 +727,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 }
                 PathScattering::Conductor { metal, r, alpha, compensate } => {
                     // An MTL `map_Ns` varies the roughness per texel (α = roughness²).
-                    let alpha = textures.and_then(|t| t.roughness_map(hit.uv)).map_or(alpha, |r| r * r);
+                    let alpha = textures.and_then(|t| t.roughness_map(uv)).map_or(alpha, |r| r * r);
                     let distrib = TrowbridgeReitz::isotropic(alpha);
                     Bsdf::Conductor(match metal {
                         // RGB lanes are not wavelengths: there the metal is its reflectance colour.
@@ -729,9 +743,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 }
                 PathScattering::GltfMetalRough { base: id, metallic, roughness, ior, specular } => {
                     let (metallic, roughness) =
-                        textures.map_or((metallic, roughness), |t| t.metallic_roughness(hit.uv, metallic, roughness));
+                        textures.map_or((metallic, roughness), |t| t.metallic_roughness(uv, metallic, roughness));
                     let base = match colors {
-                        Some(c) => self.vertex_colored_base(&c, textures, hit.uv, id, lambda, last),
+                        Some(c) => self.vertex_colored_base(&c, textures, uv, id, lambda, last),
                         None => base(id, lambda, last),
                     };
                     let specular = hit_specular(specular);
@@ -748,11 +762,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     specular,
                 } => {
                     let (metallic, roughness) =
-                        textures.map_or((metallic, roughness), |t| t.metallic_roughness(hit.uv, metallic, roughness));
-                    let transmission = textures.map_or(transmission, |t| t.transmission(hit.uv, transmission));
+                        textures.map_or((metallic, roughness), |t| t.metallic_roughness(uv, metallic, roughness));
+                    let transmission = textures.map_or(transmission, |t| t.transmission(uv, transmission));
                     let glass = (1.0 - metallic) * transmission;
                     let colour = match colors {
-                        Some(c) => self.vertex_colored_base(&c, textures, hit.uv, id, lambda, last),
+                        Some(c) => self.vertex_colored_base(&c, textures, uv, id, lambda, last),
                         None => base(id, lambda, last),
                     };
                     if rng.uniform() < glass {
@@ -823,12 +837,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     ) -> Option<SampledSpectrum<N>> {
         let textured = self.textured_lights.get(light)?.as_ref()?;
         let t = self.textures(Some(textured.material))?;
-        Some(self.textured_emission(t, textured.uv_at(target?), lambda))
+        Some(self.textured_emission(t, Uv::same(textured.uv_at(target?)), lambda))
     }
 
     /// The radiance of an emissive texture at `uv`. Out of line: only its emitters need it.
     #[inline(never)]
-    fn textured_emission(&self, t: &MaterialTextures, uv: Vec2, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    fn textured_emission(&self, t: &MaterialTextures, uv: Uv, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
         let illuminant = self.illuminant.map_or(SampledSpectrum([1.0; N]), |id| self.spectra.eval(id, lambda));
         t.emission(uv, lambda, &illuminant, self.rgb_lanes).unwrap_or(SampledSpectrum([0.0; N]))
     }
@@ -841,7 +855,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         &self,
         s: PathSheen,
         textures: Option<&MaterialTextures>,
-        uv: Vec2,
+        uv: Uv,
         mu_o: f32,
         lambda: &SampledWavelengths<N>,
         rng: &mut Rng,
@@ -912,7 +926,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         tangent: &HitTangent,
         ns: Vec3,
     ) -> (f32, Vec3) {
-        let (direction, scale) = textures.and_then(|t| t.anisotropy(tangent.hit().uv)).unwrap_or((Vec2::X, 1.0));
+        let uv = self.hit_uvs(textures, tangent.hit());
+        let (direction, scale) = textures.and_then(|t| t.anisotropy(uv)).unwrap_or((Vec2::X, 1.0));
         let (sin, cos) = a.rotation.sin_cos();
         let d = Vec2::new(cos * direction.x - sin * direction.y, sin * direction.x + cos * direction.y);
         let (t, b) = tangent.get().and_then(|t| tangent_frame(t, ns)).unwrap_or_else(|| materials::sampling::basis(ns));
@@ -1005,7 +1020,8 @@ fn textured_lights(scene: &RenderScene) -> Vec<Option<TexturedLight>> {
         }
         let Primitive::Triangle { mesh, triangle } = geometry.primitive(primitive) else { continue };
         let mesh = &geometry.meshes()[mesh as usize];
-        let uv = triangle_uvs(mesh, triangle as usize);
+        let uv =
+            triangle_uvs(mesh, triangle as usize, textured.is_some_and(MaterialTextures::emissive_reads_second_uvs));
         let p = mesh.indices()[triangle as usize].map(|i| mesh.positions()[i as usize]);
         lights[light] = Some(TexturedLight { material, p, uv });
     }

@@ -13,11 +13,11 @@ pub(crate) fn tangent_frame(tangent: Vec4, ns: Vec3) -> Option<(Vec3, Vec3)> {
     Some((t, ns.cross(t) * if tangent.w < 0.0 { -1.0 } else { 1.0 }))
 }
 
-/// The uvs of triangle `triangle`'s vertices: the mesh's, else the barycentric corners (0, 0), (1, 0),
-/// (0, 1) (what a hit's uv is without them).
-pub(crate) fn triangle_uvs(mesh: &Mesh, triangle: usize) -> [Vec2; 3] {
+/// The uvs of triangle `triangle`'s vertices in the mesh's primary set, or its second set with `second`
+/// where it has one; else the barycentric corners (0, 0), (1, 0), (0, 1) (what a hit's uv is without them).
+pub(crate) fn triangle_uvs(mesh: &Mesh, triangle: usize, second: bool) -> [Vec2; 3] {
     let tri = mesh.indices()[triangle];
-    match mesh.uvs() {
+    match mesh.second_uvs().filter(|_| second).or(mesh.uvs()) {
         Some(uvs) => tri.map(|i| uvs[i as usize]),
         None => [Vec2::ZERO, Vec2::X, Vec2::Y],
     }
@@ -51,13 +51,23 @@ impl<'a> HitTangent<'a> {
     }
 }
 
+/// The hit's uv in its mesh's second set (the barycentric blend of its vertices'); `None` for spheres and
+/// meshes with one set. Out of line: only materials with a texture on a second set ask.
+#[inline(never)]
+pub(crate) fn second_uv(scene: &Scene, hit: &Hit) -> Option<Vec2> {
+    let (at, tri) = hit_vertices(scene, hit)?;
+    let uvs = at.mesh.second_uvs()?;
+    let (_, _, [b0, b1, b2]) = scene.hit_barycentrics(hit)?;
+    Some(b0 * uvs[tri[0]] + b1 * uvs[tri[1]] + b2 * uvs[tri[2]])
+}
+
 /// ∂p/∂u and ∂p/∂v of the hit's triangle (constant over it) from its vertices' uvs: `None` for spheres,
 /// meshes without uvs, and uvs that are collinear or give a non-finite derivative (in world space on a placed
 /// instance).
 pub(crate) fn uv_derivatives(scene: &Scene, hit: &Hit) -> Option<(Vec3, Vec3)> {
     let (at, tri) = hit_vertices(scene, hit)?;
     let (dpdu, dpdv) = triangle_derivatives(at.mesh, tri)?;
-    Some((at.vector_to_world(dpdu), at.vector_to_world(dpdv)))
+    (dpdu.is_finite() && dpdv.is_finite()).then(|| (at.vector_to_world(dpdu), at.vector_to_world(dpdv)))
 }
 
 /// The hit's triangle and the indices of its three vertices; `None` for spheres.
@@ -67,6 +77,7 @@ fn hit_vertices<'a>(scene: &'a Scene, hit: &Hit) -> Option<(HitTriangle<'a>, [us
     Some((at, tri))
 }
 
+/// ∂p/∂u and ∂p/∂v of a triangle from its uvs (`None` for collinear uvs; the callers check finiteness).
 fn triangle_derivatives(mesh: &Mesh, tri: [usize; 3]) -> Option<(Vec3, Vec3)> {
     let (p, uv) = (mesh.positions(), mesh.uvs()?);
     let (d1, d2) = (uv[tri[1]] - uv[tri[0]], uv[tri[2]] - uv[tri[0]]);
@@ -77,7 +88,7 @@ fn triangle_derivatives(mesh: &Mesh, tri: [usize; 3]) -> Option<(Vec3, Vec3)> {
     let (e1, e2) = (p[tri[1]] - p[tri[0]], p[tri[2]] - p[tri[0]]);
     let dpdu = (e1 * d2.y - e2 * d1.y) / det;
     let dpdv = (e2 * d1.x - e1 * d2.x) / det;
-    (dpdu.is_finite() && dpdv.is_finite()).then_some((dpdu, dpdv))
+    Some((dpdu, dpdv))
 }
 
 /// The tangent at a triangle hit, with the sign of the bitangent that points "up" the image (glTF:
@@ -98,5 +109,5 @@ pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
     let (dpdu, dpdv) = (at.vector_to_world(dpdu), at.vector_to_world(dpdv));
     // Image up is −∂p/∂v in glTF's uv (v grows down the image).
     let sign = if hit.ns.cross(dpdu).dot(-dpdv) < 0.0 { -1.0 } else { 1.0 };
-    Some(dpdu.extend(sign))
+    dpdu.is_finite().then(|| dpdu.extend(sign))
 }

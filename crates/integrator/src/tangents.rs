@@ -114,9 +114,15 @@ pub(crate) fn with_mikktspace_tangents(mesh: &Mesh) -> Option<Mesh> {
         let uvs = Some(uvs.iter().copied().chain(extra.iter().map(|&(i, _)| uvs[i as usize])).collect());
         let colors: Option<Vec<Vec4>> =
             mesh.colors().map(|c| c.iter().copied().chain(extra.iter().map(|&(i, _)| c[i as usize])).collect());
+        let second: Option<Vec<Vec2>> =
+            mesh.second_uvs().map(|s| s.iter().copied().chain(extra.iter().map(|&(i, _)| s[i as usize])).collect());
         let split = Mesh::new(positions, normals, uvs, indices, mesh.material()).ok()?;
-        match colors {
+        let split = match colors {
             Some(c) => split.with_colors(c).ok()?,
+            None => split,
+        };
+        match second {
+            Some(s) => split.with_second_uvs(s).ok()?,
             None => split,
         }
     };

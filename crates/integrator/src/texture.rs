@@ -60,7 +60,7 @@ const COLOUR_COUNT_BYTES_PER_TEXEL: u64 = 40;
 /// Bytes per texel of [`Image8`].
 const IMAGE8_BYTES_PER_TEXEL: u64 = 4;
 
-/// Decodes `image` (PNG, JPEG or an 8-bit KTX2 ([`crate::ktx`]), chosen by content) with bounded dimensions and allocation; 16-bit
+/// Decodes `image` (PNG, JPEG, WebP or an 8-bit KTX2 ([`crate::ktx`]), chosen by content) with bounded dimensions and allocation; 16-bit
 /// channels are reduced to 8 bits (a warning names the image). The decoded size is read from the
 /// header and charged to `memory` before any texel is decoded: the decoder's output and the 8-bit
 /// copy as working memory, the kept texels for good. `Ok(None)` (with a warning) for an image that
@@ -123,6 +123,32 @@ struct Sampler {
     nearest: bool,
     /// Rows of the 2×3 affine map uv → uv' (`KHR_texture_transform`), identity when absent.
     transform: [[f32; 3]; 2],
+    /// Whether the texture reads the mesh's second uv set ([`Uv::second`]): its `tex_coord` is 1 once the
+    /// assembly has numbered the material's sets 0 (primary) and 1.
+    second: bool,
+}
+
+/// A hit's uvs in both of its mesh's sets: `primary` (the hit record's `uv`) and `second` (the mesh's second
+/// set, the primary one where it has none). Each texture reads the set it addresses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Uv {
+    pub(crate) primary: Vec2,
+    pub(crate) second: Vec2,
+}
+
+impl From<Vec2> for Uv {
+    /// [`Uv::same`].
+    fn from(uv: Vec2) -> Self {
+        Self::same(uv)
+    }
+}
+
+impl Uv {
+    /// The same uv for both sets: a mesh with one set.
+    #[inline]
+    pub(crate) fn same(uv: Vec2) -> Self {
+        Self { primary: uv, second: uv }
+    }
 }
 
 impl Sampler {
@@ -135,11 +161,15 @@ impl Sampler {
             }
             None => [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
         };
-        Self { width, height, wrap: desc.wrap, nearest: desc.nearest, transform }
+        Self { width, height, wrap: desc.wrap, nearest: desc.nearest, transform, second: desc.tex_coord == 1 }
     }
 
-    /// The texels under `uv` and their weights (bilinear; nearest puts all weight on one).
+    /// The uv of the set this texture reads.
     #[inline]
+    fn pick(&self, uv: Uv) -> Vec2 {
+        if self.second { uv.second } else { uv.primary }
+    }
+
     /// The steps in u and in v that move one texel across the image (through the uv transform): where a
     /// bump map's height is differenced.
     fn texel_step(&self) -> (f32, f32) {
@@ -152,7 +182,11 @@ impl Sampler {
         (step(r0[0], r1[0]), step(r0[1], r1[1]))
     }
 
-    fn footprint(&self, uv: Vec2) -> [(usize, f32); 4] {
+    /// The texels under `uv` (in the set this texture reads) and their weights (bilinear; nearest puts all
+    /// weight on one).
+    #[inline]
+    fn footprint(&self, uv: impl Into<Uv>) -> [(usize, f32); 4] {
+        let uv = self.pick(uv.into());
         let [r0, r1] = self.transform;
         let u = r0[0] * uv.x + r0[1] * uv.y + r0[2];
         let v = r1[0] * uv.x + r1[1] * uv.y + r1[2];
@@ -295,7 +329,7 @@ impl<E: Send> ColorTexture<E> {
 impl<E: EntryRgb> ColorTexture<E> {
     /// The linear RGB at `uv` (the blend of the texels' colours × factor).
     #[inline]
-    fn rgb(&self, uv: Vec2) -> [f32; 3] {
+    fn rgb(&self, uv: Uv) -> [f32; 3] {
         let mut rgb = [0.0; 3];
         for (i, w) in self.sampler.footprint(uv) {
             let e = self.palette[self.index[i] as usize].rgb();
@@ -312,7 +346,7 @@ impl ColorTexture {
     #[inline]
     pub(crate) fn eval<const N: usize>(
         &self,
-        uv: Vec2,
+        uv: Uv,
         lambda: &SampledWavelengths<N>,
         rgb_lanes: bool,
     ) -> (SampledSpectrum<N>, f32) {
@@ -337,7 +371,7 @@ impl ColorTexture {
 
     /// Only the alpha at `uv` (shadow rays and cut-outs need no spectrum).
     #[inline]
-    fn alpha(&self, uv: Vec2) -> f32 {
+    fn alpha(&self, uv: Uv) -> f32 {
         self.sampler.footprint(uv).iter().map(|&(i, w)| w * self.palette[self.index[i] as usize].alpha).sum()
     }
 }
@@ -383,7 +417,7 @@ impl SpecularColorTexture {
     #[inline]
     fn f0<const N: usize>(
         &self,
-        uv: Vec2,
+        uv: Uv,
         lambda: &SampledWavelengths<N>,
         rgb_lanes: bool,
         f0_scale: f32,
@@ -462,7 +496,7 @@ impl EmissiveTexture {
     #[inline]
     fn eval<const N: usize>(
         &self,
-        uv: Vec2,
+        uv: Uv,
         lambda: &SampledWavelengths<N>,
         illuminant: &SampledSpectrum<N>,
         rgb_lanes: bool,
@@ -486,7 +520,7 @@ impl EmissiveTexture {
 
     /// The luminance (linear sRGB's Y, per unit of the D65 illuminant's) at `uv`: what light sampling weighs
     /// the surface's triangles by.
-    fn luminance(&self, uv: Vec2) -> f32 {
+    fn luminance(&self, uv: Uv) -> f32 {
         let rgb = self.0.rgb(uv);
         (0..3).map(|c| materials::REC709_LUMINANCE[c] * rgb[c]).sum()
     }
@@ -638,7 +672,7 @@ impl DataTexture {
 
     /// The four channels at `uv`, each in [0, 1].
     #[inline]
-    fn eval(&self, uv: Vec2) -> Vec4 {
+    fn eval(&self, uv: Uv) -> Vec4 {
         let mut out = Vec4::ZERO;
         for (i, w) in self.sampler.footprint(uv) {
             out += Vec4::from_array(self.image.texels[i].map(f32::from)) * w;
@@ -688,6 +722,8 @@ pub(crate) struct MaterialTextures {
     alpha_factor: f32,
     /// Whether a mesh with vertex colours uses the material (they multiply its base colour and alpha).
     vertex_colors: bool,
+    /// Whether some texture reads the mesh's second uv set (hits then interpolate it: [`Uv`]).
+    second_uvs: bool,
 }
 
 impl MaterialTextures {
@@ -700,7 +736,7 @@ impl MaterialTextures {
     /// base colour is looked up: MASK is 0 or 1 by the cutoff, BLEND the alpha itself;
     /// `vertex_alpha` (the vertex colours', 1 without) multiplies the material's alpha.
     #[inline]
-    pub(crate) fn coverage(&self, uv: Vec2, vertex_alpha: f32) -> f32 {
+    pub(crate) fn coverage(&self, uv: Uv, vertex_alpha: f32) -> f32 {
         let alpha = match (&self.coverage, &self.base_color) {
             (Some(t), _) => t.eval(uv).x * self.alpha_factor,
             (None, Some(t)) => t.alpha(uv),
@@ -721,7 +757,7 @@ impl MaterialTextures {
 
     /// (metallic, roughness) at `uv` from the factors.
     #[inline]
-    pub(crate) fn metallic_roughness(&self, uv: Vec2, metallic: f32, roughness: f32) -> (f32, f32) {
+    pub(crate) fn metallic_roughness(&self, uv: Uv, metallic: f32, roughness: f32) -> (f32, f32) {
         let roughness = self.roughness_map(uv).unwrap_or(roughness);
         match &self.metallic_roughness {
             Some(t) => {
@@ -734,26 +770,26 @@ impl MaterialTextures {
 
     /// The roughness at `uv` of an MTL `map_Ns`, `None` without one.
     #[inline]
-    pub(crate) fn roughness_map(&self, uv: Vec2) -> Option<f32> {
+    pub(crate) fn roughness_map(&self, uv: Uv) -> Option<f32> {
         self.roughness.as_ref().map(|t| t.eval(uv).y)
     }
 
     /// The transmission factor `factor` at `uv`, times the texture's R where there is one.
     #[inline]
-    pub(crate) fn transmission(&self, uv: Vec2, factor: f32) -> f32 {
+    pub(crate) fn transmission(&self, uv: Uv, factor: f32) -> f32 {
         scaled_by_channel(&self.transmission, uv, factor, 0)
     }
 
     /// The specular layer's strength `factor` at `uv`, times the texture's A where there is one.
     #[inline]
-    pub(crate) fn specular_weight(&self, uv: Vec2, factor: f32) -> f32 {
+    pub(crate) fn specular_weight(&self, uv: Uv, factor: f32) -> f32 {
         scaled_by_channel(&self.specular, uv, factor, 3)
     }
 
     /// The coat at `uv`: its weight times the coat texture's R, its roughness times the roughness
     /// texture's G, where there are such textures.
     #[inline]
-    pub(crate) fn coat(&self, uv: Vec2, coat: Coat) -> Coat {
+    pub(crate) fn coat(&self, uv: Uv, coat: Coat) -> Coat {
         Coat {
             weight: scaled_by_channel(&self.clearcoat, uv, coat.weight, 0),
             roughness: scaled_by_channel(&self.clearcoat_roughness, uv, coat.roughness, 1),
@@ -765,7 +801,7 @@ impl MaterialTextures {
     #[inline]
     pub(crate) fn specular_f0<const N: usize>(
         &self,
-        uv: Vec2,
+        uv: Uv,
         lambda: &SampledWavelengths<N>,
         rgb_lanes: bool,
         f0_scale: f32,
@@ -776,7 +812,7 @@ impl MaterialTextures {
     /// The base's shading normal: `ns` with the normal map applied (see [`normal_mapped`]); `ns` itself
     /// without a map.
     #[inline]
-    pub(crate) fn shading_normal(&self, uv: Vec2, ns: Vec3, tangent: &HitTangent, n: Vec3) -> Vec3 {
+    pub(crate) fn shading_normal(&self, uv: Uv, ns: Vec3, tangent: &HitTangent, n: Vec3) -> Vec3 {
         match &self.bump {
             Some(bump) => bumped(bump, uv, ns, tangent.uv_derivatives(), n),
             None => normal_mapped(&self.normal, uv, ns, tangent.get(), n),
@@ -786,7 +822,7 @@ impl MaterialTextures {
     /// The coat's shading normal: `ns` with the coat's own normal map applied; `ns` itself without one,
     /// even where the base has a map (`KHR_materials_clearcoat`: the coat is a separate surface).
     #[inline]
-    pub(crate) fn coat_normal(&self, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
+    pub(crate) fn coat_normal(&self, uv: Uv, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
         normal_mapped(&self.clearcoat_normal, uv, ns, tangent, n)
     }
 
@@ -795,7 +831,7 @@ impl MaterialTextures {
     #[inline]
     pub(crate) fn sheen_color<const N: usize>(
         &self,
-        uv: Vec2,
+        uv: Uv,
         lambda: &SampledWavelengths<N>,
         rgb_lanes: bool,
     ) -> Option<(SampledSpectrum<N>, f32)> {
@@ -806,21 +842,21 @@ impl MaterialTextures {
 
     /// The sheen roughness `factor` at `uv`, times the texture's A where there is one.
     #[inline]
-    pub(crate) fn sheen_roughness(&self, uv: Vec2, factor: f32) -> f32 {
+    pub(crate) fn sheen_roughness(&self, uv: Uv, factor: f32) -> f32 {
         scaled_by_channel(&self.sheen_roughness, uv, factor, 3)
     }
 
     /// `KHR_materials_anisotropy`'s texel at `uv`: the direction in tangent space (RG mapped from [0, 1] to
     /// [−1, 1], not normalised) and the strength's multiplier (B); `None` without the texture.
     #[inline]
-    pub(crate) fn anisotropy(&self, uv: Vec2) -> Option<(Vec2, f32)> {
+    pub(crate) fn anisotropy(&self, uv: Uv) -> Option<(Vec2, f32)> {
         let c = self.anisotropy.as_ref()?.eval(uv);
         Some((Vec2::new(2.0 * c.x - 1.0, 2.0 * c.y - 1.0), c.z))
     }
 
     /// The emitted luminance at `uv` (relative: the texel's linear sRGB Y × factor); `None` without an
     /// emissive texture.
-    pub(crate) fn emissive_luminance(&self, uv: Vec2) -> Option<f32> {
+    pub(crate) fn emissive_luminance(&self, uv: Uv) -> Option<f32> {
         self.emissive.as_ref().map(|t| t.luminance(uv))
     }
 
@@ -828,7 +864,7 @@ impl MaterialTextures {
     #[inline]
     pub(crate) fn emission<const N: usize>(
         &self,
-        uv: Vec2,
+        uv: Uv,
         lambda: &SampledWavelengths<N>,
         illuminant: &SampledSpectrum<N>,
         rgb_lanes: bool,
@@ -840,6 +876,17 @@ impl MaterialTextures {
     #[inline]
     pub(crate) fn has_emissive_texture(&self) -> bool {
         self.emissive.is_some()
+    }
+
+    /// Whether the emissive texture reads the mesh's second uv set.
+    pub(crate) fn emissive_reads_second_uvs(&self) -> bool {
+        self.emissive.as_ref().is_some_and(|t| t.0.sampler.second)
+    }
+
+    /// Whether some texture reads the mesh's second uv set.
+    #[inline]
+    pub(crate) fn reads_second_uvs(&self) -> bool {
+        self.second_uvs
     }
 
     /// Whether the base has a normal map or a bump map (its tangent frame or uv derivatives are needed only
@@ -916,7 +963,7 @@ impl MaterialTextures {
 /// and the geometric normal `n`; `ns` itself when there is no map or tangent, or the mapped normal would
 /// face away from `n`.
 #[inline]
-fn normal_mapped(map: &Option<DataTexture>, uv: Vec2, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
+fn normal_mapped(map: &Option<DataTexture>, uv: Uv, ns: Vec3, tangent: Option<Vec4>, n: Vec3) -> Vec3 {
     let (Some(map), Some(tangent)) = (map, tangent) else { return ns };
     let Some((t, b)) = crate::surface::tangent_frame(tangent, ns) else { return ns };
     let c = map.eval(uv);
@@ -938,10 +985,11 @@ const LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 /// `ns` across the triangle (pbrt's h·∂n/∂u term) is left out. `ns` itself without uv derivatives, or
 /// where the bumped normal would face away from `n`.
 #[inline]
-fn bumped(map: &DataTexture, uv: Vec2, ns: Vec3, derivatives: Option<(Vec3, Vec3)>, n: Vec3) -> Vec3 {
+fn bumped(map: &DataTexture, uv: Uv, ns: Vec3, derivatives: Option<(Vec3, Vec3)>, n: Vec3) -> Vec3 {
     let Some((dpdu, dpdv)) = derivatives else { return ns };
     let (du, dv) = map.sampler.texel_step();
-    let height = |p: Vec2| map.eval(p).truncate().dot(LUMINANCE);
+    let uv = map.sampler.pick(uv);
+    let height = |p: Vec2| map.eval(Uv::same(p)).truncate().dot(LUMINANCE);
     let gu = map.scale * (height(uv + Vec2::new(du, 0.0)) - height(uv - Vec2::new(du, 0.0))) / (2.0 * du);
     let gv = map.scale * (height(uv + Vec2::new(0.0, dv)) - height(uv - Vec2::new(0.0, dv))) / (2.0 * dv);
     bump_normal(dpdu, dpdv, ns, n, Vec2::new(gu, gv))
@@ -989,7 +1037,7 @@ fn reads_as_normal_map(img: &Image8) -> bool {
 
 /// A material factor at `uv` times `channel` (0 R … 3 A) of its texture, or the factor alone without one.
 #[inline]
-fn scaled_by_channel(texture: &Option<DataTexture>, uv: Vec2, factor: f32, channel: usize) -> f32 {
+fn scaled_by_channel(texture: &Option<DataTexture>, uv: Uv, factor: f32, channel: usize) -> f32 {
     texture.as_ref().map_or(factor, |t| factor * t.eval(uv)[channel])
 }
 
@@ -1049,7 +1097,13 @@ pub(crate) fn load_material_textures(
                 out.push(None);
                 continue;
             }
-            let textures = m.textures.clone();
+            // The sets numbered as the meshes hold them: 0 the primary (the hits' uv), 1 the second.
+            let mut textures = m.textures.clone();
+            let (primary, _) = m.textures.uv_sets();
+            for t in textures.roles_mut().into_iter().flatten() {
+                t.tex_coord = u32::from(t.tex_coord != primary);
+            }
+            let second_uvs = textures.roles().into_iter().flatten().any(|t| t.tex_coord == 1);
             let mut emissive = None;
             if let Some(t) = &textures.emissive
                 && let Some(img) = image(t.image, memory, warnings)?
@@ -1132,15 +1186,20 @@ pub(crate) fn load_material_textures(
             // MTL `map_Bump`: a height field, or a normal map in Blender's files (decided from the texels).
             let (mut bump, mut bump_as_normal) = (None, None);
             if let Some(t) = &textures.bump
+                && textures.normal.is_some()
+            {
+                // Not decoded (nor charged): the `norm` map wins.
+                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                warnings.push(format!(
+                    "material {:?}: `map_Bump` {label} not used: the material has a `norm` normal map",
+                    m.name
+                ));
+            } else if let Some(t) = &textures.bump
                 && let Some(img) = image(t.image, memory, warnings)?
             {
                 let label = images.get(t.image).map_or("?", |i| i.label.as_str());
                 let name = &m.name;
-                if textures.normal.is_some() {
-                    warnings.push(format!(
-                        "material {name:?}: `map_Bump` {label} not used: the material has a `norm` normal map"
-                    ));
-                } else if reads_as_normal_map(&img) {
+                if reads_as_normal_map(&img) {
                     warnings.push(format!(
                         "material {name:?}: `map_Bump` {label} read as a tangent-space normal map of strength {} (its texels are blue-dominant, as Blender's exporter writes normal maps there)",
                         t.scale
@@ -1204,6 +1263,7 @@ pub(crate) fn load_material_textures(
                 alpha_mode,
                 alpha_factor,
                 vertex_colors,
+                second_uvs,
             };
             (set.is_textured() || set.vertex_colors).then_some(set)
         };
@@ -1226,15 +1286,20 @@ fn mtl_specular_maps(m: &mut MaterialDesc, warnings: &mut Vec<String>) {
         Some(geometry::SpectrumDesc::Constant(v)) => *v == 0.0,
         _ => false,
     };
-    // No `Ks` (or a black one, or illum 0/1): a Lambertian surface, which neither map can change.
-    let lambertian = m.specular.is_none() || black(&m.specular) || m.illum.is_some_and(|i| i < 2);
-    if lambertian && m.textures.shininess.take().is_some() {
-        warnings.push(format!("material {:?}: `map_Ns` not used: the material has no specular lobe (no `Ks`)", m.name));
+    // As the assembly decides the model (`material_model`): glass (d < 1, illum 4/6/7) is a smooth dielectric,
+    // a Ks over a black Kd (or illum 5) a conductor whatever the illum, and no Ks (or a black one, or illum
+    // 0/1 over a coloured Kd) a Lambertian surface; neither map changes glass or a Lambertian surface.
+    let glass = m.dissolve.is_some_and(|d| d < 1.0) || matches!(m.illum, Some(4 | 6 | 7));
+    let conductor = !black(&m.specular) && m.specular.is_some() && (m.illum == Some(5) || black(&m.base_color));
+    let lambertian = m.specular.is_none() || black(&m.specular) || (m.illum.is_some_and(|i| i < 2) && !conductor);
+    let why = if glass { "is glass (a smooth dielectric)" } else { "has no specular lobe (no `Ks`)" };
+    if (glass || lambertian) && m.textures.shininess.take().is_some() {
+        warnings.push(format!("material {:?}: `map_Ns` not used: the material {why}", m.name));
     }
     let Some(texture) = m.textures.specular_map.take() else { return };
-    if lambertian || m.illum == Some(5) || black(&m.base_color) {
+    if glass || lambertian || conductor {
         warnings.push(format!(
-            "material {:?}: `map_Ks` not used: the material has no specular lobe (no `Ks`), or is a conductor reflecting `Ks` (black `Kd` or `illum 5`), whose colour is not textured",
+            "material {:?}: `map_Ks` not used: the material is glass, has no specular lobe (no `Ks`), or is a conductor reflecting `Ks` (black `Kd` or `illum 5`), whose colour is not textured",
             m.name
         ));
         return;
@@ -1308,7 +1373,7 @@ mod tests {
 
     /// The spectrum a colour texture gives at a texel centre, sampled on the 1 nm grid.
     fn texel_spectrum(texture: &ColorTexture, uv: Vec2) -> colorimetry::DenselySampledSpectrum {
-        on_1nm_grid(|lambda| texture.eval(uv, lambda, false).0)
+        on_1nm_grid(|lambda| texture.eval(uv.into(), lambda, false).0)
     }
 
     fn delta_e00_under_d65(rgb: [f64; 3], reflectance: &colorimetry::DenselySampledSpectrum) -> f64 {
@@ -1417,7 +1482,7 @@ mod tests {
     ) -> (colorimetry::DenselySampledSpectrum, f32) {
         let mut f0_max = 0.0;
         let f0 = on_1nm_grid(|lambda| {
-            let (s, max) = texture.f0(uv, lambda, false, f0_scale);
+            let (s, max) = texture.f0(uv.into(), lambda, false, f0_scale);
             f0_max = max;
             s
         });
@@ -1478,7 +1543,7 @@ mod tests {
         let srgb = colorimetry::RgbColorSpace::srgb();
         for (i, t) in image.texels.iter().enumerate() {
             let uv = Vec2::new((i as f32 + 0.5) / 4.0, 0.5);
-            let got = on_1nm_grid(|lambda| texture.eval(uv, lambda, &d65.sample(lambda), false));
+            let got = on_1nm_grid(|lambda| texture.eval(uv.into(), lambda, &d65.sample(lambda), false));
             let rgb = [0, 1, 2].map(|c| srgb_decode(f64::from(t[c]) / 255.0) as f32 * factor[c]);
             // The untextured emission of that colour (`assembly`'s RGB lights) at every wavelength, within
             // its luminance rescaling of the fit's error.
@@ -1495,7 +1560,7 @@ mod tests {
             }
             // RGB lanes carry the colour itself.
             let lanes = texture.eval(
-                uv,
+                uv.into(),
                 &SampledWavelengths::from_parts([550.0; 4], [1.0; 4]),
                 &SampledSpectrum([1.0; 4]),
                 true,
@@ -1503,8 +1568,9 @@ mod tests {
             assert_eq!(&lanes.0[..3], &rgb[..], "texel {i} on RGB lanes");
         }
         // The factor alone (the texel ignored, as the mean colour was before) is far from the red texel.
-        let red = on_1nm_grid(|lambda| texture.eval(Vec2::new(0.375, 0.5), lambda, &d65.sample(lambda), false));
-        let white = on_1nm_grid(|lambda| texture.eval(Vec2::new(0.125, 0.5), lambda, &d65.sample(lambda), false));
+        let red = on_1nm_grid(|lambda| texture.eval(Vec2::new(0.375, 0.5).into(), lambda, &d65.sample(lambda), false));
+        let white =
+            on_1nm_grid(|lambda| texture.eval(Vec2::new(0.125, 0.5).into(), lambda, &d65.sample(lambda), false));
         assert!((red.eval(450.0) / white.eval(450.0)) < 0.05, "a red texel emits little blue");
         // Alpha plays no part in emission (nor in specular colour): texels differing only there share an entry.
         let alpha_only = Image8 { width: 2, height: 1, texels: vec![[255, 128, 0, 255], [255, 128, 0, 10]] };

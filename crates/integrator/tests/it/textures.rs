@@ -637,6 +637,95 @@ fn mtl_map_ks_tints_the_specular_layer_per_texel() {
     assert!(conductor.warnings.iter().any(|w| w.contains("`map_Ks` not used")), "{:?}", conductor.warnings);
 }
 
+/// A material whose base colour reads `TEXCOORD_1` beside a normal map on `TEXCOORD_0` reads each texture
+/// in its own set: with TEXCOORD_1 the mirror image of TEXCOORD_0 in u, the base colour shows mirrored (the
+/// render equals the same quad whose base colour reads TEXCOORD_0 from the mirrored image), while the normal
+/// map keeps TEXCOORD_0. Before, a mesh held one set and every texture read it (with a warning).
+#[test]
+fn textures_read_their_own_texcoord_set() {
+    let dir = folder("texcoord-1");
+    let (red, green) = ([200, 30, 30, 255], [30, 200, 30, 255]);
+    write_png(&dir.join("rg.png"), 2, 1, &[red, green]);
+    write_png(&dir.join("gr.png"), 2, 1, &[green, red]);
+    write_png(&dir.join("flat.png"), 1, 1, &[[128, 128, 255, 255]]);
+    let mirrored: [[f32; 2]; 4] = [[1.0, 0.0], [0.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+    std::fs::write(
+        dir.join("uv1.bin"),
+        mirrored.as_flattened().iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<_>>(),
+    )
+    .expect("write uv1");
+    let render = |image: &str, set: u32| {
+        let textures = format!(
+            r#""textures": [{{"source": 0, "sampler": 0}}, {{"source": 1}}], "samplers": [{{"magFilter": 9728}}],
+               "images": [{{"uri": "{image}"}}, {{"uri": "flat.png"}}]"#
+        );
+        let m = format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0, "texCoord": {set}}}, "metallicFactor": 0, "roughnessFactor": 1}},
+                "normalTexture": {{"index": 1}}}}"#
+        );
+        let path = write_gltf_quad_with_normal(&dir, &m, &textures, "", [0.0, 0.0, 1.0], QUAD_UVS);
+        let gltf = std::fs::read_to_string(&path).expect("read glTF");
+        let patched = gltf
+            .replace(r#""byteLength": 140}]"#, r#""byteLength": 140}, {"uri": "uv1.bin", "byteLength": 32}]"#)
+            .replace(r#""byteLength": 12}]"#, r#""byteLength": 12}, {"buffer": 1, "byteOffset": 0, "byteLength": 32}]"#)
+            .replace(
+                r#""type": "SCALAR"}]"#,
+                r#""type": "SCALAR"}, {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"}]"#,
+            )
+            .replace(r#""TEXCOORD_0": 2}"#, r#""TEXCOORD_0": 2, "TEXCOORD_1": 4}"#);
+        assert_ne!(patched, gltf);
+        std::fs::write(&path, patched).expect("write glTF");
+        let scene = scene_around(&dir, &path, [0.0, 0.0, -1.0], "");
+        assert!(!scene.warnings.iter().any(|w| w.contains("TEXCOORD")), "{:?}", scene.warnings);
+        render_rgb(&scene)
+    };
+    let second_set = render("rg.png", 1);
+    let mirrored_image = render("gr.png", 0);
+    for y in 0..8 {
+        for x in 0..8 {
+            assert_rgb(second_set[y][x], mirrored_image[y][x], 1e-6, &format!("pixel ({x}, {y})"));
+        }
+    }
+    // The left half is green: TEXCOORD_1 puts the image's right texel there.
+    let (left, right) = (second_set[4][1], second_set[4][6]);
+    assert!(left[1] > 2.0 * left[0] && right[0] > 2.0 * right[1], "{left:?} {right:?}");
+}
+
+/// `EXT_texture_webp`, required and without a PNG fallback: the WebP image (lossless, written here) renders
+/// exactly as the same texels in a PNG. Before, the required extension made the file an error.
+#[test]
+fn a_webp_texture_renders_as_the_same_png() {
+    let dir = folder("webp");
+    let texels = [[200u8, 30, 30, 255], [30, 200, 30, 255]];
+    write_png(&dir.join("rg.png"), 2, 1, &texels);
+    let file = std::fs::File::create(dir.join("rg.webp")).expect("create WebP");
+    image::codecs::webp::WebPEncoder::new_lossless(file)
+        .encode(texels.as_flattened(), 2, 1, image::ExtendedColorType::Rgba8)
+        .expect("write WebP");
+    let m =
+        r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0, "roughnessFactor": 1}}"#;
+    let render = |textures: &str, used: &str| {
+        let gltf = write_gltf_quad(&dir, m, textures, used);
+        let scene = scene_around(&dir, &gltf, [0.0, 0.0, -1.0], "");
+        render_rgb(&scene)
+    };
+    let png = render(
+        r#""textures": [{"source": 0, "sampler": 0}], "samplers": [{"magFilter": 9728}], "images": [{"uri": "rg.png"}]"#,
+        "",
+    );
+    let webp = render(
+        r#""textures": [{"sampler": 0, "extensions": {"EXT_texture_webp": {"source": 0}}}], "samplers": [{"magFilter": 9728}],
+           "images": [{"uri": "rg.webp"}]"#,
+        r#""extensionsUsed": ["EXT_texture_webp"], "extensionsRequired": ["EXT_texture_webp"],"#,
+    );
+    assert!(png[4][1][0] > 2.0 * png[4][1][1] && png[4][6][1] > 2.0 * png[4][6][0], "{:?} {:?}", png[4][1], png[4][6]);
+    for y in 0..8 {
+        for x in 0..8 {
+            assert_rgb(webp[y][x], png[y][x], 1e-9, &format!("pixel ({x}, {y})"));
+        }
+    }
+}
+
 #[test]
 fn decoded_textures_are_charged_to_the_scene_memory_budget_before_decoding() {
     let dir = folder("budget");
