@@ -226,8 +226,9 @@ mod tests {
     use super::*;
 
     /// A glass slab (1 unit thick) whose σ_a is `sigma_a` (manifest syntax) before a D65
-    /// emissive backdrop, as `scenes/reference/slab_band.json`.
-    fn slab(sigma_a: &str) -> RenderScene {
+    /// emissive backdrop, as `scenes/reference/slab_band.json`: its description (the two glass quads
+    /// first, then the backdrop).
+    fn slab_desc(sigma_a: &str) -> geometry::SceneDescription {
         let json = format!(
             r#"{{ "camera": {{"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 4}},
             "materials": {{
@@ -240,8 +241,12 @@ mod tests {
               {{"type": "quad", "corner": [-50, -50, -5], "edge_u": [100, 0, 0], "edge_v": [0, 100, 0], "material": "backdrop"}}
             ] }}"#
         );
-        RenderScene::from_description(geometry::parse_manifest(&json, std::path::Path::new("."), "<test>").unwrap())
-            .unwrap()
+        geometry::parse_manifest(&json, std::path::Path::new("."), "<test>").unwrap()
+    }
+
+    /// [`slab_desc`], assembled.
+    fn slab(sigma_a: &str) -> RenderScene {
+        RenderScene::from_description(slab_desc(sigma_a)).unwrap()
     }
 
     /// ΔE00 of the lanes' colour of D65 × e^{−σ_a d} against its 1 nm colour.
@@ -300,21 +305,7 @@ mod tests {
     #[test]
     fn absorbers_on_instances_are_checked_as_copies_are() {
         let green = "{\"rgb\": [0.75, 0.1, 0.6]}";
-        let desc = || {
-            let json = format!(
-                r#"{{ "camera": {{"position": [0, 0, 10], "look_at": [0, 0, 0], "vfov_deg": 4}},
-                "materials": {{
-                  "glass": {{"model": "dielectric", "base_color": 0, "diffuse": 0, "transmission": 1, "transmittance": 1,
-                             "ior": 1.5, "absorption": {{"sigma_a": {green}}}}},
-                  "backdrop": {{"model": "diffuse", "base_color": 0, "emission": "D65"}} }},
-                "objects": [
-                  {{"type": "quad", "corner": [-3, -3, 0.5], "edge_u": [6, 0, 0], "edge_v": [0, 6, 0], "material": "glass"}},
-                  {{"type": "quad", "corner": [-3, -3, -0.5], "edge_u": [0, 6, 0], "edge_v": [6, 0, 0], "material": "glass"}},
-                  {{"type": "quad", "corner": [-50, -50, -5], "edge_u": [100, 0, 0], "edge_v": [0, 100, 0], "material": "backdrop"}}
-                ] }}"#
-            );
-            geometry::parse_manifest(&json, std::path::Path::new("."), "<test>").unwrap()
-        };
+        let desc = || slab_desc(green);
         let placements = [glam::Mat4::IDENTITY, glam::Mat4::from_translation(Vec3::new(8.0, 0.0, 0.0))];
         let mut copies = desc();
         let glass: Vec<geometry::Mesh> = copies.meshes.drain(..2).collect();

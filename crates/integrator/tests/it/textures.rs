@@ -494,6 +494,30 @@ fn a_normal_map_written_as_map_bump_renders_as_norm() {
     }
 }
 
+/// `gltf` (a [`write_gltf_quad_with_normal`] document) with one more vertex attribute `attribute`: four
+/// float `kind` values (VEC2, VEC4) read from the file `uri` of `bytes` bytes (buffer 1, buffer view 2,
+/// accessor 4).
+fn with_attribute(gltf: &str, uri: &str, bytes: usize, kind: &str, attribute: &str) -> String {
+    let patched = gltf
+        .replace(
+            r#""byteLength": 140}]"#,
+            &format!(r#""byteLength": 140}}, {{"uri": "{uri}", "byteLength": {bytes}}}]"#),
+        )
+        .replace(
+            r#""byteLength": 12}]"#,
+            &format!(r#""byteLength": 12}}, {{"buffer": 1, "byteOffset": 0, "byteLength": {bytes}}}]"#),
+        )
+        .replace(
+            r#""type": "SCALAR"}]"#,
+            &format!(
+                r#""type": "SCALAR"}}, {{"bufferView": 2, "componentType": 5126, "count": 4, "type": "{kind}"}}]"#
+            ),
+        )
+        .replace(r#""TEXCOORD_0": 2}"#, &format!(r#""TEXCOORD_0": 2, "{attribute}": 4}}"#));
+    assert_ne!(patched, gltf, "the document's layout changed");
+    patched
+}
+
 /// A mesh placed twice renders the same whether the placements are world-space copies or instances of a
 /// two-level BVH: its normal map (tilting towards +u and +v) and its vertex colours read through the placement
 /// (one mirrored in x, one rotated a quarter turn about z, both half size), so that the tangent frame is
@@ -527,14 +551,7 @@ fn instances_shade_as_their_world_space_copies() {
         let path = write_gltf_quad_with_normal(&dir, m, textures, "", [0.0, 0.0, 1.0], QUAD_UVS);
         let gltf = std::fs::read_to_string(&path).expect("read glTF");
         let q = std::f32::consts::FRAC_1_SQRT_2;
-        let patched = gltf
-            .replace(r#""byteLength": 140}]"#, r#""byteLength": 140}, {"uri": "colors.bin", "byteLength": 64}]"#)
-            .replace(r#""byteLength": 12}]"#, r#""byteLength": 12}, {"buffer": 1, "byteOffset": 0, "byteLength": 64}]"#)
-            .replace(
-                r#""type": "SCALAR"}]"#,
-                r#""type": "SCALAR"}, {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC4"}]"#,
-            )
-            .replace(r#""TEXCOORD_0": 2}"#, r#""TEXCOORD_0": 2, "COLOR_0": 4}"#)
+        let patched = with_attribute(&gltf, "colors.bin", 64, "VEC4", "COLOR_0")
             .replace(
                 r#""nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}]"#,
                 &format!(
@@ -665,15 +682,7 @@ fn textures_read_their_own_texcoord_set() {
         );
         let path = write_gltf_quad_with_normal(&dir, &m, &textures, "", [0.0, 0.0, 1.0], QUAD_UVS);
         let gltf = std::fs::read_to_string(&path).expect("read glTF");
-        let patched = gltf
-            .replace(r#""byteLength": 140}]"#, r#""byteLength": 140}, {"uri": "uv1.bin", "byteLength": 32}]"#)
-            .replace(r#""byteLength": 12}]"#, r#""byteLength": 12}, {"buffer": 1, "byteOffset": 0, "byteLength": 32}]"#)
-            .replace(
-                r#""type": "SCALAR"}]"#,
-                r#""type": "SCALAR"}, {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"}]"#,
-            )
-            .replace(r#""TEXCOORD_0": 2}"#, r#""TEXCOORD_0": 2, "TEXCOORD_1": 4}"#);
-        assert_ne!(patched, gltf);
+        let patched = with_attribute(&gltf, "uv1.bin", 32, "VEC2", "TEXCOORD_1");
         std::fs::write(&path, patched).expect("write glTF");
         let scene = scene_around(&dir, &path, [0.0, 0.0, -1.0], "");
         assert!(!scene.warnings.iter().any(|w| w.contains("TEXCOORD")), "{:?}", scene.warnings);
