@@ -218,6 +218,17 @@ impl HitTriangle<'_> {
     pub fn mirrored(&self) -> bool {
         self.placement.is_some_and(|(to_world, _)| to_world.matrix3.determinant() < 0.0)
     }
+
+    /// The triangle's three vertex indices in the mesh.
+    pub fn vertices(&self) -> [usize; 3] {
+        self.mesh.indices()[self.triangle].map(|i| i as usize)
+    }
+
+    /// The barycentric weights at the world-space point `p` on the triangle ([`barycentrics`], in the
+    /// mesh's space); `None` for a degenerate triangle.
+    pub fn barycentrics(&self, p: Vec3) -> Option<[f32; 3]> {
+        barycentrics(self.vertices().map(|i| self.mesh.positions()[i]), self.point_to_mesh(p))
+    }
 }
 
 /// The second level: one BVH per placed object (a [`Scene`] of its object-space meshes, the
@@ -262,12 +273,7 @@ impl Scene {
         let instances: Vec<Instances> = instances.into_iter().filter(|i| i.triangle_count() > 0).collect();
         if instances.iter().any(|i| !i.transforms().is_empty()) {
             let start = Instant::now();
-            let mut set = InstanceSet::build(instances)?;
-            let mut first = scene.meshes.len();
-            for object in &set.objects {
-                set.mesh_offsets.push(first);
-                first += object.meshes.len();
-            }
+            let set = InstanceSet::build(instances, scene.meshes.len())?;
             let (lo, hi) = if scene.primitive_count() > 0 {
                 (scene.bounds.0.min(set.bounds.0), scene.bounds.1.max(set.bounds.1))
             } else {
@@ -765,13 +771,19 @@ impl Scene {
             .flat_map(|o| o.meshes.iter())
             .map(|m| (m, (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY))))
             .collect();
+        // Each mesh's object-space box once, then transformed per placement (not the vertices per placement).
+        let boxes: Vec<Option<(Vec3, Vec3)>> = out
+            .iter()
+            .map(|(mesh, _)| {
+                let &p0 = mesh.positions().first()?;
+                Some(mesh.positions().iter().fold((p0, p0), |(lo, hi), &v| (lo.min(v), hi.max(v))))
+            })
+            .collect();
         for placement in &set.placements {
-            let object = &set.objects[placement.object as usize];
             let first = set.mesh_offsets[placement.object as usize] - self.meshes.len();
             let to_world = glam::Mat4::from(placement.object_to_world);
-            for (k, mesh) in object.meshes.iter().enumerate() {
-                let Some(&p0) = mesh.positions().first() else { continue };
-                let (lo, hi) = mesh.positions().iter().fold((p0, p0), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+            for k in 0..set.objects[placement.object as usize].meshes.len() {
+                let Some((lo, hi)) = boxes[first + k] else { continue };
                 let (a, b) = crate::shapes::transform_bounds(to_world, lo, hi);
                 let slot = &mut out[first + k].1;
                 *slot = (slot.0.min(a), slot.1.max(b));
@@ -794,9 +806,7 @@ impl Scene {
     /// degenerate triangles.
     pub fn hit_barycentrics(&self, hit: &Hit) -> Option<(usize, usize, [f32; 3])> {
         let at = self.hit_triangle(hit)?;
-        let tri = at.mesh.indices().get(at.triangle)?;
-        let b = barycentrics(tri.map(|i| at.mesh.positions()[i as usize]), at.point_to_mesh(hit.p))?;
-        Some((at.mesh_id, at.triangle, b))
+        Some((at.mesh_id, at.triangle, at.barycentrics(hit.p)?))
     }
 
     /// The mesh's vertex colour (linear RGBA) interpolated at `hit` as UVs are; `None` for spheres
@@ -853,7 +863,8 @@ impl<const CLOSEST: bool, const SKIP: bool> Kernel for Query<'_, CLOSEST, SKIP> 
 }
 
 impl InstanceSet {
-    fn build(instances: Vec<Instances>) -> Result<Self> {
+    /// The set of `instances`, whose meshes' ids ([`Scene::mesh_by_id`]) start at `first_mesh_id`.
+    fn build(instances: Vec<Instances>, first_mesh_id: usize) -> Result<Self> {
         let mut objects = Vec::with_capacity(instances.len());
         let mut placements = Vec::new();
         let mut bounds_list = Vec::new();
@@ -892,7 +903,15 @@ impl InstanceSet {
         }
         let Collapsed { bvh: tlas, singles: order, .. } = build_scaled(bounds_list, lo, hi, Leaves::Placements);
         let placements = order.iter().map(|&i| placements[i as usize]).collect();
-        Ok(Self { objects, mesh_offsets: Vec::new(), placements, tlas, bounds: (lo, hi), triangles })
+        let mesh_offsets = objects
+            .iter()
+            .scan(first_mesh_id, |next, o| {
+                let first = *next;
+                *next += o.meshes.len();
+                Some(first)
+            })
+            .collect();
+        Ok(Self { objects, mesh_offsets, placements, tlas, bounds: (lo, hi), triangles })
     }
 
     /// The closest hit on a placement strictly before `t_max`, in world space. Kept out of line

@@ -560,14 +560,15 @@ fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, Has
             "map_Kd" | "map_d" | "norm" | "map_Ke" | "map_Bump" | "map_bump" | "bump" | "map_Ks" | "map_Ns" => {
                 let mut ignored = Vec::new();
                 // The statements read since issue 12's last items (bump, specular colour and exponent maps)
-                // were warnings before: a bad one stays a warning, so no file that loaded fails now.
+                // were warnings before: a bad one stays a warning, so no file that loaded fails now; the file
+                // rules (a path outside the folder, the memory budget) stay errors, as for every image read.
                 let lenient = matches!(key, "map_Bump" | "map_bump" | "bump" | "map_Ks" | "map_Ns");
                 let statement = texture_statement(&rest, &mut ignored)
                     .map_err(|m| err(line_no, format!("`{key}`: {m}")))
                     .and_then(|(file, texture)| Ok((budget.resolve(path, &folder, &file)?, texture)));
                 let (file, texture) = match statement {
                     Ok(statement) => statement,
-                    Err(e) if lenient => {
+                    Err(e) if lenient && !matches!(e, Error::OverBudget { .. } | Error::AbsolutePath { .. }) => {
                         warnings
                             .push(format!("{}:{line_no}: material '{name}': `{key}` not used: {e}", path.display()));
                         continue;

@@ -1287,6 +1287,27 @@ fn light_from_desc(desc: &LightDesc) -> materials::Result<Light> {
     })
 }
 
+/// The transmittance of `desc` given its diffuse reflectance (see [`material_from_desc`]).
+fn transmittance_spectrum(
+    desc: &MaterialDesc,
+    diffuse: &DenselySampledSpectrum,
+) -> materials::Result<DenselySampledSpectrum> {
+    Ok(match (&desc.transmittance, desc.format) {
+        (Some(s), _) => reflectance_spectrum(s)?,
+        (None, MaterialFormat::Mtl | MaterialFormat::Manifest) => DenselySampledSpectrum::constant(1.0),
+        (None, MaterialFormat::Gltf) => diffuse.clone(),
+    })
+}
+
+/// The model [`material_from_desc`] decides for `desc`, for what must agree with it before the material is
+/// built (an MTL `map_Ks` needs a specular layer before assembly; its textures are loaded first).
+pub(crate) fn model_of(desc: &MaterialDesc) -> materials::Result<MaterialModel> {
+    let p = hall_params(desc);
+    let diffuse = reflectance_spectrum(&p.base_color)?;
+    let transmits = p.kt > 0.0 && transmittance_spectrum(desc, &diffuse)?.max_value() > 0.0;
+    material_model(desc, &p, transmits, diffuse.max_value() <= 0.0)
+}
+
 fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
     let wrap = |source| Error::Material { material: desc.name.clone(), source };
     let p = hall_params(desc);
@@ -1303,11 +1324,7 @@ fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
     // documented, and as pbrt-v4 and Mitsuba 3 default: it was tinted by the diffuse colour, 0.5 unless
     // given, which halved the light at each crossing); MTL glass without `Tf` is clear (its `Kd` is the
     // colour of the diffuse part, often black for glass).
-    let transmittance = match (&desc.transmittance, desc.format) {
-        (Some(s), _) => reflectance_spectrum(s).map_err(wrap)?,
-        (None, MaterialFormat::Mtl | MaterialFormat::Manifest) => DenselySampledSpectrum::constant(1.0),
-        (None, MaterialFormat::Gltf) => diffuse.clone(),
-    };
+    let transmittance = transmittance_spectrum(desc, &diffuse).map_err(wrap)?;
     let mut ior = match p.ior {
         IorDesc::Constant(n) => Ior::Constant(n),
         IorDesc::Cauchy { a, b } => Ior::Cauchy { a, b },

@@ -411,9 +411,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     fn vertex_color(&self, hit: &Hit) -> Option<VertexColorHit<'_>> {
         let at = self.scene.geometry.hit_triangle(hit)?;
         let colors = self.scene.vertex_colors.get(at.mesh_id)?.as_ref()?;
-        let tri = *at.mesh.indices().get(at.triangle)?;
-        let weights = geometry::barycentrics(tri.map(|i| at.mesh.positions()[i as usize]), at.point_to_mesh(hit.p))?;
-        Some(colors.at(tri, weights))
+        Some(colors.at(at.mesh.indices()[at.triangle], at.barycentrics(hit.p)?))
     }
 
     /// The vertex colour at `hit` where `textures` (the hit material's) say its meshes have some.
@@ -719,7 +717,16 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                             tint,
                             compensate,
                         )),
-                        Some(a) => self.anisotropic_glass(a, textures, &tangent, ns, alpha, eta, tint, compensate),
+                        Some(a) => self.anisotropic_glass(
+                            a,
+                            textures.map(|t| (t, uv)),
+                            &tangent,
+                            ns,
+                            alpha,
+                            eta,
+                            tint,
+                            compensate,
+                        ),
                     }
                 }
                 PathScattering::ThinDielectric { tint, eta } => {
@@ -749,7 +756,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         None => base(id, lambda, last),
                     };
                     let specular = hit_specular(specular);
-                    let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, textures, &tangent, ns));
+                    let anisotropy =
+                        m.anisotropy.map(|a| self.anisotropy_at(a, textures.map(|t| (t, uv)), &tangent, ns));
                     Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular, anisotropy))
                 }
                 PathScattering::GltfTransmission {
@@ -776,7 +784,16 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                             let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                             let alpha = roughness * roughness;
                             match m.anisotropy {
-                                Some(a) => self.anisotropic_glass(a, textures, &tangent, ns, alpha, eta, colour, true),
+                                Some(a) => self.anisotropic_glass(
+                                    a,
+                                    textures.map(|t| (t, uv)),
+                                    &tangent,
+                                    ns,
+                                    alpha,
+                                    eta,
+                                    colour,
+                                    true,
+                                ),
                                 None if roughness > 0.0 => Bsdf::RoughDielectric(RoughDielectricBxdf::new(
                                     TrowbridgeReitz::isotropic(alpha),
                                     eta,
@@ -790,7 +807,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         // What is not glass: metallic / (1 − glass) of it is metal (glass < 1 here).
                         let metal = if glass < 1.0 { metallic / (1.0 - glass) } else { 1.0 };
                         let specular = hit_specular(specular);
-                        let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, textures, &tangent, ns));
+                        let anisotropy =
+                            m.anisotropy.map(|a| self.anisotropy_at(a, textures.map(|t| (t, uv)), &tangent, ns));
                         let metal = metal.min(1.0);
                         Bsdf::GltfMetalRough(self.metal_rough(colour, metal, roughness, ior, specular, anisotropy))
                     }
@@ -899,7 +917,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     fn anisotropic_glass(
         &self,
         a: Anisotropy,
-        textures: Option<&MaterialTextures>,
+        textures: Option<(&MaterialTextures, Uv)>,
         tangent: &HitTangent,
         ns: Vec3,
         alpha: f32,
@@ -922,12 +940,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     fn anisotropy_at(
         &self,
         a: Anisotropy,
-        textures: Option<&MaterialTextures>,
+        textures: Option<(&MaterialTextures, Uv)>,
         tangent: &HitTangent,
         ns: Vec3,
     ) -> (f32, Vec3) {
-        let uv = self.hit_uvs(textures, tangent.hit());
-        let (direction, scale) = textures.and_then(|t| t.anisotropy(uv)).unwrap_or((Vec2::X, 1.0));
+        let (direction, scale) = textures.and_then(|(t, uv)| t.anisotropy(uv)).unwrap_or((Vec2::X, 1.0));
         let (sin, cos) = a.rotation.sin_cos();
         let d = Vec2::new(cos * direction.x - sin * direction.y, sin * direction.x + cos * direction.y);
         let (t, b) = tangent.get().and_then(|t| tangent_frame(t, ns)).unwrap_or_else(|| materials::sampling::basis(ns));

@@ -1,7 +1,7 @@
 //! Per-hit surface data the hit record does not carry, read back from the mesh only where a
 //! material needs it: tangents for normal maps.
 
-use geometry::{Hit, HitTriangle, Mesh, Scene};
+use geometry::{Hit, Mesh, Scene};
 use glam::{Vec2, Vec3, Vec4};
 
 /// The tangent frame (T, B) about the unit shading normal `ns` of a tangent with its bitangent's sign in w
@@ -36,11 +36,6 @@ impl<'a> HitTangent<'a> {
         Self { scene, hit, value: std::cell::OnceCell::new() }
     }
 
-    /// The hit it is the tangent of.
-    pub(crate) fn hit(&self) -> &'a Hit {
-        self.hit
-    }
-
     pub(crate) fn get(&self) -> Option<Vec4> {
         *self.value.get_or_init(|| surface_tangent(self.scene, self.hit))
     }
@@ -55,9 +50,9 @@ impl<'a> HitTangent<'a> {
 /// meshes with one set. Out of line: only materials with a texture on a second set ask.
 #[inline(never)]
 pub(crate) fn second_uv(scene: &Scene, hit: &Hit) -> Option<Vec2> {
-    let (at, tri) = hit_vertices(scene, hit)?;
+    let at = scene.hit_triangle(hit)?;
     let uvs = at.mesh.second_uvs()?;
-    let (_, _, [b0, b1, b2]) = scene.hit_barycentrics(hit)?;
+    let (tri, [b0, b1, b2]) = (at.vertices(), at.barycentrics(hit.p)?);
     Some(b0 * uvs[tri[0]] + b1 * uvs[tri[1]] + b2 * uvs[tri[2]])
 }
 
@@ -65,16 +60,9 @@ pub(crate) fn second_uv(scene: &Scene, hit: &Hit) -> Option<Vec2> {
 /// meshes without uvs, and uvs that are collinear or give a non-finite derivative (in world space on a placed
 /// instance).
 pub(crate) fn uv_derivatives(scene: &Scene, hit: &Hit) -> Option<(Vec3, Vec3)> {
-    let (at, tri) = hit_vertices(scene, hit)?;
-    let (dpdu, dpdv) = triangle_derivatives(at.mesh, tri)?;
-    (dpdu.is_finite() && dpdv.is_finite()).then(|| (at.vector_to_world(dpdu), at.vector_to_world(dpdv)))
-}
-
-/// The hit's triangle and the indices of its three vertices; `None` for spheres.
-fn hit_vertices<'a>(scene: &'a Scene, hit: &Hit) -> Option<(HitTriangle<'a>, [usize; 3])> {
     let at = scene.hit_triangle(hit)?;
-    let tri = at.mesh.indices().get(at.triangle)?.map(|i| i as usize);
-    Some((at, tri))
+    let (dpdu, dpdv) = triangle_derivatives(at.mesh, at.vertices())?;
+    (dpdu.is_finite() && dpdv.is_finite()).then(|| (at.vector_to_world(dpdu), at.vector_to_world(dpdv)))
 }
 
 /// ∂p/∂u and ∂p/∂v of a triangle from its uvs (`None` for collinear uvs; the callers check finiteness).
@@ -97,9 +85,10 @@ fn triangle_derivatives(mesh: &Mesh, tri: [usize; 3]) -> Option<(Vec3, Vec3)> {
 /// MikkTSpace's per-vertex averaging only across faces); on a placed instance, taken to world space. `None` for
 /// spheres, or without UVs.
 pub(crate) fn surface_tangent(scene: &Scene, hit: &Hit) -> Option<Vec4> {
-    let (at, tri) = hit_vertices(scene, hit)?;
+    let at = scene.hit_triangle(hit)?;
+    let tri = at.vertices();
     if let Some(tangents) = at.mesh.tangents() {
-        let (_, _, [b0, b1, b2]) = scene.hit_barycentrics(hit)?;
+        let [b0, b1, b2] = at.barycentrics(hit.p)?;
         let t = tangents[tri[0]] * b0 + tangents[tri[1]] * b1 + tangents[tri[2]] * b2;
         // A mirroring placement flips the frame's handedness (B = N × T · w in world space).
         let w = if at.mirrored() { -tangents[tri[0]].w } else { tangents[tri[0]].w };

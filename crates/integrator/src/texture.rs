@@ -136,6 +136,7 @@ pub(crate) struct Uv {
     pub(crate) second: Vec2,
 }
 
+#[cfg(test)]
 impl From<Vec2> for Uv {
     /// [`Uv::same`].
     fn from(uv: Vec2) -> Self {
@@ -185,8 +186,8 @@ impl Sampler {
     /// The texels under `uv` (in the set this texture reads) and their weights (bilinear; nearest puts all
     /// weight on one).
     #[inline]
-    fn footprint(&self, uv: impl Into<Uv>) -> [(usize, f32); 4] {
-        let uv = self.pick(uv.into());
+    fn footprint(&self, uv: Uv) -> [(usize, f32); 4] {
+        let uv = self.pick(uv);
         let [r0, r1] = self.transform;
         let u = r0[0] * uv.x + r0[1] * uv.y + r0[2];
         let v = r1[0] * uv.x + r1[1] * uv.y + r1[2];
@@ -974,9 +975,9 @@ fn normal_mapped(map: &Option<DataTexture>, uv: Uv, ns: Vec3, tangent: Option<Ve
     }
 }
 
-/// Rec. 709 luminance weights: an MTL bump map's height is the luminance of its texels (`-imfchan l`,
-/// the specification's default for `bump`).
-const LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
+/// Rec. 709 luminance weights (`materials::REC709_LUMINANCE`): an MTL bump map's height is the luminance
+/// of its texels (`-imfchan l`, the specification's default for `bump`), as is a `map_Ns`'s value.
+const LUMINANCE: Vec3 = Vec3::from_array(materials::REC709_LUMINANCE);
 
 /// `ns` tilted by the height field `map` at `uv` (pbrt-v4's `BumpMap`): the surface displaced by h along
 /// `ns` has tangents ∂p/∂u + (∂h/∂u) ns and ∂p/∂v + (∂h/∂v) ns, whose cross product is the bumped normal;
@@ -1281,23 +1282,24 @@ fn mtl_specular_maps(m: &mut MaterialDesc, warnings: &mut Vec<String>) {
     if m.format != geometry::MaterialFormat::Mtl {
         return;
     }
-    let black = |c: &Option<geometry::SpectrumDesc>| match c {
-        Some(geometry::SpectrumDesc::Rgb(c)) => c.iter().all(|v| *v == 0.0),
-        Some(geometry::SpectrumDesc::Constant(v)) => *v == 0.0,
-        _ => false,
-    };
-    // As the assembly decides the model (`material_model`): glass (d < 1, illum 4/6/7) is a smooth dielectric,
-    // a Ks over a black Kd (or illum 5) a conductor whatever the illum, and no Ks (or a black one, or illum
-    // 0/1 over a coloured Kd) a Lambertian surface; neither map changes glass or a Lambertian surface.
-    let glass = m.dissolve.is_some_and(|d| d < 1.0) || matches!(m.illum, Some(4 | 6 | 7));
-    let conductor = !black(&m.specular) && m.specular.is_some() && (m.illum == Some(5) || black(&m.base_color));
-    let lambertian = m.specular.is_none() || black(&m.specular) || (m.illum.is_some_and(|i| i < 2) && !conductor);
-    let why = if glass { "is glass (a smooth dielectric)" } else { "has no specular lobe (no `Ks`)" };
-    if (glass || lambertian) && m.textures.shininess.take().is_some() {
-        warnings.push(format!("material {:?}: `map_Ns` not used: the material {why}", m.name));
+    if m.textures.shininess.is_none() && m.textures.specular_map.is_none() {
+        return;
+    }
+    // The model the assembly will build (the one rule, `assembly::model_of`): the maps apply to the GGX
+    // layer over the diffuse one, and `map_Ns` to the conductor too; glass (smooth) and Lambertian surfaces
+    // have no lobe for either (a material that fails to build fails later, with its own error).
+    use materials::MaterialModel as M;
+    let model = crate::assembly::model_of(m).ok();
+    let (layered, conductor) =
+        (matches!(model, Some(M::GltfMetalRough { .. })), matches!(model, Some(M::Conductor { .. })));
+    if !(layered || conductor) && m.textures.shininess.take().is_some() {
+        warnings.push(format!(
+            "material {:?}: `map_Ns` not used: the material has no rough specular lobe (glass, or no `Ks`)",
+            m.name
+        ));
     }
     let Some(texture) = m.textures.specular_map.take() else { return };
-    if glass || lambertian || conductor {
+    if !layered {
         warnings.push(format!(
             "material {:?}: `map_Ks` not used: the material is glass, has no specular lobe (no `Ks`), or is a conductor reflecting `Ks` (black `Kd` or `illum 5`), whose colour is not textured",
             m.name
@@ -1647,7 +1649,7 @@ mod tests {
                 let s = Sampler { nearest, ..sampler(4, 2, wrap) };
                 for uv in [Vec2::splat(1e30), Vec2::splat(-1e30), Vec2::new(f32::MAX, -f32::MAX), Vec2::new(3e15, 1.0)]
                 {
-                    let f = s.footprint(uv);
+                    let f = s.footprint(Uv::same(uv));
                     assert!(f.iter().all(|&(i, w)| i < 8 && w.is_finite()), "{wrap:?} {nearest} {uv}: {f:?}");
                 }
             }
@@ -1658,11 +1660,11 @@ mod tests {
     fn bilinear_weights_sum_to_one_and_hit_texel_centres() {
         let s = sampler(4, 2, WrapMode::Repeat);
         // The centre of texel (1, 0) is uv ((1 + ½)/4, ½/2): all weight there.
-        let f = s.footprint(Vec2::new(1.5 / 4.0, 0.25));
+        let f = s.footprint(Uv::same(Vec2::new(1.5 / 4.0, 0.25)));
         assert_eq!(f[0], (1, 1.0));
         assert!(f[1..].iter().all(|&(_, w)| w == 0.0));
         // Halfway between texels (1, 1) and (2, 1): half each.
-        let f = s.footprint(Vec2::new(0.5, 0.75));
+        let f = s.footprint(Uv::same(Vec2::new(0.5, 0.75)));
         let total: f32 = f.iter().map(|p| p.1).sum();
         assert!((total - 1.0).abs() < 1e-6);
         assert_eq!((f[0].0, f[1].0), (5, 6));
@@ -1681,7 +1683,7 @@ mod tests {
             scale: 1.0,
         };
         let s = Sampler::new(&desc, 10, 1);
-        assert_eq!(s.footprint(Vec2::new(0.1, 0.5))[0].0, 6);
+        assert_eq!(s.footprint(Uv::same(Vec2::new(0.1, 0.5)))[0].0, 6);
         // Rotation by +90°: (u, v) → (v, −u): uv (0, 0.35) reads u' = 0.35 → texel 3 (v' = 0 clamps).
         desc.transform = Some(geometry::TextureTransform {
             offset: [0.0, 0.0],
@@ -1689,10 +1691,10 @@ mod tests {
             scale: [1.0, 1.0],
         });
         let s = Sampler::new(&desc, 10, 1);
-        assert_eq!(s.footprint(Vec2::new(0.0, 0.35))[0].0, 3);
+        assert_eq!(s.footprint(Uv::same(Vec2::new(0.0, 0.35)))[0].0, 3);
         // Scale 2 along u: uv 0.3 reads 0.6 → texel 6 (nearest of 5.5 rounds to 6).
         desc.transform = Some(geometry::TextureTransform { offset: [0.0, 0.0], rotation: 0.0, scale: [2.0, 1.0] });
         let s = Sampler::new(&desc, 10, 1);
-        assert_eq!(s.footprint(Vec2::new(0.3, 0.5))[0].0, 6);
+        assert_eq!(s.footprint(Uv::same(Vec2::new(0.3, 0.5)))[0].0, 6);
     }
 }
