@@ -674,6 +674,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 (None, None) => hit.ns,
             };
             let frame = Frame { n: hit.n, ns };
+            // The textures with this hit's uvs, for anisotropy's direction.
+            let at_uv = textures.map(|t| (t, uv));
             // `KHR_materials_sheen`, beneath the coat: in place of the material with its share of the light.
             let sheen = match m.sheen {
                 Some(s) if ROUGH && coated.is_none() => {
@@ -717,16 +719,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                             tint,
                             compensate,
                         )),
-                        Some(a) => self.anisotropic_glass(
-                            a,
-                            textures.map(|t| (t, uv)),
-                            &tangent,
-                            ns,
-                            alpha,
-                            eta,
-                            tint,
-                            compensate,
-                        ),
+                        Some(a) => self.anisotropic_glass(a, at_uv, &tangent, ns, alpha, eta, tint, compensate),
                     }
                 }
                 PathScattering::ThinDielectric { tint, eta } => {
@@ -756,8 +749,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         None => base(id, lambda, last),
                     };
                     let specular = hit_specular(specular);
-                    let anisotropy =
-                        m.anisotropy.map(|a| self.anisotropy_at(a, textures.map(|t| (t, uv)), &tangent, ns));
+                    let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, at_uv, &tangent, ns));
                     Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular, anisotropy))
                 }
                 PathScattering::GltfTransmission {
@@ -784,16 +776,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                             let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
                             let alpha = roughness * roughness;
                             match m.anisotropy {
-                                Some(a) => self.anisotropic_glass(
-                                    a,
-                                    textures.map(|t| (t, uv)),
-                                    &tangent,
-                                    ns,
-                                    alpha,
-                                    eta,
-                                    colour,
-                                    true,
-                                ),
+                                Some(a) => self.anisotropic_glass(a, at_uv, &tangent, ns, alpha, eta, colour, true),
                                 None if roughness > 0.0 => Bsdf::RoughDielectric(RoughDielectricBxdf::new(
                                     TrowbridgeReitz::isotropic(alpha),
                                     eta,
@@ -807,8 +790,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         // What is not glass: metallic / (1 − glass) of it is metal (glass < 1 here).
                         let metal = if glass < 1.0 { metallic / (1.0 - glass) } else { 1.0 };
                         let specular = hit_specular(specular);
-                        let anisotropy =
-                            m.anisotropy.map(|a| self.anisotropy_at(a, textures.map(|t| (t, uv)), &tangent, ns));
+                        let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, at_uv, &tangent, ns));
                         let metal = metal.min(1.0);
                         Bsdf::GltfMetalRough(self.metal_rough(colour, metal, roughness, ior, specular, anisotropy))
                     }
