@@ -11,6 +11,7 @@
 
 mod absorbing;
 mod analytic;
+mod auto_time;
 mod colorimetry;
 mod hard;
 mod refs;
@@ -47,7 +48,7 @@ pub(crate) struct ValidateArgs {
     #[arg(long)]
     regen: bool,
     /// Run only these parts (comma-separated): colorimetry, analytic, hard, speed, absorbing,
-    /// paper, scaling. The report then holds only their checks.
+    /// auto, paper, scaling. The report then holds only their checks.
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
 }
@@ -85,7 +86,7 @@ impl Report {
 }
 
 /// The parts `--only` may name, in the order they run.
-const PARTS: [&str; 7] = ["colorimetry", "analytic", "hard", "speed", "absorbing", "paper", "scaling"];
+const PARTS: [&str; 8] = ["colorimetry", "analytic", "hard", "speed", "absorbing", "auto", "paper", "scaling"];
 
 pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     let root = crate::project_root();
@@ -125,6 +126,10 @@ pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     if wanted("absorbing") {
         absorbing::checks(&mut report, &root, &refs, args.quick)?;
         step("auto on absorbing glass", &mut since);
+    }
+    if wanted("auto") {
+        auto_time::checks(&mut report, &root, &refs, args.quick)?;
+        step("auto by time to error", &mut since);
     }
     if wanted("paper") {
         paper(&mut report, &out, args.quick);
@@ -222,6 +227,12 @@ fn scene(json: &str) -> anyhow::Result<RenderScene> {
 /// A manifest whose relative file names resolve against `dir`.
 fn scene_in(json: &str, dir: &Path) -> anyhow::Result<RenderScene> {
     Ok(RenderScene::from_description(geometry::parse_manifest(json, dir, "<validate>")?)?)
+}
+
+/// The scene `file` under the project's `scenes/`, assembled; an error names the file.
+fn load_scene(root: &Path, file: &str) -> anyhow::Result<RenderScene> {
+    let path = root.join("scenes").join(file);
+    RenderScene::load(&path).with_context(|| format!("loading {}", path.display()))
 }
 
 fn render(scene: &RenderScene, options: &RenderOptions) -> anyhow::Result<(Image, integrator::RenderStats)> {

@@ -14,6 +14,14 @@ pub(crate) struct InfoArgs {
     /// As `render --integrator`: the report says which model a render would use.
     #[arg(long, default_value = "auto")]
     integrator: crate::view::IntegratorChoice,
+    /// As `render --width/--height/--spp`: `auto`'s choice for the path tracer may depend on
+    /// them (a render too small for its pilot is not piloted).
+    #[arg(long)]
+    width: Option<u32>,
+    #[arg(long)]
+    height: Option<u32>,
+    #[arg(long, default_value_t = 1)]
+    spp: u32,
     #[command(flatten)]
     load: crate::render::LoadArgs,
     #[command(flatten)]
@@ -68,10 +76,31 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
                 "photometric_lights": scene.has_photometric_lights(),
             }),
         );
-        object.insert(
-            "spectral_auto".to_owned(),
-            serde_json::Value::String(integrator::choose_auto(&scene, kind).to_string()),
-        );
+        let (width, height) = scene.resolution_for(args.width, args.height);
+        let integrator = match kind {
+            integrator::IntegratorKind::WhittedHall => integrator::Integrator::default(),
+            integrator::IntegratorKind::Path => integrator::Integrator::Path(integrator::PathOptions::default()),
+        };
+        let options = integrator::RenderOptions { width, height, integrator, spp: args.spp, ..Default::default() };
+        let auto = integrator::auto_decision(&scene, &options)?;
+        object.insert("spectral_auto".to_owned(), serde_json::Value::String(auto.spectral.to_string()));
+        // What the pilot measured, per candidate: modelled cost per sample, the predicted mean
+        // ΔE00 of a 1-spp image and the spp and cost to mean ΔE00 1.
+        let candidates: Vec<_> = auto
+            .candidates
+            .iter()
+            .map(|c| {
+                serde_json::json!({
+                    "spectral": c.spectral.to_string(),
+                    "rays_per_sample": c.rays_per_sample,
+                    "cost_per_sample": c.cost_per_sample,
+                    "delta_e00_at_1_spp": c.error_1spp,
+                    "spp_to_delta_e00_1": c.spp_for(1.0),
+                    "cost_to_delta_e00_1": c.cost_for(1.0),
+                })
+            })
+            .collect();
+        object.insert("spectral_auto_why".to_owned(), serde_json::json!({"reason": auto.reason, "pilot": candidates}));
         object.insert("spiky_spectra".to_owned(), serde_json::Value::Bool(integrator::scene_is_spiky(&scene)));
     }
     println!("{}", serde_json::to_string_pretty(&summary)?);

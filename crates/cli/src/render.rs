@@ -369,7 +369,9 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         spectral_film: args.spectral_exr.is_some() || parts.spectral_film,
     };
     check_limits(&options, args)?;
-    let header = integrator::FilmHeader::new(&scene, &options, integrator::resolved_spectral(&scene, &options)?);
+    // Resolved once: `auto` may run a pilot render to decide.
+    let spectral = integrator::resolved_spectral(&scene, &options)?;
+    let header = integrator::FilmHeader::new(&scene, &options, spectral);
     let resume = match &parts.resume {
         Some(path) => {
             let file = integrator::FilmFile::read(path)?;
@@ -414,7 +416,8 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         .checkpoint
         .as_ref()
         .map(|_| integrator::Checkpoint { every: parts.checkpoint_every, write: &write_checkpoint });
-    let control = integrator::RenderControl { progress: &report, cancel: &cancel, resume, checkpoint };
+    let control =
+        integrator::RenderControl { progress: &report, cancel: &cancel, resume, checkpoint, spectral: Some(spectral) };
     let result = integrator::render_film_with(&scene, &options, control);
     bar.finish_and_clear();
     let (film, stats) = match result {

@@ -40,6 +40,7 @@ mod lights;
 mod material_tests;
 mod output;
 mod path;
+mod pilot;
 mod render;
 mod sampling;
 mod sky;
@@ -58,6 +59,7 @@ pub use exposure::{EXR_VIEW_ATTRIBUTE, MIDDLE_GREY, Tonemap, View, auto_exposure
 pub use film::{Display, Film, Image, ObjectId};
 pub use film_file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Merger, merge_parts};
 pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_outputs};
+pub use pilot::{AutoCandidate, AutoDecision, auto_decision, pilot_strategies};
 pub use render::{
     Ambient, Checkpoint, DEFAULT_K_A, Integrator, IntegratorKind, MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES,
     MAX_THREADS, PathOptions, Progress, RenderControl, RenderOptions, RenderStats, WavelengthPdf, WhittedOptions,

@@ -438,6 +438,9 @@ pub struct RenderControl<'a> {
     pub resume: Option<Film>,
     /// Write the film periodically; samples are then taken in passes of one per pixel.
     pub checkpoint: Option<Checkpoint<'a>>,
+    /// The strategy [`resolved_spectral`] gave for these options, where the caller has it
+    /// already (`auto` may run a pilot render to decide; `None` decides here).
+    pub spectral: Option<SpectralMode>,
 }
 
 impl std::fmt::Debug for RenderControl<'_> {
@@ -466,7 +469,7 @@ pub fn render_film(
     progress: &(dyn Fn(Progress) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Film, RenderStats)> {
-    render_film_with(scene, options, RenderControl { progress, cancel, resume: None, checkpoint: None })
+    render_film_with(scene, options, RenderControl { progress, cancel, resume: None, checkpoint: None, spectral: None })
 }
 
 /// [`render_film`] with checkpoints and resumption ([`RenderControl`]).
@@ -475,7 +478,7 @@ pub fn render_film_with(
     options: &RenderOptions,
     control: RenderControl<'_>,
 ) -> Result<(Film, RenderStats)> {
-    let RenderControl { progress, cancel, resume, checkpoint } = control;
+    let RenderControl { progress, cancel, resume, checkpoint, spectral } = control;
     options.check_limits()?;
     if options.spp == 0 || options.spp > MAX_SPP {
         return Err(Error::OutOfRange { what: "spp", value: f64::from(options.spp), range: "1..=1048576" });
@@ -493,7 +496,10 @@ pub fn render_film_with(
     {
         return Err(Error::OutOfRange { what: "min weight", value: w.min_weight.into(), range: ">= 0" });
     }
-    let spectral = resolved_spectral(scene, options)?;
+    let spectral = match spectral {
+        Some(s) => s,
+        None => resolved_spectral(scene, options)?,
+    };
     if options.spectral_film && !matches!(spectral, SpectralMode::Bins(_)) {
         return Err(Error::InvalidOption {
             option: "spectral mode for a spectral image",
@@ -511,7 +517,7 @@ pub fn render_film_with(
 /// for the paper's model.
 pub fn resolved_spectral(scene: &RenderScene, options: &RenderOptions) -> Result<SpectralMode> {
     Ok(match options.spectral {
-        SpectralMode::Auto => crate::choose_auto(scene, options.integrator.kind()),
+        SpectralMode::Auto => crate::auto_decision(scene, options)?.spectral,
         SpectralMode::Hero { .. } if options.integrator.kind() == IntegratorKind::WhittedHall => {
             return Err(Error::InvalidOption {
                 option: "spectral mode",
@@ -527,7 +533,7 @@ pub fn resolved_spectral(scene: &RenderScene, options: &RenderOptions) -> Result
 const LANE_COUNTS: [usize; 7] = [4, 8, 16, 32, 48, 64, MAX_BINS];
 
 /// The lanes a spectral strategy needs.
-fn lane_count(spectral: SpectralMode) -> Result<usize> {
+pub(crate) fn lane_count(spectral: SpectralMode) -> Result<usize> {
     let bad = || Error::InvalidOption {
         option: "spectral mode",
         value: spectral.to_string(),
@@ -542,14 +548,14 @@ fn lane_count(spectral: SpectralMode) -> Result<usize> {
 }
 
 /// Work generic over the lane count, for [`with_lanes`].
-trait LaneJob {
+pub(crate) trait LaneJob {
     type Output;
     fn run<const N: usize>(self) -> Self::Output;
 }
 
 /// The one place that turns a run-time lane count (one of [`LANE_COUNTS`], from
 /// [`lane_count`]) into a compile-time one.
-fn with_lanes<J: LaneJob>(lanes: usize, job: J) -> J::Output {
+pub(crate) fn with_lanes<J: LaneJob>(lanes: usize, job: J) -> J::Output {
     debug_assert!(LANE_COUNTS.contains(&lanes), "{lanes} lanes");
     match lanes {
         4 => job.run::<4>(),
@@ -633,8 +639,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
         }
         None => Film::new(width, height, wavelengths),
     };
-    let spp = options.spp;
-    let offsets = if K::RANDOM { Vec::new() } else { pixel_offsets(spp) };
+    let sampler = PixelSampler::new(kernel, sensor, camera, options);
     // With a time limit, passes of one sample each spread the samples taken evenly over the
     // image when it stops, and every row of a pass is short whatever the spp. The first pass
     // ignores the limit, so every pixel gets at least one sample. Checkpoints are taken
@@ -648,9 +653,6 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     let first_pass = film.min_sample_count() / pass_size;
     let rows_total = u64::from(height) * u64::from(passes - first_pass);
     let mut last_checkpoint = Instant::now();
-    // Only hero sensors place wavelengths per sample; fixed lanes are the same for all.
-    let hero = !matches!(sensor, Sensor::Fixed(_));
-    let fixed_lambda = sensor.sample_wavelengths(0.0);
     let start = Instant::now();
     let out_of_time = || options.time_limit.is_some_and(|limit| start.elapsed() >= limit);
     let rays = AtomicU64::new(0);
@@ -672,30 +674,10 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                 let mut fixed_rng = Rng::new(0, 0, 0);
                 for x in 0..width as usize {
                     let pixel = y as u64 * u64::from(width) + x as u64;
-                    // A random rotation per pixel of the stratified hero wavelengths, so a
-                    // partial set of strata (time limit, sample range) is still unbiased. It has
-                    // its own stream, so skipping it for fixed lanes changes no other number.
-                    let rotation =
-                        if K::RANDOM && hero { Rng::new(options.seed, pixel, u64::MAX).uniform() } else { 0.0 };
+                    let rotation = sampler.rotation(pixel);
                     let next = samples.start + row.count(x);
                     for i in first_sample.max(next)..last_sample {
-                        let mut sample_rng;
-                        let (rng, mut lambda, ray) = if K::RANDOM {
-                            sample_rng = Rng::new(options.seed, pixel, u64::from(i));
-                            let mut u = rotation + (i as f32 + sample_rng.uniform()) / spp as f32;
-                            if u >= 1.0 {
-                                u -= 1.0;
-                            }
-                            let lambda =
-                                if hero { sensor.sample_wavelengths(u.min(0.999_999_9)) } else { fixed_lambda };
-                            let jitter = sample_rng.uniform2();
-                            let ray = camera_ray(&camera, x, y, jitter.x, jitter.y, width, height);
-                            (&mut sample_rng, lambda, ray)
-                        } else {
-                            let (dx, dy) = offsets[i as usize];
-                            (&mut fixed_rng, fixed_lambda, camera_ray(&camera, x, y, dx, dy, width, height))
-                        };
-                        let r = kernel.li(&ray, &mut lambda, sensor, rng, &mut count);
+                        let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed_rng, &mut count);
                         if i == 0 {
                             row.set_first_hit(x, r.first);
                         }
@@ -737,12 +719,88 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     Ok((film, stats))
 }
 
+/// Everything that decides one camera sample: the film's wavelengths, the camera ray and the
+/// integrator's radiance along it. The pixel loop and `auto`'s pilot ([`crate::auto`]) take their
+/// samples through it, so the pilot measures exactly the samples a render would take.
+pub(crate) struct PixelSampler<'a, const N: usize, K> {
+    kernel: &'a K,
+    sensor: &'a Sensor<N>,
+    camera: Camera,
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u64,
+    /// Deterministic sub-pixel positions (kernels that are not [`Kernel::RANDOM`]).
+    offsets: Vec<(f32, f32)>,
+    /// Only hero sensors place wavelengths per sample; fixed lanes are the same for all.
+    hero: bool,
+    fixed_lambda: SampledWavelengths<N>,
+}
+
+impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
+    pub(crate) fn new(kernel: &'a K, sensor: &'a Sensor<N>, camera: Camera, options: &RenderOptions) -> Self {
+        Self {
+            kernel,
+            sensor,
+            camera,
+            width: options.width,
+            height: options.height,
+            spp: options.spp,
+            seed: options.seed,
+            offsets: if K::RANDOM { Vec::new() } else { pixel_offsets(options.spp) },
+            hero: !matches!(sensor, Sensor::Fixed(_)),
+            fixed_lambda: sensor.sample_wavelengths(0.0),
+        }
+    }
+
+    /// A random rotation per pixel of the stratified hero wavelengths, so a partial set of
+    /// strata (time limit, sample range) is still unbiased. It has its own stream, so skipping
+    /// it for fixed lanes changes no other number.
+    #[inline]
+    pub(crate) fn rotation(&self, pixel: u64) -> f32 {
+        if K::RANDOM && self.hero { Rng::new(self.seed, pixel, u64::MAX).uniform() } else { 0.0 }
+    }
+
+    /// Sample `i` of pixel (x, y) (`rotation` from [`PixelSampler::rotation`]): its radiance and
+    /// wavelengths. The random numbers depend only on (seed, pixel, i).
+    #[inline]
+    pub(crate) fn sample(
+        &self,
+        x: usize,
+        y: usize,
+        rotation: f32,
+        i: u32,
+        fixed_rng: &mut Rng,
+        count: &mut RayCount,
+    ) -> (Radiance<N>, SampledWavelengths<N>) {
+        let (width, height) = (self.width, self.height);
+        let mut sample_rng;
+        let (rng, mut lambda, ray) = if K::RANDOM {
+            let pixel = y as u64 * u64::from(width) + x as u64;
+            sample_rng = Rng::new(self.seed, pixel, u64::from(i));
+            let mut u = rotation + (i as f32 + sample_rng.uniform()) / self.spp as f32;
+            if u >= 1.0 {
+                u -= 1.0;
+            }
+            let lambda = if self.hero { self.sensor.sample_wavelengths(u.min(0.999_999_9)) } else { self.fixed_lambda };
+            let jitter = sample_rng.uniform2();
+            let ray = camera_ray(&self.camera, x, y, jitter.x, jitter.y, width, height);
+            (&mut sample_rng, lambda, ray)
+        } else {
+            let (dx, dy) = self.offsets[i as usize];
+            (fixed_rng, self.fixed_lambda, camera_ray(&self.camera, x, y, dx, dy, width, height))
+        };
+        let r = self.kernel.li(&ray, &mut lambda, self.sensor, rng, count);
+        (r, lambda)
+    }
+}
+
 #[inline]
 fn camera_ray(camera: &Camera, x: usize, y: usize, dx: f32, dy: f32, width: u32, height: u32) -> Ray {
     camera.generate_ray(x as f32 + dx, y as f32 + dy, width, height)
 }
 
-fn thread_pool(options: &RenderOptions) -> Result<rayon::ThreadPool> {
+pub(crate) fn thread_pool(options: &RenderOptions) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
         builder = builder.num_threads(n);

@@ -45,8 +45,7 @@ pub(crate) fn checks(report: &mut Report, root: &Path, refs: &RefCache, quick: b
          | --- | --- | --- | --- | --- | --- | --- | --- |\n",
     );
     for &(file, full, small) in SCENES {
-        let path = root.join("scenes").join(file);
-        let scene = RenderScene::load(&path).with_context(|| format!("loading {}", path.display()))?;
+        let scene = load_scene(root, file)?;
         let (w, h) = if quick { small } else { full };
         whitted(report, &scene, file, (w, h), &mut md)?;
         // The quick run (part of `cargo test`) keeps the path tracer to the two slabs, whose

@@ -171,8 +171,7 @@ fn path_case(
     quick: bool,
     md: &mut String,
 ) -> anyhow::Result<()> {
-    let path = root.join("scenes").join(case.file);
-    let scene = RenderScene::load(&path).with_context(|| format!("loading {}", path.display()))?;
+    let scene = load_scene(root, case.file)?;
     let (w, h) = if quick { case.quick_size } else { case.size };
     let spps = if quick { case.quick_spps } else { case.spps };
     let ref_spp = if quick { case.quick_reference_spp } else { case.reference_spp };

@@ -127,6 +127,7 @@ fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
         cancel: &cancel,
         resume: None,
         checkpoint: Some(Checkpoint { every: std::time::Duration::ZERO, write: &write }),
+        spectral: None,
     };
     let (checkpointed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
     assert!(checkpointed == whole, "short passes change no sum");
@@ -136,7 +137,13 @@ fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
         let file = FilmFile::from_bytes(bytes, std::path::Path::new("c.film")).unwrap();
         assert_eq!(file.film.min_sample_count(), k as u32 + 1);
         let resume = file.resumable(&header, 10, 8, std::path::Path::new("c.film")).unwrap();
-        let control = RenderControl { progress: &|_| {}, cancel: &cancel, resume: Some(resume), checkpoint: None };
+        let control = RenderControl {
+            progress: &|_| {},
+            cancel: &cancel,
+            resume: Some(resume),
+            checkpoint: None,
+            spectral: None,
+        };
         let (resumed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
         assert!(resumed == whole, "resumed after pass {}", k + 1);
     }
