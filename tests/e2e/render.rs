@@ -167,6 +167,43 @@ fn info_reports_what_the_default_scene_needs() {
     assert_eq!(json["spectral_auto"], "bins:32");
 }
 
+/// Issue 17: where `auto` pilots (F11's lines need bins:95, dearer per ray than hero:4), the
+/// render says what the pilot measured and `info` tables it; a render too small to pilot says
+/// nothing and keeps the first step's choice.
+#[test]
+fn auto_says_what_its_pilot_measured() {
+    let dir = scratch("auto_pilot");
+    let f11 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/reference/colorchecker_f11.json");
+    let f11 = f11.to_str().unwrap();
+    let run = |spp: &str| {
+        let args =
+            ["render", f11, "--integrator", "path", "--width", "12", "--height", "8", "--spp", spp, "-o", "f.exr"];
+        let output = spectrace().current_dir(&dir).args(args).output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert!(output.status.success(), "{stderr}");
+        stderr
+    };
+    // 12 × 8 pixels piloted at 2 × 16 spp for three candidates is 9216 samples: the render needs
+    // 32× that, 3072 spp.
+    let piloted = run("3072");
+    assert!(piloted.contains("--spectral auto piloted: bins:95 reaches a given error first"), "{piloted}");
+    assert!(piloted.contains("hero:4 ") && piloted.contains("hero:8 ") && piloted.contains("bins:95 0,"), "{piloted}");
+    let small = run("64");
+    assert!(!small.contains("piloted") && small.contains(" bins:95 64 spp"), "{small}");
+    let output = spectrace()
+        .args(["info", f11, "--integrator", "path", "--width", "12", "--height", "8", "--spp", "3072"])
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(json["spectral_auto"], "bins:95");
+    let pilot = json["spectral_auto_why"]["pilot"].as_array().unwrap();
+    let spectra: Vec<_> = pilot.iter().map(|c| c["spectral"].as_str().unwrap()).collect();
+    assert_eq!(spectra, ["bins:95", "hero:4", "hero:8"]);
+    // Fixed bins on flat, directly lit patches have no colour noise; hero:4 has the most.
+    let spp_to_1 = |i: usize| pilot[i]["spp_to_delta_e00_1"].as_f64().unwrap();
+    assert!(spp_to_1(0) < 1e-3 && spp_to_1(1) > spp_to_1(2) && spp_to_1(2) > 1.0, "{pilot:?}");
+}
+
 #[test]
 fn image_and_pool_limits_are_checked_before_rendering() {
     // Issue 16 items 3, 8, 9: 65536² passed the per-side check and aborted allocating 51 GB;

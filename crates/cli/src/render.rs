@@ -369,8 +369,22 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         spectral_film: args.spectral_exr.is_some() || parts.spectral_film,
     };
     check_limits(&options, args)?;
-    // Resolved once: `auto` may run a pilot render to decide.
-    let spectral = integrator::resolved_spectral(&scene, &options)?;
+    // Resolved once: `auto` may run a pilot render to decide, and then says what it measured.
+    let spectral = if options.spectral == SpectralMode::Auto {
+        let auto = integrator::auto_decision(&scene, &options)?;
+        if !args.quiet && !auto.candidates.is_empty() {
+            let spp: Vec<String> =
+                auto.candidates.iter().map(|c| format!("{} {:.0}", c.spectral, c.spp_for(1.0))).collect();
+            eprintln!(
+                "spectrace: note: --spectral auto {}; the pilot's spp to mean ΔE00 1: {}",
+                auto.reason,
+                spp.join(", ")
+            );
+        }
+        auto.spectral
+    } else {
+        integrator::resolved_spectral(&scene, &options)?
+    };
     let header = integrator::FilmHeader::new(&scene, &options, spectral);
     let resume = match &parts.resume {
         Some(path) => {

@@ -161,10 +161,13 @@ pub fn auto_decision(scene: &RenderScene, options: &RenderOptions) -> Result<Aut
     let next = second_best_cost(&candidates, best) / best.cost_for(1.0);
     Ok(AutoDecision {
         spectral: best.spectral,
-        reason: format!(
-            "piloted: {} reaches a given error first (the next best takes {next:.3}× its time)",
-            best.spectral
-        ),
+        reason: if next < 1000.0 {
+            format!("piloted: {} reaches a given error first (the next best takes {next:.2}× its time)", best.spectral)
+        } else {
+            // No colour noise against some (fixed bins on flat, directly lit surfaces): a ratio
+            // of a rounding error says nothing.
+            format!("piloted: {} reaches a given error first (the others take over 1000× its time)", best.spectral)
+        },
         candidates,
     })
 }
