@@ -33,7 +33,8 @@ pub(crate) struct InfoArgs {
 }
 
 pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
-    let mut assembly = args.camera.assembly((None, None));
+    // The size a render with the same flags would frame a default view for.
+    let mut assembly = args.camera.assembly((args.width, args.height));
     assembly.environment = args.env.option()?;
     assembly.default_lights = args.env.default_lights()?;
     assembly.sky = args.env.sky()?;
@@ -82,6 +83,8 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
             integrator::IntegratorKind::Path => integrator::Integrator::Path(integrator::PathOptions::default()),
         };
         let options = integrator::RenderOptions { width, height, integrator, spp: args.spp, ..Default::default() };
+        options.check_limits()?;
+        anyhow::ensure!((1..=1 << 20).contains(&args.spp), "--spp {} is outside 1..=1048576", args.spp);
         let auto = integrator::auto_decision(&scene, &options)?;
         object.insert("spectral_auto".to_owned(), serde_json::Value::String(auto.spectral.to_string()));
         // What the pilot measured, per candidate: modelled cost per sample, the predicted mean

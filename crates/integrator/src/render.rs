@@ -720,7 +720,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
 }
 
 /// Everything that decides one camera sample: the film's wavelengths, the camera ray and the
-/// integrator's radiance along it. The pixel loop and `auto`'s pilot ([`crate::auto`]) take their
+/// integrator's radiance along it. The pixel loop and `auto`'s pilot (`pilot.rs`) take their
 /// samples through it, so the pilot measures exactly the samples a render would take.
 pub(crate) struct PixelSampler<'a, const N: usize, K> {
     kernel: &'a K,

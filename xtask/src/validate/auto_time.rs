@@ -79,8 +79,8 @@ const NOISE_FLOOR: f64 = 0.05;
 pub(crate) fn checks(report: &mut Report, root: &Path, refs: &RefCache, quick: bool) -> anyhow::Result<()> {
     let mut md = String::from(
         "## `auto` by time to error\n\n\
-         Every candidate strategy piloted (`integrator::pilot_strategies`: two independent 4-spp renders of up \
-         to 64×64 pixels) and rendered at the stated spp against a converged reference. Predicted: the \
+         Every candidate strategy piloted (`integrator::pilot_strategies`: two independent 16-spp renders of up \
+         to 32×32 pixels) and rendered at the stated spp against a converged reference. Predicted: the \
          pilot's spp to mean ΔE00 1 and modelled cost (rays × (1 + lanes·0.0065 + hero wavelengths·0.05), in \
          units of a ray's lane-independent cost). Measured: spp to ΔE00 1 = s·e(s)² and time to ΔE00 1 = \
          t(s)·e(s)² from the render at s spp (error ∝ 1/√spp). Reproduce: `cargo xtask validate --only auto` \

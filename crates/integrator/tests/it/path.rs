@@ -260,6 +260,16 @@ fn auto_pilots_where_hero_might_win_and_takes_the_least_time_to_error() {
     let small = decide("slab_band.json", 64, 64, 16);
     assert!(small.candidates.is_empty());
     assert_eq!(small.spectral, SpectralMode::Hero { count: 8 });
+    // A spectral image needs the bins; a time-limited render is not piloted.
+    let options = RenderOptions { spectral_film: true, ..path_options(60, 40, SpectralMode::Auto, 4096) };
+    let film = integrator::auto_decision(&reference("colorchecker_f11.json"), &options).unwrap();
+    assert!(film.candidates.is_empty() && film.spectral == SpectralMode::Bins(95), "{}", film.reason);
+    let limited = RenderOptions {
+        time_limit: Some(std::time::Duration::from_secs(5)),
+        ..path_options(64, 64, SpectralMode::Auto, 1024)
+    };
+    let limited = integrator::auto_decision(&reference("slab_band.json"), &limited).unwrap();
+    assert!(limited.candidates.is_empty() && limited.spectral == SpectralMode::Hero { count: 8 });
     let cornell = decide("cornell_box.json", 64, 64, 1024);
     assert!(cornell.candidates.is_empty(), "{}", cornell.reason);
     assert_eq!(cornell.spectral, SpectralMode::Bins(24));
