@@ -16,7 +16,8 @@ use crate::error::Result;
 use crate::film::Sensor;
 use crate::path::PathTracer;
 use crate::render::{
-    Integrator, LaneJob, PathOptions, PixelSampler, RayCount, RenderOptions, lane_count, thread_pool, with_lanes,
+    Integrator, IntegratorKind, LaneJob, PathOptions, PixelSampler, RayCount, RenderOptions, lane_count, thread_pool,
+    with_lanes,
 };
 use crate::sampling::Rng;
 use crate::spectral::{Lanes, SpectralMode};
@@ -126,54 +127,37 @@ pub(crate) fn cost_per_ray(spectral: SpectralMode) -> f64 {
 ///   and the one with the least cost per sample × (1-spp error)² wins: the least time to any
 ///   target error.
 pub fn auto_decision(scene: &RenderScene, options: &RenderOptions) -> Result<AutoDecision> {
-    let kind = options.integrator.kind();
-    let first = crate::choose_auto(scene, kind);
-    let Integrator::Path(_) = options.integrator else {
-        return Ok(AutoDecision { spectral: first, candidates: Vec::new(), reason: "the paper's model: bins".into() });
-    };
-    if scene.materials.iter().any(materials::Material::is_dispersive) {
-        return Ok(AutoDecision {
-            spectral: first,
-            candidates: Vec::new(),
-            reason: "a dispersive dielectric: hero wavelengths".into(),
-        });
-    }
+    let first = crate::choose_auto(scene, options.integrator.kind());
+    let keep = |reason: String| Ok(AutoDecision { spectral: first, candidates: Vec::new(), reason });
     let hero4 = SpectralMode::Hero { count: 4 };
-    let bins_cheap = matches!(first, SpectralMode::Bins(_)) && cost_per_ray(first) <= cost_per_ray(hero4);
-    if bins_cheap {
-        return Ok(AutoDecision {
-            spectral: first,
-            candidates: Vec::new(),
-            reason: format!("{first} has no colour noise and costs no more per ray than hero:4"),
-        });
-    }
-    // A spectral image needs fixed wavelengths; a time-limited render's spp says nothing of its
-    // length, and its limit should not be spent on a pilot.
-    let kept = if options.spectral_film && matches!(first, SpectralMode::Bins(_)) {
-        Some("a spectral image needs fixed wavelengths")
-    } else if options.time_limit.is_some() {
-        Some("a time-limited render is not piloted")
-    } else {
-        None
-    };
-    if let Some(reason) = kept {
-        return Ok(AutoDecision { spectral: first, candidates: Vec::new(), reason: reason.into() });
-    }
+    let bins = matches!(first, SpectralMode::Bins(_));
     let mut strategies = vec![hero4, SpectralMode::Hero { count: 8 }];
-    if matches!(first, SpectralMode::Bins(_)) {
+    if bins {
         strategies.insert(0, first);
     }
-    let pixels = pilot_pixels(options.width, options.height);
-    let pilot_samples = (pixels.pixels.len() as u64) * u64::from(PILOT_SPP) * PILOT_SEEDS.len() as u64;
+    let grid = pilot_pixels(options.width, options.height);
+    let pilot_samples = (grid.pixels.len() as u64) * u64::from(PILOT_SPP) * PILOT_SEEDS.len() as u64;
     // The whole render's samples, not a part's (`--part`): every part must decide alike, so each
     // part pays the whole pilot.
     let render_samples = (u64::from(options.width) * u64::from(options.height)).saturating_mul(u64::from(options.spp));
-    if render_samples < PILOT_SHARE * pilot_samples * strategies.len() as u64 {
-        return Ok(AutoDecision {
-            spectral: first,
-            candidates: Vec::new(),
-            reason: "a render too small to pilot".into(),
-        });
+    let not_piloted = if options.integrator.kind() == IntegratorKind::WhittedHall {
+        Some("the paper's model: bins".to_owned())
+    } else if scene.materials.iter().any(materials::Material::is_dispersive) {
+        Some("a dispersive dielectric: hero wavelengths".to_owned())
+    } else if bins && cost_per_ray(first) <= cost_per_ray(hero4) {
+        Some(format!("{first} has no colour noise and costs no more per ray than hero:4"))
+    } else if options.spectral_film && bins {
+        Some("a spectral image needs fixed wavelengths".to_owned())
+    } else if options.time_limit.is_some() {
+        // Its spp says nothing of its length, and its limit is not to be spent on a pilot.
+        Some("a time-limited render is not piloted".to_owned())
+    } else if render_samples < PILOT_SHARE * pilot_samples * strategies.len() as u64 {
+        Some("a render too small to pilot".to_owned())
+    } else {
+        None
+    };
+    if let Some(reason) = not_piloted {
+        return keep(reason);
     }
     let candidates = pilot_strategies(scene, options, &strategies)?;
     let best = fastest(&candidates);
@@ -254,11 +238,8 @@ fn pilot(
     grid: &PilotGrid,
 ) -> Result<AutoCandidate> {
     let pixels = &grid.pixels[..];
-    let [a, b] = PILOT_SEEDS.map(|seed| {
-        let options = RenderOptions { seed, spp: PILOT_SPP, samples: None, ..options.clone() };
-        with_lanes(lane_count(spectral)?, PilotJob { scene, options: &options, path, spectral, pixels })
-    });
-    let (a, b) = (a?, b?);
+    let options = RenderOptions { spp: PILOT_SPP, samples: None, ..options.clone() };
+    let [a, b] = with_lanes(lane_count(spectral)?, PilotJob { scene, options: &options, path, spectral, pixels })?;
     let samples = (pixels.len() as f64) * f64::from(PILOT_SPP) * 2.0;
     let rays_per_sample = (a.rays + b.rays) as f64 / samples;
     Ok(AutoCandidate {
@@ -296,7 +277,8 @@ pub(crate) fn mean_error(a: &[[f64; 3]], b: &[[f64; 3]], columns: usize) -> f64 
     MEAN_ABS_PER_RMS * sum / count.max(1) as f64
 }
 
-/// One pilot render, generic over the lane count.
+/// The pilot's renders of one strategy (one per seed of [`PILOT_SEEDS`], with one kernel: its
+/// spectra are projected once), generic over the lane count.
 struct PilotJob<'a> {
     scene: &'a RenderScene,
     options: &'a RenderOptions,
@@ -312,7 +294,7 @@ struct PilotRun {
 }
 
 impl LaneJob for PilotJob<'_> {
-    type Output = Result<PilotRun>;
+    type Output = Result<[PilotRun; 2]>;
 
     fn run<const N: usize>(self) -> Self::Output {
         let Self { scene, options, path, spectral, pixels } = self;
@@ -322,26 +304,29 @@ impl LaneJob for PilotJob<'_> {
         };
         let (kernel, sensor): (PathTracer<'_, N>, Sensor<N>) = PathTracer::new(scene, fixed, &path);
         let camera = scene.camera(options.width, options.height)?;
-        let sampler = PixelSampler::new(&kernel, &sensor, camera, options);
-        let per_pixel: Vec<(u64, [f64; 3])> = pixels
-            .par_iter()
-            .map(|&(x, y)| {
-                let mut count = RayCount::default();
-                let mut fixed_rng = Rng::new(0, 0, 0);
-                let rotation = sampler.rotation(u64::from(y) * u64::from(options.width) + u64::from(x));
-                let mut sum = [0.0f64; 3];
-                for i in 0..options.spp {
-                    let (r, lambda) = sampler.sample(x as usize, y as usize, rotation, i, &mut fixed_rng, &mut count);
-                    let (xyz, _) = sensor.to_xyz(&r.l, &lambda, r.lane);
-                    // The film adds a non-finite sample as black.
-                    if xyz.iter().all(|v| v.is_finite()) {
-                        sum.iter_mut().zip(xyz).for_each(|(s, v)| *s += f64::from(v));
+        Ok(PILOT_SEEDS.map(|seed| {
+            let sampler = PixelSampler::new(&kernel, &sensor, camera, &RenderOptions { seed, ..options.clone() });
+            let per_pixel: Vec<(u64, [f64; 3])> = pixels
+                .par_iter()
+                .map(|&(x, y)| {
+                    let mut count = RayCount::default();
+                    let mut fixed_rng = Rng::new(0, 0, 0);
+                    let rotation = sampler.rotation(u64::from(y) * u64::from(options.width) + u64::from(x));
+                    let mut sum = [0.0f64; 3];
+                    for i in 0..options.spp {
+                        let (r, lambda) =
+                            sampler.sample(x as usize, y as usize, rotation, i, &mut fixed_rng, &mut count);
+                        let (xyz, _) = sensor.to_xyz(&r.l, &lambda, r.lane);
+                        // The film adds a non-finite sample as black.
+                        if xyz.iter().all(|v| v.is_finite()) {
+                            sum.iter_mut().zip(xyz).for_each(|(s, v)| *s += f64::from(v));
+                        }
                     }
-                }
-                (count.rays, sum.map(|s| s / f64::from(options.spp)))
-            })
-            .collect();
-        Ok(PilotRun { rays: per_pixel.iter().map(|p| p.0).sum(), means: per_pixel.into_iter().map(|p| p.1).collect() })
+                    (count.rays, sum.map(|s| s / f64::from(options.spp)))
+                })
+                .collect();
+            PilotRun { rays: per_pixel.iter().map(|p| p.0).sum(), means: per_pixel.into_iter().map(|p| p.1).collect() }
+        }))
     }
 }
 
