@@ -88,6 +88,45 @@ fn a_path_tracer_flag_given_to_the_paper_model_is_named_not_dropped() {
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(stderr.contains("--rr-depth is ignored by whitted-hall"), "{stderr}");
+    let output = spectrace()
+        .args(["render", "-q", "--width", "8", "--height", "6", "--sampler", "independent", "-o"])
+        .arg(dir.join("w2.exr"))
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("--sampler is ignored by whitted-hall"), "{stderr}");
+}
+
+#[test]
+fn the_sampler_is_chosen_on_the_command_line() {
+    let dir = scratch("sampler");
+    let run = |sampler: &str, name: &str| {
+        spectrace()
+            .args(["render", "-q", "--integrator", "path", "--width", "16", "--height", "12", "--spp", "4"])
+            .args(["--sampler", sampler, "-o"])
+            .arg(dir.join(name))
+            .output()
+            .unwrap()
+    };
+    for (sampler, name) in [("sobol", "s.exr"), ("independent", "i.exr")] {
+        let output = run(sampler, name);
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    }
+    // Different numbers, different images (the default is Sobol').
+    let default = spectrace()
+        .args(["render", "-q", "--integrator", "path", "--width", "16", "--height", "12", "--spp", "4", "-o"])
+        .arg(dir.join("d.exr"))
+        .output()
+        .unwrap();
+    assert!(default.status.success());
+    let read = |name: &str| std::fs::read(dir.join(name)).unwrap();
+    assert_eq!(read("d.exr"), read("s.exr"));
+    assert_ne!(read("s.exr"), read("i.exr"));
+    let bad = run("halton", "h.exr");
+    assert!(!bad.status.success() && !dir.join("h.exr").exists());
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(stderr.contains("halton") && stderr.contains("sobol or independent"), "{stderr}");
 }
 
 #[test]

@@ -29,6 +29,10 @@ Issue 17's comparison (Mitsuba's vectorised variant, 512², 2 threads, one refer
         --spp 16 32 64 128 --ref-spp 8192 --repeats 3 --score common \
         --variants scalar_spectral llvm_ad_spectral
 
+A spectral mode may name spectrace's sampler after an @ (`--spectral auto@independent`), a
+variant Mitsuba's (`--variants llvm_ad_spectral@multijitter`); the defaults are each renderer's
+own (spectrace: Sobol' points; Mitsuba: independent).
+
 `llvm_ad_spectral` (Mitsuba's vectorised LLVM variant) needs an LLVM drjit can load: drjit's
 default LLVM 15 aborts on Debian 12, whose `libllvm19` package works; the script sets
 `DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1` when that file exists and the
@@ -96,7 +100,7 @@ def rectangle(corner, eu, ev, bsdf, emitter=None, flip=False, lift=0.0):
     return shape
 
 
-def mitsuba_scene(manifest, spp, width, height):
+def mitsuba_scene(manifest, spp, width, height, sampler="independent"):
     mats = manifest["materials"]
 
     def bsdf(name):
@@ -123,7 +127,7 @@ def mitsuba_scene(manifest, spp, width, height):
                 "pixel_format": "xyz",
                 "rfilter": {"type": "box"},
             },
-            "sampler": {"type": "independent", "sample_count": spp},
+            "sampler": {"type": sampler, "sample_count": spp},
         },
     }
     for i, o in enumerate(manifest["objects"]):
@@ -147,8 +151,11 @@ def mitsuba_scene(manifest, spp, width, height):
 
 
 def render_mitsuba(manifest, spp, width, height, seed, variant="scalar_spectral"):
+    """`variant` may name a sampler after an @ (`llvm_ad_spectral@multijitter`; default
+    Mitsuba's default, `independent`)."""
+    variant, _, sampler = variant.partition("@")
     mi.set_variant(variant)
-    scene = mi.load_dict(mitsuba_scene(manifest, spp, width, height))
+    scene = mi.load_dict(mitsuba_scene(manifest, spp, width, height, sampler or "independent"))
     start = time.perf_counter()
     image = mi.render(scene, spp=spp, seed=seed)
     image = np.array(image)  # waits for the LLVM variant's kernels to finish
@@ -173,9 +180,14 @@ def time_to(spps, errors_, seconds, threshold):
 
 
 def render_spectrace(binary, spp, width, height, seed, threads, spectral, out):
-    exr = out / f"spectrace_{spectral.replace(':', '')}_{spp}.exr"
+    """`spectral` may name a sampler after an @ (`auto@independent`; default spectrace's
+    default)."""
+    exr = out / f"spectrace_{spectral.replace(':', '').replace('@', '_')}_{spp}.exr"
+    spectral, _, sampler = spectral.partition("@")
     cmd = [str(binary), "render", str(SCENE), "--integrator", "path", "--spp", str(spp), "--seed", str(seed)]
     cmd += ["--spectral", spectral, "--width", str(width), "--height", str(height), "--threads", str(threads)]
+    if sampler:
+        cmd += ["--sampler", sampler]
     cmd += ["-q", "-o", str(exr)]
     if spectral.startswith("hero"):
         cmd += ["--wavelength-pdf", "visible"]
@@ -230,7 +242,7 @@ def main():
     refs = {"spectrace": ref_s}
     # Mitsuba's own reference (its fastest variant asked for): for `--score own`, and for the
     # systematic difference between the two renderers' converged images.
-    v = "llvm_ad_spectral" if "llvm_ad_spectral" in args.variants else args.variants[0]
+    v = "llvm_ad_spectral" if "llvm_ad_spectral" in args.variants else args.variants[0].partition("@")[0]
     refs["mitsuba"] = cached(
         f"ref_mitsuba_{v}_{n}_{args.ref_spp}", lambda: render_mitsuba(manifest, args.ref_spp, n, n, 7, v)
     )
@@ -276,7 +288,7 @@ def main():
     # the time to reach the baseline's error is t·(e/e_base) for relative MSE and t·(e/e_base)²
     # for ΔE00 (a distance, ∝ spp^-1/2 while noise dominates), taking time ∝ spp (spectrace's
     # fixed costs count against it). No extrapolation beyond the ladder.
-    base = next((name for name, _, mode in renderers if mode == "llvm_ad_spectral"), renderers[0][0])
+    base = next((name for name, _, mode in renderers if mode.startswith("llvm_ad_spectral")), renderers[0][0])
     print(f"equal-error time ratio against {base} (below 1: faster to the same error)")
     print("renderer                    spp   ΔE00 mean   rel.MSE")
     for name, rows in results.items():

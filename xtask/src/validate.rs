@@ -15,6 +15,7 @@ mod auto_time;
 mod colorimetry;
 mod hard;
 mod refs;
+mod sampler;
 mod scaling;
 mod speed;
 
@@ -28,7 +29,9 @@ use ::colorimetry::{
     delta_e_2000, reflectance_to_xyz, upsample_reflectance,
 };
 use anyhow::Context as _;
-use integrator::{Ambient, Image, Integrator, PathOptions, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
+use integrator::{
+    Ambient, Image, Integrator, PathOptions, RenderOptions, RenderScene, SamplerKind, SpectralMode, WavelengthPdf,
+};
 
 use crate::stats::{WHITE, delta_e_all, mean, p95, xyz_of};
 
@@ -86,7 +89,8 @@ impl Report {
 }
 
 /// The parts `--only` may name, in the order they run.
-const PARTS: [&str; 8] = ["colorimetry", "analytic", "hard", "speed", "absorbing", "auto", "paper", "scaling"];
+const PARTS: [&str; 9] =
+    ["colorimetry", "analytic", "hard", "speed", "absorbing", "auto", "sampler", "paper", "scaling"];
 
 pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     let root = crate::project_root();
@@ -130,6 +134,10 @@ pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     if wanted("auto") {
         auto_time::checks(&mut report, &root, &refs, args.quick)?;
         step("auto by time to error", &mut since);
+    }
+    if wanted("sampler") {
+        sampler::checks(&mut report, &root, &refs, args.quick)?;
+        step("Sobol' points against independent numbers", &mut since);
     }
     if wanted("paper") {
         paper(&mut report, &out, args.quick);
@@ -272,6 +280,13 @@ pub(crate) fn clear_slab(camera: &str, half: f64, per_unit: f64, thickness: f64)
 
 fn small(w: u32, h: u32) -> RenderOptions {
     RenderOptions { width: w, height: h, ..RenderOptions::default() }.whitted(|w| w.ambient = Ambient::None)
+}
+
+/// `options` with independent numbers: for the parts whose error model is the independent
+/// samples' (error ∝ 1/√spp, extrapolated from one spp to another); Sobol' points, the default,
+/// converge faster (the `sampler` part).
+fn independent(options: RenderOptions) -> RenderOptions {
+    options.path(|p| p.sampler = SamplerKind::Independent)
 }
 
 fn path_options(w: u32, h: u32, spectral: SpectralMode, spp: u32) -> RenderOptions {

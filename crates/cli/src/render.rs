@@ -8,7 +8,7 @@ use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
 use integrator::{
     Ambient, Display, Integrator, IntegratorKind, OutputFile, OutputKind, PathOptions, RenderOptions, RenderScene,
-    SpectralMode, WavelengthPdf, WhittedOptions,
+    SamplerKind, SpectralMode, WavelengthPdf, WhittedOptions,
 };
 
 /// Arguments of `spectrace render`.
@@ -51,6 +51,11 @@ pub(crate) struct RenderArgs {
     /// spectra) or `visible` (pbrt-v4's).
     #[arg(long, default_value = "illuminant")]
     wavelength_pdf: WavelengthPdf,
+    /// Path tracer: the samples' random numbers, `sobol` (padded Owen-scrambled Sobol' points,
+    /// stratified over each pixel's samples) or `independent` (PCG32 per sample) [default:
+    /// sobol].
+    #[arg(long)]
+    sampler: Option<SamplerKind>,
     /// Bouguer-Beer absorption inside transparent objects (the paper's eq. 8).
     #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     absorption: bool,
@@ -343,6 +348,10 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         // The paper's model has no Russian roulette: say so rather than drop the flag silently.
         eprintln!("spectrace: warning: --rr-depth is ignored by whitted-hall (it has no Russian roulette)");
     }
+    if integrator_kind == IntegratorKind::WhittedHall && args.sampler.is_some() {
+        // Its sub-pixel positions are deterministic and it draws no other numbers.
+        eprintln!("spectrace: warning: --sampler is ignored by whitted-hall (it draws no random numbers)");
+    }
     let integrator = match integrator_kind {
         IntegratorKind::WhittedHall => Integrator::WhittedHall(WhittedOptions {
             max_depth: args.max_depth,
@@ -354,6 +363,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             max_depth: args.max_depth,
             rr_depth: args.rr_depth,
             wavelength_pdf: args.wavelength_pdf,
+            sampler: args.sampler.unwrap_or_default(),
         }),
     };
     let options = RenderOptions {

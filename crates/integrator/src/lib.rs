@@ -62,8 +62,8 @@ pub use output::{OutputFile, OutputKind, check_distinct_outputs, remove_pending_
 pub use pilot::{AutoCandidate, AutoDecision, auto_decision, pilot_strategies};
 pub use render::{
     Ambient, Checkpoint, DEFAULT_K_A, Integrator, IntegratorKind, MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES,
-    MAX_THREADS, PathOptions, Progress, RenderControl, RenderOptions, RenderStats, WavelengthPdf, WhittedOptions,
-    part_samples, render, render_film, render_film_with, resolved_spectral,
+    MAX_THREADS, PathOptions, Progress, RenderControl, RenderOptions, RenderStats, SamplerKind, WavelengthPdf,
+    WhittedOptions, part_samples, render, render_film, render_film_with, resolved_spectral,
 };
 pub use spectral::{MAX_BINS, SpectralMode};
 pub use summary::summarize;

@@ -25,7 +25,7 @@ use crate::envmap::EnvironmentMap;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
 use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
-use crate::sampling::{Rng, power_heuristic};
+use crate::sampling::{Sampler, power_heuristic};
 use crate::spectral::{Lanes, SpectrumKind};
 use crate::surface::{HitTangent, tangent_frame, triangle_uvs};
 use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, Uv, VertexColorHit};
@@ -511,7 +511,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         lambda: &mut SampledWavelengths<N>,
         sensor: &Sensor<N>,
         lane: &mut Option<usize>,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
     ) -> f32 {
         if !ior.is_dispersive() {
             return ior.eval(LAMBDA_D);
@@ -521,7 +521,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             (Sensor::Fixed(lanes), None) if lanes.rgb => return ior.eval(LAMBDA_D),
             (Sensor::Fixed(lanes), None) => {
                 let active = lanes.active();
-                let j = ((rng.uniform() * active as f32) as usize).min(active - 1);
+                let j = ((sampler.uniform() * active as f32) as usize).min(active - 1);
                 *lane = Some(j);
                 j
             }
@@ -546,7 +546,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         lambda: &mut SampledWavelengths<N>,
         sensor: &Sensor<N>,
         lane: &mut Option<usize>,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> (SampledSpectrum<N>, ObjectId) {
         let mut radiance = SampledSpectrum([0.0; N]);
@@ -593,7 +593,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 && skips < MAX_ALPHA_SKIPS
             {
                 let coverage = t.coverage(uv, colors.map_or(1.0, |c| c.alpha()));
-                if coverage <= 0.0 || (coverage < 1.0 && rng.uniform() >= coverage) {
+                if coverage <= 0.0 || (coverage < 1.0 && sampler.uniform() >= coverage) {
                     skipped += hit.t * ray.dir.length();
                     skips += 1;
                     ray = spawn_ray(&hit, ray.dir);
@@ -664,7 +664,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         }
                         None => (c, hit.ns),
                     })
-                    .filter(|(c, ns)| rng.uniform() < c.probability(wo.dot(*ns)))
+                    .filter(|(c, ns)| sampler.uniform() < c.probability(wo.dot(*ns)))
             } else {
                 None
             };
@@ -679,7 +679,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             // `KHR_materials_sheen`, beneath the coat: in place of the material with its share of the light.
             let sheen = match m.sheen {
                 Some(s) if ROUGH && coated.is_none() => {
-                    self.pick_sheen(s, textures, uv, frame.facing(wo).1.dot(wo), lambda, rng)
+                    self.pick_sheen(s, textures, uv, frame.facing(wo).1.dot(wo), lambda, sampler)
                 }
                 _ => None,
             };
@@ -704,13 +704,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 },
                 PathScattering::Mirror { r } => Bsdf::Mirror { r: self.spectra.eval_memo(r, lambda, last) },
                 PathScattering::Dielectric { tint } => {
-                    let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
+                    let eta = Self::eta(&m.ior, lambda, sensor, lane, sampler);
                     Bsdf::Dielectric { eta, tint: self.spectra.eval_memo(tint, lambda, last) }
                 }
                 // Never reached when !ROUGH (`rough` is false only if no material has these).
                 _ if !ROUGH => Bsdf::Lambertian { r: SampledSpectrum([0.0; N]) },
                 PathScattering::RoughDielectric { tint, alpha, compensate } => {
-                    let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
+                    let eta = Self::eta(&m.ior, lambda, sensor, lane, sampler);
                     let tint = self.spectra.eval_memo(tint, lambda, last);
                     match m.anisotropy {
                         None => Bsdf::RoughDielectric(RoughDielectricBxdf::new(
@@ -769,11 +769,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         Some(c) => self.vertex_colored_base(&c, textures, uv, id, lambda, last),
                         None => base(id, lambda, last),
                     };
-                    if rng.uniform() < glass {
+                    if sampler.uniform() < glass {
                         if thin {
                             Bsdf::ThinDielectric(ThinDielectricBxdf::new(ior, colour))
                         } else {
-                            let eta = Self::eta(&m.ior, lambda, sensor, lane, rng);
+                            let eta = Self::eta(&m.ior, lambda, sensor, lane, sampler);
                             let alpha = roughness * roughness;
                             match m.anisotropy {
                                 Some(a) => self.anisotropic_glass(a, at_uv, &tangent, ns, alpha, eta, colour, true),
@@ -797,9 +797,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 }
             };
             if !bsdf.is_specular() && !self.scene.emitters.is_empty() {
-                radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, &mut last_light, rng, count);
+                radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, &mut last_light, sampler, count);
             }
-            let Some(s) = bsdf.sample_f(&frame, wo, rng.uniform(), rng.uniform2()) else { break };
+            let Some(s) = bsdf.sample_f(&frame, wo, sampler.uniform(), sampler.uniform2()) else { break };
             beta *= s.weight;
             eta_scale *= s.eta_scale;
             specular_bounce = s.flags.is_specular();
@@ -813,7 +813,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 let rr = (beta * eta_scale).max_component();
                 if rr < 1.0 {
                     let q = (1.0 - rr).max(0.0);
-                    if rng.uniform() < q {
+                    if sampler.uniform() < q {
                         break;
                     }
                     beta = beta / (1.0 - q);
@@ -858,7 +858,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         uv: Uv,
         mu_o: f32,
         lambda: &SampledWavelengths<N>,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
     ) -> Option<SheenBxdf<N>> {
         let roughness = textures.map_or(s.roughness, |t| t.sheen_roughness(uv, s.roughness));
         let (color, color_max) = match textures.and_then(|t| t.sheen_color(uv, lambda, self.rgb_lanes)) {
@@ -866,7 +866,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             None => (self.spectra.eval(s.color, lambda), s.color_max),
         };
         let p = (color_max * sheen_albedo(mu_o, roughness)).min(1.0);
-        (p > 0.0 && rng.uniform() < p).then(|| SheenBxdf::new(color * (1.0 / p), roughness))
+        (p > 0.0 && sampler.uniform() < p).then(|| SheenBxdf::new(color * (1.0 / p), roughness))
     }
 
     /// The glTF metallic–roughness BRDF of a hit, with `KHR_materials_specular` and `KHR_materials_anisotropy`
@@ -944,12 +944,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         bsdf: &Bsdf<N>,
         lambda: &SampledWavelengths<N>,
         last_light: &mut LastSpectrum<N>,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
-        let u = rng.uniform();
-        let u2 = rng.uniform2();
+        let u = sampler.uniform();
+        let u2 = sampler.uniform2();
         let (ng, ns) = frame.facing(wo);
         let ctx = LightSampleContext { p: hit.p, ns };
         let Some((light, ls)) = self.scene.emitters.sample_li(&ctx, u, u2) else { return black };
@@ -1036,16 +1036,16 @@ impl<const N: usize> Kernel<N> for PathTracer<'_, N> {
         ray: &Ray,
         lambda: &mut SampledWavelengths<N>,
         sensor: &Sensor<N>,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> Radiance<N> {
         let mut lane = None;
         let textured = !self.scene.textures.is_empty();
         let (l, first) = match (self.rough, textured) {
-            (true, true) => self.trace::<true, true>(ray, lambda, sensor, &mut lane, rng, count),
-            (true, false) => self.trace::<true, false>(ray, lambda, sensor, &mut lane, rng, count),
-            (false, true) => self.trace::<false, true>(ray, lambda, sensor, &mut lane, rng, count),
-            (false, false) => self.trace::<false, false>(ray, lambda, sensor, &mut lane, rng, count),
+            (true, true) => self.trace::<true, true>(ray, lambda, sensor, &mut lane, sampler, count),
+            (true, false) => self.trace::<true, false>(ray, lambda, sensor, &mut lane, sampler, count),
+            (false, true) => self.trace::<false, true>(ray, lambda, sensor, &mut lane, sampler, count),
+            (false, false) => self.trace::<false, false>(ray, lambda, sensor, &mut lane, sampler, count),
         };
         debug_assert!(l.is_finite(), "non-finite radiance {l:?}");
         Radiance { l, first, lane }

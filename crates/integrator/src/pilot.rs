@@ -16,10 +16,10 @@ use crate::error::Result;
 use crate::film::Sensor;
 use crate::path::PathTracer;
 use crate::render::{
-    Integrator, IntegratorKind, LaneJob, PathOptions, PixelSampler, RayCount, RenderOptions, lane_count, thread_pool,
-    with_lanes,
+    Integrator, IntegratorKind, LaneJob, PathOptions, PixelSampler, RayCount, RenderOptions, SamplerKind, lane_count,
+    thread_pool, with_lanes,
 };
-use crate::sampling::Rng;
+use crate::sampling::{Rng, Sampler};
 use crate::spectral::{Lanes, SpectralMode};
 
 /// Cost of one lane per ray, relative to the ray's lane-independent cost (traversal, BSDF,
@@ -238,7 +238,11 @@ fn pilot(
     grid: &PilotGrid,
 ) -> Result<AutoCandidate> {
     let pixels = &grid.pixels[..];
-    let options = RenderOptions { spp: PILOT_SPP, samples: None, ..options.clone() };
+    // Independent numbers, whatever the render uses: the error model (∝ 1/√spp) holds for them,
+    // and it is an upper bound for Sobol' points, which stratify (docs/path-tracer.md).
+    let path = PathOptions { sampler: SamplerKind::Independent, ..path };
+    let options =
+        RenderOptions { spp: PILOT_SPP, samples: None, integrator: Integrator::Path(path), ..options.clone() };
     let [a, b] = with_lanes(lane_count(spectral)?, PilotJob { scene, options: &options, path, spectral, pixels })?;
     let samples = (pixels.len() as f64) * f64::from(PILOT_SPP) * 2.0;
     let rays_per_sample = (a.rays + b.rays) as f64 / samples;
@@ -310,12 +314,11 @@ impl LaneJob for PilotJob<'_> {
                 .par_iter()
                 .map(|&(x, y)| {
                     let mut count = RayCount::default();
-                    let mut fixed_rng = Rng::new(0, 0, 0);
+                    let mut fixed = Sampler::Independent(Rng::new(0, 0, 0));
                     let rotation = sampler.rotation(u64::from(y) * u64::from(options.width) + u64::from(x));
                     let mut sum = [0.0f64; 3];
                     for i in 0..options.spp {
-                        let (r, lambda) =
-                            sampler.sample(x as usize, y as usize, rotation, i, &mut fixed_rng, &mut count);
+                        let (r, lambda) = sampler.sample(x as usize, y as usize, rotation, i, &mut fixed, &mut count);
                         let (xyz, _) = sensor.to_xyz(&r.l, &lambda, r.lane);
                         // The film adds a non-finite sample as black.
                         if xyz.iter().all(|v| v.is_finite()) {

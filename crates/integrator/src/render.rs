@@ -5,6 +5,7 @@
 //! wavelengths and the camera for its ray, the integrator [`Kernel`] for the radiance along it
 //! (`whitted.rs` or `path.rs`), and adds the result to the [`Film`] row (`film.rs`).
 
+use std::fmt;
 use std::ops::Range;
 use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -18,7 +19,7 @@ use crate::assembly::RenderScene;
 use crate::error::{Error, Result};
 use crate::film::{Film, Image, MAX_SPP, ObjectId, Sensor};
 use crate::path::PathTracer;
-use crate::sampling::Rng;
+use crate::sampling::{Rng, Sampler, SobolSample};
 use crate::spectral::{Lanes, MAX_BINS, SpectralMode};
 use crate::whitted::Whitted;
 
@@ -73,6 +74,39 @@ impl FromStr for WavelengthPdf {
                 expected: "visible or illuminant",
             }),
         }
+    }
+}
+
+/// The random numbers of the path tracer's samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    /// Padded, Owen-scrambled Sobol' points (pbrt-v4's `PaddedSobolSampler`): every
+    /// power-of-two prefix of a pixel's samples is stratified in each dimension and pair.
+    #[default]
+    Sobol,
+    /// Independent uniform numbers (PCG32 per sample), stratified only over hero wavelengths.
+    Independent,
+}
+
+impl FromStr for SamplerKind {
+    type Err = Error;
+
+    /// `sobol` or `independent`.
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "sobol" => Ok(Self::Sobol),
+            "independent" => Ok(Self::Independent),
+            _ => Err(Error::InvalidOption { option: "sampler", value: s.to_owned(), expected: "sobol or independent" }),
+        }
+    }
+}
+
+impl fmt::Display for SamplerKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Sobol => "sobol",
+            Self::Independent => "independent",
+        })
     }
 }
 
@@ -152,11 +186,18 @@ pub struct PathOptions {
     pub rr_depth: Option<u32>,
     /// With `hero:K`: the wavelength density.
     pub wavelength_pdf: WavelengthPdf,
+    /// The samples' random numbers.
+    pub sampler: SamplerKind,
 }
 
 impl Default for PathOptions {
     fn default() -> Self {
-        Self { max_depth: None, rr_depth: None, wavelength_pdf: WavelengthPdf::Illuminant }
+        Self {
+            max_depth: None,
+            rr_depth: None,
+            wavelength_pdf: WavelengthPdf::Illuminant,
+            sampler: SamplerKind::default(),
+        }
     }
 }
 
@@ -300,7 +341,10 @@ impl RenderOptions {
                 w.max_depth, w.min_weight, w.absorption, w.ambient
             ),
             Integrator::Path(p) => {
-                format!("path max_depth={:?} wavelength_pdf={:?}", p.max_depth, p.wavelength_pdf)
+                format!(
+                    "path max_depth={:?} rr_depth={:?} wavelength_pdf={:?} sampler={}",
+                    p.max_depth, p.rr_depth, p.wavelength_pdf, p.sampler
+                )
             }
         };
         format!("{integrator} spectral={} spp={} spectral_film={}", self.spectral, self.spp, self.spectral_film)
@@ -405,7 +449,7 @@ pub(crate) trait Kernel<const N: usize>: Sync {
         ray: &Ray,
         lambda: &mut SampledWavelengths<N>,
         sensor: &Sensor<N>,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> Radiance<N>;
 }
@@ -671,13 +715,13 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     return Ok((0, 0));
                 }
                 let mut count = RayCount::default();
-                let mut fixed_rng = Rng::new(0, 0, 0);
+                let mut fixed = Sampler::Independent(Rng::new(0, 0, 0));
                 for x in 0..width as usize {
                     let pixel = y as u64 * u64::from(width) + x as u64;
                     let rotation = sampler.rotation(pixel);
                     let next = samples.start + row.count(x);
                     for i in first_sample.max(next)..last_sample {
-                        let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed_rng, &mut count);
+                        let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed, &mut count);
                         if i == 0 {
                             row.set_first_hit(x, r.first);
                         }
@@ -734,6 +778,7 @@ pub(crate) struct PixelSampler<'a, const N: usize, K> {
     offsets: Vec<(f32, f32)>,
     /// Only hero sensors place wavelengths per sample; fixed lanes are the same for all.
     hero: bool,
+    sobol: bool,
     fixed_lambda: SampledWavelengths<N>,
 }
 
@@ -749,16 +794,18 @@ impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
             seed: options.seed,
             offsets: if K::RANDOM { Vec::new() } else { pixel_offsets(options.spp) },
             hero: !matches!(sensor, Sensor::Fixed(_)),
+            sobol: matches!(options.integrator, Integrator::Path(PathOptions { sampler: SamplerKind::Sobol, .. })),
             fixed_lambda: sensor.sample_wavelengths(0.0),
         }
     }
 
-    /// A random rotation per pixel of the stratified hero wavelengths, so a partial set of
-    /// strata (time limit, sample range) is still unbiased. It has its own stream, so skipping
-    /// it for fixed lanes changes no other number.
+    /// With independent numbers, a random rotation per pixel of the stratified hero
+    /// wavelengths, so a partial set of strata (time limit, sample range) is still unbiased. It
+    /// has its own stream, so skipping it for fixed lanes changes no other number. (Sobol'
+    /// points stratify the wavelengths themselves.)
     #[inline]
     pub(crate) fn rotation(&self, pixel: u64) -> f32 {
-        if K::RANDOM && self.hero { Rng::new(self.seed, pixel, u64::MAX).uniform() } else { 0.0 }
+        if K::RANDOM && self.hero && !self.sobol { Rng::new(self.seed, pixel, u64::MAX).uniform() } else { 0.0 }
     }
 
     /// Sample `i` of pixel (x, y) (`rotation` from [`PixelSampler::rotation`]): its radiance and
@@ -770,27 +817,32 @@ impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
         y: usize,
         rotation: f32,
         i: u32,
-        fixed_rng: &mut Rng,
+        fixed: &mut Sampler,
         count: &mut RayCount,
     ) -> (Radiance<N>, SampledWavelengths<N>) {
         let (width, height) = (self.width, self.height);
-        let mut sample_rng;
-        let (rng, mut lambda, ray) = if K::RANDOM {
+        let mut own;
+        let (sampler, mut lambda, ray) = if K::RANDOM {
             let pixel = y as u64 * u64::from(width) + x as u64;
-            sample_rng = Rng::new(self.seed, pixel, u64::from(i));
-            let mut u = rotation + (i as f32 + sample_rng.uniform()) / self.spp as f32;
-            if u >= 1.0 {
-                u -= 1.0;
-            }
+            // Dimension 0 places the hero wavelengths, 1 the position in the pixel; both are
+            // drawn for fixed lanes too, so the path's numbers are the same either way.
+            let u = if self.sobol {
+                own = Sampler::Sobol(SobolSample::new(self.seed, pixel, i));
+                own.uniform()
+            } else {
+                own = Sampler::Independent(Rng::new(self.seed, pixel, u64::from(i)));
+                let u = rotation + (i as f32 + own.uniform()) / self.spp as f32;
+                if u >= 1.0 { u - 1.0 } else { u }
+            };
             let lambda = if self.hero { self.sensor.sample_wavelengths(u.min(0.999_999_9)) } else { self.fixed_lambda };
-            let jitter = sample_rng.uniform2();
+            let jitter = own.uniform2();
             let ray = camera_ray(&self.camera, x, y, jitter.x, jitter.y, width, height);
-            (&mut sample_rng, lambda, ray)
+            (&mut own, lambda, ray)
         } else {
             let (dx, dy) = self.offsets[i as usize];
-            (fixed_rng, self.fixed_lambda, camera_ray(&self.camera, x, y, dx, dy, width, height))
+            (fixed, self.fixed_lambda, camera_ray(&self.camera, x, y, dx, dy, width, height))
         };
-        let r = self.kernel.li(&ray, &mut lambda, self.sensor, rng, count);
+        let r = self.kernel.li(&ray, &mut lambda, self.sensor, sampler, count);
         (r, lambda)
     }
 }

@@ -15,7 +15,7 @@ use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor};
 use crate::lights::{Emission, LightKind, LightSampleContext, emits_towards};
 use crate::render::{Ambient, Kernel, Radiance, RayCount, WhittedOptions};
-use crate::sampling::Rng;
+use crate::sampling::Sampler;
 use crate::spectral::{Lanes, SpectrumKind};
 
 /// Most surfaces a shadow ray may cross before the light counts as blocked: enough for the
@@ -380,7 +380,7 @@ impl<const N: usize> Kernel<N> for Whitted<'_, N> {
         ray: &Ray,
         _lambda: &mut SampledWavelengths<N>,
         _sensor: &Sensor<N>,
-        _rng: &mut Rng,
+        _sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> Radiance<N> {
         let (l, first) = self.trace_with_id(ray, 0, 1.0, None, count);

@@ -190,7 +190,8 @@ fn path_case(
     for (label, mode, pdf) in case.strategies {
         for &spp in spps {
             // Seed 2: independent of the reference's seed 1.
-            let options = RenderOptions { seed: 2, ..path_options(w, h, *mode, spp) }.path(|p| p.wavelength_pdf = *pdf);
+            let options = independent(RenderOptions { seed: 2, ..path_options(w, h, *mode, spp) })
+                .path(|p| p.wavelength_pdf = *pdf);
             let (image, stats) = render(&scene, &options)?;
             nonfinite += stats.nonfinite_samples;
             let de = delta_e_all(image.pixels(), &reference.pixels);
@@ -249,7 +250,7 @@ fn charts(report: &mut Report, root: &Path, out: &Path, quick: bool, md: &mut St
         let mut points = Vec::new();
         for (label, mode, pdf) in PATH_STRATEGIES {
             for &spp in spps {
-                let options = path_options(w, h, *mode, spp).path(|p| p.wavelength_pdf = *pdf);
+                let options = independent(path_options(w, h, *mode, spp)).path(|p| p.wavelength_pdf = *pdf);
                 let (image, stats) = render(&chart, &options)?;
                 let de = chart_errors(&image, &reference, white);
                 points.push(Point::new(label, *mode, &stats, &de, chart_relative_mse(&image, &reference)));
