@@ -51,7 +51,7 @@ pub(crate) struct RenderArgs {
     /// spectra) or `visible` (pbrt-v4's).
     #[arg(long, default_value = "illuminant")]
     wavelength_pdf: WavelengthPdf,
-    /// Path tracer: the samples' random numbers, `sobol` (padded Owen-scrambled Sobol' points,
+    /// Path tracer: the samples' random numbers, `sobol` (padded Sobol' points, shuffled and shifted,
     /// stratified over each pixel's samples) or `independent` (PCG32 per sample) [default:
     /// sobol].
     #[arg(long)]

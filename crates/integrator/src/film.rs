@@ -334,7 +334,9 @@ impl Film {
     }
 
     /// Per-pixel variance of the mean luminance, s²/n with s² the unbiased sample variance of
-    /// Y (0 where fewer than two samples were taken): what a relative-error image shows.
+    /// Y (0 where fewer than two samples were taken): what a relative-error image shows. It is
+    /// the variance of the mean for independent samples; the path tracer's default Sobol' points
+    /// stratify, and their mean's error is usually lower than this says.
     pub fn luminance_variance(&self) -> Vec<f32> {
         self.pixels
             .iter()

@@ -521,7 +521,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             (Sensor::Fixed(lanes), None) if lanes.rgb => return ior.eval(LAMBDA_D),
             (Sensor::Fixed(lanes), None) => {
                 let active = lanes.active();
-                let j = ((sampler.uniform() * active as f32) as usize).min(active - 1);
+                let j = ((sampler.uniform_aside() * active as f32) as usize).min(active - 1);
                 *lane = Some(j);
                 j
             }
@@ -593,7 +593,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 && skips < MAX_ALPHA_SKIPS
             {
                 let coverage = t.coverage(uv, colors.map_or(1.0, |c| c.alpha()));
-                if coverage <= 0.0 || (coverage < 1.0 && sampler.uniform() >= coverage) {
+                if coverage <= 0.0 || (coverage < 1.0 && sampler.uniform_aside() >= coverage) {
                     skipped += hit.t * ray.dir.length();
                     skips += 1;
                     ray = spawn_ray(&hit, ray.dir);
@@ -664,7 +664,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         }
                         None => (c, hit.ns),
                     })
-                    .filter(|(c, ns)| sampler.uniform() < c.probability(wo.dot(*ns)))
+                    .filter(|(c, ns)| sampler.uniform_aside() < c.probability(wo.dot(*ns)))
             } else {
                 None
             };
@@ -769,7 +769,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         Some(c) => self.vertex_colored_base(&c, textures, uv, id, lambda, last),
                         None => base(id, lambda, last),
                     };
-                    if sampler.uniform() < glass {
+                    if sampler.uniform_aside() < glass {
                         if thin {
                             Bsdf::ThinDielectric(ThinDielectricBxdf::new(ior, colour))
                         } else {
@@ -796,9 +796,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     }
                 }
             };
+            // Each sampling step its own block of dimensions (`Sampler`): whether the light was
+            // sampled does not shift the BSDF's numbers.
             if !bsdf.is_specular() && !self.scene.emitters.is_empty() {
+                sampler.start_block(2 * depth + 1);
                 radiance += beta * self.sample_light(&hit, &frame, wo, &bsdf, lambda, &mut last_light, sampler, count);
             }
+            sampler.start_block(2 * depth + 2);
             let Some(s) = bsdf.sample_f(&frame, wo, sampler.uniform(), sampler.uniform2()) else { break };
             beta *= s.weight;
             eta_scale *= s.eta_scale;
@@ -866,7 +870,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             None => (self.spectra.eval(s.color, lambda), s.color_max),
         };
         let p = (color_max * sheen_albedo(mu_o, roughness)).min(1.0);
-        (p > 0.0 && sampler.uniform() < p).then(|| SheenBxdf::new(color * (1.0 / p), roughness))
+        (p > 0.0 && sampler.uniform_aside() < p).then(|| SheenBxdf::new(color * (1.0 / p), roughness))
     }
 
     /// The glTF metallic–roughness BRDF of a hit, with `KHR_materials_specular` and `KHR_materials_anisotropy`

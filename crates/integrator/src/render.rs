@@ -80,7 +80,8 @@ impl FromStr for WavelengthPdf {
 /// The random numbers of the path tracer's samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SamplerKind {
-    /// Padded, Owen-scrambled Sobol' points (pbrt-v4's `PaddedSobolSampler`): every
+    /// Padded Sobol' points, shuffled and digitally shifted per dimension (the design of
+    /// pbrt-v4's `PaddedSobolSampler`): every
     /// power-of-two prefix of a pixel's samples is stratified in each dimension and pair.
     #[default]
     Sobol,

@@ -20,6 +20,12 @@ pub(crate) struct Rng {
     inc: u64,
 }
 
+/// The PCG32 stream of pixel `pixel` for the render seed `seed`.
+#[inline]
+fn pixel_stream(seed: u64, pixel: u64) -> u64 {
+    splitmix64(seed ^ splitmix64(pixel))
+}
+
 /// SplitMix64's finaliser (Steele, Lea & Flood 2014): a bijective 64-bit mix, used to turn
 /// (seed, pixel, sample) into well-separated PCG states and streams.
 #[inline]
@@ -33,9 +39,14 @@ fn splitmix64(mut z: u64) -> u64 {
 impl Rng {
     /// The stream of sample `sample` of pixel `pixel` for the render seed `seed`.
     pub(crate) fn new(seed: u64, pixel: u64, sample: u64) -> Self {
-        let stream = splitmix64(seed ^ splitmix64(pixel));
-        let state = splitmix64(stream ^ splitmix64(sample.wrapping_add(0x5851_F42D_4C95_7F2D)));
-        // pcg32_srandom_r: state 0, step, add the initial state, step.
+        let stream = pixel_stream(seed, pixel);
+        Self::seeded(stream, splitmix64(stream ^ splitmix64(sample.wrapping_add(0x5851_F42D_4C95_7F2D))))
+    }
+
+    /// `pcg32_srandom_r` with stream `stream` and initial state `state`: state 0, step, add the
+    /// initial state, step.
+    #[inline]
+    fn seeded(stream: u64, state: u64) -> Self {
         let mut rng = Self { state: 0, inc: (stream << 1) | 1 };
         rng.next_u32();
         rng.state = rng.state.wrapping_add(state);
@@ -82,21 +93,29 @@ pub(crate) fn power_heuristic(f: f32, g: f32) -> f32 {
     if f2 + g2 > 0.0 { f2 / (f2 + g2) } else { 0.0 }
 }
 
-/// The random numbers one sample of the path tracer draws, in the order it draws them.
+/// The random numbers one sample of the path tracer draws.
 ///
-/// `Sobol` is the default: each call takes the next dimension of a padded, randomised Sobol'
-/// sequence (as pbrt-v4's `PaddedSobolSampler`): the first 2^m samples of a pixel (and every
-/// aligned block of 2^m) are stratified in each dimension, and a call that draws two numbers
-/// draws a (0, m, 2)-net, so the error at a given spp is lower than with independent numbers
-/// wherever the integrand is smooth enough (soft shadows, glossy lobes, the pixel footprint).
-/// Each dimension shuffles the sample index with its own nested permutation (Burley 2020,
-/// "Practical Hash-based Owen Scrambling", JCGT 9(4), §4, so dimensions do not correlate) and
-/// shifts the digits by its own random XOR (a digital shift: the net property and a uniform
-/// marginal are kept; full Owen scrambling of the outputs cost four times as much for an error
-/// within 6 %, `docs/path-tracer.md`, "Samplers"). The seeds of successive dimensions come from a PCG32
-/// stream of (seed, pixel), so a sample's numbers depend only on (seed, pixel, sample index),
-/// as with `Independent` (PCG32 per sample): images do not depend on threads or on how
-/// samples are split into parts.
+/// `Sobol` is the default: padded, randomised Sobol' points (the design of pbrt-v4's
+/// `PaddedSobolSampler`). The decisions whose stratification pays (the hero wavelengths and
+/// the position in the pixel; per bounce the light choice and point, the BSDF's lobe and
+/// direction, Russian roulette) each take a dimension fixed by the *block* they are in and
+/// their order in it: block 0 is the camera's, block 2d + 1 the light sample's at bounce d and
+/// block 2d + 2 the BSDF sample's, whatever the path did before (a skipped light sample or an
+/// extra decision does not shift the dimensions of the others). A call for one number takes the
+/// first Sobol' dimension (the radical inverse of the sample index), a call for two the first
+/// two (a (0, 2)-sequence). Each dimension shuffles the sample index with its own nested hash
+/// (Burley 2020, "Practical Hash-based Owen Scrambling", JCGT 9(4), §4, so dimensions do not
+/// correlate) and shifts the digits with its own random XOR (a digital shift: nets stay nets and
+/// each number is uniform; full Owen scrambling of the outputs cost four times as much for an
+/// error within 6 %, `docs/path-tracer.md`, "Samplers"). So every aligned block of 2^m samples
+/// of a pixel is stratified in each dimension, and a (0, m, 2)-net in each pair. The seeds of
+/// a block's dimensions are a PCG32 stream of (seed, pixel, block). Decisions only some paths
+/// make (cut-outs, a coat or sheen layer, a glTF surface's glass share, a dispersive lane) draw
+/// independent numbers [`Sampler::uniform_aside`].
+///
+/// `Independent` is a PCG32 stream per sample for every decision. With either, a sample's
+/// numbers depend only on (seed, pixel, sample index): images do not depend on threads or on
+/// how samples are split into parts.
 #[derive(Debug, Clone)]
 pub(crate) enum Sampler {
     Independent(Rng),
@@ -121,6 +140,24 @@ impl Sampler {
             Self::Sobol(s) => s.uniform2(),
         }
     }
+
+    /// A uniform for a decision that only some paths make (not stratified: independent).
+    #[inline]
+    pub(crate) fn uniform_aside(&mut self) -> f32 {
+        match self {
+            Self::Independent(rng) => rng.uniform(),
+            Self::Sobol(s) => s.aside.uniform(),
+        }
+    }
+
+    /// The next calls take the dimensions of block `block` (see [`Sampler`]); independent
+    /// numbers have no blocks.
+    #[inline]
+    pub(crate) fn start_block(&mut self, block: u32) {
+        if let Self::Sobol(s) = self {
+            s.seeds = Rng::seeded(s.stream, splitmix64(s.stream ^ u64::from(block).wrapping_add(SOBOL_BLOCK_OFFSET)));
+        }
+    }
 }
 
 /// Sample `index` of a pixel's padded, randomised Sobol' points; see [`Sampler`].
@@ -129,13 +166,20 @@ pub(crate) struct SobolSample {
     /// The sample index bit-reversed: its radical inverse, the first Sobol' dimension, as a
     /// 0.32 fixed-point value.
     radical: u32,
-    /// The seeds of successive dimensions (the same stream for every sample of a pixel).
+    /// The pixel's PCG32 stream.
+    stream: u64,
+    /// The seeds of the current block's dimensions (the same for every sample of a pixel).
     seeds: Rng,
+    /// Independent numbers for [`Sampler::uniform_aside`] (this sample's own stream).
+    aside: Rng,
 }
 
 impl SobolSample {
+    /// Sample `index` of pixel `pixel`, at block 0.
     pub(crate) fn new(seed: u64, pixel: u64, index: u32) -> Self {
-        Self { radical: index.reverse_bits(), seeds: Rng::new(seed, pixel, SOBOL_SEED_STREAM) }
+        let stream = pixel_stream(seed, pixel);
+        let seeds = Rng::seeded(stream, splitmix64(stream ^ SOBOL_BLOCK_OFFSET));
+        Self { radical: index.reverse_bits(), stream, seeds, aside: Rng::new(seed, pixel, u64::from(index)) }
     }
 
     /// The shuffled index's radical inverse: a Laine–Karras permutation of the radical inverse
@@ -160,9 +204,9 @@ impl SobolSample {
     }
 }
 
-/// The stream index ([`Rng::new`]'s `sample`) of a pixel's Sobol' seeds, apart from every
-/// sample's own stream and from the hero wavelengths' rotation (`u64::MAX`).
-const SOBOL_SEED_STREAM: u64 = u64::MAX - 1;
+/// Added to a block's number before hashing it into the state of its seeds' stream: apart from
+/// every sample's own state (hashed from the sample index plus PCG's multiplier).
+const SOBOL_BLOCK_OFFSET: u64 = 0x2545_F491_4F6C_DD1D;
 
 /// The top 24 bits as a float in [0, 1) (exact, never 1), as [`Rng::uniform`].
 #[inline]
@@ -259,21 +303,22 @@ mod tests {
         assert_ne!(a, c);
     }
 
-    /// The value of dimension `dim` (as one number or a pair) of sample `i`.
-    fn sobol_1d(seed: u64, pixel: u64, i: u32, dim: usize) -> f32 {
-        let mut s = SobolSample::new(seed, pixel, i);
-        (0..dim).for_each(|_| {
-            s.uniform();
-        });
-        s.uniform()
+    /// The value of dimension `dim` of block `block` (as one number or a pair) of sample `i`.
+    fn sobol_1d(seed: u64, pixel: u64, i: u32, block: u32, dim: usize) -> f32 {
+        at(seed, pixel, i, block, dim).uniform()
     }
 
-    fn sobol_2d(seed: u64, pixel: u64, i: u32, dim: usize) -> Vec2 {
-        let mut s = SobolSample::new(seed, pixel, i);
+    fn sobol_2d(seed: u64, pixel: u64, i: u32, block: u32, dim: usize) -> Vec2 {
+        at(seed, pixel, i, block, dim).uniform2()
+    }
+
+    fn at(seed: u64, pixel: u64, i: u32, block: u32, dim: usize) -> Sampler {
+        let mut s = Sampler::Sobol(SobolSample::new(seed, pixel, i));
+        s.start_block(block);
         (0..dim).for_each(|_| {
             s.uniform();
         });
-        s.uniform2()
+        s
     }
 
     #[test]
@@ -309,10 +354,10 @@ mod tests {
                 let n = 1u32 << m;
                 for block in [0, 1, 5] {
                     let samples = block * n..(block + 1) * n;
-                    for dim in [0, 1, 2, 7, 30] {
+                    for (block, dim) in [(0, 0), (0, 1), (1, 2), (6, 0), (9, 30)] {
                         let mut seen = vec![false; n as usize];
                         for i in samples.clone() {
-                            let u = sobol_1d(seed, pixel, i, dim);
+                            let u = sobol_1d(seed, pixel, i, block, dim);
                             assert!((0.0..1.0).contains(&u));
                             let cell = (u * n as f32) as usize;
                             assert!(!seen[cell], "1D seed {seed} pixel {pixel} m {m} dim {dim}: cell {cell} twice");
@@ -321,7 +366,7 @@ mod tests {
                         for a in 0..=m {
                             let mut seen = vec![false; n as usize];
                             for i in samples.clone() {
-                                let u = sobol_2d(seed, pixel, i, dim);
+                                let u = sobol_2d(seed, pixel, i, block, dim);
                                 assert!((0.0..1.0).contains(&u.x) && (0.0..1.0).contains(&u.y));
                                 let cx = (u.x * (1u32 << a) as f32) as usize;
                                 let cy = (u.y * (1u32 << (m - a)) as f32) as usize;
@@ -355,16 +400,17 @@ mod tests {
         };
         let random = 0.25 / f64::from(n);
         for (a, b) in [(0, 1), (2, 5), (3, 4)] {
-            let got = mse(&|pixel, i| (sobol_1d(1, pixel, i, a), sobol_1d(1, pixel, i, b)));
+            let got = mse(&|pixel, i| (sobol_1d(1, pixel, i, 0, a), sobol_1d(1, pixel, i, 0, b)));
             assert!(got < 3.0 * random, "dims {a},{b}: {got} against {random}");
+            // The same dimension of two blocks.
+            let got = mse(&|pixel, i| (sobol_1d(1, pixel, i, a as u32, 0), sobol_1d(1, pixel, i, b as u32 + 7, 0)));
+            assert!(got < 3.0 * random, "blocks {a},{b}: {got} against {random}");
         }
         // The deliberately wrong sampler: each dimension the radical inverse with its own
         // digital shift, and no shuffle.
         let unshuffled = |pixel: u64, i: u32, dim: usize| {
-            let mut s = SobolSample::new(1, pixel, i);
-            (0..2 * dim).for_each(|_| {
-                s.seeds.next_u32();
-            });
+            let Sampler::Sobol(mut s) = at(1, pixel, i, 0, dim) else { unreachable!() };
+            s.seeds.next_u32();
             to_unit(s.radical ^ s.seeds.next_u32())
         };
         let wrong = mse(&|pixel, i| (unshuffled(pixel, i, 0), unshuffled(pixel, i, 1)));
@@ -372,21 +418,47 @@ mod tests {
     }
 
     #[test]
-    fn sobol_samples_depend_only_on_seed_pixel_and_index() {
-        let draw = |seed, pixel, i| {
-            let mut s = Sampler::Sobol(SobolSample::new(seed, pixel, i));
-            [s.uniform(), s.uniform2().x, s.uniform2().y, s.uniform()]
+    fn sobol_samples_differ_by_seed_pixel_index_and_block() {
+        let draw = |seed, pixel, i, block| {
+            let mut s = at(seed, pixel, i, block, 0);
+            let u = s.uniform2();
+            [s.uniform(), u.x, u.y, s.uniform_aside()]
         };
-        assert_eq!(draw(3, 9, 17), draw(3, 9, 17));
-        assert_ne!(draw(3, 9, 17), draw(4, 9, 17));
-        assert_ne!(draw(3, 9, 17), draw(3, 10, 17));
-        assert_ne!(draw(3, 9, 17), draw(3, 9, 18));
-        // Over many pixels the first sample is uniform in each dimension: means within 5
-        // standard errors of ½.
+        let base = draw(3, 9, 17, 2);
+        for other in [draw(4, 9, 17, 2), draw(3, 10, 17, 2), draw(3, 9, 18, 2)] {
+            assert!(base.iter().zip(other).all(|(a, b)| *a != b), "{base:?} {other:?}");
+        }
+        // Another block: other stratified numbers, the same sample's independent stream.
+        let other = draw(3, 9, 17, 3);
+        assert!(base[..3].iter().zip(&other[..3]).all(|(a, b)| a != b) && base[3] == other[3], "{other:?}");
+        // Over many pixels a sample is uniform in each dimension: means within 5 standard
+        // errors of ½, at the first sample and at others.
         let pixels = 20_000;
-        for dim in 0..4 {
-            let mean = (0..pixels).map(|p| f64::from(sobol_1d(2, p, 0, dim))).sum::<f64>() / pixels as f64;
+        for (i, block, dim) in [(0, 0, 0), (0, 0, 3), (5, 1, 0), (1000, 4, 2)] {
+            let mean = (0..pixels).map(|p| f64::from(sobol_1d(2, p, i, block, dim))).sum::<f64>() / pixels as f64;
             assert!((mean - 0.5).abs() < 5.0 / (12.0 * pixels as f64).sqrt(), "dim {dim}: {mean}");
+        }
+    }
+
+    /// Pairs are uniform on the square over many pixels (a χ² test on 4 × 4 cells at sample
+    /// indices other than 0), and the test rejects pairs on the diagonal (y = x).
+    #[test]
+    fn sobol_pairs_are_uniform_over_pixels() {
+        let chi2 = |points: &[Vec2]| {
+            let mut cells = [0u32; 16];
+            for p in points {
+                cells[(p.x * 4.0) as usize * 4 + (p.y * 4.0) as usize] += 1;
+            }
+            let expected = points.len() as f64 / 16.0;
+            cells.iter().map(|&c| (f64::from(c) - expected).powi(2) / expected).sum::<f64>()
+        };
+        // χ² with 15 degrees of freedom exceeds 42 with probability 2 · 10⁻⁴.
+        for (i, block, dim) in [(3, 0, 1), (77, 2, 0), (1 << 20, 5, 3)] {
+            let points: Vec<Vec2> = (0..16_000).map(|p| sobol_2d(4, p, i, block, dim)).collect();
+            let c = chi2(&points);
+            assert!(c < 42.0, "sample {i} block {block} dim {dim}: χ² {c}");
+            let diagonal: Vec<Vec2> = points.iter().map(|p| Vec2::splat(p.x)).collect();
+            assert!(chi2(&diagonal) > 42.0, "the χ² test passes the diagonal");
         }
     }
 

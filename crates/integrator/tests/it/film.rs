@@ -82,8 +82,9 @@ fn luminance_variance_is_the_variance_of_the_mean() {
         ..RenderOptions::default()
     };
     assert!(film(&furnace, &opts).luminance_variance().iter().all(|v| *v < 1e-10));
-    // With hero wavelengths each sample's Y is an independent estimate of 1: the variance of
-    // the mean falls as 1/spp. Summed over 64 pixels the ratio for 4× the samples is 4 with a
+    // With hero wavelengths each sample's Y is an estimate of 1 with the same variance (Sobol'
+    // points stratify them over the pixel's samples, but s² estimates one sample's variance
+    // all the same): s²/n falls as 1/spp. Summed over 64 pixels the ratio for 4× the samples is 4 with a
     // relative standard error of about √(2/63 + 2/255) ≈ 0.2; accept 2.5..6.5.
     let noisy = |spp| {
         let o = RenderOptions { spectral: SpectralMode::Hero { count: 4 }, spp, ..opts.clone() };
