@@ -39,7 +39,12 @@ fn splitmix64(mut z: u64) -> u64 {
 impl Rng {
     /// The stream of sample `sample` of pixel `pixel` for the render seed `seed`.
     pub(crate) fn new(seed: u64, pixel: u64, sample: u64) -> Self {
-        let stream = pixel_stream(seed, pixel);
+        Self::of_sample(pixel_stream(seed, pixel), sample)
+    }
+
+    /// The stream of sample `sample` of the pixel whose stream is `stream`.
+    #[inline]
+    fn of_sample(stream: u64, sample: u64) -> Self {
         Self::seeded(stream, splitmix64(stream ^ splitmix64(sample.wrapping_add(0x5851_F42D_4C95_7F2D))))
     }
 
@@ -146,7 +151,7 @@ impl Sampler {
     pub(crate) fn uniform_aside(&mut self) -> f32 {
         match self {
             Self::Independent(rng) => rng.uniform(),
-            Self::Sobol(s) => s.aside.uniform(),
+            Self::Sobol(s) => s.aside().uniform(),
         }
     }
 
@@ -155,7 +160,7 @@ impl Sampler {
     #[inline]
     pub(crate) fn start_block(&mut self, block: u32) {
         if let Self::Sobol(s) = self {
-            s.seeds = Rng::seeded(s.stream, splitmix64(s.stream ^ u64::from(block).wrapping_add(SOBOL_BLOCK_OFFSET)));
+            s.seeds = SobolSample::block_seeds(s.stream, block);
         }
     }
 }
@@ -170,16 +175,32 @@ pub(crate) struct SobolSample {
     stream: u64,
     /// The seeds of the current block's dimensions (the same for every sample of a pixel).
     seeds: Rng,
-    /// Independent numbers for [`Sampler::uniform_aside`] (this sample's own stream).
-    aside: Rng,
+    index: u32,
+    /// Independent numbers for [`Sampler::uniform_aside`] (this sample's own stream, made at
+    /// its first use: most scenes never ask).
+    aside: Option<Rng>,
 }
 
 impl SobolSample {
     /// Sample `index` of pixel `pixel`, at block 0.
     pub(crate) fn new(seed: u64, pixel: u64, index: u32) -> Self {
         let stream = pixel_stream(seed, pixel);
-        let seeds = Rng::seeded(stream, splitmix64(stream ^ SOBOL_BLOCK_OFFSET));
-        Self { radical: index.reverse_bits(), stream, seeds, aside: Rng::new(seed, pixel, u64::from(index)) }
+        Self { radical: index.reverse_bits(), stream, seeds: Self::block_seeds(stream, 0), index, aside: None }
+    }
+
+    /// The stream of block `block`'s seeds in the pixel whose stream is `stream`: its state a
+    /// hash of the two (without `pcg32_srandom_r`'s two steps, which the hash makes needless; a
+    /// block starts twice a bounce).
+    #[inline]
+    fn block_seeds(stream: u64, block: u32) -> Rng {
+        Rng { state: splitmix64(stream ^ u64::from(block).wrapping_add(SOBOL_BLOCK_OFFSET)), inc: (stream << 1) | 1 }
+    }
+
+    /// The sample's own independent stream, as [`Rng::new`] makes it.
+    #[inline]
+    fn aside(&mut self) -> &mut Rng {
+        let (stream, index) = (self.stream, self.index);
+        self.aside.get_or_insert_with(|| Rng::of_sample(stream, u64::from(index)))
     }
 
     /// The shuffled index's radical inverse: a Laine–Karras permutation of the radical inverse
