@@ -825,8 +825,8 @@ impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
         let mut own;
         let (sampler, mut lambda, ray) = if K::RANDOM {
             let pixel = y as u64 * u64::from(width) + x as u64;
-            // Dimension 0 places the hero wavelengths, 1 the position in the pixel; both are
-            // drawn for fixed lanes too, so the path's numbers are the same either way.
+            // The camera's numbers (block 0 of Sobol' points): first the hero wavelengths, then
+            // the position in the pixel; both are drawn for fixed lanes too.
             let u = if self.sobol {
                 own = Sampler::Sobol(SobolSample::new(self.seed, pixel, i));
                 own.uniform()

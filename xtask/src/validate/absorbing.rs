@@ -95,7 +95,7 @@ fn path_tracer(
     md: &mut String,
 ) -> anyhow::Result<()> {
     let (spp, ref_spp) = if quick { (PATH_SPP.1, REFERENCE_SPP.1) } else { (PATH_SPP.0, REFERENCE_SPP.0) };
-    let key = format!("{file} path bins-95 {w}x{h} {ref_spp}spp seed1 sobol");
+    let key = format!("{file} path bins-95 {w}x{h} {ref_spp}spp seed1 sobol-blocks");
     let reference =
         refs.get(&key, (w, h), || Ok(render(scene, &path_options(w, h, SpectralMode::Bins(95), ref_spp))?.0))?;
     // Seeds 2 and 3: independent of the reference's seed 1 and of each other (where auto

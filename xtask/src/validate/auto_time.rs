@@ -105,8 +105,11 @@ fn one(
     let (w, h) = if quick { case.quick_size } else { case.size };
     let spp = if quick { case.spp.1 } else { case.spp.0 };
     let ref_spp = if quick { case.reference_spp.1 } else { case.reference_spp.0 };
-    let key =
-        format!("{} path {}-{w}x{h} {ref_spp}spp seed1 sobol", case.file, case.reference.to_string().replace(':', "-"));
+    let key = format!(
+        "{} path {}-{w}x{h} {ref_spp}spp seed1 sobol-blocks",
+        case.file,
+        case.reference.to_string().replace(':', "-")
+    );
     let reference = refs.get(&key, (w, h), || Ok(render(&scene, &path_options(w, h, case.reference, ref_spp))?.0))?;
     let decision = auto_decision(&scene, &path_options(w, h, SpectralMode::Auto, DECISION_SPP))?;
     let first = integrator::choose_auto(&scene, integrator::IntegratorKind::Path);

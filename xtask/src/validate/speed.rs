@@ -175,7 +175,7 @@ fn path_case(
     let (w, h) = if quick { case.quick_size } else { case.size };
     let spps = if quick { case.quick_spps } else { case.spps };
     let ref_spp = if quick { case.quick_reference_spp } else { case.reference_spp };
-    let key = format!("{} path bins-95 {w}x{h} {ref_spp}spp seed1 sobol", case.file);
+    let key = format!("{} path bins-95 {w}x{h} {ref_spp}spp seed1 sobol-blocks", case.file);
     let mut nonfinite = 0;
     let reference = refs.get(&key, (w, h), || {
         let (image, stats) = render(&scene, &path_options(w, h, SpectralMode::Bins(95), ref_spp))?;
