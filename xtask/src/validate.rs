@@ -282,6 +282,21 @@ fn small(w: u32, h: u32) -> RenderOptions {
     RenderOptions { width: w, height: h, ..RenderOptions::default() }.whitted(|w| w.ambient = Ambient::None)
 }
 
+/// The converged path-traced reference of `file` (`scene`) at `w`×`h`, `spectral` at `spp`
+/// (seed 1, the default sampler), from `refs` or rendered into it: one key for every part that
+/// asks for the same image (the `auto` and `sampler` parts share the Cornell box's).
+fn path_reference(
+    refs: &refs::RefCache,
+    scene: &RenderScene,
+    file: &str,
+    spectral: SpectralMode,
+    (w, h): (u32, u32),
+    spp: u32,
+) -> anyhow::Result<refs::Reference> {
+    let key = format!("{file} path {}-{w}x{h} {spp}spp seed1 sobol-blocks", spectral.to_string().replace(':', "-"));
+    refs.get(&key, (w, h), || Ok(render(scene, &path_options(w, h, spectral, spp))?.0))
+}
+
 /// `options` with independent numbers: for the parts whose error model is the independent
 /// samples' (error ∝ 1/√spp, extrapolated from one spp to another); Sobol' points, the default,
 /// converge faster (the `sampler` part).

@@ -105,12 +105,7 @@ fn one(
     let (w, h) = if quick { case.quick_size } else { case.size };
     let spp = if quick { case.spp.1 } else { case.spp.0 };
     let ref_spp = if quick { case.reference_spp.1 } else { case.reference_spp.0 };
-    let key = format!(
-        "{} path {}-{w}x{h} {ref_spp}spp seed1 sobol-blocks",
-        case.file,
-        case.reference.to_string().replace(':', "-")
-    );
-    let reference = refs.get(&key, (w, h), || Ok(render(&scene, &path_options(w, h, case.reference, ref_spp))?.0))?;
+    let reference = path_reference(refs, &scene, case.file, case.reference, (w, h), ref_spp)?;
     let decision = auto_decision(&scene, &path_options(w, h, SpectralMode::Auto, DECISION_SPP))?;
     let first = integrator::choose_auto(&scene, integrator::IntegratorKind::Path);
     let mut strategies = vec![SpectralMode::Hero { count: 4 }, SpectralMode::Hero { count: 8 }];

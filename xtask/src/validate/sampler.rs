@@ -89,13 +89,7 @@ pub(crate) fn checks(report: &mut Report, root: &Path, refs: &RefCache, quick: b
         let spp = if quick { case.spp.1 } else { case.spp.0 };
         let ref_spp = if quick { case.reference_spp.1 } else { case.reference_spp.0 };
         let max_ratio = if quick { case.max_ratio.1 } else { case.max_ratio.0 };
-        let key = format!(
-            "{} path {}-{w}x{h} {ref_spp}spp seed1 sobol-blocks",
-            case.file,
-            case.reference.to_string().replace(':', "-")
-        );
-        let reference =
-            refs.get(&key, (w, h), || Ok(render(&scene, &path_options(w, h, case.reference, ref_spp))?.0))?;
+        let reference = path_reference(refs, &scene, case.file, case.reference, (w, h), ref_spp)?;
         let run = |sampler, seed| -> anyhow::Result<(f64, f64)> {
             let options =
                 RenderOptions { seed, ..path_options(w, h, case.spectral, spp) }.path(|p| p.sampler = sampler);
