@@ -19,7 +19,7 @@ use geometry::{Instances, Ray, Scene, SimdLevel};
 use glam::{Mat4, Vec3};
 
 mod common;
-use common::{SCENES, export, icosphere, rays, thread_cpu_seconds};
+use common::{SCENES, cornell_box, cornell_camera, export, icosphere, rays, rays_from, thread_cpu_seconds};
 
 fn seconds() -> f64 {
     thread_cpu_seconds().unwrap_or_else(|| {
@@ -28,15 +28,18 @@ fn seconds() -> f64 {
     })
 }
 
-/// (hits, CPU seconds) of one pass over `rays`.
-fn pass(scene: &Scene, rays: &[Ray], any: bool) -> (usize, f64) {
+/// (hits per pass, CPU seconds per pass) of `reps` passes over `rays`.
+fn pass(scene: &Scene, rays: &[Ray], any: bool, reps: usize) -> (usize, f64) {
     let t = seconds();
-    let hits = if any {
-        rays.iter().filter(|r| scene.occluded(black_box(r), f32::INFINITY)).count()
-    } else {
-        rays.iter().filter(|r| scene.intersect(black_box(r), f32::INFINITY).is_some()).count()
-    };
-    (hits, seconds() - t)
+    let mut hits = 0;
+    for _ in 0..reps {
+        hits = if any {
+            rays.iter().filter(|r| scene.occluded(black_box(r), f32::INFINITY)).count()
+        } else {
+            rays.iter().filter(|r| scene.intersect(black_box(r), f32::INFINITY).is_some()).count()
+        };
+    }
+    (hits, (seconds() - t) / reps as f64)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -74,7 +77,7 @@ fn main() {
             stats.bytes_per_primitive
         ));
         let (primary, incoherent) = rays(&scene);
-        let hits = rows(name, &mut scene, &primary, &incoherent, &levels, rounds, &mut notes);
+        let hits = rows(name, &mut scene, (&primary, &incoherent), &levels, rounds, 1, &mut notes);
         if let Ok(dir) = std::env::var("SPECTRACE_EXPORT_RAYS") {
             let json = format!(
                 "{{\"triangles\": {}, \"primary\": {}, \"incoherent\": {}, \"incoherent_any\": {}}}\n",
@@ -101,7 +104,18 @@ fn main() {
         let mut scene = Scene::build_with_instances(Vec::new(), Vec::new(), vec![instances]).unwrap();
         notes.push(format!("{name}: {} placements of {} triangles", scene.instance_count(), 20 * 4u32.pow(4)));
         let (primary, incoherent) = rays(&scene);
-        rows(name, &mut scene, &primary, &incoherent, &levels, rounds, &mut notes);
+        rows(name, &mut scene, (&primary, &incoherent), &levels, rounds, 1, &mut notes);
+    }
+    // The Cornell box (12 triangles, two spheres): what the path tracer's reference scene asks
+    // of traversal, where a ray's fixed cost outweighs its node and leaf tests.
+    let name = "cornell_box";
+    if filter.as_ref().is_none_or(|f| name.contains(f.as_str())) {
+        let (spheres, walls) = cornell_box();
+        let mut scene = Scene::build(spheres, vec![walls]).unwrap();
+        notes.push(format!("{name}: 12 triangles and 2 spheres, {} nodes", scene.stats().node_count));
+        let (primary, incoherent) = rays_from(&scene, &cornell_camera());
+        // Eight passes per measurement: one takes ~0.1 s, a few ticks of the CPU-time clock.
+        rows(name, &mut scene, (&primary, &incoherent), &levels, rounds, 8, &mut notes);
     }
     println!();
     for n in notes {
@@ -109,15 +123,15 @@ fn main() {
     }
 }
 
-/// The table's three rows for one scene (interleaved rounds over every level); the hit counts
-/// per row, which must be equal at every level.
+/// The table's three rows for one scene (interleaved rounds over every level, each timing
+/// `reps` passes); the hit counts per row, which must be equal at every level.
 fn rows(
     name: &str,
     scene: &mut Scene,
-    primary: &[Ray],
-    incoherent: &[Ray],
+    (primary, incoherent): (&[Ray], &[Ray]),
     levels: &[SimdLevel],
     rounds: usize,
+    reps: usize,
     notes: &mut Vec<String>,
 ) -> Vec<Vec<usize>> {
     let kinds: [(&str, &[Ray], bool); 3] = [
@@ -131,7 +145,7 @@ fn rows(
         for (k, &(_, rays, any)) in kinds.iter().enumerate() {
             for (l, &level) in levels.iter().enumerate() {
                 scene.set_simd_level(level);
-                let (h, t) = pass(scene, rays, any);
+                let (h, t) = pass(scene, rays, any, reps);
                 hits[k][l] = h;
                 rates[k][l].push(rays.len() as f64 / t / 1e6);
             }

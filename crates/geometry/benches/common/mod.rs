@@ -5,7 +5,7 @@
 
 use std::io::Write;
 
-use geometry::{Camera, Mesh, Ray, Scene, spawn_ray};
+use geometry::{Camera, Mesh, Ray, Scene, Sphere, spawn_ray};
 use glam::Vec3;
 
 /// A bumpy heightfield of `n`×`n` quads (2n² triangles): a terrain seen from above.
@@ -103,9 +103,48 @@ impl Xorshift {
     }
 }
 
+/// `scenes/reference/cornell_box.json`'s geometry: five walls and the lamp as quads (12
+/// triangles) and its two spheres. The path tracer's small-scene regime: a tree of one node,
+/// where a ray's fixed cost (set-up, dispatch, hit record) is most of its traversal time.
+pub(crate) fn cornell_box() -> (Vec<Sphere>, Mesh) {
+    let quads: [([f32; 3], [f32; 3], [f32; 3]); 6] = [
+        ([0.0, 0.0, 0.0], [5.5, 0.0, 0.0], [0.0, 0.0, 5.5]),
+        ([0.0, 5.5, 0.0], [0.0, 0.0, 5.5], [5.5, 0.0, 0.0]),
+        ([0.0, 0.0, 5.5], [0.0, 5.5, 0.0], [5.5, 0.0, 0.0]),
+        ([0.0, 0.0, 0.0], [0.0, 0.0, 5.5], [0.0, 5.5, 0.0]),
+        ([5.5, 0.0, 0.0], [0.0, 5.5, 0.0], [0.0, 0.0, 5.5]),
+        ([2.1, 5.49, 2.1], [0.0, 0.0, 1.3], [1.3, 0.0, 0.0]),
+    ];
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for (c, u, v) in quads {
+        let (c, u, v) = (Vec3::from(c), Vec3::from(u), Vec3::from(v));
+        let i = positions.len() as u32;
+        positions.extend([c, c + u, c + u + v, c + v]);
+        indices.extend([[i, i + 1, i + 2], [i, i + 2, i + 3]]);
+    }
+    let spheres = vec![
+        Sphere::new(Vec3::new(1.6, 1.1, 3.6), 1.1, None).unwrap(),
+        Sphere::new(Vec3::new(3.9, 1.0, 2.0), 1.0, None).unwrap(),
+    ];
+    (spheres, Mesh::new(positions, None, None, indices, None).unwrap())
+}
+
+/// The Cornell box's camera (`cornell_box.json`).
+pub(crate) fn cornell_camera() -> Camera {
+    Camera::look_at(Vec3::new(2.75, 2.75, -8.5), Vec3::new(2.75, 2.75, 0.0), Vec3::Y, 38.0, 1.0).unwrap()
+}
+
+/// Primary rays (1024² pixel centres) and incoherent rays (one cosine bounce per hit) from the
+/// terrain's and icosphere's camera.
 pub(crate) fn rays(scene: &Scene) -> (Vec<Ray>, Vec<Ray>) {
+    rays_from(scene, &Camera::look_at(Vec3::new(0.0, 1.6, 1.6), Vec3::ZERO, Vec3::Y, 50.0, 1.0).unwrap())
+}
+
+/// Primary rays through 1024² pixel centres of `camera`, and one cosine-weighted bounce from
+/// every primary hit.
+pub(crate) fn rays_from(scene: &Scene, camera: &Camera) -> (Vec<Ray>, Vec<Ray>) {
     let (w, h) = (1024u32, 1024u32);
-    let camera = Camera::look_at(Vec3::new(0.0, 1.6, 1.6), Vec3::ZERO, Vec3::Y, 50.0, 1.0).unwrap();
     let primary: Vec<Ray> = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h))
