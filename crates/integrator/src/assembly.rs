@@ -252,7 +252,9 @@ impl RenderScene {
             &mut memory,
             &mut warnings,
         )?;
-        let geometry = Scene::build_with_instances(spheres, meshes, instances)?;
+        let mut geometry = Scene::build_with_instances(spheres, meshes, instances)?;
+        // Surface coordinates on spheres serve textures only: without any, sphere hits skip them.
+        geometry.set_sphere_uvs(!textures.is_empty());
         let vertex_colors = if vertex_colored.contains(&true) {
             let started = std::time::Instant::now();
             let colors = fit_vertex_colors(&geometry, &textures, &material_descs, &mut memory, &mut warnings)?;
