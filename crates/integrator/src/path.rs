@@ -38,7 +38,7 @@ const DEFAULT_MAX_DEPTH: u32 = 64;
 /// `rr_depth` setting say, so short paths (direct and first indirect light) are never cut.
 /// Measured as time to equal error (`docs/path-tracer.md`, "Light transport"): against starting
 /// after the 1st bounce, the 3rd is 1.1–2.2× faster on the five glass spheres and two glTF
-/// scenes, 8 % slower on the Cornell box.
+/// scenes, about 10 % slower on the Cornell box.
 const RR_START_DEPTH: u32 = 3;
 
 /// Index into the render's spectrum table.
