@@ -42,7 +42,12 @@ truth from the two images' difference (`pair_errors`), and the time to the thres
 
 (`--ref-spp 16384` renders Mitsuba's reference in one call, which took more than 24 GB here
 and was killed; the one used was the mean of four 4096-spp renders, seeds 7–10, saved under
-that name.)
+that name.) Mean ΔE00 falls slower than 1/√spp this far from 0, so the time to ΔE00 1 is read
+where the errors reach it; `--ref-spp 0` renders no reference and scores by the pairs alone
+(about 28 min of two cores):
+
+    python3 xtask/compare/mitsuba_cornell.py --out target/mitsuba-compare --threads 2 \
+        --spp 4096 --ref-spp 0 --pair --variants llvm_ad_spectral --spectral auto
 
 A spectral mode may name spectrace's sampler after an @ (`--spectral auto@independent`), a
 variant Mitsuba's (`--variants llvm_ad_spectral@multijitter`); the defaults are each renderer's
@@ -229,7 +234,8 @@ def pair_errors(a, b, reference):
     reference reaches. ΔE00 is not linear in the colour difference far from 0, so the /√2 is exact
     only as the errors shrink: read it at the ladder's top."""
     de = float(delta_e00(a, b).mean()) / np.sqrt(2.0)
-    y_ref = reference[:, :, 1]
+    # Without a reference (`--ref-spp 0`) the two images' mean stands in for it.
+    y_ref = (reference if reference is not None else 0.5 * (a + b))[:, :, 1]
     rel_mse = float(np.mean((a[:, :, 1] - b[:, :, 1]) ** 2 / (y_ref**2 + 1e-2))) / 2.0
     return de, rel_mse
 
@@ -246,7 +252,9 @@ def main():
     p.add_argument("--spectrace", type=Path, default=ROOT / "target/release/spectrace")
     p.add_argument("--size", type=int, default=512)
     p.add_argument("--spp", type=int, nargs="+", default=[4, 16, 64])
-    p.add_argument("--ref-spp", type=int, default=1024)
+    p.add_argument(
+        "--ref-spp", type=int, default=1024, help="0: render no reference (with --pair: errors from the seeds alone)"
+    )
     p.add_argument("--spectral", nargs="+", default=["auto", "hero:4"])
     p.add_argument("--variants", nargs="+", default=["scalar_spectral"])
     p.add_argument("--score", choices=["common", "own", "mitsuba"], default="own")
@@ -257,6 +265,8 @@ def main():
         help="also render seed 2 at each spp and estimate the error against the truth from the two seeds' difference",
     )
     args = p.parse_args()
+    if args.ref_spp == 0 and not args.pair:
+        p.error("--ref-spp 0 scores nothing without --pair")
     args.out.mkdir(parents=True, exist_ok=True)
     manifest = json.loads(SCENE.read_text())
     n = args.size
@@ -271,16 +281,19 @@ def main():
 
     dr.set_thread_count(os.cpu_count())
     refs = {}
+    if args.ref_spp == 0:
+        args.score = "none"
     # Mitsuba's own reference (its fastest variant asked for): for `--score own` and `mitsuba`,
     # and for the systematic difference between the two renderers' converged images.
     v = "llvm_ad_spectral" if "llvm_ad_spectral" in args.variants else args.variants[0].partition("@")[0]
-    refs["mitsuba"] = cached(
-        f"ref_mitsuba_{v}_{n}_{args.ref_spp}", lambda: render_mitsuba(manifest, args.ref_spp, n, n, 7, v)
-    )
+    if args.ref_spp > 0:
+        refs["mitsuba"] = cached(
+            f"ref_mitsuba_{v}_{n}_{args.ref_spp}", lambda: render_mitsuba(manifest, args.ref_spp, n, n, 7, v)
+        )
     # `--score mitsuba` needs no reference of spectrace's: Mitsuba's LLVM variant converges one
     # about twice as fast (16384 spp at 512²: ~25 min on two cores), so every image is scored
     # against it (as issue 17's figures were).
-    if args.score != "mitsuba":
+    if args.score not in ("mitsuba", "none"):
         ref_s = cached(
             f"ref_spectrace_{n}_{args.ref_spp}",
             lambda: render_spectrace(args.spectrace, args.ref_spp, n, n, 7, os.cpu_count(), "bins:95", args.out),
@@ -295,6 +308,8 @@ def main():
     dr.set_thread_count(args.threads)
 
     def reference(renderer):
+        if args.score == "none":
+            return None
         if args.score == "own":
             return refs[renderer]
         return refs["mitsuba"] if args.score == "mitsuba" else refs["spectrace"]
@@ -322,9 +337,18 @@ def main():
                     images[(name, seed)] = image
         for name, kind, _ in renderers:
             secs = float(np.median(times[name]))
-            results[name].append((spp, secs, *errors(images[(name, 1)], reference(kind))))
+            if args.score != "none":
+                results[name].append((spp, secs, *errors(images[(name, 1)], reference(kind))))
             if args.pair:
                 pairs[name].append((spp, secs, *pair_errors(images[(name, 1)], images[(name, 2)], reference(kind))))
+    if args.score != "none":
+        print_scored(args, renderers, results, n)
+    if args.pair:
+        print_pairs(pairs)
+
+
+def print_scored(args, renderers, results, n):
+    """The errors against the reference, the equal-error time ratios and the fitted times."""
     against = {"own": "each renderer’s own reference", "common": "spectrace’s reference", "mitsuba": "Mitsuba’s reference"}
     print(f"scored against: {against[args.score]}")
     print("renderer                    spp  seconds  Msamples/s  ΔE00 mean  ΔE00 p95  rel.MSE")
@@ -359,17 +383,20 @@ def main():
                 cells.append(f"{fit[0]:8.1f} s ({fit[1]:6.0f}){mark}")
         print(f"{name:27} {cells[0]:>26} {cells[1]:>30}")
     print(f"* fitted beyond a quarter of the reference's {args.ref_spp} spp: floored by its noise, not a measurement")
-    if args.pair:
-        print("error against the truth from two seeds (no reference noise; see pair_errors), and the time")
-        print("to mean ΔE00 1 and relative MSE 1e-3 that it implies (error² ∝ 1/spp, time ∝ spp)")
-        print("renderer                    spp  seconds  ΔE00 mean  rel.MSE   → ΔE00 < 1: s (spp)   rel.MSE < 1e-3: s (spp)")
-        for name, rows in pairs.items():
-            for spp, secs, de, rmse in rows:
-                spp_de, spp_mse = spp * de**2, spp * rmse / 1e-3
-                t_de, t_mse = secs * spp_de / spp, secs * spp_mse / spp
-                print(
-                    f"{name:27} {spp:4} {secs:8.2f} {de:10.3f} {rmse:8.2e} {t_de:10.1f} ({spp_de:6.0f}) {t_mse:12.1f} ({spp_mse:6.0f})"
-                )
+
+
+def print_pairs(pairs):
+    """Each renderer's error against the truth from its two seeds, and the times it implies."""
+    print("error against the truth from two seeds (no reference noise; see pair_errors), and the time")
+    print("to mean ΔE00 1 and relative MSE 1e-3 that it implies (error² ∝ 1/spp, time ∝ spp)")
+    print("renderer                    spp  seconds  ΔE00 mean  rel.MSE   → ΔE00 < 1: s (spp)   rel.MSE < 1e-3: s (spp)")
+    for name, rows in pairs.items():
+        for spp, secs, de, rmse in rows:
+            spp_de, spp_mse = spp * de**2, spp * rmse / 1e-3
+            t_de, t_mse = secs * spp_de / spp, secs * spp_mse / spp
+            print(
+                f"{name:27} {spp:4} {secs:8.2f} {de:10.3f} {rmse:8.2e} {t_de:10.1f} ({spp_de:6.0f}) {t_mse:12.1f} ({spp_mse:6.0f})"
+            )
 
 
 if __name__ == "__main__":
