@@ -19,7 +19,7 @@ use geometry::{Instances, Ray, Scene, SimdLevel};
 use glam::{Mat4, Vec3};
 
 mod common;
-use common::{SCENES, cornell_box, cornell_camera, export, icosphere, rays, rays_from, thread_cpu_seconds};
+use common::{SCENES, cornell_box, export, icosphere, rays, rays_from, thread_cpu_seconds};
 
 fn seconds() -> f64 {
     thread_cpu_seconds().unwrap_or_else(|| {
@@ -110,13 +110,12 @@ fn main() {
     // of traversal, where a ray's fixed cost outweighs its node and leaf tests.
     let name = "cornell_box";
     if filter.as_ref().is_none_or(|f| name.contains(f.as_str())) {
-        let (spheres, walls) = cornell_box();
-        let mut scene = Scene::build(spheres, vec![walls]).unwrap();
+        let (mut scene, camera) = cornell_box();
         // As the path tracer assembles it: no material reads a texture, so sphere hits carry
         // no surface coordinates (their atan2 and acos were 3 % of this row's time).
         scene.set_sphere_uvs(false);
         notes.push(format!("{name}: 12 triangles and 2 spheres, {} nodes", scene.stats().node_count));
-        let (primary, incoherent) = rays_from(&scene, &cornell_camera());
+        let (primary, incoherent) = rays_from(&scene, &camera);
         // Eight passes per measurement: one takes ~0.1 s, a few ticks of the CPU-time clock.
         rows(name, &mut scene, (&primary, &incoherent), &levels, rounds, 8, &mut notes);
     }

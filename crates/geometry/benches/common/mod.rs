@@ -4,8 +4,9 @@
 #![allow(dead_code)] // each benchmark (and the tests) uses a part of it
 
 use std::io::Write;
+use std::path::Path;
 
-use geometry::{Camera, Mesh, Ray, Scene, Sphere, spawn_ray};
+use geometry::{Camera, Mesh, Ray, Scene, load_scene, spawn_ray};
 use glam::Vec3;
 
 /// A bumpy heightfield of `n`×`n` quads (2n² triangles): a terrain seen from above.
@@ -103,36 +104,16 @@ impl Xorshift {
     }
 }
 
-/// `scenes/reference/cornell_box.json`'s geometry: five walls and the lamp as quads (12
-/// triangles) and its two spheres. The path tracer's small-scene regime: a tree of one node,
-/// where a ray's fixed cost (set-up, dispatch, hit record) is most of its traversal time.
-pub(crate) fn cornell_box() -> (Vec<Sphere>, Mesh) {
-    let quads: [([f32; 3], [f32; 3], [f32; 3]); 6] = [
-        ([0.0, 0.0, 0.0], [5.5, 0.0, 0.0], [0.0, 0.0, 5.5]),
-        ([0.0, 5.5, 0.0], [0.0, 0.0, 5.5], [5.5, 0.0, 0.0]),
-        ([0.0, 0.0, 5.5], [0.0, 5.5, 0.0], [5.5, 0.0, 0.0]),
-        ([0.0, 0.0, 0.0], [0.0, 0.0, 5.5], [0.0, 5.5, 0.0]),
-        ([5.5, 0.0, 0.0], [0.0, 5.5, 0.0], [0.0, 0.0, 5.5]),
-        ([2.1, 5.49, 2.1], [0.0, 0.0, 1.3], [1.3, 0.0, 0.0]),
-    ];
-    let mut positions = Vec::new();
-    let mut indices = Vec::new();
-    for (c, u, v) in quads {
-        let (c, u, v) = (Vec3::from(c), Vec3::from(u), Vec3::from(v));
-        let i = positions.len() as u32;
-        positions.extend([c, c + u, c + u + v, c + v]);
-        indices.extend([[i, i + 1, i + 2], [i, i + 2, i + 3]]);
-    }
-    let spheres = vec![
-        Sphere::new(Vec3::new(1.6, 1.1, 3.6), 1.1, None).unwrap(),
-        Sphere::new(Vec3::new(3.9, 1.0, 2.0), 1.0, None).unwrap(),
-    ];
-    (spheres, Mesh::new(positions, None, None, indices, None).unwrap())
-}
-
-/// The Cornell box's camera (`cornell_box.json`).
-pub(crate) fn cornell_camera() -> Camera {
-    Camera::look_at(Vec3::new(2.75, 2.75, -8.5), Vec3::new(2.75, 2.75, 0.0), Vec3::Y, 38.0, 1.0).unwrap()
+/// `scenes/reference/cornell_box.json` as the renderer loads it (five walls and the lamp as
+/// quads, 12 triangles, and two spheres), and its camera. The path tracer's small-scene regime:
+/// a tree of one node, where a ray's fixed cost (set-up, dispatch, hit record) is most of its
+/// traversal time.
+pub(crate) fn cornell_box() -> (Scene, Camera) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/reference/cornell_box.json");
+    let desc = load_scene(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let c = desc.camera.expect("the Cornell box's manifest has a camera");
+    let camera = Camera::look_at(c.position, c.look_at, c.up, c.vfov_deg, 1.0).unwrap();
+    (Scene::build(desc.spheres, desc.meshes).unwrap(), camera)
 }
 
 /// Primary rays (1024² pixel centres) and incoherent rays (one cosine bounce per hit) from the
