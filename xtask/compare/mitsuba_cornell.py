@@ -202,7 +202,7 @@ def time_to(spps, errors_, seconds, threshold):
 def render_spectrace(binary, spp, width, height, seed, threads, spectral, out):
     """`spectral` may name a sampler after an @ (`auto@independent`; default spectrace's
     default)."""
-    exr = out / f"spectrace_{spectral.replace(':', '').replace('@', '_')}_{spp}.exr"
+    exr = out / f"spectrace_{spectral.replace(':', '').replace('@', '_')}_{spp}_seed{seed}.exr"
     spectral, _, sampler = spectral.partition("@")
     cmd = [str(binary), "render", str(SCENE), "--integrator", "path", "--spp", str(spp), "--seed", str(seed)]
     cmd += ["--spectral", spectral, "--width", str(width), "--height", str(height), "--threads", str(threads)]
