@@ -86,7 +86,17 @@ import mitsuba as mi  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mitsuba_common import GRID, ROOT, delta_e00, held, illuminant, read_csv, read_spectrace_exr, spectrum  # noqa: E402
+from mitsuba_common import (  # noqa: E402
+    GRID,
+    ROOT,
+    delta_e00,
+    held,
+    illuminant,
+    pair_errors,
+    read_csv,
+    read_spectrace_exr,
+    spectrum,
+)
 
 SCENE = ROOT / "scenes/reference/cornell_box.json"
 
@@ -222,22 +232,6 @@ def errors(image, reference):
     y, y_ref = image[:, :, 1], reference[:, :, 1]
     rel_mse = float(np.mean((y - y_ref) ** 2 / (y_ref**2 + 1e-2)))
     return float(de.mean()), float(np.percentile(de, 95)), rel_mse
-
-
-def pair_errors(a, b, reference):
-    """The mean ΔE00 and relative MSE of one image against the truth, estimated from two
-    independent images of one renderer at one spp (seeds 1 and 2): their difference has twice
-    one image's noise variance and no bias (both renderers converge to the same image: the
-    references agree to their own noise), so ΔE00(a, b) / √2 and relMSE(a, b) / 2. A reference
-    scores an image only down to its own noise (a 4096-spp reference of this box alone leaves mean
-    ΔE00 ~1.1); two seeds need none, so the time to ΔE00 < 1 can be measured where no affordable
-    reference reaches. ΔE00 is not linear in the colour difference far from 0, so the /√2 is exact
-    only as the errors shrink: read it at the ladder's top."""
-    de = float(delta_e00(a, b).mean()) / np.sqrt(2.0)
-    # Without a reference (`--ref-spp 0`) the two images' mean stands in for it.
-    y_ref = (reference if reference is not None else 0.5 * (a + b))[:, :, 1]
-    rel_mse = float(np.mean((a[:, :, 1] - b[:, :, 1]) ** 2 / (y_ref**2 + 1e-2))) / 2.0
-    return de, rel_mse
 
 
 def downsample(image, block):
