@@ -5,7 +5,8 @@
 //! every AVX2 CPU has) the whole query — traversal, node tests, triangle tests — is compiled
 //! a second time with those features enabled and the node test becomes one eight-lane
 //! compare; with AVX-512 (F + VL) a third time, letting the compiler use EVEX encodings and
-//! mask registers for the same eight-lane kernel. The level is picked once per scene from
+//! mask registers for the same eight-lane kernel (measured no faster than AVX2, so not the
+//! default: [`SimdLevel::detected`]). The level is picked once per scene from
 //! `is_x86_feature_detected!` and can be forced (for measurement) with the environment
 //! variable `SPECTRACE_SIMD=sse2|avx2|avx512` or [`crate::Scene::set_simd_level`]; the scene
 //! holds it as a [`Supported`] level, which only a successful CPU check can build, so the
@@ -70,13 +71,18 @@ impl SimdLevel {
         SimdLevel::ALL.into_iter().filter(|l| l.is_supported())
     }
 
-    /// The widest level this CPU supports.
+    /// The fastest level this CPU supports: AVX2 where it is present, AVX-512 or not, else SSE2.
+    /// The AVX-512 level is the same eight-lane kernel in EVEX encodings; it has measured no
+    /// faster than AVX2 on any row of `traversal_table` on the two AVX-512 machines these
+    /// sessions ran on (an AMD EPYC and an Intel Xeon; 1–11 % slower on the Xeon, and
+    /// 2.5–3.5 % slower end to end: `docs/perf.md`, session 20), so it runs only when asked for.
     pub(crate) fn detected() -> SimdLevel {
-        SimdLevel::supported().last().unwrap_or(SimdLevel::Sse2)
+        if SimdLevel::Avx2.is_supported() { SimdLevel::Avx2 } else { SimdLevel::Sse2 }
     }
 
     /// The level new scenes use: `SPECTRACE_SIMD` if set to a supported level (a one-line
-    /// warning otherwise), else the widest level this CPU supports. Read once per process.
+    /// warning otherwise), else the fastest level this CPU supports (AVX2 where present, see
+    /// [`SimdLevel::detected`]). Read once per process.
     pub fn default_level() -> SimdLevel {
         Supported::default_level().level()
     }
