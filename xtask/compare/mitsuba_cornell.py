@@ -251,7 +251,11 @@ def main():
     )
     p.add_argument("--spectral", nargs="+", default=["auto", "hero:4"])
     p.add_argument("--variants", nargs="+", default=["scalar_spectral"])
-    p.add_argument("--score", choices=["common", "own", "mitsuba"], default="own")
+    p.add_argument(
+        "--score",
+        choices=["common", "own", "mitsuba"],
+        help="the reference each image is scored against (default own; none with --ref-spp 0)",
+    )
     p.add_argument("--repeats", type=int, default=1)
     p.add_argument(
         "--pair",
@@ -261,6 +265,10 @@ def main():
     args = p.parse_args()
     if args.ref_spp == 0 and not args.pair:
         p.error("--ref-spp 0 scores nothing without --pair")
+    if args.ref_spp == 0 and args.score is not None:
+        p.error(f"--score {args.score} needs a reference, and --ref-spp 0 renders none")
+    # "none": no reference, the errors come from the seed pairs alone.
+    args.score = "none" if args.ref_spp == 0 else args.score or "own"
     args.out.mkdir(parents=True, exist_ok=True)
     manifest = json.loads(SCENE.read_text())
     n = args.size
@@ -275,8 +283,6 @@ def main():
 
     dr.set_thread_count(os.cpu_count())
     refs = {}
-    if args.ref_spp == 0:
-        args.score = "none"
     # Mitsuba's own reference (its fastest variant asked for): for `--score own` and `mitsuba`,
     # and for the systematic difference between the two renderers' converged images.
     v = "llvm_ad_spectral" if "llvm_ad_spectral" in args.variants else args.variants[0].partition("@")[0]

@@ -491,12 +491,13 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             format!("{} spp (samples {}..{} of {})", stats.spp, range.start, range.end, options.spp)
         };
         eprintln!(
-            "spectrace: {}x{} {} {spp} in {:.3} s ({} rays, {:.2} Mrays/s, {} non-finite samples) -> {written}",
+            "spectrace: {}x{} {} {spp} in {:.3} s ({} rays, {} of them shadow rays, {:.2} Mrays/s, {} non-finite samples) -> {written}",
             options.width,
             options.height,
             stats.spectral,
             secs,
             stats.rays,
+            stats.shadow_rays,
             stats.rays as f64 / secs.max(1e-9) / 1e6,
             stats.nonfinite_samples,
         );

@@ -34,7 +34,7 @@ pub enum SimdLevel {
     /// AVX2 + FMA (with BMI1/2, LZCNT, POPCNT): eight-lane node tests.
     Avx2,
     /// AVX-512 F + VL on top of `Avx2`: the same eight-lane kernel compiled with EVEX
-    /// encodings and mask registers.
+    /// encodings and mask registers. Run only when asked for ([`SimdLevel::detected`]).
     Avx512,
 }
 

@@ -480,7 +480,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             if visible <= 0.0 {
                 return 0.0;
             }
-            count.rays += 1;
+            count.shadow_ray();
             from = blocker;
         }
         0.0
@@ -975,7 +975,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         } else {
             None
         };
-        count.rays += 1;
+        count.shadow_ray();
         let visible = if self.scene.alpha_cutouts {
             self.visibility(hit, lifted.as_ref(), ls.target, ls.wi, count)
         } else {

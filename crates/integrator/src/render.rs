@@ -411,6 +411,9 @@ pub struct RenderStats {
     pub spectral: SpectralMode,
     /// Rays traced.
     pub rays: u64,
+    /// Of those, shadow rays: visibility queries towards sampled lights (with their continuations
+    /// through cut-outs and transparent surfaces).
+    pub shadow_rays: u64,
     /// Wall time of the pixel loop (scene assembly excluded).
     pub elapsed: Duration,
     /// Samples whose value was NaN or infinite (added as black; must be 0).
@@ -424,7 +427,19 @@ pub struct RenderStats {
 /// Per-thread counters.
 #[derive(Debug, Default, Clone, Copy)]
 pub(crate) struct RayCount {
+    /// Every ray traced.
     pub(crate) rays: u64,
+    /// Those of them that were shadow rays ([`RenderStats::shadow_rays`]).
+    pub(crate) shadow: u64,
+}
+
+impl RayCount {
+    /// Count one shadow ray (it is a ray too).
+    #[inline]
+    pub(crate) fn shadow_ray(&mut self) {
+        self.rays += 1;
+        self.shadow += 1;
+    }
 }
 
 /// What an integrator returns for one camera sample.
@@ -701,6 +716,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     let start = Instant::now();
     let out_of_time = || options.time_limit.is_some_and(|limit| start.elapsed() >= limit);
     let rays = AtomicU64::new(0);
+    let shadow_rays = AtomicU64::new(0);
     let rows_done = AtomicU64::new(0);
     for pass in first_pass..passes {
         let first_sample = samples.start + pass * pass_size;
@@ -731,6 +747,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     }
                 }
                 let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
+                shadow_rays.fetch_add(count.shadow, Ordering::Relaxed);
                 let rows = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(Progress { rows_done: rows, rows_total, rays: rays_now, elapsed: start.elapsed() });
                 Ok((row.nonfinite, row.clamped))
@@ -756,6 +773,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     let stats = RenderStats {
         spectral,
         rays: rays.into_inner(),
+        shadow_rays: shadow_rays.into_inner(),
         elapsed: start.elapsed(),
         nonfinite_samples: film.nonfinite_samples(),
         spp: film.min_sample_count(),

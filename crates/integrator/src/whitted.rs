@@ -316,7 +316,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
         start: Option<&LaneMaterial<N>>,
         count: &mut RayCount,
     ) -> Option<SampledSpectrum<N>> {
-        count.rays += 1;
+        count.shadow_ray();
         let (ray, t_max) = spawn_shadow_ray(hit, target, wi);
         let start = start.filter(|m| m.sigma_a.is_some());
         if start.is_none() && !self.scene.geometry.occluded(&ray, t_max) {
@@ -330,7 +330,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
         let mut entered_at: Option<(f32, &LaneMaterial<N>)> = start.map(|m| (0.0, m));
         let mut travelled = 0.0f32;
         for _ in 0..MAX_SHADOW_CROSSINGS {
-            count.rays += 1;
+            count.shadow_ray();
             let Some(h) = self.scene.geometry.intersect(&current, remaining) else {
                 // Reached the light; still inside a medium if the light is inside an object.
                 if let Some((start, inner)) = entered_at

@@ -340,6 +340,23 @@ fn the_pilot_depends_on_neither_seed_nor_threads() {
     assert!(base.iter().all(|c| c.error_1spp.is_finite() && c.error_1spp > 0.0), "{base:?}");
 }
 
+/// Shadow rays are counted apart from the rest (`RenderStats::shadow_rays`, printed by the CLI): in
+/// the Cornell box (no cut-outs) each path vertex traces at most one, after the closest-hit ray that
+/// found it, and every sample's camera ray is one of the others.
+#[test]
+fn shadow_rays_are_counted_among_the_rays() {
+    let scene = reference("cornell_box.json");
+    let (_, stats) = render_with(&scene, &path_options(16, 16, SpectralMode::Bins(8), 4));
+    let closest = stats.rays - stats.shadow_rays;
+    assert!(
+        stats.shadow_rays > 0 && stats.shadow_rays <= closest,
+        "{} shadow of {} rays",
+        stats.shadow_rays,
+        stats.rays
+    );
+    assert!(closest >= 16 * 16 * 4, "{closest} closest-hit rays for 1024 camera rays");
+}
+
 /// Issue 16: the Russian-roulette start depth was fixed at 3. `settings.rr_depth` (or
 /// `PathOptions::rr_depth`) moves it: starting at 0 ends paths sooner in the Cornell box (fewer
 /// rays), never starting (≥ max_depth) traces every path to the limit or its escape (more), the
