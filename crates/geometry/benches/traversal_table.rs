@@ -5,7 +5,9 @@
 //! second of this thread's CPU time. Also build time, bytes per triangle and hit counts (which
 //! must be identical at every level).
 //!
-//! `taskset -c 1 cargo bench -p geometry --bench traversal_table` (`TABLE_ROUNDS`, default 5)
+//! `taskset -c 1 cargo bench -p geometry --bench traversal_table` (`TABLE_ROUNDS`, default 5;
+//! `TABLE_LEVELS=avx2,sse2` runs only the levels named, e.g. for a profile of one kernel). Two
+//! small terrains (2k, 10k triangles) come first: their trees fit in the caches.
 //!
 //! With `SPECTRACE_EXPORT_RAYS=DIR` the triangles (`SCENE.tris`: f32 x, y, z per vertex, three
 //! per triangle), the rays (`SCENE_primary.rays`, `SCENE_incoherent.rays`: f32 origin and
@@ -19,7 +21,7 @@ use geometry::{Instances, Ray, Scene, SimdLevel};
 use glam::{Mat4, Vec3};
 
 mod common;
-use common::{SCENES, cornell_box, export, icosphere, rays, rays_from, thread_cpu_seconds};
+use common::{SCENES, SMALL_SCENES, cornell_box, export, icosphere, rays, rays_from, thread_cpu_seconds};
 
 fn seconds() -> f64 {
     thread_cpu_seconds().unwrap_or_else(|| {
@@ -50,7 +52,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 fn main() {
     let rounds: usize = std::env::var("TABLE_ROUNDS").ok().and_then(|s| s.parse().ok()).unwrap_or(5);
     let filter = std::env::args().skip(1).find(|a| !a.starts_with('-'));
-    let levels: Vec<SimdLevel> = SimdLevel::supported().collect();
+    // `TABLE_LEVELS=avx2` (comma-separated names) keeps only those levels: a profile of one kernel.
+    let only = std::env::var("TABLE_LEVELS").ok();
+    let levels: Vec<SimdLevel> =
+        SimdLevel::supported().filter(|l| only.as_ref().is_none_or(|o| o.split(',').any(|n| n == l.name()))).collect();
     let time_kind = if thread_cpu_seconds().is_some() { "thread CPU time" } else { "wall time" };
     println!("median of {rounds} interleaved rounds, M rays/s of {time_kind}, one thread");
     println!();
@@ -61,7 +66,7 @@ fn main() {
     println!();
     println!("|---|---|{}", "---|".repeat(levels.len()));
     let mut notes = Vec::new();
-    for (name, make) in SCENES {
+    for (name, make) in SMALL_SCENES.into_iter().chain(SCENES) {
         if filter.as_ref().is_some_and(|f| !name.contains(f.as_str())) {
             continue;
         }

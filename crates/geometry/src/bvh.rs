@@ -470,8 +470,13 @@ impl Scene {
         }
     }
 
+    /// Finite origin and direction, and a direction other than zero. (x·0 is ±0 for finite x and
+    /// NaN for ±∞ and NaN, so one sum of the six products tests all six components: a dozen
+    /// instructions, where six `is_finite` took ~45 on every query, callgrind.)
+    #[inline(always)]
     fn valid(ray: &Ray) -> bool {
-        ray.origin.is_finite() && ray.dir.is_finite() && ray.dir != Vec3::ZERO
+        let (o, d) = (ray.origin * 0.0, ray.dir * 0.0);
+        (o.x + o.y + o.z + d.x + d.y + d.z) == 0.0 && ray.dir != Vec3::ZERO
     }
 
     /// [`Scene::query`] with the triangle test's axis permutation of `tri_ray` (fixed per ray).
@@ -553,7 +558,12 @@ impl Scene {
     }
 
     /// (mesh, triangle within it) of the triangle with index `index` among all triangles.
+    #[inline]
     fn triangle_source(&self, index: usize) -> (usize, usize) {
+        // One mesh (its first triangle is triangle 0): no search (it was a call per hit).
+        if self.triangle_offsets.len() == 1 {
+            return (0, index);
+        }
         let mesh = self.triangle_offsets.partition_point(|&o| o as usize <= index) - 1;
         (mesh, index - self.triangle_offsets[mesh] as usize)
     }
@@ -1185,6 +1195,24 @@ mod tests {
         assert_each_primitive_once(&b);
         assert_eq!(a.bvh.leaves(), b.bvh.leaves(), "same leaves in the same order");
         assert_eq!(a.bvh.node_count(), b.bvh.node_count());
+    }
+
+    #[test]
+    fn rays_are_valid_exactly_when_finite_with_a_direction() {
+        let good = Ray { origin: Vec3::new(f32::MAX, -0.0, f32::MIN_POSITIVE), dir: Vec3::new(-f32::MAX, 0.0, 1e-30) };
+        assert!(Scene::valid(&good));
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for k in 0..6 {
+                let mut ray = good;
+                if k < 3 {
+                    ray.origin[k] = bad
+                } else {
+                    ray.dir[k - 3] = bad
+                }
+                assert!(!Scene::valid(&ray), "{ray:?}");
+            }
+        }
+        assert!(!Scene::valid(&Ray { dir: Vec3::new(0.0, -0.0, 0.0), ..good }));
     }
 
     #[test]

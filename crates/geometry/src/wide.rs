@@ -41,9 +41,14 @@
 //!
 //! The slab test is made conservative as in Ize, "Robust BVH Ray Traversal" (JCGT 2(2), 2013):
 //! the far distance is scaled by 1 + 2γ(3), which covers the rounding of `(b − o) · (1/d)`,
-//! so a box test can never cull a ray that the watertight triangle test would hit. obvhs's own
-//! CWBVH node test also clamps the entry distance to a scene-scale ε = 1e-4 (`cwbvh/node.rs`
-//! `EPSILON`), which culls every box closer than 1e-4 along the ray; here entry is clamped to 0.
+//! so a box test can never cull a ray that the watertight triangle test would hit. The scale is
+//! folded into the far planes' reciprocals, `inv · (1 + 2γ(3))` rounded once per ray, and into
+//! `t_max` (session 21): between the exact far distance and the value compared there are four
+//! roundings either way (difference, reciprocal, scale, product), as when the minimum was scaled
+//! after the fact, and the node test has one multiplication fewer on its path to the compare.
+//! obvhs's own CWBVH node test also clamps the entry distance to a scene-scale ε = 1e-4
+//! (`cwbvh/node.rs` `EPSILON`), which culls every box closer than 1e-4 along the ray; here entry
+//! is clamped to 0.
 
 use obvhs::bvh2::Bvh2;
 
@@ -334,14 +339,14 @@ impl WideBvh {
         });
         // Which of bounds[2a], bounds[2a+1] is the near plane on each axis.
         let near = inv.map(|r| usize::from(r < 0.0));
-        let ray = NodeRay { origin, inv, near, far_scale: FAR_SCALE };
+        let ray = NodeRay { origin, inv, near, inv_far: inv.map(|r| r * FAR_SCALE) };
 
         let mut stack = Stack::new();
         let mut current = 0u32; // the root, an inner node
         loop {
             if current & LEAF == 0 {
                 let node = &self.nodes[current as usize];
-                let (tn, mask) = node_test.test(node, &ray, t_max);
+                let (tn, mask) = node_test.test(node, &ray, t_max * FAR_SCALE);
                 if mask == 0 {
                     match pop::<CLOSEST>(&mut stack, t_max) {
                         Some(next) => current = next,
@@ -423,7 +428,9 @@ fn pop<const CLOSEST: bool>(stack: &mut Stack, t_max: f32) -> Option<u32> {
 }
 
 /// Traversal stack: a fixed array (no allocation per ray) that spills to the heap only in a
-/// pathologically deep tree, so no depth limit can drop a subtree.
+/// pathologically deep tree, so no depth limit can drop a subtree. `len` counts both parts:
+/// entries from `INLINE_STACK` on live in `spill`, so a pop reads the spill only when `len`
+/// says so (one compare of a register, instead of the spill's length in memory every pop).
 struct Stack {
     inline: [(u32, f32); INLINE_STACK],
     len: usize,
@@ -445,21 +452,18 @@ impl Stack {
     fn push(&mut self, e: (u32, f32)) {
         if self.len < INLINE_STACK {
             self.inline[self.len] = e;
-            self.len += 1;
         } else {
             self.spill.push(e);
         }
+        self.len += 1;
     }
     #[inline(always)]
     fn pop(&mut self) -> Option<(u32, f32)> {
-        if let Some(e) = self.spill.pop() {
-            return Some(e);
-        }
         if self.len == 0 {
             return None;
         }
         self.len -= 1;
-        Some(self.inline[self.len])
+        if self.len < INLINE_STACK { Some(self.inline[self.len]) } else { self.spill.pop() }
     }
 }
 

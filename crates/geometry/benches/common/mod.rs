@@ -181,6 +181,11 @@ pub(crate) const SCENES: [SceneMaker; 3] = [
     ("icosphere_1_3m", || icosphere(8, Vec3::ZERO, 1.0)),
 ];
 
+/// Small terrains (2·32² = 2k and 2·70² ≈ 10k triangles, whose trees fit in L1 and L2) for
+/// `traversal_table`: whether a gap to Embree is a matter of memory (it would shrink here) or of
+/// the work per node and leaf (it would not).
+pub(crate) const SMALL_SCENES: [SceneMaker; 2] = [("terrain_2k", || terrain(32)), ("terrain_10k", || terrain(70))];
+
 /// CPU time this thread has run, in seconds (`/proc/thread-self/schedstat`, Linux): on a
 /// shared machine it leaves out the time other processes hold the core, which wall time
 /// does not. `None` elsewhere.
