@@ -470,13 +470,13 @@ impl Scene {
         }
     }
 
-    /// Finite origin and direction, and a direction other than zero. (x·0 is ±0 for finite x and
-    /// NaN for ±∞ and NaN, so one sum of the six products tests all six components: a dozen
-    /// instructions, where six `is_finite` took ~45 on every query, callgrind.)
-    #[inline(always)]
+    /// Finite origin and direction, and a direction other than zero. (Six `is_finite`: ~45
+    /// instructions, but independent integer compares. One sum of the six components times 0,
+    /// a dozen instructions but five dependent additions, together with `TriangleRay::new`'s
+    /// permutation as a `match`, measured ~2 % slower end to end on the Cornell box path tracer,
+    /// whose rays arrive just computed: session 21, `docs/perf.md`.)
     fn valid(ray: &Ray) -> bool {
-        let (o, d) = (ray.origin * 0.0, ray.dir * 0.0);
-        (o.x + o.y + o.z + d.x + d.y + d.z) == 0.0 && ray.dir != Vec3::ZERO
+        ray.origin.is_finite() && ray.dir.is_finite() && ray.dir != Vec3::ZERO
     }
 
     /// [`Scene::query`] with the triangle test's axis permutation of `tri_ray` (fixed per ray).

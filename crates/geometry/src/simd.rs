@@ -138,12 +138,10 @@ impl Supported {
 
 /// The eight slab tests of a node: entry distances and the mask of children hit. Every
 /// implementation computes, lane for lane, `t0 = max(max(x0, y0), max(z0, 0))` and
-/// `t1 = min(min(x1, y1), min(z1, t_far_max))` with `x0 = (near_x − o_x) · inv_x` and
-/// `x1 = (far_x − o_x) · inv_far_x` etc., and hits where `t0 ≤ t1`. The far planes' reciprocals
-/// and `t_far_max` carry the conservative scale already (see `wide.rs` for why this is
-/// conservative).
+/// `t1 = min(min(x1, y1), min(z1, t_max)) · far_scale` with `x0 = (near_x − o_x) · inv_x`
+/// etc., and hits where `t0 ≤ t1` (see `wide.rs` for why this is conservative).
 pub(crate) trait NodeTest: Copy {
-    fn test(self, node: &WideNode, ray: &NodeRay, t_far_max: f32) -> ([f32; 8], u32);
+    fn test(self, node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32);
 }
 
 /// Per-ray inputs of the node test.
@@ -153,8 +151,7 @@ pub(crate) struct NodeRay {
     pub(crate) inv: [f32; 3],
     /// Which of `bounds[2a]`, `bounds[2a + 1]` is the near plane on axis a.
     pub(crate) near: [usize; 3],
-    /// `inv` times the far planes' conservative scale (`wide.rs` `FAR_SCALE`).
-    pub(crate) inv_far: [f32; 3],
+    pub(crate) far_scale: f32,
 }
 
 /// Two four-lane halves in glam `Vec4` (SSE2 on x86-64).
@@ -163,13 +160,12 @@ pub(crate) struct Sse2;
 
 impl NodeTest for Sse2 {
     #[inline(always)]
-    fn test(self, node: &WideNode, ray: &NodeRay, t_far_max: f32) -> ([f32; 8], u32) {
+    fn test(self, node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
         let b = &node.bounds;
         let [ox, oy, oz] = ray.origin.map(Vec4::splat);
         let [ix, iy, iz] = ray.inv.map(Vec4::splat);
-        let [fx, fy, fz] = ray.inv_far.map(Vec4::splat);
         let near = ray.near;
-        let t_far_max = Vec4::splat(t_far_max);
+        let (t_max, far_scale) = (Vec4::splat(t_max), Vec4::splat(ray.far_scale));
         let mut tn = [0f32; 8];
         let mut mask = 0u32;
         for half in 0..2 {
@@ -179,11 +175,11 @@ impl NodeTest for Sse2 {
             let x0 = (l(near[0]) - ox) * ix;
             let y0 = (l(2 + near[1]) - oy) * iy;
             let z0 = (l(4 + near[2]) - oz) * iz;
-            let x1 = (l(1 - near[0]) - ox) * fx;
-            let y1 = (l(3 - near[1]) - oy) * fy;
-            let z1 = (l(5 - near[2]) - oz) * fz;
+            let x1 = (l(1 - near[0]) - ox) * ix;
+            let y1 = (l(3 - near[1]) - oy) * iy;
+            let z1 = (l(5 - near[2]) - oz) * iz;
             let t0 = x0.max(y0).max(z0.max(Vec4::ZERO));
-            let t1 = x1.min(y1).min(z1.min(t_far_max));
+            let t1 = x1.min(y1).min(z1.min(t_max)) * far_scale;
             t0.write_to_slice(&mut tn[4 * half..4 * half + 4]);
             mask |= t0.cmple(t1).bitmask() << (4 * half);
         }
@@ -202,11 +198,11 @@ pub(crate) struct Avx2 {
 #[cfg(target_arch = "x86_64")]
 impl NodeTest for Avx2 {
     #[inline(always)]
-    fn test(self, node: &WideNode, ray: &NodeRay, t_far_max: f32) -> ([f32; 8], u32) {
+    fn test(self, node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
         // SAFETY: an `Avx2` exists only inside `run_avx2`/`run_avx512`, which `dispatch` calls
         // only for a `Supported` AVX2 or AVX-512 level; `Supported::new` built that level after
         // `SimdLevel::is_supported` confirmed AVX2 (which implies AVX) on this CPU.
-        unsafe { node_test_avx2(node, ray, t_far_max) }
+        unsafe { node_test_avx2(node, ray, t_max) }
     }
 }
 
@@ -221,7 +217,7 @@ impl NodeTest for Avx2 {
 /// The CPU must support AVX (the intrinsics are AVX's; the `Avx2` proof guarantees AVX2).
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn node_test_avx2(node: &WideNode, ray: &NodeRay, t_far_max: f32) -> ([f32; 8], u32) {
+unsafe fn node_test_avx2(node: &WideNode, ray: &NodeRay, t_max: f32) -> ([f32; 8], u32) {
     // SAFETY: the caller guarantees AVX2 (this function's contract); the loads and the store
     // are unaligned and stay inside `bounds` rows and `tn` (8 f32 each).
     unsafe {
@@ -230,18 +226,20 @@ unsafe fn node_test_avx2(node: &WideNode, ray: &NodeRay, t_far_max: f32) -> ([f3
         let l = |plane: usize| _mm256_loadu_ps(b[plane].as_ptr());
         let [ox, oy, oz] = ray.origin.map(|v| _mm256_set1_ps(v));
         let [ix, iy, iz] = ray.inv.map(|v| _mm256_set1_ps(v));
-        let [fx, fy, fz] = ray.inv_far.map(|v| _mm256_set1_ps(v));
         let near = ray.near;
         // Same operand order as the SSE2 halves (max(a, b) returns b on ties), so equal lanes
         // give equal bits.
         let x0 = _mm256_mul_ps(_mm256_sub_ps(l(near[0]), ox), ix);
         let y0 = _mm256_mul_ps(_mm256_sub_ps(l(2 + near[1]), oy), iy);
         let z0 = _mm256_mul_ps(_mm256_sub_ps(l(4 + near[2]), oz), iz);
-        let x1 = _mm256_mul_ps(_mm256_sub_ps(l(1 - near[0]), ox), fx);
-        let y1 = _mm256_mul_ps(_mm256_sub_ps(l(3 - near[1]), oy), fy);
-        let z1 = _mm256_mul_ps(_mm256_sub_ps(l(5 - near[2]), oz), fz);
+        let x1 = _mm256_mul_ps(_mm256_sub_ps(l(1 - near[0]), ox), ix);
+        let y1 = _mm256_mul_ps(_mm256_sub_ps(l(3 - near[1]), oy), iy);
+        let z1 = _mm256_mul_ps(_mm256_sub_ps(l(5 - near[2]), oz), iz);
         let t0 = _mm256_max_ps(_mm256_max_ps(x0, y0), _mm256_max_ps(z0, _mm256_setzero_ps()));
-        let t1 = _mm256_min_ps(_mm256_min_ps(x1, y1), _mm256_min_ps(z1, _mm256_set1_ps(t_far_max)));
+        let t1 = _mm256_mul_ps(
+            _mm256_min_ps(_mm256_min_ps(x1, y1), _mm256_min_ps(z1, _mm256_set1_ps(t_max))),
+            _mm256_set1_ps(ray.far_scale),
+        );
         let mut tn = [0f32; 8];
         _mm256_storeu_ps(tn.as_mut_ptr(), t0);
         let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;

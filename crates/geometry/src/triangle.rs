@@ -35,13 +35,11 @@ impl TriangleRay {
         } else {
             2
         };
-        // (kx, ky, kz) = ((kz + 1) % 3, (kz + 2) % 3, kz), spelled out: run-time indices into
-        // `dir` compiled to a chain of compares and moves.
-        let d = match kz {
-            0 => Vec3::new(dir.y, dir.z, dir.x),
-            1 => Vec3::new(dir.z, dir.x, dir.y),
-            _ => dir,
-        };
+        // (Spelled as a `match kz` the permutation took ~10 instructions fewer, but a branch per
+        // ray; with `Scene::valid` as one sum, ~2 % slower end to end: session 21.)
+        let kx = (kz + 1) % 3;
+        let ky = (kx + 1) % 3;
+        let d = Vec3::new(dir[kx], dir[ky], dir[kz]);
         Self { origin, length, kz, sx: -d.x / d.z, sy: -d.y / d.z, sz: 1.0 / d.z }
     }
 

@@ -41,14 +41,13 @@
 //!
 //! The slab test is made conservative as in Ize, "Robust BVH Ray Traversal" (JCGT 2(2), 2013):
 //! the far distance is scaled by 1 + 2γ(3), which covers the rounding of `(b − o) · (1/d)`,
-//! so a box test can never cull a ray that the watertight triangle test would hit. The scale is
-//! folded into the far planes' reciprocals, `inv · (1 + 2γ(3))` rounded once per ray, and into
-//! `t_max` (session 21): between the exact far distance and the value compared there are four
-//! roundings either way (difference, reciprocal, scale, product), as when the minimum was scaled
-//! after the fact, and the node test has one multiplication fewer on its path to the compare.
-//! obvhs's own CWBVH node test also clamps the entry distance to a scene-scale ε = 1e-4
-//! (`cwbvh/node.rs` `EPSILON`), which culls every box closer than 1e-4 along the ray; here entry
-//! is clamped to 0.
+//! so a box test can never cull a ray that the watertight triangle test would hit. (Folding the
+//! scale into the far planes' reciprocals, `inv · (1 + 2γ(3))` once per ray, and into `t_max`
+//! is as conservative, four roundings either way, and saves a multiplication per node: measured
+//! in session 21, 0–2 % faster in `traversal_table` but 3–5 % slower end to end on the Cornell
+//! box path tracer (three more per-ray registers), so not kept: `docs/perf.md`.) obvhs's own
+//! CWBVH node test also clamps the entry distance to a scene-scale ε = 1e-4 (`cwbvh/node.rs`
+//! `EPSILON`), which culls every box closer than 1e-4 along the ray; here entry is clamped to 0.
 
 use obvhs::bvh2::Bvh2;
 
@@ -339,14 +338,14 @@ impl WideBvh {
         });
         // Which of bounds[2a], bounds[2a+1] is the near plane on each axis.
         let near = inv.map(|r| usize::from(r < 0.0));
-        let ray = NodeRay { origin, inv, near, inv_far: inv.map(|r| r * FAR_SCALE) };
+        let ray = NodeRay { origin, inv, near, far_scale: FAR_SCALE };
 
         let mut stack = Stack::new();
         let mut current = 0u32; // the root, an inner node
         loop {
             if current & LEAF == 0 {
                 let node = &self.nodes[current as usize];
-                let (tn, mask) = node_test.test(node, &ray, t_max * FAR_SCALE);
+                let (tn, mask) = node_test.test(node, &ray, t_max);
                 if mask == 0 {
                     match pop::<CLOSEST>(&mut stack, t_max) {
                         Some(next) => current = next,
