@@ -21,6 +21,8 @@ import embreex.mesh_construction as mc
 import embreex.rtcore_scene as rs
 import numpy as np
 
+from embree_bvh import MISS_TRIANGLE, load_rays
+
 
 def main():
     ap = argparse.ArgumentParser()
@@ -31,11 +33,10 @@ def main():
     ap.add_argument("--miss", action="store_true")
     args = ap.parse_args()
     if args.miss:
-        tris = np.array([[[1e6, 1e6, 1e6], [1e6 + 1, 1e6, 1e6], [1e6, 1e6 + 1, 1e6]]], np.float32)
+        tris = MISS_TRIANGLE
     else:
         tris = np.fromfile(f"{args.dir}/{args.scene}.tris", dtype="<f4").reshape(-1, 3, 3)
-    rays = np.fromfile(f"{args.dir}/{args.scene}_{args.kind}.rays", dtype="<f4").reshape(-1, 6)
-    o, d = np.ascontiguousarray(rays[:, :3]), np.ascontiguousarray(rays[:, 3:])
+    o, d = load_rays(f"{args.dir}/{args.scene}_{args.kind}.rays")
     scene = rs.EmbreeScene(robust=True)
     mc.TriangleMesh(scene, tris)
     scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))  # commit (build)

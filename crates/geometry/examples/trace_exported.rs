@@ -12,35 +12,25 @@
 
 use std::process::ExitCode;
 
-use geometry::{Mesh, Ray, Scene};
+use geometry::{Mesh, Scene};
 use glam::Vec3;
 
-fn floats(path: &str) -> Result<Vec<f32>, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{path}: {e}"))?;
-    if bytes.len() % 4 != 0 {
-        return Err(format!("{path}: {} bytes, not a whole number of f32", bytes.len()));
-    }
-    Ok(bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
-}
+#[path = "../benches/common/mod.rs"]
+mod common;
 
 fn run(args: &[String]) -> Result<(), String> {
     let [dir, name, kind, passes, rest @ ..] = args else {
         return Err("usage: trace_exported DIR SCENE primary|incoherent PASSES [--miss]".into());
     };
     let passes: usize = passes.parse().map_err(|_| format!("PASSES: not a count: {passes}"))?;
-    let miss = rest.iter().any(|a| a == "--miss");
-    let positions: Vec<Vec3> = if miss {
-        vec![Vec3::splat(1e6), Vec3::new(1e6 + 1.0, 1e6, 1e6), Vec3::new(1e6, 1e6 + 1.0, 1e6)]
-    } else {
-        floats(&format!("{dir}/{name}.tris"))?.chunks_exact(3).map(Vec3::from_slice).collect()
-    };
-    let indices = (0..positions.len() as u32 / 3).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    let (mut tris, rays) = common::read_exported(dir, name, kind)?;
+    if rest.iter().any(|a| a == "--miss") {
+        tris = vec![[Vec3::splat(1e6), Vec3::new(1e6 + 1.0, 1e6, 1e6), Vec3::new(1e6, 1e6 + 1.0, 1e6)]];
+    }
+    let indices = (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    let positions = tris.into_iter().flatten().collect();
     let mesh = Mesh::new(positions, None, None, indices, None).map_err(|e| e.to_string())?;
     let scene = Scene::build(Vec::new(), vec![mesh]).map_err(|e| e.to_string())?;
-    let rays: Vec<Ray> = floats(&format!("{dir}/{name}_{kind}.rays"))?
-        .chunks_exact(6)
-        .map(|c| Ray { origin: Vec3::from_slice(&c[..3]), dir: Vec3::from_slice(&c[3..]) })
-        .collect();
     let mut hits = 0;
     for _ in 0..passes {
         hits += rays.iter().filter(|r| scene.intersect(std::hint::black_box(r), f32::INFINITY).is_some()).count();

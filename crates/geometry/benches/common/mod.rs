@@ -1,6 +1,7 @@
-//! Scenes and ray sets shared by the geometry benchmarks and the integration tests
-//! (`tests/it/main.rs` includes this file, and the integrator's `tests/it/terminator.rs`), so
-//! they trace the same generated geometry.
+//! Scenes and ray sets shared by the geometry benchmarks, the integration tests
+//! (`tests/it/main.rs` includes this file, and the integrator's `tests/it/terminator.rs`) and the
+//! `trace_exported` example, so they trace the same generated geometry; and the exported ray
+//! sets' writer and reader, side by side.
 #![allow(dead_code)] // each benchmark (and the tests) uses a part of it
 
 use std::io::Write;
@@ -151,6 +152,28 @@ fn write_f32(path: &std::path::Path, values: impl Iterator<Item = f32>) {
     for v in values {
         out.write_all(&v.to_le_bytes()).unwrap();
     }
+}
+
+/// What [`export`] wrote for scene `name` in `dir`: its triangles (three vertices each) and its
+/// `kind` ("primary" or "incoherent") rays. An error names the file that is missing or whose
+/// length is not whole triangles or rays.
+pub(crate) fn read_exported(dir: &str, name: &str, kind: &str) -> Result<(Vec<[Vec3; 3]>, Vec<Ray>), String> {
+    let read = |file: String, per: usize| -> Result<Vec<f32>, String> {
+        let path = Path::new(dir).join(file);
+        let bytes = std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        if bytes.len() % (4 * per) != 0 {
+            return Err(format!("{}: {} bytes, not a whole number of {per} f32", path.display(), bytes.len()));
+        }
+        Ok(bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
+    };
+    let v = |c: &[f32]| Vec3::from_slice(c);
+    let tris =
+        read(format!("{name}.tris"), 9)?.chunks_exact(9).map(|c| [v(&c[..3]), v(&c[3..6]), v(&c[6..])]).collect();
+    let rays = read(format!("{name}_{kind}.rays"), 6)?
+        .chunks_exact(6)
+        .map(|c| Ray { origin: v(&c[..3]), dir: v(&c[3..]) })
+        .collect();
+    Ok((tris, rays))
 }
 
 pub(crate) fn export(dir: &str, name: &str, mesh: &Mesh, primary: &[Ray], incoherent: &[Ray], hits: &str) {
