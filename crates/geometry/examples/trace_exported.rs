@@ -1,14 +1,19 @@
 //! Trace one ray set that `traversal_table` exported (`SPECTRACE_EXPORT_RAYS=DIR`) with
-//! `Scene::intersect`, `PASSES` times, and print the hits: a fixed workload for an instruction
-//! count. `xtask/compare/embree_trace.py` runs the same rays through Embree.
+//! `Scene::intersect` (`Scene::occluded` with `--any`), `PASSES` times, and print the hits and
+//! the rate (rays per second of this thread's CPU time over all passes, so a run of ~1 s reads
+//! the 4 ms clock to 0.4 %): a fixed workload for an instruction count, or for an A/B of two
+//! builds on the very same rays (`taskset -c 1`, the two binaries alternating).
+//! `xtask/compare/embree_trace.py` runs the same rays through Embree.
 //!
 //!     cargo build --profile bench -p geometry --example trace_exported
 //!     valgrind --tool=callgrind target/release/examples/trace_exported DIR terrain_2k primary 1
 //!     valgrind --tool=callgrind target/release/examples/trace_exported DIR terrain_2k primary 3
 //!
 //! Half the difference of the two totals, over the ray count, is the instructions per ray of
-//! one pass (the build and the file reading cancel). With `--miss` the scene is one far-away
-//! triangle the rays all miss at the root: the fixed cost of a query.
+//! one pass (the build and the file reading cancel). With `--tool=cachegrind --cache-sim=no
+//! --branch-sim=yes`, the same difference counts branches and (simulated) mispredictions. With
+//! `--miss` the scene is one far-away triangle the rays all miss at the root: the fixed cost
+//! of a query.
 
 use std::process::ExitCode;
 
@@ -20,7 +25,7 @@ mod common;
 
 fn run(args: &[String]) -> Result<(), String> {
     let [dir, name, kind, passes, rest @ ..] = args else {
-        return Err("usage: trace_exported DIR SCENE primary|incoherent PASSES [--miss]".into());
+        return Err("usage: trace_exported DIR SCENE primary|incoherent PASSES [--miss] [--any]".into());
     };
     let passes: usize = passes.parse().map_err(|_| format!("PASSES: not a count: {passes}"))?;
     let (mut tris, rays) = common::read_exported(dir, name, kind)?;
@@ -31,11 +36,19 @@ fn run(args: &[String]) -> Result<(), String> {
     let positions = tris.into_iter().flatten().collect();
     let mesh = Mesh::new(positions, None, None, indices, None).map_err(|e| e.to_string())?;
     let scene = Scene::build(Vec::new(), vec![mesh]).map_err(|e| e.to_string())?;
+    let any = rest.iter().any(|a| a == "--any");
     let mut hits = 0;
+    let clock = || common::thread_cpu_seconds().ok_or("no thread CPU clock on this system");
+    let t0 = clock()?;
     for _ in 0..passes {
-        hits += rays.iter().filter(|r| scene.intersect(std::hint::black_box(r), f32::INFINITY).is_some()).count();
+        hits += if any {
+            rays.iter().filter(|r| scene.occluded(std::hint::black_box(r), f32::INFINITY)).count()
+        } else {
+            rays.iter().filter(|r| scene.intersect(std::hint::black_box(r), f32::INFINITY).is_some()).count()
+        };
     }
-    println!("{} rays × {passes} passes at {}: {hits} hits", rays.len(), scene.simd_level().name());
+    let rate = (rays.len() * passes) as f64 / (clock()? - t0) / 1e6;
+    println!("{name} {kind}{} {rate:.3} M/s over {passes} passes; {hits} hits", if any { " any" } else { "" });
     Ok(())
 }
 

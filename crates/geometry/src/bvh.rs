@@ -17,7 +17,7 @@ use crate::shapes::{Instances, Mesh, Sphere, transform_bounds};
 use crate::simd::{Kernel, NodeTest, SimdLevel, Supported, dispatch};
 use crate::sphere::{intersect_sphere, sphere_hit_point};
 use crate::triangle::{
-    NO_LANE, TriangleHit, TrianglePacket, TriangleRay, intersect_packet, intersect_permuted, triangle_point_error,
+    NO_LANE, TriangleHit, TrianglePacket, TriangleRay, intersect_packet, intersect_triangle, triangle_point_error,
 };
 use crate::wide::{Collapsed, MAX_PRIMITIVES, WideBvh, WideNode};
 
@@ -479,28 +479,11 @@ impl Scene {
         ray.origin.is_finite() && ray.dir.is_finite() && ray.dir != Vec3::ZERO
     }
 
-    /// [`Scene::query`] with the triangle test's axis permutation of `tri_ray` (fixed per ray).
-    #[inline(always)]
-    fn query_permuted<const CLOSEST: bool, const SKIP: bool, N: NodeTest>(
-        &self,
-        node_test: N,
-        ray: &Ray,
-        tri_ray: &TriangleRay,
-        t_max: f32,
-        skip: u32,
-    ) -> Option<(usize, f32, [f32; 3])> {
-        match tri_ray.axis() {
-            0 => self.query::<CLOSEST, SKIP, 1, 2, 0, N>(node_test, ray, tri_ray, t_max, skip),
-            1 => self.query::<CLOSEST, SKIP, 2, 0, 1, N>(node_test, ray, tri_ray, t_max, skip),
-            _ => self.query::<CLOSEST, SKIP, 0, 1, 2, N>(node_test, ray, tri_ray, t_max, skip),
-        }
-    }
-
     /// The closest hit (`CLOSEST`) or the first hit found (any-hit, for shadow rays: stops
     /// there), as (leaf-order slot, t, barycentrics); with `SKIP`, primitive `skip` is passed
     /// through.
     #[inline(always)]
-    fn query<const CLOSEST: bool, const SKIP: bool, const KX: usize, const KY: usize, const KZ: usize, N: NodeTest>(
+    fn query<const CLOSEST: bool, const SKIP: bool, N: NodeTest>(
         &self,
         node_test: N,
         ray: &Ray,
@@ -531,7 +514,7 @@ impl Scene {
                             intersect_sphere(&self.spheres[*prim as usize], ray.origin, ray.dir, t_max)
                                 .map(|t| (t, [0.0; 3]))
                         } else {
-                            intersect_permuted::<KX, KY, KZ>(tri_ray, t_max, *p0, *p1, *p2).map(|h| (h.t, h.b))
+                            intersect_triangle(tri_ray, t_max, *p0, *p1, *p2).map(|h| (h.t, h.b))
                         };
                         if let Some((t, b)) = hit {
                             best = Some((start + slot, t, b));
@@ -545,7 +528,7 @@ impl Scene {
                 }
                 let packet = start;
                 // (Triangles only: a sphere is a leaf of its own, among the singles.)
-                match intersect_packet::<KX, KY, KZ>(tri_ray, t_max, &self.packets[packet], SKIP.then_some(skip)) {
+                match intersect_packet(tri_ray, t_max, &self.packets[packet], SKIP.then_some(skip)) {
                     Some((lane, TriangleHit { t, b })) => {
                         best = Some((PACKED_SLOT | (4 * packet + lane), t, b));
                         CLOSEST.then_some(t)
@@ -880,7 +863,7 @@ impl<const CLOSEST: bool, const SKIP: bool> Kernel for Query<'_, CLOSEST, SKIP> 
     #[inline(always)]
     fn run<N: NodeTest>(self, node_test: N) -> Self::Output {
         let Self { scene, ray, t_max, skip } = self;
-        scene.query_permuted::<CLOSEST, SKIP, N>(node_test, ray, &TriangleRay::new(ray.origin, ray.dir), t_max, skip)
+        scene.query::<CLOSEST, SKIP, N>(node_test, ray, &TriangleRay::new(ray.origin, ray.dir), t_max, skip)
     }
 }
 
@@ -1043,13 +1026,8 @@ impl<const CLOSEST: bool> Kernel for TopQuery<'_, CLOSEST> {
                     }
                     let object = &set.objects[placement.object as usize];
                     let tri_ray = TriangleRay::new(object_ray.origin, object_ray.dir);
-                    let found = object.query_permuted::<CLOSEST, false, N>(
-                        node_test,
-                        &object_ray,
-                        &tri_ray,
-                        limit,
-                        NO_PRIMITIVE,
-                    );
+                    let found =
+                        object.query::<CLOSEST, false, N>(node_test, &object_ray, &tri_ray, limit, NO_PRIMITIVE);
                     if let Some((slot, t, b)) = found {
                         // Strictly closer than the best so far, as within one BVH.
                         if t + dt < t_max {

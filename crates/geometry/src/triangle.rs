@@ -16,7 +16,9 @@ pub(crate) struct TriangleRay {
     origin: Vec3,
     /// |dir|: t in the caller's units is t_unit / length.
     length: f32,
-    kz: usize,
+    /// The permutation (kx, ky, kz) = ((k+1)%3, (k+2)%3, k), k the axis the direction is
+    /// largest along, applied by run-time indexed loads in the tests below.
+    axes: [usize; 3],
     sx: f32,
     sy: f32,
     sz: f32,
@@ -35,18 +37,12 @@ impl TriangleRay {
         } else {
             2
         };
-        // (Spelled as a `match kz` the permutation took ~10 instructions fewer, but a branch per
-        // ray; with `Scene::valid` as one sum, ~2 % slower end to end: session 21.)
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
-        let d = Vec3::new(dir[kx], dir[ky], dir[kz]);
-        Self { origin, length, kz, sx: -d.x / d.z, sy: -d.y / d.z, sz: 1.0 / d.z }
-    }
-
-    /// The axis the ray's direction is largest along (0, 1, 2): the z of the permutation.
-    #[inline]
-    pub(crate) fn axis(&self) -> usize {
-        self.kz
+        // (Indexing an array: indexing the `Vec3` is a `match`, three branches per ray.)
+        let a = dir.to_array();
+        let d = Vec3::new(a[kx], a[ky], a[kz]);
+        Self { origin, length, axes: [kx, ky, kz], sx: -d.x / d.z, sy: -d.y / d.z, sz: 1.0 / d.z }
     }
 }
 
@@ -67,9 +63,11 @@ fn edge_f64(x0: f32, y1: f32, y0: f32, x1: f32) -> f32 {
 
 /// Intersect the triangle (p0, p1, p2) in (0, t_max), t in units of the ray's direction (strictly
 /// before `t_max`, as traversal needs: a later triangle must be strictly closer to replace a hit);
-/// degenerate triangles never hit. The axis permutation (KX, KY, KZ) = ((k+1)%3, (k+2)%3, k)
-/// with k = [`TriangleRay::axis`] is fixed at compile time: the caller dispatches once per
-/// ray instead of paying nine run-time indexed loads per triangle.
+/// degenerate triangles never hit. The ray's axis permutation is applied by indexed loads.
+/// (Until session 22 it was a const-generic parameter, the whole query compiled three times
+/// and picked per ray: that `match` on the ray's dominant axis was a branch most incoherent rays
+/// mispredicted, and three copies of the kernel; run-time indices cost almost nothing, and
+/// the queries ran 5–11 % faster: `docs/perf.md`, session 22.)
 ///
 /// The edge functions are plain `a·b − c·d` in f32, as in Woop et al. (not pbrt-v4's FMA
 /// `DifferenceOfProducts`): the two triangles sharing an edge evaluate it on the same
@@ -82,16 +80,11 @@ fn edge_f64(x0: f32, y1: f32, y0: f32, x1: f32) -> f32 {
 ///
 /// Also the reference of [`intersect_packet`] (tested lane for lane against this one).
 #[inline(always)]
-pub(crate) fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usize>(
-    r: &TriangleRay,
-    t_max: f32,
-    p0: Vec3,
-    p1: Vec3,
-    p2: Vec3,
-) -> Option<TriangleHit> {
+pub(crate) fn intersect_triangle(r: &TriangleRay, t_max: f32, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<TriangleHit> {
+    let [kx, ky, kz] = r.axes;
     let perm = |p: Vec3| {
         let q = (p - r.origin).to_array();
-        Vec3::new(q[KX], q[KY], q[KZ])
+        Vec3::new(q[kx], q[ky], q[kz])
     };
     let (mut p0t, mut p1t, mut p2t) = (perm(p0), perm(p1), perm(p2));
     p0t.x += r.sx * p0t.z;
@@ -113,7 +106,10 @@ pub(crate) fn intersect_permuted<const KX: usize, const KY: usize, const KZ: usi
     if e2 == 0.0 {
         e2 = edge_f64(p0t.x, p1t.y, p0t.y, p1t.x);
     }
-    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+    // Edges of both signs: outside. `|` and `&`, not `||` and `&&`: one branch on the outcome
+    // (mostly "outside", well predicted) instead of one per edge sign, which a ray's position
+    // makes random (session 22: 0.4 fewer mispredictions per incoherent ray, cachegrind).
+    if ((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0)) {
         return None;
     }
     let det = e0 + e1 + e2;
@@ -203,26 +199,27 @@ impl TrianglePacket {
     }
 }
 
-/// [`intersect_permuted`] on the four lanes of a packet at once: lane for lane the same IEEE
+/// [`intersect_triangle`] on the four lanes of a packet at once: lane for lane the same IEEE
 /// operations in the same order (four-lane glam `Vec4`, plain products, the same f64 recompute
 /// of an edge function that is exactly 0), so each lane's decision, t and barycentrics are
 /// bit for bit those of the scalar test at the same `t_max`. Of the lanes that hit (and are not
 /// `skip`), the nearest wins, the lowest lane on a tie: (lane, hit).
 #[inline(always)]
-pub(crate) fn intersect_packet<const KX: usize, const KY: usize, const KZ: usize>(
+pub(crate) fn intersect_packet(
     r: &TriangleRay,
     t_max: f32,
     pk: &TrianglePacket,
     skip: Option<u32>,
 ) -> Option<(usize, TriangleHit)> {
     use glam::{BVec4A, Vec4};
+    let [kx, ky, kz] = r.axes;
     let o = r.origin.to_array();
-    let (ox, oy, oz) = (Vec4::splat(o[KX]), Vec4::splat(o[KY]), Vec4::splat(o[KZ]));
+    let (ox, oy, oz) = (Vec4::splat(o[kx]), Vec4::splat(o[ky]), Vec4::splat(o[kz]));
     let (sx, sy, sz) = (Vec4::splat(r.sx), Vec4::splat(r.sy), Vec4::splat(r.sz));
     let vertex = |k: usize| {
-        let z = Vec4::from_array(pk.v[k][KZ]) - oz;
-        let x = Vec4::from_array(pk.v[k][KX]) - ox + sx * z;
-        let y = Vec4::from_array(pk.v[k][KY]) - oy + sy * z;
+        let z = Vec4::from_array(pk.v[k][kz]) - oz;
+        let x = Vec4::from_array(pk.v[k][kx]) - ox + sx * z;
+        let y = Vec4::from_array(pk.v[k][ky]) - oy + sy * z;
         (x, y, z)
     };
     let (p0x, p0y, p0z) = vertex(0);
@@ -307,21 +304,8 @@ pub(crate) fn intersect_packet<const KX: usize, const KY: usize, const KZ: usize
 mod tests {
     use super::*;
 
-    /// Dispatch of the scalar test's permutation, as `bvh.rs` does for the packet test.
     fn scalar(r: &TriangleRay, t_max: f32, p: [Vec3; 3]) -> Option<TriangleHit> {
-        match r.axis() {
-            0 => intersect_permuted::<1, 2, 0>(r, t_max, p[0], p[1], p[2]),
-            1 => intersect_permuted::<2, 0, 1>(r, t_max, p[0], p[1], p[2]),
-            _ => intersect_permuted::<0, 1, 2>(r, t_max, p[0], p[1], p[2]),
-        }
-    }
-
-    fn packet(r: &TriangleRay, t_max: f32, pk: &TrianglePacket, skip: Option<u32>) -> Option<(usize, TriangleHit)> {
-        match r.axis() {
-            0 => intersect_packet::<1, 2, 0>(r, t_max, pk, skip),
-            1 => intersect_packet::<2, 0, 1>(r, t_max, pk, skip),
-            _ => intersect_packet::<0, 1, 2>(r, t_max, pk, skip),
-        }
+        intersect_triangle(r, t_max, p[0], p[1], p[2])
     }
 
     #[test]
@@ -365,7 +349,7 @@ mod tests {
                     }
                 }
             }
-            let got = packet(&r, t_max, &pk, skip);
+            let got = intersect_packet(&r, t_max, &pk, skip);
             let bits = |x: Option<(usize, TriangleHit)>| x.map(|(l, h)| (l, h.t.to_bits(), h.b.map(f32::to_bits)));
             assert_eq!(bits(got), bits(expected), "case {case}");
             hits += usize::from(got.is_some());
@@ -379,7 +363,7 @@ mod tests {
                 }
                 alone.prim[lane] = 7;
                 let want = scalar(&r, t_max, tris[0].0).map(|h| (lane, h));
-                assert_eq!(bits(packet(&r, t_max, &alone, None)), bits(want), "case {case}, lane {lane}");
+                assert_eq!(bits(intersect_packet(&r, t_max, &alone, None)), bits(want), "case {case}, lane {lane}");
             }
         }
         // The cases must exercise both outcomes and the exact-edge path.
@@ -392,10 +376,10 @@ mod tests {
         // A packet of one triangle: rays through the NaN lanes' "triangles" find nothing else.
         let pk = TrianglePacket::new([([Vec3::ZERO, Vec3::X, Vec3::Y], 3)]);
         let r = TriangleRay::new(Vec3::new(0.25, 0.25, 1.0), Vec3::NEG_Z);
-        let (lane, h) = intersect_packet::<0, 1, 2>(&r, f32::INFINITY, &pk, None).expect("the triangle");
+        let (lane, h) = intersect_packet(&r, f32::INFINITY, &pk, None).expect("the triangle");
         assert_eq!((lane, h.t), (0, 1.0));
-        assert!(intersect_packet::<0, 1, 2>(&r, f32::INFINITY, &pk, Some(3)).is_none(), "skipped");
+        assert!(intersect_packet(&r, f32::INFINITY, &pk, Some(3)).is_none(), "skipped");
         let miss = TriangleRay::new(Vec3::new(2.0, 2.0, 1.0), Vec3::NEG_Z);
-        assert!(intersect_packet::<0, 1, 2>(&miss, f32::INFINITY, &pk, None).is_none());
+        assert!(intersect_packet(&miss, f32::INFINITY, &pk, None).is_none());
     }
 }
