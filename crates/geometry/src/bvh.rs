@@ -1,6 +1,6 @@
 //! The acceleration structure: obvhs builds a binary BVH over conservatively padded primitive
 //! bounds, which we collapse into an eight-wide one and traverse ourselves (`wide.rs`), running
-//! our watertight triangle test (four triangles of a leaf at once) and stable sphere test at
+//! our watertight triangle test (four triangles of a leaf at once, one or two packets a leaf) and stable sphere test at
 //! its leaves.
 
 use std::time::{Duration, Instant};
@@ -84,9 +84,9 @@ const MAX_UNSCALED_MAGNITUDE: f32 = (1u64 << 40) as f32;
 /// What a tree's leaves hold, which decides their cost and size.
 #[derive(Debug, Clone, Copy)]
 enum Leaves {
-    /// Spheres and triangles (the first `n_spheres` primitives are spheres): a leaf of three or
-    /// four triangles is one [`TrianglePacket`], tested at once; one of one or two triangles, or
-    /// one sphere, is tested a primitive at a time.
+    /// Spheres and triangles (the first `n_spheres` primitives are spheres): a leaf of three to
+    /// eight triangles is one or two [`TrianglePacket`]s, each tested at once; one of one or two
+    /// triangles, or one sphere, is tested a primitive at a time.
     Primitives { n_spheres: u32 },
     /// Placements of the top level: one per leaf, each leaf a whole object traversal.
     Placements,
@@ -106,7 +106,10 @@ enum Leaves {
 /// test (0.3 per triangle is Ylitie et al.'s constant, and obvhs's); smaller leaves 0.3·n. One `traversal_table` run
 /// each (1 thread, AVX2, primary/incoherent/any-hit M rays/s): on the 100k terrain leaves costed
 /// 0.3·n gave 6.24/3.33/3.60, 0.3·(1 + 0.3·(n − 1)) 6.25/3.59/3.99; on the 1M terrain
-/// 0.3·(1 + 0.1·(n − 1)) gave 4.37/2.21/2.28 against 4.52/2.48/2.66. A placement is a leaf of its
+/// 0.3·(1 + 0.1·(n − 1)) gave 4.37/2.21/2.28 against 4.52/2.48/2.66. A leaf of five to eight is
+/// two packets, costed as a full one plus one of n − 4 (session 22; costing it as one packet of n,
+/// so that larger leaves are chosen more often, measured within ±1 % of that: terrain 2k and
+/// 100k, `trace_exported`, 4 interleaved rounds). A placement is a leaf of its
 /// own: each is a whole object's traversal (leaves of up to four cost the instanced row 10–20 %).
 fn build_scaled(mut bounds: Vec<Bounds>, lo: Vec3, hi: Vec3, leaves: Leaves) -> Collapsed {
     let magnitude = lo.abs().max(hi.abs()).max_element();
@@ -137,7 +140,11 @@ fn build_scaled(mut bounds: Vec<Bounds>, lo: Vec3, hi: Vec3, leaves: Leaves) -> 
         Leaves::Primitives { n_spheres } => WideBvh::from_bvh2(
             &bvh2,
             scale,
-            |count| if count < PACKED_FROM { 0.3 * count as f32 } else { 0.3 * (1.0 + 0.3 * (count as f32 - 1.0)) },
+            |count| match count {
+                _ if count < PACKED_FROM => 0.3 * count as f32,
+                ..=4 => 0.3 * (1.0 + 0.3 * (count as f32 - 1.0)),
+                _ => 0.3 * (1.0 + 0.3 * 3.0) + 0.3 * (1.0 + 0.3 * (count as f32 - 5.0)),
+            },
             // A packet holds triangles only; a sphere is a leaf of its own.
             |prims| prims.len() == 1 || prims.iter().all(|&p| p >= n_spheres),
             PACKED_FROM,
@@ -170,8 +177,8 @@ pub struct Scene {
     triangle_offsets: Vec<u32>,
     triangle_count: usize,
     bvh: WideBvh,
-    /// One packet per leaf of three or four triangles ([`PACKED_FROM`]), in the BVH's leaf order
-    /// (such a leaf refers to its packet): the triangles' vertices and global primitive indices.
+    /// One packet per four triangles of a leaf of three to eight ([`PACKED_FROM`]), in the BVH's
+    /// leaf order (such a leaf refers to its first packet): the triangles' vertices and global primitive indices.
     /// Traversal reads it in order, without an index indirection.
     packets: Vec<TrianglePacket>,
     /// The primitives of the smaller leaves (one or two triangles, or a sphere), in leaf order (a
@@ -526,15 +533,21 @@ impl Scene {
                     }
                     return Some(t_max);
                 }
-                let packet = start;
-                // (Triangles only: a sphere is a leaf of its own, among the singles.)
-                match intersect_packet(tri_ray, t_max, &self.packets[packet], SKIP.then_some(skip)) {
-                    Some((lane, TriangleHit { t, b })) => {
+                // (Triangles only: a sphere is a leaf of its own, among the singles.) One or two
+                // packets; the second sees the first's hit as `t_max`, so only a strictly closer
+                // hit replaces it, as between leaves.
+                for packet in start..start + count.div_ceil(4) {
+                    if let Some((lane, TriangleHit { t, b })) =
+                        intersect_packet(tri_ray, t_max, &self.packets[packet], SKIP.then_some(skip))
+                    {
                         best = Some((PACKED_SLOT | (4 * packet + lane), t, b));
-                        CLOSEST.then_some(t)
+                        if !CLOSEST {
+                            return None;
+                        }
+                        t_max = t;
                     }
-                    None => Some(t_max),
                 }
+                Some(t_max)
             },
         );
         best
@@ -1075,8 +1088,13 @@ mod tests {
         if count < PACKED_FROM {
             scene.singles[start..start + count].iter().map(|s| s.1).collect()
         } else {
-            scene.packets[start].prim[..count].to_vec()
+            packet_lanes(scene, (start, count))[..count].to_vec()
         }
+    }
+
+    /// The lanes of a packed leaf's packets, in order.
+    fn packet_lanes(scene: &Scene, (start, count): (usize, usize)) -> Vec<u32> {
+        scene.packets[start..start + count.div_ceil(4)].iter().flat_map(|p| p.prim).collect()
     }
 
     /// Every primitive is in exactly one leaf of the tree.
@@ -1101,7 +1119,7 @@ mod tests {
     }
 
     #[test]
-    fn leaves_of_three_or_four_triangles_are_packets_and_spheres_stand_alone() {
+    fn leaves_of_three_to_eight_triangles_are_packets_and_spheres_stand_alone() {
         // Thirty small spheres along the x axis among 400 small triangles along the same line, so
         // that the binary tree mixes the two kinds in small subtrees.
         let spheres: Vec<Sphere> =
@@ -1118,28 +1136,46 @@ mod tests {
         assert_each_primitive_once(&scene);
         let leaves = scene.bvh.leaves();
         let packed: Vec<_> = leaves.iter().filter(|l| l.1 >= PACKED_FROM).collect();
-        assert_eq!(packed.len(), scene.packets.len(), "one packet per leaf of three or four");
+        let packets: usize = packed.iter().map(|l| l.1.div_ceil(4)).sum();
+        assert_eq!(packets, scene.packets.len(), "one packet per four triangles of a packed leaf");
+        assert!(packed.iter().any(|l| l.1 > 4), "no leaf of two packets: {packed:?}");
         assert_eq!(leaves.iter().filter(|l| l.1 < PACKED_FROM).map(|l| l.1).sum::<usize>(), scene.singles.len());
         let (mut sphere_leaves, mut packed_triangles) = (0, 0);
         for &leaf in &leaves {
             let prims = leaf_primitives(&scene, leaf);
-            assert!((1..=4).contains(&prims.len()));
+            assert!((1..=8).contains(&prims.len()));
             if prims.iter().any(|&p| p < 30) {
                 assert_eq!(prims.len(), 1, "a sphere shares a leaf: {prims:?}");
                 sphere_leaves += 1;
             }
         }
         for &&(packet, count) in &packed {
-            let pk = &scene.packets[packet];
-            assert!(pk.prim[..count].iter().all(|&p| p >= 30));
+            let lanes = packet_lanes(&scene, (packet, count));
+            assert!(lanes[..count].iter().all(|&p| p >= 30));
             packed_triangles += count;
-            for lane in count..4 {
-                assert_eq!(pk.prim[lane], NO_LANE);
-                assert!(pk.vertices(lane).iter().all(|v| v.is_nan()));
+            for (lane, &prim) in lanes.iter().enumerate().skip(count) {
+                assert_eq!(prim, NO_LANE);
+                assert!(scene.packets[packet + lane / 4].vertices(lane % 4).iter().all(|v| v.is_nan()));
             }
         }
         assert_eq!(sphere_leaves, 30);
         assert!(packed_triangles > 100, "{packed_triangles} triangles in packets");
+        // Every triangle of a leaf's second packet is found, closest and any-hit, by a ray at
+        // its centroid along its plane's normal (all 400 triangles lie in one plane, side by side).
+        let mut second = 0;
+        for &&(packet, count) in packed.iter().filter(|l| l.1 > 4) {
+            for lane in 0..count - 4 {
+                let pk = &scene.packets[packet + 1];
+                let [p0, p1, p2] = pk.vertices(lane);
+                let n = (p1 - p0).cross(p2 - p0).normalize();
+                let ray = Ray { origin: (p0 + p1 + p2) / 3.0 + 1e-3 * n, dir: -n };
+                let hit = scene.intersect(&ray, f32::INFINITY).expect("the triangle");
+                assert_eq!(hit.primitive, pk.prim[lane]);
+                assert!(scene.occluded(&ray, f32::INFINITY));
+                second += 1;
+            }
+        }
+        assert!(second > 0);
     }
 
     #[test]

@@ -158,7 +158,7 @@ pub(crate) fn triangle_point_error(b: [f32; 3], p0: Vec3, p1: Vec3, p2: Vec3) ->
     ((b[0] * p0).abs() + (b[1] * p1).abs() + (b[2] * p2).abs()) * gamma(7)
 }
 
-/// Up to four triangles of one leaf in structure-of-arrays form (`v[vertex][axis][lane]`) with
+/// Up to four triangles of one leaf (a leaf of five to eight has two packets) in structure-of-arrays form (`v[vertex][axis][lane]`) with
 /// their primitive indices, so that one leaf is one four-lane watertight test (as Embree's
 /// `triangle4v`): no index indirection, and the triangles of a leaf cost about one test.
 /// Unused lanes hold NaN vertices (never hit, and never reach the f64 edge path) and

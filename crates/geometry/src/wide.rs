@@ -1,9 +1,9 @@
 //! Our eight-wide BVH and its traversal. obvhs builds a binary BVH (PLOC and reinsertion),
 //! which we collapse into eight-wide nodes by a surface-area cost ([`WideBvh::from_bvh2`]):
 //! full-precision child boxes in structure-of-arrays form, so a node test is eight slab tests
-//! on rows of eight lanes, and leaves of up to four primitives; `bvh.rs` stores a leaf of three
-//! or four triangles as one four-lane packet (`triangle.rs` `TrianglePacket`), a smaller one as
-//! single triangles. The node test itself lives in `simd.rs` (SSE2 halves, or one AVX2
+//! on rows of eight lanes, and leaves of up to eight primitives; `bvh.rs` stores a leaf of three
+//! to eight triangles as one or two four-lane packets (`triangle.rs` `TrianglePacket`), a
+//! smaller one as single triangles. The node test itself lives in `simd.rs` (SSE2 halves, or one AVX2
 //! eight-lane test, picked per scene); this module is the layout and the traversal loop,
 //! generic over it. Children are visited nearest first and stack entries carry their entry
 //! distance, so subtrees behind the closest hit so far are skipped when popped.
@@ -68,7 +68,8 @@ pub(crate) struct Collapsed {
     pub(crate) bvh: WideBvh,
     /// The primitives of the leaves below `packed_from`, in leaf order.
     pub(crate) singles: Vec<u32>,
-    /// The packed leaves' primitives, four slots per leaf (`NO_LANE` where unused).
+    /// The packed leaves' primitives, four slots per packet and one or two packets per leaf
+    /// (`NO_LANE` where unused).
     pub(crate) packed: Vec<u32>,
     /// The tree's surface-area cost, as the collapse computed it.
     #[cfg_attr(not(test), allow(dead_code))]
@@ -77,14 +78,19 @@ pub(crate) struct Collapsed {
 
 /// Marks an empty child slot (its bounds are inverted, so it is never hit either).
 const EMPTY: u32 = u32::MAX;
-/// Set in a child reference that is a leaf: bits 29–30 hold count − 1, bits 0–28 where it
-/// starts (its first slot, or its packet: [`WideBvh::from_bvh2`]).
+/// Set in a child reference that is a leaf: bits 28–30 hold count − 1, bits 0–27 where it
+/// starts (its first slot, or its first packet: [`WideBvh::from_bvh2`]). (28 bits: 2²⁸ ≈ 268M
+/// primitives per tree, which the loaders' charge of 256 bytes per triangle puts at a 64 GiB
+/// budget; until session 22 leaves held four and starts had 29 bits.)
 const LEAF: u32 = 1 << 31;
-const LEAF_START_BITS: u32 = 29;
+const LEAF_START_BITS: u32 = 28;
 /// One past the largest start a leaf reference can address.
 pub(crate) const MAX_PRIMITIVES: usize = 1 << LEAF_START_BITS;
-/// Most primitives a leaf can hold (count − 1 in two bits).
-pub(crate) const MAX_LEAF: usize = 4;
+/// Most primitives a leaf can hold (count − 1 in three bits). Eight rather than four (session
+/// 22, `docs/perf.md`): a third fewer nodes (terrain 100k 7110 → 4864) and 3–10 % faster
+/// queries in `traversal_table`, for 2–4 bytes per triangle less; every node visited is several
+/// hard-to-predict branches (leaf or not, how many children), a second packet of a leaf none.
+pub(crate) const MAX_LEAF: usize = 8;
 
 /// Eight children's boxes (min/max per axis, structure of arrays: one row of eight lanes per
 /// plane) and references.
@@ -262,10 +268,10 @@ impl WideBvh {
                 node.children[slot] = if how[item][0] == LEAF_SLOT {
                     let (first, count) = (span[item].0 as usize, span[item].1 as usize);
                     let start = if count >= packed_from {
-                        // One packet of four slots per leaf, the unused ones `NO_LANE`.
+                        // A packet of four slots per four primitives, the unused ones `NO_LANE`.
                         let start = packed.len();
                         packed.extend_from_slice(&prims[first..first + count]);
-                        packed.resize(start + PACKET, NO_LANE);
+                        packed.resize(start + PACKET * count.div_ceil(PACKET), NO_LANE);
                         start / PACKET
                     } else {
                         order.extend_from_slice(&prims[first..first + count]);
@@ -302,7 +308,7 @@ impl WideBvh {
             for &c in &node.children {
                 if c != EMPTY && c & LEAF != 0 {
                     let start = (c & (MAX_PRIMITIVES as u32 - 1)) as usize;
-                    leaves.push((start, ((c >> LEAF_START_BITS) & 3) as usize + 1));
+                    leaves.push((start, ((c >> LEAF_START_BITS) & 7) as usize + 1));
                 }
             }
         }
@@ -399,7 +405,7 @@ impl WideBvh {
                 current = entries[count - 1].0;
             } else {
                 let start = (current & (MAX_PRIMITIVES as u32 - 1)) as usize;
-                let count = ((current >> LEAF_START_BITS) & 3) as usize + 1;
+                let count = ((current >> LEAF_START_BITS) & 7) as usize + 1;
                 match leaf(start, count, t_max) {
                     Some(t) => t_max = t,
                     None => return,
@@ -512,7 +518,7 @@ mod tests {
                 }
                 let r = node.children[k];
                 if r & LEAF != 0 {
-                    total += f64::from(half_area(node, k) * leaf_cost(((r >> LEAF_START_BITS) & 3) as usize + 1));
+                    total += f64::from(half_area(node, k) * leaf_cost(((r >> LEAF_START_BITS) & 7) as usize + 1));
                 }
             }
             let d = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
