@@ -342,8 +342,11 @@ impl WideBvh {
             let r = 1.0 / d;
             if r.is_finite() { r } else { 1e30f32.copysign(r) }
         });
-        // Which of bounds[2a], bounds[2a+1] is the near plane on each axis.
-        let near = inv.map(|r| usize::from(r < 0.0));
+        // Which of bounds[2a], bounds[2a+1] is the near plane on each axis: the reciprocal's
+        // sign bit (it is never ±0 or NaN, so the bit says `r < 0`). As `usize::from(r < 0.0)`
+        // some builds compiled it to three branches that the paper's scene mispredicted 0.3
+        // times per ray (cachegrind, session 22); a bit cannot become a branch.
+        let near = inv.map(|r| (r.to_bits() >> 31) as usize);
         let ray = NodeRay { origin, inv, near, far_scale: FAR_SCALE };
 
         let mut stack = Stack::new();
