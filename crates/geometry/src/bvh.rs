@@ -538,7 +538,7 @@ impl Scene {
                 // hit replaces it, as between leaves.
                 for packet in start..start + count.div_ceil(4) {
                     if let Some((lane, TriangleHit { t, b })) =
-                        intersect_packet(tri_ray, t_max, &self.packets[packet], SKIP.then_some(skip))
+                        intersect_packet::<CLOSEST>(tri_ray, t_max, &self.packets[packet], SKIP.then_some(skip))
                     {
                         best = Some((PACKED_SLOT | (4 * packet + lane), t, b));
                         if !CLOSEST {
