@@ -11,7 +11,8 @@ embreex), PASSES times: the Embree side of an instruction count, like
 (valgrind needs the interpreter itself, not a pyenv shim.) Half the difference of the two
 totals, over the ray count, is one pass's instructions per ray, embreex's Cython loop and its
 per-ray copies included. With --miss the scene is one far-away triangle the rays all miss:
-that loop plus Embree's fixed cost per query. valgrind reports no AVX-512, so Embree runs its
+that loop plus Embree's fixed cost per query. With --any the queries are `rtcOccluded1`, as
+`trace_exported --any` runs `Scene::occluded`. valgrind reports no AVX-512, so Embree runs its
 AVX2 kernels there, as ours do.
 """
 
@@ -31,6 +32,7 @@ def main():
     ap.add_argument("kind", choices=["primary", "incoherent"])
     ap.add_argument("passes", type=int)
     ap.add_argument("--miss", action="store_true")
+    ap.add_argument("--any", action="store_true")
     args = ap.parse_args()
     if args.miss:
         tris = MISS_TRIANGLE
@@ -41,8 +43,9 @@ def main():
     mc.TriangleMesh(scene, tris)
     scene.run(np.zeros((1, 3), np.float32), np.ones((1, 3), np.float32))  # commit (build)
     hits = 0
+    query = "OCCLUDED" if args.any else "INTERSECT"
     for _ in range(args.passes):
-        hits += int((scene.run(o, d, query="INTERSECT") != -1).sum())
+        hits += int((scene.run(o, d, query=query) != -1).sum())
     print(f"{len(o)} rays x {args.passes} passes: {hits} hits")
 
 

@@ -1,7 +1,7 @@
 //! The acceleration structure: obvhs builds a binary BVH over conservatively padded primitive
 //! bounds, which we collapse into an eight-wide one and traverse ourselves (`wide.rs`), running
-//! our watertight triangle test (four triangles of a leaf at once, one or two packets a leaf) and stable sphere test at
-//! its leaves.
+//! our watertight triangle test (four triangles of a leaf at once; a leaf has one or two such
+//! packets) and stable sphere test at its leaves.
 
 use std::time::{Duration, Instant};
 
@@ -19,7 +19,7 @@ use crate::sphere::{intersect_sphere, sphere_hit_point};
 use crate::triangle::{
     NO_LANE, TriangleHit, TrianglePacket, TriangleRay, intersect_packet, intersect_triangle, triangle_point_error,
 };
-use crate::wide::{Collapsed, MAX_PRIMITIVES, WideBvh, WideNode};
+use crate::wide::{Collapsed, MAX_PRIMITIVES, WideBvh, WideNode, packets_in};
 
 /// What a global primitive index refers to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -140,10 +140,13 @@ fn build_scaled(mut bounds: Vec<Bounds>, lo: Vec3, hi: Vec3, leaves: Leaves) -> 
         Leaves::Primitives { n_spheres } => WideBvh::from_bvh2(
             &bvh2,
             scale,
-            |count| match count {
-                _ if count < PACKED_FROM => 0.3 * count as f32,
-                ..=4 => 0.3 * (1.0 + 0.3 * (count as f32 - 1.0)),
-                _ => 0.3 * (1.0 + 0.3 * 3.0) + 0.3 * (1.0 + 0.3 * (count as f32 - 5.0)),
+            |count| {
+                let packet = |n: usize| 0.3 * (1.0 + 0.3 * (n as f32 - 1.0));
+                match count {
+                    _ if count < PACKED_FROM => 0.3 * count as f32,
+                    ..=4 => packet(count),
+                    _ => packet(4) + packet(count - 4),
+                }
             },
             // A packet holds triangles only; a sphere is a leaf of its own.
             |prims| prims.len() == 1 || prims.iter().all(|&p| p >= n_spheres),
@@ -178,8 +181,8 @@ pub struct Scene {
     triangle_count: usize,
     bvh: WideBvh,
     /// One packet per four triangles of a leaf of three to eight ([`PACKED_FROM`]), in the BVH's
-    /// leaf order (such a leaf refers to its first packet): the triangles' vertices and global primitive indices.
-    /// Traversal reads it in order, without an index indirection.
+    /// leaf order (such a leaf refers to its first packet): the triangles' vertices and global
+    /// primitive indices. Traversal reads it in order, without an index indirection.
     packets: Vec<TrianglePacket>,
     /// The primitives of the smaller leaves (one or two triangles, or a sphere), in leaf order (a
     /// leaf refers to consecutive slots): triangle vertices (NaN for a sphere) and the global
@@ -536,7 +539,7 @@ impl Scene {
                 // (Triangles only: a sphere is a leaf of its own, among the singles.) One or two
                 // packets; the second sees the first's hit as `t_max`, so only a strictly closer
                 // hit replaces it, as between leaves.
-                for packet in start..start + count.div_ceil(4) {
+                for packet in start..start + packets_in(count) {
                     if let Some((lane, TriangleHit { t, b })) =
                         intersect_packet::<CLOSEST>(tri_ray, t_max, &self.packets[packet], SKIP.then_some(skip))
                     {
@@ -1094,7 +1097,7 @@ mod tests {
 
     /// The lanes of a packed leaf's packets, in order.
     fn packet_lanes(scene: &Scene, (start, count): (usize, usize)) -> Vec<u32> {
-        scene.packets[start..start + count.div_ceil(4)].iter().flat_map(|p| p.prim).collect()
+        scene.packets[start..start + packets_in(count)].iter().flat_map(|p| p.prim).collect()
     }
 
     /// Every primitive is in exactly one leaf of the tree.
@@ -1136,7 +1139,7 @@ mod tests {
         assert_each_primitive_once(&scene);
         let leaves = scene.bvh.leaves();
         let packed: Vec<_> = leaves.iter().filter(|l| l.1 >= PACKED_FROM).collect();
-        let packets: usize = packed.iter().map(|l| l.1.div_ceil(4)).sum();
+        let packets: usize = packed.iter().map(|l| packets_in(l.1)).sum();
         assert_eq!(packets, scene.packets.len(), "one packet per four triangles of a packed leaf");
         assert!(packed.iter().any(|l| l.1 > 4), "no leaf of two packets: {packed:?}");
         assert_eq!(leaves.iter().filter(|l| l.1 < PACKED_FROM).map(|l| l.1).sum::<usize>(), scene.singles.len());

@@ -40,8 +40,8 @@ impl TriangleRay {
         let kx = (kz + 1) % 3;
         let ky = (kx + 1) % 3;
         // (Indexing an array: indexing the `Vec3` is a `match`, three branches per ray.)
-        let a = dir.to_array();
-        let d = Vec3::new(a[kx], a[ky], a[kz]);
+        let c = dir.to_array();
+        let d = Vec3::new(c[kx], c[ky], c[kz]);
         Self { origin, length, axes: [kx, ky, kz], sx: -d.x / d.z, sy: -d.y / d.z, sz: 1.0 / d.z }
     }
 }
@@ -158,9 +158,10 @@ pub(crate) fn triangle_point_error(b: [f32; 3], p0: Vec3, p1: Vec3, p2: Vec3) ->
     ((b[0] * p0).abs() + (b[1] * p1).abs() + (b[2] * p2).abs()) * gamma(7)
 }
 
-/// Up to four triangles of one leaf (a leaf of five to eight has two packets) in structure-of-arrays form (`v[vertex][axis][lane]`) with
-/// their primitive indices, so that one leaf is one four-lane watertight test (as Embree's
-/// `triangle4v`): no index indirection, and the triangles of a leaf cost about one test.
+/// Up to four triangles of one leaf (a leaf of five to eight has two packets) in
+/// structure-of-arrays form (`v[vertex][axis][lane]`) with their primitive indices, so that a
+/// packet is one four-lane watertight test (as Embree's `triangle4v`): no index indirection, and
+/// four triangles cost about one test.
 /// Unused lanes hold NaN vertices (never hit, and never reach the f64 edge path) and
 /// [`NO_LANE`].
 #[derive(Debug, Clone, Copy)]

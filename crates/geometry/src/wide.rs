@@ -3,9 +3,9 @@
 //! full-precision child boxes in structure-of-arrays form, so a node test is eight slab tests
 //! on rows of eight lanes, and leaves of up to eight primitives; `bvh.rs` stores a leaf of three
 //! to eight triangles as one or two four-lane packets (`triangle.rs` `TrianglePacket`), a
-//! smaller one as single triangles. The node test itself lives in `simd.rs` (SSE2 halves, or one AVX2
-//! eight-lane test, picked per scene); this module is the layout and the traversal loop,
-//! generic over it. Children are visited nearest first and stack entries carry their entry
+//! smaller one as single triangles. The node test itself lives in `simd.rs` (SSE2 halves, or
+//! one AVX2 eight-lane test, picked per scene); this module is the layout and the traversal
+//! loop, generic over it. Children are visited nearest first and stack entries carry their entry
 //! distance, so subtrees behind the closest hit so far are skipped when popped.
 //!
 //! Until session 14 the tree was obvhs's compressed wide BVH (CWBVH, Ylitie et al. 2017),
@@ -55,8 +55,15 @@ use crate::ray::gamma;
 use crate::simd::{NodeRay, NodeTest};
 use crate::triangle::NO_LANE;
 
-/// Slots of a packed leaf.
+/// Slots of a packet (a packed leaf has one or two).
 const PACKET: usize = 4;
+
+/// How many packets a packed leaf of `count` primitives has (its first is where its reference
+/// starts, [`leaf_parts`]).
+#[inline(always)]
+pub(crate) fn packets_in(count: usize) -> usize {
+    count.div_ceil(PACKET)
+}
 
 /// Ize 2013, §3: scaling the far distance by 1 + 2γ(3) covers the rounding of the slab
 /// distances (one subtraction, one product with a rounded reciprocal). Evaluated at compile
@@ -91,6 +98,13 @@ pub(crate) const MAX_PRIMITIVES: usize = 1 << LEAF_START_BITS;
 /// queries in `traversal_table`, for 2–4 bytes per triangle less; every node visited is several
 /// hard-to-predict branches (leaf or not, how many children), a second packet of a leaf none.
 pub(crate) const MAX_LEAF: usize = 8;
+const _: () = assert!(MAX_LEAF.is_power_of_two() && (((MAX_LEAF - 1) as u32) << LEAF_START_BITS) < LEAF);
+
+/// (start, count) of a leaf reference (one with [`LEAF`] set).
+#[inline(always)]
+fn leaf_parts(c: u32) -> (usize, usize) {
+    ((c & (MAX_PRIMITIVES as u32 - 1)) as usize, ((c >> LEAF_START_BITS) & (MAX_LEAF as u32 - 1)) as usize + 1)
+}
 
 /// Eight children's boxes (min/max per axis, structure of arrays: one row of eight lanes per
 /// plane) and references.
@@ -271,7 +285,7 @@ impl WideBvh {
                         // A packet of four slots per four primitives, the unused ones `NO_LANE`.
                         let start = packed.len();
                         packed.extend_from_slice(&prims[first..first + count]);
-                        packed.resize(start + PACKET * count.div_ceil(PACKET), NO_LANE);
+                        packed.resize(start + PACKET * packets_in(count), NO_LANE);
                         start / PACKET
                     } else {
                         order.extend_from_slice(&prims[first..first + count]);
@@ -307,8 +321,7 @@ impl WideBvh {
         for node in &self.nodes {
             for &c in &node.children {
                 if c != EMPTY && c & LEAF != 0 {
-                    let start = (c & (MAX_PRIMITIVES as u32 - 1)) as usize;
-                    leaves.push((start, ((c >> LEAF_START_BITS) & 7) as usize + 1));
+                    leaves.push(leaf_parts(c));
                 }
             }
         }
@@ -407,8 +420,7 @@ impl WideBvh {
                 }
                 current = entries[count - 1].0;
             } else {
-                let start = (current & (MAX_PRIMITIVES as u32 - 1)) as usize;
-                let count = ((current >> LEAF_START_BITS) & 7) as usize + 1;
+                let (start, count) = leaf_parts(current);
                 match leaf(start, count, t_max) {
                     Some(t) => t_max = t,
                     None => return,
@@ -521,7 +533,7 @@ mod tests {
                 }
                 let r = node.children[k];
                 if r & LEAF != 0 {
-                    total += f64::from(half_area(node, k) * leaf_cost(((r >> LEAF_START_BITS) & 7) as usize + 1));
+                    total += f64::from(half_area(node, k) * leaf_cost(leaf_parts(r).1));
                 }
             }
             let d = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
