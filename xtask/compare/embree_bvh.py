@@ -18,6 +18,12 @@ embreex loops over the rays in Cython and copies each result to numpy, which cos
 Embree's own benchmarks do not pay. That per-ray overhead is measured on the same number of
 rays against a one-triangle scene the rays all miss at the root, and reported; "net" figures
 subtract it (favouring Embree), "gross" figures do not.
+
+The "net" figures favour Embree by far more than the loop: a root-miss query is also Embree's
+own fixed cost per query (about 22 ns of one here, session 23, `docs/perf.md`), which the
+subtraction removes too. `embree_direct.c` calls the same library from C in a plain loop and
+measures Embree as it runs; `trace_ab.py` alternates it with ours on the same rays. Its rates
+fall between this script's two (closer to "gross"), and they are the ones to compare with.
 """
 
 import argparse
