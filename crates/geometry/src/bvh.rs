@@ -7,12 +7,10 @@ use std::time::{Duration, Instant};
 
 use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
-use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
-use obvhs::ploc::PlocBuilder;
-use obvhs::{Boundable, BvhBuildParams};
 
 use crate::error::{Error, Result};
 use crate::ray::{Hit, NO_PRIMITIVE, Ray, ShadowRay, gamma, offset_ray_origin};
+use crate::sah;
 use crate::shapes::{Instances, Mesh, Sphere, transform_bounds};
 use crate::simd::{Kernel, NodeTest, SimdLevel, Supported, dispatch};
 use crate::sphere::{intersect_sphere, sphere_hit_point};
@@ -56,12 +54,6 @@ pub struct BvhStats {
 /// box test at shared edges and vertices).
 struct Bounds(Aabb);
 
-impl Boundable for Bounds {
-    fn aabb(&self) -> Aabb {
-        self.0
-    }
-}
-
 /// Relative padding of primitive bounds: 2⁻¹⁸ ≈ 3.8e-6 of the coordinates' magnitude, far
 /// above the few ulps (≈ 6e-8 each) the slab test and the boxes' outward rounding can lose, far below any geometric feature that matters.
 const PAD_RELATIVE: f32 = 1.0 / 262_144.0;
@@ -72,7 +64,7 @@ fn padded(lo: Vec3, hi: Vec3) -> Bounds {
     Bounds(Aabb { min: Vec3A::from(lo - pad), max: Vec3A::from(hi + pad) })
 }
 
-/// Largest bound magnitude built as it is: 2⁴⁰ ≈ 1.1e12. The surface-area costs (obvhs's and the
+/// Largest bound magnitude built as it is: 2⁴⁰ ≈ 1.1e12. The surface-area costs (the build's and the
 /// collapse's, `wide.rs`) sum node areas in f32, which
 /// overflows to ∞ once the sum passes 3.4e38 (≈ 2000 coincident triangles spanning 1e18, the
 /// loaders' coordinate limit); every split then costs ∞ and none is chosen. (obvhs's CWBVH
@@ -93,12 +85,13 @@ enum Leaves {
 }
 
 /// The eight-wide BVH over `bounds` (whose union is `lo`..`hi`) and its primitives in leaf order:
-/// obvhs builds the binary tree (PLOC, then reinsertion: its `medium_build` preset), which
+/// [`sah::build`] builds the binary tree (binned SAH, split costs in blocks of four triangles:
+/// session 23, `docs/perf.md`; obvhs's PLOC and reinsertion before), which
 /// [`WideBvh::from_bvh2`] collapses. Bounds beyond ±[`MAX_UNSCALED_MAGNITUDE`] are first scaled by
 /// a power of two 2⁻ᵏ ≤ 1/(the largest magnitude), and the tree's boxes by 2ᵏ back. Scaling by a
 /// power of two is exact (no bound reaches the subnormal range at these magnitudes unless it is
 /// tiny, and each scaled bound is also rounded outward, so it still contains its primitive), so
-/// the surface-area costs (obvhs's and the collapse's) make the same decisions on numbers that
+/// the surface-area costs (the build's and the collapse's) make the same decisions on numbers that
 /// cannot overflow.
 ///
 /// The collapse's leaf costs, in units of a wide node's: a packet of n triangles costs
@@ -125,17 +118,15 @@ fn build_scaled(mut bounds: Vec<Bounds>, lo: Vec3, hi: Vec3, leaves: Leaves) -> 
     } else {
         1.0
     };
-    let params = BvhBuildParams::medium_build();
-    let mut bvh2 = PlocBuilder::with_capacity(bounds.len()).build(
-        params.ploc_search_distance,
-        &bounds,
-        (0..bounds.len() as u32).collect(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
-    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    // (In place: `Bounds` is `Aabb`'s newtype, so the collect reuses the allocation.)
+    let boxes: Vec<Aabb> = bounds.into_iter().map(|b| b.0).collect();
+    let block = match leaves {
+        Leaves::Primitives { .. } => sah::TRIANGLE_BLOCK,
+        Leaves::Placements => 1,
+    };
+    let bvh2 = sah::build(&boxes, block);
     // The binary tree holds the boxes now: 32 bytes per primitive fewer at the collapse's peak.
-    drop(bounds);
+    drop(boxes);
     match leaves {
         Leaves::Primitives { n_spheres } => WideBvh::from_bvh2(
             &bvh2,

@@ -24,6 +24,7 @@ mod bvh;
 mod camera;
 mod error;
 mod ray;
+mod sah;
 mod shapes;
 mod simd;
 mod sphere;

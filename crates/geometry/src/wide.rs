@@ -1,5 +1,5 @@
-//! Our eight-wide BVH and its traversal. obvhs builds a binary BVH (PLOC and reinsertion),
-//! which we collapse into eight-wide nodes by a surface-area cost ([`WideBvh::from_bvh2`]):
+//! Our eight-wide BVH and its traversal. `sah.rs` builds a binary BVH (binned SAH; obvhs's PLOC
+//! and reinsertion until session 23), which we collapse into eight-wide nodes by a surface-area cost ([`WideBvh::from_bvh2`]):
 //! full-precision child boxes in structure-of-arrays form, so a node test is eight slab tests
 //! on rows of eight lanes, and leaves of up to eight primitives; `bvh.rs` stores a leaf of three
 //! to eight triangles as one or two four-lane packets (`triangle.rs` `TrianglePacket`), a
@@ -149,7 +149,7 @@ impl WideBvh {
         packed_from: usize,
     ) -> Collapsed {
         let bn = &bvh2.nodes;
-        // PLOC builds one leaf per primitive; the collapse forms every larger leaf itself.
+        // The binary build makes one leaf per primitive; the collapse forms every larger leaf itself.
         assert!(bn.iter().all(|n| !n.is_leaf() || n.prim_count == 1), "a binary leaf of several primitives");
         let children = |n: usize| {
             let l = bn[n].first_index as usize;

@@ -1,0 +1,253 @@
+//! The binary tree that `wide.rs` collapses: a top-down binned SAH build (Wald 2007, "On fast
+//! Construction of SAH-based Bounding Volume Hierarchies"; 32 centroid bins per axis), down to one
+//! primitive per leaf, the collapse choosing the leaves. Split costs count primitives in blocks
+//! of four, the triangle packet, as Embree's builders do (its `sahBlockSize`): the sides of a
+//! split tend to hold multiples of four, and the collapse finds full packets.
+//!
+//! Until session 23 obvhs built this tree (PLOC, then reinsertion: its `medium_build` preset).
+//! Measured against that (`docs/perf.md`, session 23), with the same collapse and traversal: the
+//! trees' surface-area cost in Embree's units (a wide node 1, a block of four triangles 1) falls
+//! from 9.20 / 13.80 / 16.55 to 6.36 / 11.19 / 13.88 on the 2k / 100k / 1M terrains (Embree's
+//! own trees: 6.32 / 11.11 / 13.81), queries run 22–53 % faster, and memory falls from 57–59 to
+//! 48–49 bytes per triangle.
+
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::node::Bvh2Node;
+
+/// Centroid bins per axis.
+const BINS: usize = 32;
+
+/// Primitives per block in the split cost (for triangles: [`crate::triangle::TrianglePacket`]).
+pub(crate) const TRIANGLE_BLOCK: usize = 4;
+
+/// Subtrees of at least this many primitives on both sides of a split are built in parallel
+/// (rayon), down to [`FORK_LEVELS`] levels of forks.
+const PARALLEL_MIN: usize = 8192;
+/// At most 2⁸ parallel subtrees: enough tasks for any machine, and a bounded recursion.
+const FORK_LEVELS: u32 = 8;
+
+/// The binary tree over `boxes`: node 0 the root, the children of an inner node side by side at
+/// `first_index`, one primitive per leaf (`first_index` into `primitive_indices`). `block`: the
+/// primitives per block of the split cost (1: every primitive its own leaf, as placements are).
+pub(crate) fn build(boxes: &[Aabb], block: usize) -> Bvh2 {
+    let n = boxes.len();
+    let mut indices: Vec<u32> = (0..n as u32).collect();
+    if n == 0 {
+        return Bvh2 { nodes: Vec::new(), primitive_indices: indices, ..Default::default() };
+    }
+    let centroids: Vec<[f32; 3]> = boxes.iter().map(|b| b.center().to_array()).collect();
+    let ctx = Context { boxes, centroids: &centroids, block };
+    // A binary tree of n leaves has 2n − 1 nodes; every subtree of m leaves gets its 2m − 2
+    // descendants as one range, so that subtrees can be built in parallel into disjoint slices.
+    let mut nodes = vec![Bvh2Node::new(Aabb::INVALID, 0, 0); 2 * n - 1];
+    let (root, rest) = nodes.split_first_mut().expect("n ≥ 1");
+    let max_depth =
+        build_subtree(&ctx, Task { items: &mut indices, first_prim: 0, node: root, below: rest, below_at: 1 }, 0);
+    Bvh2 { nodes, primitive_indices: indices, max_depth, ..Default::default() }
+}
+
+struct Context<'a> {
+    boxes: &'a [Aabb],
+    centroids: &'a [[f32; 3]],
+    block: usize,
+}
+
+/// A subtree to build: its primitives `items` (at `first_prim` in the final order), its root
+/// `node`, and the slice `below` (at index `below_at` of the tree) for its other nodes.
+struct Task<'a> {
+    items: &'a mut [u32],
+    first_prim: usize,
+    node: &'a mut Bvh2Node,
+    below: &'a mut [Bvh2Node],
+    below_at: usize,
+}
+
+/// Build `task`'s subtree, iteratively (a degenerate split sequence is as deep as it is long), and
+/// forking balanced splits of large subtrees while `forks` < [`FORK_LEVELS`]. Returns the depth below it.
+fn build_subtree(ctx: &Context, task: Task, forks: u32) -> usize {
+    let mut max_depth = 0;
+    let mut work = vec![(task, 0usize)];
+    while let Some((Task { items, first_prim, node, below, below_at }, depth)) = work.pop() {
+        max_depth = max_depth.max(depth);
+        let bounds = items.iter().fold(Aabb::INVALID, |b, &i| b.union(&ctx.boxes[i as usize]));
+        if items.len() == 1 {
+            *node = Bvh2Node::new(bounds, 1, first_prim as u32);
+            continue;
+        }
+        let mid = split(ctx, items);
+        *node = Bvh2Node::new(bounds, 0, below_at as u32);
+        let (pair, rest) = below.split_at_mut(2);
+        let (left_node, right_node) = pair.split_at_mut(1);
+        let (left_below, right_below) = rest.split_at_mut(2 * mid - 2);
+        let (left_items, right_items) = items.split_at_mut(mid);
+        let right_at = below_at + 2 + left_below.len();
+        let left =
+            Task { node: &mut left_node[0], first_prim, below_at: below_at + 2, items: left_items, below: left_below };
+        let right = Task {
+            node: &mut right_node[0],
+            first_prim: first_prim + mid,
+            below_at: right_at,
+            items: right_items,
+            below: right_below,
+        };
+        if forks < FORK_LEVELS && left.items.len().min(right.items.len()) >= PARALLEL_MIN {
+            let (a, b) = rayon::join(|| build_subtree(ctx, left, forks + 1), || build_subtree(ctx, right, forks + 1));
+            max_depth = max_depth.max(depth + 1 + a.max(b));
+        } else {
+            work.push((right, depth + 1));
+            work.push((left, depth + 1));
+        }
+    }
+    max_depth
+}
+
+/// Partition `items` (two or more) at the cheapest binned split and return the size of the left
+/// part (1..len): the least `area(left)·blocks(left) + area(right)·blocks(right)` over the bin
+/// boundaries of the three axes; where no axis separates the centroids, the middle by count.
+fn split(ctx: &Context, items: &mut [u32]) -> usize {
+    let len = items.len();
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for &i in items.iter() {
+        let c = ctx.centroids[i as usize];
+        for a in 0..3 {
+            lo[a] = lo[a].min(c[a]);
+            hi[a] = hi[a].max(c[a]);
+        }
+    }
+    let blocks = |count: usize| count.div_ceil(ctx.block) as f32;
+    // The bin of a centroid along `axis`; the cast saturates, so an overflowing scale (a
+    // subnormal extent) cannot index out of range (it can only put everything in one bin).
+    let bin = |i: u32, axis: usize, scale: f32| {
+        (((ctx.centroids[i as usize][axis] - lo[axis]) * scale) as usize).min(BINS - 1)
+    };
+    let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, bins left of the split)
+    for axis in 0..3 {
+        let extent = hi[axis] - lo[axis];
+        if !(extent > 0.0) {
+            continue;
+        }
+        let scale = BINS as f32 / extent;
+        let mut bin_box = [Aabb::INVALID; BINS];
+        let mut bin_count = [0usize; BINS];
+        for &i in items.iter() {
+            let b = bin(i, axis, scale);
+            bin_box[b] = bin_box[b].union(&ctx.boxes[i as usize]);
+            bin_count[b] += 1;
+        }
+        // The right side's cost of every split, swept from the right; then the left side's.
+        let mut right_cost = [0f32; BINS];
+        let (mut acc, mut count) = (Aabb::INVALID, 0);
+        for b in (1..BINS).rev() {
+            acc = acc.union(&bin_box[b]);
+            count += bin_count[b];
+            right_cost[b] = if count > 0 { acc.half_area() * blocks(count) } else { 0.0 };
+        }
+        let (mut acc, mut count) = (Aabb::INVALID, 0);
+        for b in 0..BINS - 1 {
+            acc = acc.union(&bin_box[b]);
+            count += bin_count[b];
+            if count == 0 || count == len {
+                continue;
+            }
+            let cost = acc.half_area() * blocks(count) + right_cost[b + 1];
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, axis, b + 1));
+            }
+        }
+    }
+    let Some((_, axis, left_bins)) = best else {
+        return len / 2;
+    };
+    let scale = BINS as f32 / (hi[axis] - lo[axis]);
+    let mut mid = 0;
+    for k in 0..len {
+        if bin(items[k], axis, scale) < left_bins {
+            items.swap(k, mid);
+            mid += 1;
+        }
+    }
+    debug_assert!(mid > 0 && mid < len);
+    mid
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3A;
+
+    fn boxes(points: &[[f32; 3]]) -> Vec<Aabb> {
+        points.iter().map(|&p| Aabb { min: Vec3A::from(p) - 0.1, max: Vec3A::from(p) + 0.1 }).collect()
+    }
+
+    /// Every primitive in exactly one leaf, every inner node's box the union of its children's, and
+    /// the children of each inner node side by side.
+    fn check(bvh: &Bvh2, n: usize) {
+        assert_eq!(bvh.nodes.len(), 2 * n - 1);
+        let mut seen = vec![false; n];
+        let mut stack = vec![0usize];
+        while let Some(k) = stack.pop() {
+            let node = &bvh.nodes[k];
+            if node.is_leaf() {
+                assert_eq!(node.prim_count, 1);
+                let p = bvh.primitive_indices[node.first_index as usize] as usize;
+                assert!(!seen[p], "primitive {p} in two leaves");
+                seen[p] = true;
+            } else {
+                let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+                assert_eq!(bvh.nodes[l].aabb().union(bvh.nodes[r].aabb()), *node.aabb());
+                stack.extend([l, r]);
+            }
+        }
+        assert!(seen.iter().all(|&s| s));
+    }
+
+    /// How many subtrees have exactly four leaves.
+    fn subtrees_of_four(bvh: &Bvh2) -> usize {
+        let mut leaves = vec![0usize; bvh.nodes.len()];
+        // Children come after their parents here, so a reverse sweep sees them first.
+        for k in (0..bvh.nodes.len()).rev() {
+            let node = &bvh.nodes[k];
+            let f = node.first_index as usize;
+            leaves[k] = if node.is_leaf() { 1 } else { leaves[f] + leaves[f + 1] };
+        }
+        leaves.iter().filter(|&&l| l == 4).count()
+    }
+
+    #[test]
+    fn split_costs_in_blocks_of_four_make_subtrees_of_four() {
+        // Twelve points in a row, one apart. Counted per primitive, halving is cheapest
+        // (6 | 6, then 3 | 3: no subtree of four); counted in blocks of four, 4 | 8 costs
+        // 1.32·1 + 2.92·2 = 7.16 against 6 | 6's 2.12·2·2 = 8.48 (half areas of the padded
+        // boxes), and the row falls into three subtrees of four.
+        let points: Vec<[f32; 3]> = (0..12).map(|i| [i as f32, 0.0, 0.0]).collect();
+        let blocks = build(&boxes(&points), TRIANGLE_BLOCK);
+        check(&blocks, 12);
+        assert_eq!(subtrees_of_four(&blocks), 3);
+        let singles = build(&boxes(&points), 1);
+        check(&singles, 12);
+        assert_eq!(subtrees_of_four(&singles), 0);
+    }
+
+    #[test]
+    fn coincident_centroids_split_by_count_and_large_inputs_build_in_parallel() {
+        // One point 20 000 times: no axis separates them, so every split is the middle by count
+        // (depth ⌈log₂ n⌉, not n); 20 000 > 2 · PARALLEL_MIN, so the top splits fork.
+        let n = 20_000;
+        let bvh = build(&boxes(&vec![[1.0, 2.0, 3.0]; n]), TRIANGLE_BLOCK);
+        check(&bvh, n);
+        assert_eq!(bvh.max_depth, 15);
+        // Distinct points, in parallel: the same checks.
+        let points: Vec<[f32; 3]> = (0..n).map(|i| [(i % 100) as f32, (i / 100) as f32, (i % 7) as f32]).collect();
+        check(&build(&boxes(&points), TRIANGLE_BLOCK), n);
+    }
+
+    #[test]
+    fn one_and_two_primitives() {
+        let one = build(&boxes(&[[0.0; 3]]), TRIANGLE_BLOCK);
+        check(&one, 1);
+        let two = build(&boxes(&[[0.0; 3], [5.0, 0.0, 0.0]]), 1);
+        check(&two, 2);
+        assert!(build(&[], TRIANGLE_BLOCK).nodes.is_empty());
+    }
+}
