@@ -12,7 +12,9 @@
 //! With `SPECTRACE_EXPORT_RAYS=DIR` the triangles (`SCENE.tris`: f32 x, y, z per vertex, three
 //! per triangle), the rays (`SCENE_primary.rays`, `SCENE_incoherent.rays`: f32 origin and
 //! direction) and our hit counts (`SCENE.hits.json`) are written to DIR for
-//! `xtask/compare/embree_bvh.py`, which traces the same rays with Embree.
+//! `xtask/compare/embree_bvh.py`, which traces the same rays with Embree through embreex, and
+//! `xtask/compare/embree_direct.c`, which calls the same library from C (with `trace_ab.py`
+//! alternating it and `examples/trace_exported.rs`: the comparison to quote, session 23).
 
 use std::hint::black_box;
 use std::time::Instant;
