@@ -70,12 +70,22 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) -> usize {
     let mut work = vec![(task, 0usize)];
     while let Some((Task { items, first_prim, node, below, below_at }, depth)) = work.pop() {
         max_depth = max_depth.max(depth);
-        let bounds = items.iter().fold(Aabb::INVALID, |b, &i| b.union(&ctx.boxes[i as usize]));
+        // The node's box and its primitives' centroid bounds, in one pass.
+        let mut bounds = Aabb::INVALID;
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        for &i in items.iter() {
+            bounds = bounds.union(&ctx.boxes[i as usize]);
+            let c = ctx.centroids[i as usize];
+            for a in 0..3 {
+                lo[a] = lo[a].min(c[a]);
+                hi[a] = hi[a].max(c[a]);
+            }
+        }
         if items.len() == 1 {
             *node = Bvh2Node::new(bounds, 1, first_prim as u32);
             continue;
         }
-        let mid = split(ctx, items);
+        let mid = split(ctx, items, lo, hi);
         *node = Bvh2Node::new(bounds, 0, below_at as u32);
         let (pair, rest) = below.split_at_mut(2);
         let (left_node, right_node) = pair.split_at_mut(1);
@@ -102,39 +112,35 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) -> usize {
     max_depth
 }
 
-/// Partition `items` (two or more) at the cheapest binned split and return the size of the left
-/// part (1..len): the least `area(left)·blocks(left) + area(right)·blocks(right)` over the bin
-/// boundaries of the three axes; where no axis separates the centroids, the middle by count.
-fn split(ctx: &Context, items: &mut [u32]) -> usize {
+/// Partition `items` (two or more), whose centroids lie in `lo`..`hi`, at the cheapest binned
+/// split and return the size of the left part (1..len): the least
+/// `area(left)·blocks(left) + area(right)·blocks(right)` over the bin boundaries of the three
+/// axes; where no axis separates the centroids, the middle by count.
+fn split(ctx: &Context, items: &mut [u32], lo: [f32; 3], hi: [f32; 3]) -> usize {
     let len = items.len();
-    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for &i in items.iter() {
-        let c = ctx.centroids[i as usize];
-        for a in 0..3 {
-            lo[a] = lo[a].min(c[a]);
-            hi[a] = hi[a].max(c[a]);
-        }
-    }
     let blocks = |count: usize| count.div_ceil(ctx.block) as f32;
     // The bin of a centroid along `axis`; the cast saturates, so an overflowing scale (a
     // subnormal extent) cannot index out of range (it can only put everything in one bin).
-    let bin = |i: u32, axis: usize, scale: f32| {
-        (((ctx.centroids[i as usize][axis] - lo[axis]) * scale) as usize).min(BINS - 1)
-    };
+    let bin = |c: &[f32; 3], axis: usize, scale: f32| (((c[axis] - lo[axis]) * scale) as usize).min(BINS - 1);
+    // An axis along which all centroids coincide gets scale 0: one bin, no split.
+    let scale = [0, 1, 2].map(|a| {
+        let extent = hi[a] - lo[a];
+        if extent > 0.0 { BINS as f32 / extent } else { 0.0 }
+    });
+    // All three axes binned in one pass over the primitives.
+    let mut bin_box = [[Aabb::INVALID; BINS]; 3];
+    let mut bin_count = [[0usize; BINS]; 3];
+    for &i in items.iter() {
+        let (c, b) = (&ctx.centroids[i as usize], &ctx.boxes[i as usize]);
+        for axis in 0..3 {
+            let k = bin(c, axis, scale[axis]);
+            bin_box[axis][k] = bin_box[axis][k].union(b);
+            bin_count[axis][k] += 1;
+        }
+    }
     let mut best: Option<(f32, usize, usize)> = None; // (cost, axis, bins left of the split)
     for axis in 0..3 {
-        let extent = hi[axis] - lo[axis];
-        if !(extent > 0.0) {
-            continue;
-        }
-        let scale = BINS as f32 / extent;
-        let mut bin_box = [Aabb::INVALID; BINS];
-        let mut bin_count = [0usize; BINS];
-        for &i in items.iter() {
-            let b = bin(i, axis, scale);
-            bin_box[b] = bin_box[b].union(&ctx.boxes[i as usize]);
-            bin_count[b] += 1;
-        }
+        let (bin_box, bin_count) = (&bin_box[axis], &bin_count[axis]);
         // The right side's cost of every split, swept from the right; then the left side's.
         let mut right_cost = [0f32; BINS];
         let (mut acc, mut count) = (Aabb::INVALID, 0);
@@ -159,10 +165,9 @@ fn split(ctx: &Context, items: &mut [u32]) -> usize {
     let Some((_, axis, left_bins)) = best else {
         return len / 2;
     };
-    let scale = BINS as f32 / (hi[axis] - lo[axis]);
     let mut mid = 0;
     for k in 0..len {
-        if bin(items[k], axis, scale) < left_bins {
+        if bin(&ctx.centroids[items[k] as usize], axis, scale[axis]) < left_bins {
             items.swap(k, mid);
             mid += 1;
         }
