@@ -1,5 +1,5 @@
 //! The binary tree that `wide.rs` collapses: a top-down binned SAH build (Wald 2007, "On fast
-//! Construction of SAH-based Bounding Volume Hierarchies"; 32 centroid bins per axis), down to one
+//! Construction of SAH-based Bounding Volume Hierarchies"; 16 centroid bins per axis), down to one
 //! primitive per leaf, the collapse choosing the leaves. Split costs count primitives in blocks
 //! of four, the triangle packet, as Embree's builders do (its `sahBlockSize`): the sides of a
 //! split tend to hold multiples of four, and the collapse finds full packets.
@@ -7,16 +7,17 @@
 //! Until session 23 obvhs built this tree (PLOC, then reinsertion: its `medium_build` preset).
 //! Measured against that (`docs/perf.md`, session 23), with the same collapse and traversal: the
 //! trees' surface-area cost in Embree's units (a wide node 1, a block of four triangles 1) falls
-//! from 9.20 / 13.80 / 16.55 to 6.36 / 11.19 / 13.88 on the 2k / 100k / 1M terrains (Embree's
-//! own trees: 6.32 / 11.11 / 13.81), queries run 22–53 % faster, and memory falls from 57–59 to
-//! 48–49 bytes per triangle.
+//! from 9.20 / 13.80 / 16.55 to 6.49 / 11.18 / 13.90 on the 2k / 100k / 1M terrains (Embree's
+//! own trees: 6.32 / 11.11 / 13.81), queries run 13–53 % faster, and memory falls from 57–59 to
+//! 48–50 bytes per triangle. 16 bins rather than 32: queries within ±3 % (4 rounds), builds
+//! 13 % faster (1M terrain 0.65 → 0.57 s on two threads, about PLOC's 0.60 s).
 
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::node::Bvh2Node;
 
 /// Centroid bins per axis.
-const BINS: usize = 32;
+const BINS: usize = 16;
 
 /// Primitives per block in the split cost (for triangles: [`crate::triangle::TrianglePacket`]).
 pub(crate) const TRIANGLE_BLOCK: usize = 4;
