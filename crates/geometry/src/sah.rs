@@ -32,6 +32,7 @@ const FORK_LEVELS: u32 = 8;
 /// `first_index`, one primitive per leaf (`first_index` into `primitive_indices`). `block`: the
 /// primitives per block of the split cost (1: every primitive its own leaf, as placements are).
 pub(crate) fn build(boxes: &[Aabb], block: usize) -> Bvh2 {
+    debug_assert!(block > 0);
     let n = boxes.len();
     let mut indices: Vec<u32> = (0..n as u32).collect();
     if n == 0 {
@@ -43,8 +44,11 @@ pub(crate) fn build(boxes: &[Aabb], block: usize) -> Bvh2 {
     // descendants as one range, so that subtrees can be built in parallel into disjoint slices.
     let mut nodes = vec![Bvh2Node::new(Aabb::INVALID, 0, 0); 2 * n - 1];
     let (root, rest) = nodes.split_first_mut().expect("n ≥ 1");
-    let max_depth =
+    let depth =
         build_subtree(&ctx, Task { items: &mut indices, first_prim: 0, node: root, below: rest, below_at: 1 }, 0);
+    // obvhs reads `max_depth` as a traversal stack size (levels, at least its default); nothing
+    // here traverses a `Bvh2`, but the field keeps obvhs's meaning.
+    let max_depth = (depth + 1).max(obvhs::bvh2::DEFAULT_MAX_STACK_DEPTH);
     Bvh2 { nodes, primitive_indices: indices, max_depth, ..Default::default() }
 }
 
@@ -120,13 +124,17 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) -> usize {
 fn split(ctx: &Context, items: &mut [u32], lo: [f32; 3], hi: [f32; 3]) -> usize {
     let len = items.len();
     let blocks = |count: usize| count.div_ceil(ctx.block) as f32;
-    // The bin of a centroid along `axis`; the cast saturates, so an overflowing scale (a
-    // subnormal extent) cannot index out of range (it can only put everything in one bin).
+    // The bin of a centroid along `axis` (the cast saturates, and `min` keeps it in range).
     let bin = |c: &[f32; 3], axis: usize, scale: f32| (((c[axis] - lo[axis]) * scale) as usize).min(BINS - 1);
-    // An axis along which all centroids coincide gets scale 0: one bin, no split.
+    // An axis along which all centroids coincide gets scale 0: one bin, no split. The scale is
+    // capped at f32::MAX: for an extent below 16 / f32::MAX ≈ 4.7e-38 it would be ∞, and
+    // 0·∞ = NaN would put the centroids at `lo` alone in bin 0 and all others in the last: each
+    // split would peel off one value, a tree as deep as the centroids are many and an O(n²)
+    // build (80 000 distinct subnormal centroids: 34 s; found by review). Capped, such centroids
+    // share one bin and are split in the middle by count.
     let scale = [0, 1, 2].map(|a| {
         let extent = hi[a] - lo[a];
-        if extent > 0.0 { BINS as f32 / extent } else { 0.0 }
+        if extent > 0.0 { (BINS as f32 / extent).min(f32::MAX) } else { 0.0 }
     });
     // All three axes binned in one pass over the primitives.
     let mut bin_box = [[Aabb::INVALID; BINS]; 3];
@@ -186,26 +194,32 @@ mod tests {
         points.iter().map(|&p| Aabb { min: Vec3A::from(p) - 0.1, max: Vec3A::from(p) + 0.1 }).collect()
     }
 
-    /// Every primitive in exactly one leaf, every inner node's box the union of its children's, and
-    /// the children of each inner node side by side.
-    fn check(bvh: &Bvh2, n: usize) {
+    /// Every primitive in exactly one leaf, with its own box; every inner node's box the union of
+    /// its children's, which sit side by side. Returns the depth (edges from the root).
+    fn check(bvh: &Bvh2, boxes: &[Aabb]) -> usize {
+        let n = boxes.len();
         assert_eq!(bvh.nodes.len(), 2 * n - 1);
         let mut seen = vec![false; n];
-        let mut stack = vec![0usize];
-        while let Some(k) = stack.pop() {
+        let mut stack = vec![(0usize, 0usize)];
+        let mut depth = 0;
+        while let Some((k, d)) = stack.pop() {
+            depth = depth.max(d);
             let node = &bvh.nodes[k];
             if node.is_leaf() {
                 assert_eq!(node.prim_count, 1);
                 let p = bvh.primitive_indices[node.first_index as usize] as usize;
                 assert!(!seen[p], "primitive {p} in two leaves");
+                assert_eq!(*node.aabb(), boxes[p], "leaf of primitive {p}");
                 seen[p] = true;
             } else {
                 let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+                assert!(l > k, "children after their parent");
                 assert_eq!(bvh.nodes[l].aabb().union(bvh.nodes[r].aabb()), *node.aabb());
-                stack.extend([l, r]);
+                stack.extend([(l, d + 1), (r, d + 1)]);
             }
         }
         assert!(seen.iter().all(|&s| s));
+        depth
     }
 
     /// How many subtrees have exactly four leaves.
@@ -226,34 +240,61 @@ mod tests {
         // (6 | 6, then 3 | 3: no subtree of four); counted in blocks of four, 4 | 8 costs
         // 1.32·1 + 2.92·2 = 7.16 against 6 | 6's 2.12·2·2 = 8.48 (half areas of the padded
         // boxes), and the row falls into three subtrees of four.
-        let points: Vec<[f32; 3]> = (0..12).map(|i| [i as f32, 0.0, 0.0]).collect();
-        let blocks = build(&boxes(&points), TRIANGLE_BLOCK);
-        check(&blocks, 12);
-        assert_eq!(subtrees_of_four(&blocks), 3);
-        let singles = build(&boxes(&points), 1);
-        check(&singles, 12);
-        assert_eq!(subtrees_of_four(&singles), 0);
+        // Along each axis in turn.
+        for axis in 0..3 {
+            let points: Vec<[f32; 3]> = (0..12)
+                .map(|i| {
+                    let mut p = [0.0; 3];
+                    p[axis] = i as f32;
+                    p
+                })
+                .collect();
+            let b = boxes(&points);
+            let blocks = build(&b, TRIANGLE_BLOCK);
+            check(&blocks, &b);
+            assert_eq!(subtrees_of_four(&blocks), 3, "axis {axis}");
+            let singles = build(&b, 1);
+            check(&singles, &b);
+            assert_eq!(subtrees_of_four(&singles), 0, "axis {axis}");
+        }
     }
 
     #[test]
     fn coincident_centroids_split_by_count_and_large_inputs_build_in_parallel() {
         // One point 20 000 times: no axis separates them, so every split is the middle by count
-        // (depth ⌈log₂ n⌉, not n); 20 000 > 2 · PARALLEL_MIN, so the top splits fork.
+        // (depth ⌈log₂ n⌉, not n); 20 000 > 2 · PARALLEL_MIN, so the root split forks.
         let n = 20_000;
-        let bvh = build(&boxes(&vec![[1.0, 2.0, 3.0]; n]), TRIANGLE_BLOCK);
-        check(&bvh, n);
-        assert_eq!(bvh.max_depth, 15);
+        let same = boxes(&vec![[1.0, 2.0, 3.0]; n]);
+        assert_eq!(check(&build(&same, TRIANGLE_BLOCK), &same), 15);
         // Distinct points, in parallel: the same checks.
         let points: Vec<[f32; 3]> = (0..n).map(|i| [(i % 100) as f32, (i / 100) as f32, (i % 7) as f32]).collect();
-        check(&build(&boxes(&points), TRIANGLE_BLOCK), n);
+        let distinct = boxes(&points);
+        check(&build(&distinct, TRIANGLE_BLOCK), &distinct);
+    }
+
+    #[test]
+    fn centroids_a_few_subnormals_apart_split_by_count() {
+        // 20 000 distinct centroids 1.4e-45 apart (points as boxes of zero size): the scale,
+        // 16 / 2.8e-41, overflows f32. Uncapped, 0·∞ = NaN put the lowest alone in one bin and
+        // every split peeled off one point: depth n − 1, an O(n²) build. Capped, they share one
+        // bin and split by count.
+        let n = 20_000;
+        let b: Vec<Aabb> = (0..n)
+            .map(|i| {
+                let p = Vec3A::new(f32::from_bits(i as u32), 1.0, 1.0);
+                Aabb { min: p, max: p }
+            })
+            .collect();
+        let depth = check(&build(&b, TRIANGLE_BLOCK), &b);
+        assert!(depth <= 20, "depth {depth}");
     }
 
     #[test]
     fn one_and_two_primitives() {
-        let one = build(&boxes(&[[0.0; 3]]), TRIANGLE_BLOCK);
-        check(&one, 1);
-        let two = build(&boxes(&[[0.0; 3], [5.0, 0.0, 0.0]]), 1);
-        check(&two, 2);
+        let one = boxes(&[[0.0; 3]]);
+        assert_eq!(check(&build(&one, TRIANGLE_BLOCK), &one), 0);
+        let two = boxes(&[[0.0; 3], [5.0, 0.0, 0.0]]);
+        assert_eq!(check(&build(&two, 1), &two), 1);
         assert!(build(&[], TRIANGLE_BLOCK).nodes.is_empty());
     }
 }
