@@ -13,7 +13,10 @@
  *     EMBREE_CONFIG=max_isa=avx2 taskset -c 1 /tmp/embree_direct ...   (Embree's AVX2 kernels)
  *
  * Prints M rays/s of this thread's CPU time over all passes and the hit count, in the format of
- * `crates/geometry/examples/trace_exported.rs`, so the two alternate in one A/B script.
+ * `crates/geometry/examples/trace_exported.rs`, so the two alternate in one A/B script. Under
+ * `valgrind --tool=cachegrind --branch-sim=yes` at 1 and 3 passes, half the difference over the
+ * ray count is Embree's instructions, branches and mispredictions per ray (its AVX2 kernels:
+ * valgrind has no AVX-512). `--miss` traces against one far-away triangle: the fixed cost of a query.
  */
 #define _GNU_SOURCE
 #include <math.h>

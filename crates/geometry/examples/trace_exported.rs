@@ -3,9 +3,9 @@
 //! the rate (rays per second of this thread's CPU time over all passes, so a run of ~1 s reads
 //! the 4 ms clock to 0.4 %): a fixed workload for an instruction count, or for an A/B of two
 //! builds on the very same rays (`taskset -c 1`, the two binaries alternating).
-//! `xtask/compare/embree_trace.py` runs the same rays through Embree (embreex),
-//! `xtask/compare/embree_direct.c` through the same library from C, in the same output format;
-//! `xtask/compare/trace_ab.py` alternates any of them on one core.
+//! `xtask/compare/embree_direct.c` runs the same rays through Embree, with the same arguments
+//! and output format (it replaced session 21's `embree_trace.py`, which went through embreex's
+//! Python loop); `xtask/compare/trace_ab.py` alternates any of them on one core.
 //!
 //!     cargo build --profile bench -p geometry --example trace_exported
 //!     valgrind --tool=callgrind target/release/examples/trace_exported DIR terrain_2k primary 1

@@ -1,4 +1,4 @@
-//! The acceleration structure: obvhs builds a binary BVH over conservatively padded primitive
+//! The acceleration structure: `sah.rs` builds a binary BVH over conservatively padded primitive
 //! bounds, which we collapse into an eight-wide one and traverse ourselves (`wide.rs`), running
 //! our watertight triangle test (four triangles of a leaf at once; a leaf has one or two such
 //! packets) and stable sphere test at its leaves.
@@ -17,7 +17,7 @@ use crate::sphere::{intersect_sphere, sphere_hit_point};
 use crate::triangle::{
     NO_LANE, TriangleHit, TrianglePacket, TriangleRay, intersect_packet, intersect_triangle, triangle_point_error,
 };
-use crate::wide::{Collapsed, MAX_PRIMITIVES, WideBvh, WideNode, packets_in};
+use crate::wide::{Collapsed, MAX_PRIMITIVES, PACKET, WideBvh, WideNode, packets_in};
 
 /// What a global primitive index refers to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -49,19 +49,17 @@ pub struct BvhStats {
     pub bytes_per_primitive: f64,
 }
 
-/// A primitive's bounds, padded so that the BVH's float slab test can never cull a ray that
-/// the exact intersection tests would hit (a Woop test alone still leaks through an unpadded
-/// box test at shared edges and vertices).
-struct Bounds(Aabb);
-
 /// Relative padding of primitive bounds: 2⁻¹⁸ ≈ 3.8e-6 of the coordinates' magnitude, far
 /// above the few ulps (≈ 6e-8 each) the slab test and the boxes' outward rounding can lose, far below any geometric feature that matters.
 const PAD_RELATIVE: f32 = 1.0 / 262_144.0;
 
-fn padded(lo: Vec3, hi: Vec3) -> Bounds {
+/// A primitive's bounds `lo`..`hi`, padded so that the BVH's float slab test can never cull a
+/// ray that the exact intersection tests would hit (a Woop test alone still leaks through an
+/// unpadded box test at shared edges and vertices).
+fn padded(lo: Vec3, hi: Vec3) -> Aabb {
     let magnitude = lo.abs().max(hi.abs()).max_element() + (hi - lo).max_element();
     let pad = Vec3::splat(magnitude * PAD_RELATIVE + f32::MIN_POSITIVE);
-    Bounds(Aabb { min: Vec3A::from(lo - pad), max: Vec3A::from(hi + pad) })
+    Aabb { min: Vec3A::from(lo - pad), max: Vec3A::from(hi + pad) }
 }
 
 /// Largest bound magnitude built as it is: 2⁴⁰ ≈ 1.1e12. The surface-area costs (the build's and the
@@ -104,29 +102,28 @@ enum Leaves {
 /// so that larger leaves are chosen more often, measured within ±1 % of that: terrain 2k and
 /// 100k, `trace_exported`, 4 interleaved rounds). A placement is a leaf of its
 /// own: each is a whole object's traversal (leaves of up to four cost the instanced row 10–20 %).
-fn build_scaled(mut bounds: Vec<Bounds>, lo: Vec3, hi: Vec3, leaves: Leaves) -> Collapsed {
+fn build_scaled(mut bounds: Vec<Aabb>, lo: Vec3, hi: Vec3, leaves: Leaves) -> Collapsed {
     let magnitude = lo.abs().max(hi.abs()).max_element();
     let scale = if magnitude > MAX_UNSCALED_MAGNITUDE {
         // 2ᵏ with k = ⌈log₂ magnitude⌉ (magnitude is finite: checked by the callers).
         let k = magnitude.log2().ceil() as i32;
         let down = 2f32.powi(-k);
         for b in &mut bounds {
-            b.0.min = Vec3A::from((Vec3::from(b.0.min) * down).map(f32::next_down));
-            b.0.max = Vec3A::from((Vec3::from(b.0.max) * down).map(f32::next_up));
+            b.min = Vec3A::from((Vec3::from(b.min) * down).map(f32::next_down));
+            b.max = Vec3A::from((Vec3::from(b.max) * down).map(f32::next_up));
         }
         2f32.powi(k)
     } else {
         1.0
     };
-    // (In place: `Bounds` is `Aabb`'s newtype, so the collect reuses the allocation.)
-    let boxes: Vec<Aabb> = bounds.into_iter().map(|b| b.0).collect();
+    // Split costs count triangles in packets, as the collapse will lay them out.
     let block = match leaves {
-        Leaves::Primitives { .. } => sah::TRIANGLE_BLOCK,
+        Leaves::Primitives { .. } => PACKET,
         Leaves::Placements => 1,
     };
-    let bvh2 = sah::build(&boxes, block);
+    let bvh2 = sah::build(&bounds, block);
     // The binary tree holds the boxes now: 32 bytes per primitive fewer at the collapse's peak.
-    drop(boxes);
+    drop(bounds);
     match leaves {
         Leaves::Primitives { n_spheres } => WideBvh::from_bvh2(
             &bvh2,
@@ -313,8 +310,8 @@ impl Scene {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         for b in &bounds_list {
-            lo = lo.min(b.0.min.into());
-            hi = hi.max(b.0.max.into());
+            lo = lo.min(b.min.into());
+            hi = hi.max(b.max.into());
         }
         if !(lo.is_finite() && hi.is_finite()) && count > 0 {
             return Err(Error::Invalid("scene bounds are not finite".to_owned()));
@@ -907,8 +904,8 @@ impl InstanceSet {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         for b in &bounds_list {
-            lo = lo.min(b.0.min.into());
-            hi = hi.max(b.0.max.into());
+            lo = lo.min(b.min.into());
+            hi = hi.max(b.max.into());
         }
         if !(lo.is_finite() && hi.is_finite()) {
             return Err(Error::Invalid("instance bounds are not finite".to_owned()));

@@ -1,7 +1,7 @@
 //! The binary tree that `wide.rs` collapses: a top-down binned SAH build (Wald 2007, "On fast
 //! Construction of SAH-based Bounding Volume Hierarchies"; 16 centroid bins per axis), down to one
 //! primitive per leaf, the collapse choosing the leaves. Split costs count primitives in blocks
-//! of four, the triangle packet, as Embree's builders do (its `sahBlockSize`): the sides of a
+//! of four, the triangle packet (`wide.rs` `PACKET`, passed in by `bvh.rs`), as Embree's builders do (its `sahBlockSize`): the sides of a
 //! split tend to hold multiples of four, and the collapse finds full packets.
 //!
 //! Until session 23 obvhs built this tree (PLOC, then reinsertion: its `medium_build` preset).
@@ -18,9 +18,6 @@ use obvhs::bvh2::node::Bvh2Node;
 
 /// Centroid bins per axis.
 const BINS: usize = 16;
-
-/// Primitives per block in the split cost (for triangles: [`crate::triangle::TrianglePacket`]).
-pub(crate) const TRIANGLE_BLOCK: usize = 4;
 
 /// Subtrees of at least this many primitives on both sides of a split are built in parallel
 /// (rayon), down to [`FORK_LEVELS`] levels of forks.
@@ -188,6 +185,7 @@ fn split(ctx: &Context, items: &mut [u32], lo: [f32; 3], hi: [f32; 3]) -> usize 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::wide::PACKET;
     use glam::Vec3A;
 
     fn boxes(points: &[[f32; 3]]) -> Vec<Aabb> {
@@ -250,7 +248,7 @@ mod tests {
                 })
                 .collect();
             let b = boxes(&points);
-            let blocks = build(&b, TRIANGLE_BLOCK);
+            let blocks = build(&b, PACKET);
             check(&blocks, &b);
             assert_eq!(subtrees_of_four(&blocks), 3, "axis {axis}");
             let singles = build(&b, 1);
@@ -265,11 +263,11 @@ mod tests {
         // (depth ⌈log₂ n⌉, not n); 20 000 > 2 · PARALLEL_MIN, so the root split forks.
         let n = 20_000;
         let same = boxes(&vec![[1.0, 2.0, 3.0]; n]);
-        assert_eq!(check(&build(&same, TRIANGLE_BLOCK), &same), 15);
+        assert_eq!(check(&build(&same, PACKET), &same), 15);
         // Distinct points, in parallel: the same checks.
         let points: Vec<[f32; 3]> = (0..n).map(|i| [(i % 100) as f32, (i / 100) as f32, (i % 7) as f32]).collect();
         let distinct = boxes(&points);
-        check(&build(&distinct, TRIANGLE_BLOCK), &distinct);
+        check(&build(&distinct, PACKET), &distinct);
     }
 
     #[test]
@@ -285,16 +283,16 @@ mod tests {
                 Aabb { min: p, max: p }
             })
             .collect();
-        let depth = check(&build(&b, TRIANGLE_BLOCK), &b);
+        let depth = check(&build(&b, PACKET), &b);
         assert!(depth <= 20, "depth {depth}");
     }
 
     #[test]
     fn one_and_two_primitives() {
         let one = boxes(&[[0.0; 3]]);
-        assert_eq!(check(&build(&one, TRIANGLE_BLOCK), &one), 0);
+        assert_eq!(check(&build(&one, PACKET), &one), 0);
         let two = boxes(&[[0.0; 3], [5.0, 0.0, 0.0]]);
         assert_eq!(check(&build(&two, 1), &two), 1);
-        assert!(build(&[], TRIANGLE_BLOCK).nodes.is_empty());
+        assert!(build(&[], PACKET).nodes.is_empty());
     }
 }

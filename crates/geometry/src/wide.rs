@@ -55,8 +55,9 @@ use crate::ray::gamma;
 use crate::simd::{NodeRay, NodeTest};
 use crate::triangle::NO_LANE;
 
-/// Slots of a packet (a packed leaf has one or two).
-const PACKET: usize = 4;
+/// Slots of a packet (a packed leaf has one or two); also the block the binary build's split
+/// costs count triangles in (`sah.rs`).
+pub(crate) const PACKET: usize = 4;
 
 /// How many packets a packed leaf of `count` primitives has (its first is where its reference
 /// starts, [`leaf_parts`]).
@@ -500,7 +501,7 @@ mod tests {
 
     #[test]
     fn the_tree_read_off_costs_what_the_collapse_computed() {
-        // Random boxes through obvhs's PLOC: the cost of the emitted tree (a wide node: its box's
+        // Random boxes through the binary build (`sah.rs`): the cost of the emitted tree (a wide node: its box's
         // half area; a leaf: its box's times the leaf cost) must be the dynamic programme's
         // optimum, and every wide node but the root must have two children or more.
         let mut next = crate::test_uniform(99);
@@ -511,13 +512,7 @@ mod tests {
                 obvhs::aabb::Aabb { min: c - h, max: c + h }
             })
             .collect();
-        let bvh2 = obvhs::ploc::PlocBuilder::with_capacity(boxes.len()).build(
-            obvhs::ploc::PlocSearchDistance::Medium,
-            &boxes,
-            (0..boxes.len() as u32).collect(),
-            obvhs::ploc::SortPrecision::U64,
-            3,
-        );
+        let bvh2 = crate::sah::build(&boxes, PACKET);
         let leaf_cost = |n: usize| if n < 3 { 0.3 * n as f32 } else { 0.3 * (1.0 + 0.3 * (n as f32 - 1.0)) };
         let c = WideBvh::from_bvh2(&bvh2, 1.0, leaf_cost, |_| true, 3);
         let mut total = 0f64;
