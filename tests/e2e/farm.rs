@@ -106,6 +106,68 @@ fn parts_merge_bit_for_bit_into_the_single_render() {
 }
 
 #[test]
+fn merge_of_gltf_and_obj_parts_writes_the_single_renders_images() {
+    // glTF and OBJ files get a view of their own (PBR Neutral; auto-exposure for photometric
+    // lights): the film records it, so the merge shows the merged image as the render did.
+    let dir = scratch("farm_files");
+    let gltf = repo("scenes/gltf/glass_torus.gltf").display().to_string();
+    let obj = repo("scenes/obj/cube_and_sphere.obj").display().to_string();
+    let cases: [(&str, &str, &[&str]); 4] = [
+        ("gltf", &gltf, &[]),
+        ("obj", &obj, &[]),
+        ("obj-auto", &obj, &["--auto-exposure"]),
+        ("gltf-ev", &gltf, &["--exposure", "1.5", "--tonemap", "clamp"]),
+    ];
+    for (name, scene, view) in cases {
+        let base: Vec<&str> = [scene, "--width", "24", "--height", "16", "--spp", "2", "--quiet"]
+            .into_iter()
+            .chain(view.iter().copied())
+            .collect();
+        let exr = format!("{name}-single.exr");
+        let mut single = vec!["render"];
+        single.extend(&base);
+        single.extend(["-o", &exr]);
+        run(&dir, &single);
+        let films = [format!("{name}-1.film"), format!("{name}-2.film")];
+        for (k, film) in ["1/2", "2/2"].into_iter().zip(&films) {
+            let mut part = vec!["render"];
+            part.extend(&base);
+            part.extend(["--part", k, "--film", film]);
+            run(&dir, &part);
+        }
+        let merged = format!("{name}-merged.exr");
+        run(&dir, &["merge", &films[0], &films[1], "-o", &merged, "-q"]);
+        same_bytes(&dir, &exr, &merged);
+        same_bytes(&dir, &exr.replace(".exr", ".png"), &merged.replace(".exr", ".png"));
+    }
+    // The view is part of the render: parts shown differently do not merge.
+    let parts = [("1/2", "ev0.film", "0"), ("2/2", "ev1.film", "1")];
+    for (k, film, ev) in parts {
+        run(
+            &dir,
+            &[
+                "render",
+                &obj,
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--spp",
+                "2",
+                "-q",
+                "--part",
+                k,
+                "--film",
+                film,
+                "--exposure",
+                ev,
+            ],
+        );
+    }
+    refused(&dir, &["merge", "ev0.film", "ev1.film", "-o", "x.exr"], 1, &["another view of the image"]);
+}
+
+#[test]
 fn merge_refuses_what_is_not_one_render_and_damaged_files() {
     let dir = scratch("farm_refuse");
     let scene = cornell();

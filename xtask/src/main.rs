@@ -10,11 +10,13 @@
 //! - `exr-diff`: the largest difference between two EXR files (refactorings must move no number).
 //! - `farm`: a render split into parts (separate processes or a Slurm job array), merged, and
 //!   compared byte for byte with the single render.
+//! - `modules`: the import graph among a crate's modules, and any circle in it.
 //! - `gallery`: the third-party assets rendered with no flags: chosen integrator, camera, exposure, mean, clipping.
 
 mod exr_diff;
 mod farm;
 mod gallery;
+mod modules;
 mod paper;
 mod stats;
 mod upsampling;
@@ -48,6 +50,8 @@ enum Command {
     Farm(farm::FarmArgs),
     /// Render the third-party assets with no flags and tabulate luminance and clipping (skips when absent).
     Gallery(gallery::GalleryArgs),
+    /// The import graph among a crate's modules (default: integrator); fails on a circle.
+    Modules(modules::ModulesArgs),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -59,6 +63,7 @@ fn main() -> anyhow::Result<()> {
         Command::ExrDiff(args) => exr_diff::run(&args),
         Command::Farm(args) => farm::run(&args),
         Command::Gallery(args) => gallery::run(&args),
+        Command::Modules(args) => modules::run(&args),
     }
 }
 

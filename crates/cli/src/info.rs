@@ -64,16 +64,16 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
                 "why": why.unwrap_or_else(|| "--integrator".to_owned()),
             }),
         );
-        let ev = match plan {
-            crate::view::ExposurePlan::Manual(ev) => serde_json::json!(ev),
-            crate::view::ExposurePlan::Auto => serde_json::json!("auto"),
+        let ev = match plan.exposure {
+            integrator::Exposure::Fixed(ev) => serde_json::json!(ev),
+            integrator::Exposure::Auto => serde_json::json!("auto"),
         };
         object.insert(
             "exposure".to_owned(),
             serde_json::json!({
                 "ev": ev,
                 "why": exposure_why,
-                "tonemap": args.exposure.tonemap(&scene).to_string(),
+                "tonemap": plan.tonemap.to_string(),
                 "photometric_lights": scene.has_photometric_lights(),
             }),
         );

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::Context as _;
-use integrator::{Display, FilmFile, OutputFile, OutputKind};
+use integrator::{Display, FilmFile, OutputPlan};
 
 /// Arguments of `spectrace merge`.
 #[derive(Debug, clap::Args)]
@@ -45,21 +45,15 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
     if (args.spectral_exr.is_some() || args.variance.is_some()) && args.output.is_none() {
         anyhow::bail!("--spectral-exr and --variance go with -o OUT.exr");
     }
-    let mut outputs = Vec::new();
-    if let Some(output) = &args.output {
-        if !output.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
-            anyhow::bail!("{}: the output must end in .exr (a .png is written beside it)", output.display());
-        }
-        outputs.push(OutputFile { path: output.clone(), kind: OutputKind::Exr(args.display) });
-        outputs.push(OutputFile { path: output.with_extension("png"), kind: OutputKind::Png(args.display) });
-    }
-    if let Some(path) = &args.spectral_exr {
-        outputs.push(OutputFile { path: path.clone(), kind: OutputKind::SpectralExr });
-    }
-    if let Some(path) = &args.variance {
-        outputs.push(OutputFile { path: path.clone(), kind: OutputKind::Variance });
-    }
-    let mut paths: Vec<&std::path::Path> = outputs.iter().map(|o| o.path.as_path()).collect();
+    // The same plan as the render's: its view comes from the parts' headers, below.
+    let mut plan = OutputPlan::new(
+        args.output.as_deref(),
+        args.display,
+        args.spectral_exr.as_deref(),
+        args.variance.as_deref(),
+        integrator::ViewPlan::default(),
+    )?;
+    let mut paths: Vec<&std::path::Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(args.film.as_deref());
     integrator::check_distinct_outputs(&paths)?;
 
@@ -95,16 +89,15 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.film {
         file.write(path).context("writing the merged film")?;
     }
-    if !outputs.is_empty() {
-        let mut image = file.film.to_image();
-        if args.variance.is_some() {
-            image.set_sample_statistics(&file.film);
-        }
-        image.write_outputs(&outputs).context("writing the outputs (none was written)")?;
+    if !plan.outputs.is_empty() {
+        plan.view =
+            file.header.view.parse().with_context(|| format!("{}: the film's view", args.parts[0].display()))?;
+        let (image, _) = plan.develop(&file.film);
+        plan.write(&image).context("writing the outputs (none was written)")?;
     }
     let write = start.elapsed().saturating_sub(read + merge);
     if !args.quiet {
-        let mut written: Vec<String> = outputs.iter().map(|o| o.path.display().to_string()).collect();
+        let mut written: Vec<String> = plan.outputs.iter().map(|o| o.path.display().to_string()).collect();
         written.extend(args.film.iter().map(|p| p.display().to_string()));
         let h = &file.header;
         eprintln!(

@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
 use integrator::{
-    Ambient, Display, Integrator, IntegratorKind, OutputFile, OutputKind, PathOptions, RenderOptions, RenderScene,
-    SamplerKind, SpectralMode, WavelengthPdf, WhittedOptions,
+    Ambient, Display, Integrator, IntegratorKind, OutputPlan, PathOptions, RenderOptions, RenderScene, SamplerKind,
+    SpectralMode, WavelengthPdf, WhittedOptions,
 };
 
 /// Arguments of `spectrace render`.
@@ -297,24 +297,17 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if args.spectral_exr.is_some() && image_path.is_none() {
         anyhow::bail!("--spectral-exr needs an image (-o); to keep the spectrum in the film, use --spectral-film");
     }
-    let mut outputs = Vec::new();
-    let mut png = None;
-    if let Some(output) = &image_path {
-        let p = png_path(output)?;
-        outputs.push(OutputFile { path: output.clone(), kind: OutputKind::Exr(args.display) });
-        outputs.push(OutputFile { path: p.clone(), kind: OutputKind::Png(args.display) });
-        png = Some(p);
-    }
-    if let Some(path) = &args.spectral_exr
-        && !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"))
-    {
-        anyhow::bail!("{}: the spectral image must end in .exr", path.display());
-    }
-    if let Some(path) = &args.spectral_exr {
-        outputs.push(OutputFile { path: path.clone(), kind: OutputKind::SpectralExr });
-    }
-    // Before loading or rendering anything: two outputs on one path would replace each other.
-    let mut paths: Vec<&Path> = outputs.iter().map(|o| o.path.as_path()).collect();
+    // Before loading or rendering anything: the image files (the view is the scene's, below), and
+    // no two outputs on one path, which would replace each other.
+    let png = image_path.as_deref().map(png_path).transpose()?;
+    let mut plan = OutputPlan::new(
+        image_path.as_deref(),
+        args.display,
+        args.spectral_exr.as_deref(),
+        None,
+        integrator::ViewPlan::default(),
+    )?;
+    let mut paths: Vec<&Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(parts.film.as_deref());
     if parts.checkpoint != parts.film {
         paths.extend(parts.checkpoint.as_deref());
@@ -337,7 +330,8 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             .context("building the default scene")?,
     };
     let (integrator_kind, integrator_note) = args.integrator.resolve(&scene);
-    let (exposure, exposure_why) = args.exposure.plan(&scene)?;
+    let (view_plan, exposure_why) = args.exposure.plan(&scene)?;
+    plan.view = view_plan;
     if !args.quiet {
         for w in scene.warnings.iter().chain(&integrator_note) {
             eprintln!("spectrace: note: {w}");
@@ -395,7 +389,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     } else {
         integrator::resolved_spectral(&scene, &options)?
     };
-    let header = integrator::FilmHeader::new(&scene, &options, spectral);
+    let header = integrator::FilmHeader::new(scene.source_hash(), &options, spectral, view_plan.to_string());
     let resume = match &parts.resume {
         Some(path) => {
             let file = integrator::FilmFile::read(path)?;
@@ -452,18 +446,13 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     for path in [&parts.film, &parts.checkpoint].into_iter().flatten() {
         header.write_film(&film, path).context("writing the film")?;
     }
-    let mut image = film.to_image();
-    let ev = match exposure {
-        crate::view::ExposurePlan::Manual(ev) => ev,
-        crate::view::ExposurePlan::Auto => integrator::auto_exposure_ev(&image).unwrap_or(0.0),
-    };
-    image.set_view(integrator::View { ev, tonemap: args.exposure.tonemap(&scene) });
-    if !args.quiet && !image.view().is_identity() {
+    let (image, view) = plan.develop(&film);
+    if !args.quiet && !view.is_identity() {
         let how =
-            if exposure == crate::view::ExposurePlan::Auto { "auto: log-average luminance to 0.18; " } else { "" };
+            if view_plan.exposure == integrator::Exposure::Auto { "auto: log-average luminance to 0.18; " } else { "" };
         eprintln!(
-            "spectrace: note: PNG exposure {ev:+.2} EV ({how}{exposure_why}), tonemap {}; the EXR is not scaled",
-            args.exposure.tonemap(&scene)
+            "spectrace: note: PNG exposure {:+.2} EV ({how}{exposure_why}), tonemap {}; the EXR is not scaled",
+            view.ev, view.tonemap
         );
     }
 
@@ -474,13 +463,11 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         cancelled();
     }
     // All or nothing: every file is written to a temporary and fsynced, then all are renamed.
-    if !outputs.is_empty() {
-        image.write_outputs(&outputs).context("writing the outputs (none was written)")?;
-    }
+    plan.write(&image).context("writing the outputs (none was written)")?;
     WRITING.store(false, Ordering::SeqCst);
     if !args.quiet {
         let secs = stats.elapsed.as_secs_f64();
-        let mut written: Vec<String> = outputs.iter().map(|o| o.path.display().to_string()).collect();
+        let mut written: Vec<String> = plan.outputs.iter().map(|o| o.path.display().to_string()).collect();
         written.extend([&parts.film, &parts.checkpoint].into_iter().flatten().map(|p| p.display().to_string()));
         written.dedup();
         let written = written.join(", ");

@@ -6,7 +6,7 @@ use std::str::FromStr;
 use glam::Vec3;
 use integrator::{
     AssemblyOptions, CameraOptions, DefaultLights, EnvironmentOption, IntegratorKind, RenderScene, SkyOption, Tonemap,
-    UpAxis,
+    UpAxis, ViewPlan,
 };
 
 /// `--integrator`: a model, or `auto` (the scene's `settings.integrator`, else the path tracer).
@@ -226,36 +226,13 @@ pub(crate) struct ExposureArgs {
     tonemap: Option<Tonemap>,
 }
 
-/// How the PNG's exposure is decided, before the image exists.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum ExposurePlan {
-    /// A fixed EV.
-    Manual(f32),
-    /// Log-average luminance to 0.18, once rendered.
-    Auto,
-}
-
 impl ExposureArgs {
-    /// The plan for `scene`, and why (a note for the user).
-    pub(crate) fn plan(&self, scene: &RenderScene) -> anyhow::Result<(ExposurePlan, &'static str)> {
+    /// How `scene`'s PNG is shown ([`RenderScene::view_plan`]), and why (a note for the user).
+    pub(crate) fn plan(&self, scene: &RenderScene) -> anyhow::Result<(ViewPlan, &'static str)> {
         if let Some(ev) = self.exposure {
             anyhow::ensure!(ev.is_finite() && ev.abs() <= 100.0, "--exposure {ev}: expected stops in [-100, 100]");
-            return Ok((ExposurePlan::Manual(ev), "--exposure"));
         }
-        Ok(if self.auto_exposure {
-            (ExposurePlan::Auto, "--auto-exposure")
-        } else if scene.has_photometric_lights() {
-            (ExposurePlan::Auto, "the file's lights are photometric (candela, lux): its values are absolute")
-        } else {
-            (ExposurePlan::Manual(0.0), "the default for relative units")
-        })
-    }
-
-    /// The PNG's tone curve for `scene`: the one asked for, else PBR Neutral for glTF and OBJ files
-    /// (authored for display: highlights roll off instead of clipping, as in the Khronos sample viewer)
-    /// and clamp for manifests (colour-accuracy work: every colour below white exact).
-    pub(crate) fn tonemap(&self, scene: &RenderScene) -> Tonemap {
-        self.tonemap.unwrap_or(if scene.is_gltf_or_obj() { Tonemap::PbrNeutral } else { Tonemap::Clamp })
+        Ok(scene.view_plan(self.exposure, self.auto_exposure, self.tonemap)?)
     }
 }
 

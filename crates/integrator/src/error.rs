@@ -73,18 +73,18 @@ pub enum Error {
         /// The valid range, in words.
         range: &'static str,
     },
-    /// An image side beyond [`crate::MAX_SIDE`] (or 0).
-    #[error("{side} {value} is out of range: 1..={max} pixels per side", max = crate::MAX_SIDE)]
+    /// An image side beyond [`crate::limits::MAX_SIDE`] (or 0).
+    #[error("{side} {value} is out of range: 1..={max} pixels per side", max = crate::limits::MAX_SIDE)]
     SideOutOfRange {
         /// `width` or `height`.
         side: &'static str,
         /// The size asked for.
         value: u32,
     },
-    /// More pixels than [`crate::MAX_PIXELS`].
+    /// More pixels than [`crate::limits::MAX_PIXELS`].
     #[error(
         "{width}x{height} = {pixels} pixels is more than the limit of {max} pixels per image (2^27, about 14 GB)",
-        pixels = u64::from(*width) * u64::from(*height), max = crate::MAX_PIXELS
+        pixels = u64::from(*width) * u64::from(*height), max = crate::limits::MAX_PIXELS
     )]
     TooManyPixels {
         /// Image width.
@@ -92,11 +92,11 @@ pub enum Error {
         /// Image height.
         height: u32,
     },
-    /// A spectral film of more pixel × wavelength samples than [`crate::MAX_SPECTRAL_SAMPLES`].
+    /// A spectral film of more pixel × wavelength samples than [`crate::limits::MAX_SPECTRAL_SAMPLES`].
     #[error(
         "{pixels} pixels x {wavelengths} wavelengths = {samples} samples is more than the limit of {max} \
          (2^28, about 5.5 GB); use fewer pixels or bins:N with a smaller N",
-        samples = pixels * wavelengths, max = crate::MAX_SPECTRAL_SAMPLES
+        samples = pixels * wavelengths, max = crate::limits::MAX_SPECTRAL_SAMPLES
     )]
     TooManySpectralSamples {
         /// Pixels of the image.
@@ -104,8 +104,8 @@ pub enum Error {
         /// Wavelengths per pixel (the most `auto` may choose when it is not resolved yet).
         wavelengths: u64,
     },
-    /// A worker-thread count beyond [`crate::MAX_THREADS`] (or 0).
-    #[error("threads {0} is out of range: 1..={max}", max = crate::MAX_THREADS)]
+    /// A worker-thread count beyond [`crate::limits::MAX_THREADS`] (or 0).
+    #[error("threads {0} is out of range: 1..={max}", max = crate::limits::MAX_THREADS)]
     ThreadsOutOfRange(usize),
     /// The scene has nothing that emits light.
     #[error("the scene has no light (add a light, an emissive material or an environment)")]

@@ -9,7 +9,7 @@ use geometry::{
 };
 use glam::Vec3;
 
-use crate::{Image, RenderOptions, RenderScene, SpectralMode, render};
+use crate::{Display, Image, RenderOptions, RenderScene, SpectralMode, render};
 
 /// Image side: the unit sphere fills a disc of radius ≈ `SIDE / 2` pixels.
 const SIDE: u32 = 96;
@@ -128,7 +128,7 @@ fn measured_gold_is_gold_in_rgb_and_spectral_modes() {
     let scene = sphere_scene(gold);
     let mean = |image: &Image| {
         let n = image.pixels().len() as f32;
-        let rgb = image.to_linear_rgb(crate::Display::Srgb);
+        let rgb = image.to_linear_rgb(Display::Srgb);
         let s = rgb.iter().fold([0.0f32; 3], |a, p| [a[0] + p[0], a[1] + p[1], a[2] + p[2]]);
         [s[0] / n, s[1] / n, s[2] / n]
     };
@@ -205,7 +205,7 @@ fn each_format_decides_its_model_once() {
         m.illum = Some(illum);
         m
     };
-    let r200 = crate::assembly::roughness_from_shininess(200.0);
+    let r200 = crate::material_desc::roughness_from_shininess(200.0);
     assert_eq!(model_of(mtl(0.5, Some(0.04), 2)), M::GltfMetalRough { metallic: 0.0, roughness: r200 });
     assert_eq!(model_of(mtl(0.0, Some(0.725), 2)), M::Conductor { metal: None, roughness: r200 });
     assert_eq!(model_of(mtl(0.5, Some(0.9), 5)), M::Conductor { metal: None, roughness: r200 });

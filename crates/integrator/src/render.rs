@@ -1,395 +1,27 @@
-//! Render options, the one pixel loop, the lane-count dispatcher and progress reporting.
+//! The one pixel loop: each sample's wavelengths from the film's sensor, its ray from the
+//! camera, its radiance from the integrator's [`Kernel`], added to the [`Film`]; passes over the
+//! image, progress, cancellation and checkpoints.
 //!
 //! One sample's trip (pbrt-v4 `RayIntegrator::EvaluatePixelSample`): the pixel loop
-//! ([`render_film`] → `render_pixels`) asks the film's [`Sensor`] for the sample's
+//! ([`render_resolved`] → `render_pixels`) asks the film's [`Sensor`] for the sample's
 //! wavelengths and the camera for its ray, the integrator [`Kernel`] for the radiance along it
-//! (`whitted.rs` or `path.rs`), and adds the result to the [`Film`] row (`film.rs`).
+//! (`integrators/whitted.rs` or `integrators/path.rs`), and adds the result to the film's row.
 
-use std::fmt;
 use std::ops::Range;
-use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use colorimetry::{SampledSpectrum, SampledWavelengths};
+use colorimetry::SampledWavelengths;
 use geometry::{Camera, Ray};
 use rayon::prelude::*;
 
-use crate::assembly::RenderScene;
 use crate::error::{Error, Result};
-use crate::film::{Film, Image, MAX_SPP, ObjectId, Sensor};
-use crate::path::PathTracer;
+use crate::film::{Film, MAX_SPP, Sensor};
+use crate::integrators::{Kernel, PathTracer, Radiance, RayCount, Whitted};
+use crate::options::{Integrator, PathOptions, RenderOptions, SamplerKind};
 use crate::sampling::{Rng, Sampler, SobolSample};
-use crate::spectral::{Lanes, MAX_BINS, SpectralMode};
-use crate::whitted::Whitted;
-
-/// Which light transport model renders the image (the selector; [`Integrator`] carries each
-/// model's own options).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum IntegratorKind {
-    /// The paper's model: Whitted ray tracing with Hall's spectral shading.
-    WhittedHall,
-    /// The physically based spectral path tracer (`docs/path-tracer.md`).
-    Path,
-}
-
-impl FromStr for IntegratorKind {
-    type Err = Error;
-
-    /// `whitted-hall` (also `whitted`, `paper`) or `path`.
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "whitted-hall" | "whitted" | "paper" => Ok(Self::WhittedHall),
-            "path" => Ok(Self::Path),
-            _ => Err(Error::InvalidOption {
-                option: "integrator",
-                value: s.to_owned(),
-                expected: "whitted-hall or path",
-            }),
-        }
-    }
-}
-
-/// The density hero sampling draws wavelengths from (path tracer, `hero:K` only).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum WavelengthPdf {
-    /// pbrt-v4's and Mitsuba 3's visible-range density p(λ) ∝ sech²(0.0072 (λ − 538)).
-    Visible,
-    /// p(λ) ∝ S(λ) (x̄ + ȳ + z̄)(λ), S the sum of the scene's light spectra (each at unit
-    /// luminance), mixed with 10 % of the visible density: follows the lines of spiky lamps.
-    Illuminant,
-}
-
-impl FromStr for WavelengthPdf {
-    type Err = Error;
-
-    /// `visible` or `illuminant`.
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "visible" => Ok(Self::Visible),
-            "illuminant" => Ok(Self::Illuminant),
-            _ => Err(Error::InvalidOption {
-                option: "wavelength pdf",
-                value: s.to_owned(),
-                expected: "visible or illuminant",
-            }),
-        }
-    }
-}
-
-/// The random numbers of the path tracer's samples.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum SamplerKind {
-    /// Padded Sobol' points, shuffled and digitally shifted per dimension (the design of
-    /// pbrt-v4's `PaddedSobolSampler`): every
-    /// power-of-two prefix of a pixel's samples is stratified in each dimension and pair.
-    #[default]
-    Sobol,
-    /// Independent uniform numbers (PCG32 per sample), stratified only over hero wavelengths.
-    Independent,
-}
-
-impl FromStr for SamplerKind {
-    type Err = Error;
-
-    /// `sobol` or `independent`.
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "sobol" => Ok(Self::Sobol),
-            "independent" => Ok(Self::Independent),
-            _ => Err(Error::InvalidOption { option: "sampler", value: s.to_owned(), expected: "sobol or independent" }),
-        }
-    }
-}
-
-impl fmt::Display for SamplerKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::Sobol => "sobol",
-            Self::Independent => "independent",
-        })
-    }
-}
-
-/// The ambient term of the paper's model.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Ambient {
-    /// No ambient light.
-    None,
-    /// A constant fraction K_a of the light (the paper's comparison uses 10 %).
-    Constant(f32),
-    /// The paper's eq. 9: I_a = K_a S̄ Σ_i k_i R_i^n, built from the scene's objects.
-    Objects {
-        /// K_a, the overall strength.
-        k_a: f32,
-        /// n, the exponent on each object's reflectance.
-        exponent: f32,
-    },
-}
-
-impl FromStr for Ambient {
-    type Err = Error;
-
-    /// `objects`, `objects:K_A`, `constant:K_A` or `none`.
-    fn from_str(s: &str) -> Result<Self> {
-        let bad = || Error::InvalidOption {
-            option: "ambient",
-            value: s.to_owned(),
-            expected: "objects, objects:K_A, constant:K_A (e.g. constant:0.1) or none",
-        };
-        let number = |v: &str| v.parse::<f32>().ok().filter(|k| k.is_finite() && *k >= 0.0).ok_or_else(bad);
-        match s.split_once(':') {
-            None if s == "objects" => Ok(Self::Objects { k_a: DEFAULT_K_A, exponent: 1.0 }),
-            None if s == "none" => Ok(Self::None),
-            Some(("objects", k)) => Ok(Self::Objects { k_a: number(k)?, exponent: 1.0 }),
-            Some(("constant", k)) => Ok(Self::Constant(number(k)?)),
-            _ => Err(bad()),
-        }
-    }
-}
-
-/// Default K_a: the 10 % the paper uses for its constant-ambient comparison, so the two
-/// ambient modes have the same overall strength and differ only in colour.
-pub const DEFAULT_K_A: f32 = 0.1;
-
-/// Options of the paper's model (`whitted-hall`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WhittedOptions {
-    /// Recursion limit (the paper uses 20); `None` takes the scene's `max_depth` or 20.
-    pub max_depth: Option<u32>,
-    /// Branches whose coefficient product falls below this are not traced (0 traces the
-    /// full tree up to the depth limit).
-    pub min_weight: f32,
-    /// Bouguer–Beer absorption inside transparent objects (eq. 8).
-    pub absorption: bool,
-    /// Ambient term.
-    pub ambient: Ambient,
-}
-
-impl Default for WhittedOptions {
-    fn default() -> Self {
-        Self {
-            max_depth: None,
-            min_weight: 1e-3,
-            absorption: true,
-            ambient: Ambient::Objects { k_a: DEFAULT_K_A, exponent: 1.0 },
-        }
-    }
-}
-
-/// Options of the path tracer (`path`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PathOptions {
-    /// Bounce limit; `None` takes the scene's `max_depth` or 64.
-    pub max_depth: Option<u32>,
-    /// Bounces after which Russian roulette may end a path; `None` takes the scene's
-    /// `rr_depth` setting or 3.
-    pub rr_depth: Option<u32>,
-    /// With `hero:K`: the wavelength density.
-    pub wavelength_pdf: WavelengthPdf,
-    /// The samples' random numbers.
-    pub sampler: SamplerKind,
-}
-
-impl Default for PathOptions {
-    fn default() -> Self {
-        Self {
-            max_depth: None,
-            rr_depth: None,
-            wavelength_pdf: WavelengthPdf::Illuminant,
-            sampler: SamplerKind::default(),
-        }
-    }
-}
-
-/// The light transport model with its options: only meaningful combinations can be written.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Integrator {
-    /// The paper's model.
-    WhittedHall(WhittedOptions),
-    /// The physically based path tracer.
-    Path(PathOptions),
-}
-
-impl Integrator {
-    /// Which model this is.
-    pub fn kind(&self) -> IntegratorKind {
-        match self {
-            Self::WhittedHall(_) => IntegratorKind::WhittedHall,
-            Self::Path(_) => IntegratorKind::Path,
-        }
-    }
-}
-
-impl Default for Integrator {
-    fn default() -> Self {
-        Self::WhittedHall(WhittedOptions::default())
-    }
-}
-
-/// Everything that controls a render besides the scene.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RenderOptions {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Light transport model and its options.
-    pub integrator: Integrator,
-    /// Spectral sampling strategy.
-    pub spectral: SpectralMode,
-    /// Samples per pixel (deterministic sub-pixel positions for the paper's model).
-    pub spp: u32,
-    /// Render only these sample indices of the `spp` (a part of a render split across
-    /// processes; `None`: all). The parts' films merge into exactly the whole render's.
-    pub samples: Option<Range<u32>>,
-    /// Seed of the random numbers (each sample's stream is derived from the seed, the pixel
-    /// and the sample index, so images do not depend on the thread count).
-    pub seed: u64,
-    /// Stop once this much time has passed: samples are then taken in passes of one per
-    /// pixel, and rows not yet started are skipped once the time is up, so the limit is kept
-    /// to within about one row's time after the first pass (each pixel averages the samples it
-    /// got; [`RenderStats::spp`] says the fewest).
-    pub time_limit: Option<Duration>,
-    /// Worker threads (`None`: all cores).
-    pub threads: Option<usize>,
-    /// Keep each pixel's radiance at the wavelengths rendered ([`Image::spectral`], written by
-    /// [`Image::write_spectral_exr`]); needs fixed wavelengths (`bins:N`, or `auto` choosing
-    /// bins).
-    pub spectral_film: bool,
-}
-
-impl Default for RenderOptions {
-    fn default() -> Self {
-        Self {
-            width: crate::DEFAULT_RESOLUTION.0,
-            height: crate::DEFAULT_RESOLUTION.1,
-            integrator: Integrator::default(),
-            spectral: SpectralMode::Auto,
-            spp: 1,
-            samples: None,
-            seed: 0,
-            time_limit: None,
-            threads: None,
-            spectral_film: false,
-        }
-    }
-}
-
-impl RenderOptions {
-    /// Check the image size, the spectral film's size and the thread count against
-    /// [`MAX_SIDE`], [`MAX_PIXELS`], [`MAX_SPECTRAL_SAMPLES`] and [`MAX_THREADS`] (before
-    /// anything is allocated; [`render_film`] calls it too).
-    pub fn check_limits(&self) -> Result<()> {
-        for (side, value) in [("width", self.width), ("height", self.height)] {
-            if value == 0 || value > MAX_SIDE {
-                return Err(Error::SideOutOfRange { side, value });
-            }
-        }
-        let pixels = u64::from(self.width) * u64::from(self.height);
-        if pixels > MAX_PIXELS {
-            return Err(Error::TooManyPixels { width: self.width, height: self.height });
-        }
-        if self.spectral_film {
-            // `auto` resolves during the render: count the most wavelengths it may choose.
-            let wavelengths = match self.spectral {
-                SpectralMode::Bins(n) => n as u64,
-                _ => MAX_BINS as u64,
-            };
-            if pixels * wavelengths > MAX_SPECTRAL_SAMPLES {
-                return Err(Error::TooManySpectralSamples { pixels, wavelengths });
-            }
-        }
-        if let Some(threads) = self.threads
-            && !(1..=MAX_THREADS).contains(&threads)
-        {
-            return Err(Error::ThreadsOutOfRange(threads));
-        }
-        Ok(())
-    }
-
-    /// These options with the paper's model and its options changed by `f` (the defaults if
-    /// they held the path tracer's).
-    pub fn whitted(self, f: impl FnOnce(&mut WhittedOptions)) -> Self {
-        let mut o = match self.integrator {
-            Integrator::WhittedHall(o) => o,
-            Integrator::Path(_) => WhittedOptions::default(),
-        };
-        f(&mut o);
-        Self { integrator: Integrator::WhittedHall(o), ..self }
-    }
-
-    /// These options with the path tracer and its options changed by `f` (the defaults if they
-    /// held the paper's model's).
-    pub fn path(self, f: impl FnOnce(&mut PathOptions)) -> Self {
-        let mut o = match self.integrator {
-            Integrator::Path(o) => o,
-            Integrator::WhittedHall(_) => PathOptions::default(),
-        };
-        f(&mut o);
-        Self { integrator: Integrator::Path(o), ..self }
-    }
-
-    /// Every option that changes the film, besides the seed, the sample range and the image
-    /// size (which a film file records on their own), as one canonical line: the integrator
-    /// and its options, the spectral mode asked for, the samples per pixel and whether
-    /// per-wavelength sums are kept. Threads and the time limit change no sum and are left
-    /// out. Film files store it and its digest, and parts merge only when it is the same.
-    pub fn result_key(&self) -> String {
-        let integrator = match &self.integrator {
-            Integrator::WhittedHall(w) => format!(
-                "whitted-hall max_depth={:?} min_weight={:?} absorption={} ambient={:?}",
-                w.max_depth, w.min_weight, w.absorption, w.ambient
-            ),
-            Integrator::Path(p) => {
-                format!(
-                    "path max_depth={:?} rr_depth={:?} wavelength_pdf={:?} sampler={}",
-                    p.max_depth, p.rr_depth, p.wavelength_pdf, p.sampler
-                )
-            }
-        };
-        format!("{integrator} spectral={} spp={} spectral_film={}", self.spectral, self.spp, self.spectral_film)
-    }
-}
-
-/// The sample indices of part `k` of `m` (k = 1..=m, as a Slurm array task id) of a render of
-/// `spp` samples per pixel: `⌊(k−1)·spp/m⌋ .. ⌊k·spp/m⌋`, so the parts are disjoint, cover
-/// `0..spp` and differ in size by at most one.
-pub fn part_samples(k: u32, m: u32, spp: u32) -> Result<Range<u32>> {
-    if m == 0 || k == 0 || k > m {
-        return Err(Error::InvalidOption {
-            option: "part",
-            value: format!("{k}/{m}"),
-            expected: "K/M with 1 <= K <= M (e.g. 3/8)",
-        });
-    }
-    if m > spp {
-        return Err(Error::InvalidOption {
-            option: "part",
-            value: format!("{k}/{m} of {spp} spp"),
-            expected: "at most as many parts as samples per pixel",
-        });
-    }
-    let at = |i: u32| (u64::from(i) * u64::from(spp) / u64::from(m)) as u32;
-    Ok(at(k - 1)..at(k))
-}
-
-/// Longest image side in pixels.
-pub const MAX_SIDE: u32 = 65_536;
-
-/// Most pixels in one image: 2²⁷ (e.g. 16384 × 8192). Measured peak memory of an RGB render
-/// is 106 bytes per pixel (112 MB at 1000², 33 MB at 500²; `/usr/bin/time -v spectrace render
-/// --width 1000 --height 1000 --spectral rgb`), 80 of them the film's fixed-point sums, so
-/// about 14 GB at the limit; `--width 65536 --height 65536` (2³² pixels) aborted allocating.
-pub const MAX_PIXELS: u64 = 1 << 27;
-
-/// Most pixel × wavelength samples of a spectral film: 2²⁸. Measured 20.6 bytes per sample at
-/// peak (1.97 GB for 1000² × 95 wavelengths, 0.50 GB for 500² × 95: a 16-byte sum and the f32
-/// image value), so about 5.5 GB at the limit; e.g. 1680² pixels at 95 wavelengths.
-pub const MAX_SPECTRAL_SAMPLES: u64 = 1 << 28;
-
-/// Most worker threads: each reserves a stack; `--threads 100000` hung creating the pool.
-pub const MAX_THREADS: usize = 1024;
+use crate::scene::{RenderScene, scene_white};
+use crate::spectral::{LaneJob, Lanes, SpectralMode, lane_count, with_lanes};
 
 /// Progress of a running render, reported after each finished row.
 #[derive(Debug, Clone, Copy)]
@@ -422,52 +54,6 @@ pub struct RenderStats {
     pub spp: u32,
     /// Samples whose value was beyond the film's range (2⁴²) and was clamped (should be 0).
     pub clamped_samples: u64,
-}
-
-/// Per-thread counters.
-#[derive(Debug, Default, Clone, Copy)]
-pub(crate) struct RayCount {
-    /// Every ray traced.
-    pub(crate) rays: u64,
-    /// Those of them that were shadow rays ([`RenderStats::shadow_rays`]).
-    pub(crate) shadow: u64,
-}
-
-impl RayCount {
-    /// Count one shadow ray (it is a ray too).
-    #[inline]
-    pub(crate) fn shadow_ray(&mut self) {
-        self.rays += 1;
-        self.shadow += 1;
-    }
-}
-
-/// What an integrator returns for one camera sample.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Radiance<const N: usize> {
-    /// Radiance at the sample's lanes.
-    pub(crate) l: SampledSpectrum<N>,
-    /// What the camera ray hit first.
-    pub(crate) first: ObjectId,
-    /// With fixed lanes, the one lane a dispersive path kept (see [`Sensor::to_xyz`]).
-    pub(crate) lane: Option<usize>,
-}
-
-/// An integrator as the pixel loop sees it: radiance along a camera ray.
-pub(crate) trait Kernel<const N: usize>: Sync {
-    /// Whether samples are random (camera jitter and hero wavelengths drawn from the sample's
-    /// own stream); otherwise sub-pixel positions are the deterministic R2 sequence.
-    const RANDOM: bool;
-
-    /// Radiance arriving along `ray` at `lambda` (which a dispersive path may narrow).
-    fn li(
-        &self,
-        ray: &Ray,
-        lambda: &mut SampledWavelengths<N>,
-        sensor: &Sensor<N>,
-        sampler: &mut Sampler,
-        count: &mut RayCount,
-    ) -> Radiance<N>;
 }
 
 /// Calls [`render_film_with`] makes between passes over the image: a checkpoint.
@@ -509,36 +95,9 @@ impl std::fmt::Debug for RenderControl<'_> {
     }
 }
 
-/// Render `scene`. `progress` is called from worker threads after each row; setting `cancel`
-/// stops the render at the next row and returns [`Error::Cancelled`].
-pub fn render(
-    scene: &RenderScene,
-    options: &RenderOptions,
-    progress: &(dyn Fn(Progress) + Sync),
-    cancel: &AtomicBool,
-) -> Result<(Image, RenderStats)> {
-    let (film, stats) = render_film(scene, options, progress, cancel)?;
-    Ok((film.to_image(), stats))
-}
-
-/// Render `scene` (or the sample range `options.samples` of it) into a [`Film`], which can be
-/// merged with the films of the other ranges.
-pub fn render_film(
-    scene: &RenderScene,
-    options: &RenderOptions,
-    progress: &(dyn Fn(Progress) + Sync),
-    cancel: &AtomicBool,
-) -> Result<(Film, RenderStats)> {
-    render_film_with(scene, options, RenderControl { progress, cancel, resume: None, checkpoint: None, spectral: None })
-}
-
-/// [`render_film`] with checkpoints and resumption ([`RenderControl`]).
-pub fn render_film_with(
-    scene: &RenderScene,
-    options: &RenderOptions,
-    control: RenderControl<'_>,
-) -> Result<(Film, RenderStats)> {
-    let RenderControl { progress, cancel, resume, checkpoint, spectral } = control;
+/// Check what [`RenderOptions::check_limits`] does not: the samples per pixel, the
+/// sample range and the paper's model's weight threshold. Returns the sample range to render.
+pub(crate) fn check_options(options: &RenderOptions) -> Result<Range<u32>> {
     options.check_limits()?;
     if options.spp == 0 || options.spp > MAX_SPP {
         return Err(Error::OutOfRange { what: "spp", value: f64::from(options.spp), range: "1..=1048576" });
@@ -556,10 +115,19 @@ pub fn render_film_with(
     {
         return Err(Error::OutOfRange { what: "min weight", value: w.min_weight.into(), range: ">= 0" });
     }
-    let spectral = match spectral {
-        Some(s) => s,
-        None => resolved_spectral(scene, options)?,
-    };
+    Ok(samples)
+}
+
+/// Render `scene` with the spectral mode already resolved (never `auto`): the pixel loop over
+/// the samples the options ask for, on the render's own thread pool.
+pub(crate) fn render_resolved(
+    scene: &RenderScene,
+    options: &RenderOptions,
+    control: RenderControl<'_>,
+    spectral: SpectralMode,
+) -> Result<(Film, RenderStats)> {
+    let RenderControl { progress, cancel, resume, checkpoint, spectral: _ } = control;
+    let samples = check_options(options)?;
     if options.spectral_film && !matches!(spectral, SpectralMode::Bins(_)) {
         return Err(Error::InvalidOption {
             option: "spectral mode for a spectral image",
@@ -571,61 +139,6 @@ pub fn render_film_with(
     let pool = thread_pool(options)?;
     let job = RenderJob { scene, options, spectral, samples, progress, cancel, resume, checkpoint };
     pool.install(|| with_lanes(lanes, job))
-}
-
-/// The spectral mode a render of `scene` with `options` uses: `auto` resolved, hero refused
-/// for the paper's model.
-pub fn resolved_spectral(scene: &RenderScene, options: &RenderOptions) -> Result<SpectralMode> {
-    Ok(match options.spectral {
-        SpectralMode::Auto => crate::auto_decision(scene, options)?.spectral,
-        SpectralMode::Hero { .. } if options.integrator.kind() == IntegratorKind::WhittedHall => {
-            return Err(Error::InvalidOption {
-                option: "spectral mode",
-                value: options.spectral.to_string(),
-                expected: "rgb, bins:N or auto for the whitted-hall integrator (hero sampling needs a Monte Carlo integrator)",
-            });
-        }
-        mode => mode,
-    })
-}
-
-/// Lane counts the renderer is compiled for, smallest first ([`with_lanes`] has one arm each).
-const LANE_COUNTS: [usize; 7] = [4, 8, 16, 32, 48, 64, MAX_BINS];
-
-/// The lanes a spectral strategy needs.
-pub(crate) fn lane_count(spectral: SpectralMode) -> Result<usize> {
-    let bad = || Error::InvalidOption {
-        option: "spectral mode",
-        value: spectral.to_string(),
-        expected: "rgb, bins:N (2..=96), hero:4, hero:8 or auto",
-    };
-    match spectral {
-        SpectralMode::Rgb => Ok(4),
-        SpectralMode::Bins(n @ 2..=MAX_BINS) => LANE_COUNTS.iter().copied().find(|&lanes| n <= lanes).ok_or_else(bad),
-        SpectralMode::Hero { count: count @ (4 | 8) } => Ok(count),
-        SpectralMode::Bins(_) | SpectralMode::Hero { .. } | SpectralMode::Auto => Err(bad()),
-    }
-}
-
-/// Work generic over the lane count, for [`with_lanes`].
-pub(crate) trait LaneJob {
-    type Output;
-    fn run<const N: usize>(self) -> Self::Output;
-}
-
-/// The one place that turns a run-time lane count (one of [`LANE_COUNTS`], from
-/// [`lane_count`]) into a compile-time one.
-pub(crate) fn with_lanes<J: LaneJob>(lanes: usize, job: J) -> J::Output {
-    debug_assert!(LANE_COUNTS.contains(&lanes), "{lanes} lanes");
-    match lanes {
-        4 => job.run::<4>(),
-        8 => job.run::<8>(),
-        16 => job.run::<16>(),
-        32 => job.run::<32>(),
-        48 => job.run::<48>(),
-        64 => job.run::<64>(),
-        _ => job.run::<MAX_BINS>(),
-    }
 }
 
 struct RenderJob<'a> {
@@ -645,7 +158,7 @@ impl LaneJob for RenderJob<'_> {
     fn run<const N: usize>(self) -> Self::Output {
         let fixed = || match self.spectral {
             SpectralMode::Rgb => Lanes::<N>::rgb(),
-            SpectralMode::Bins(n) => Lanes::bins(n, &crate::scene_white(self.scene)),
+            SpectralMode::Bins(n) => Lanes::bins(n, &scene_white(self.scene)),
             SpectralMode::Hero { .. } | SpectralMode::Auto => unreachable!("no fixed lanes for {}", self.spectral),
         };
         match &self.options.integrator {
@@ -897,37 +410,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn ambient_and_integrator_options_parse() {
-        assert_eq!("constant:0.1".parse::<Ambient>().unwrap(), Ambient::Constant(0.1));
-        assert_eq!("objects".parse::<Ambient>().unwrap(), Ambient::Objects { k_a: DEFAULT_K_A, exponent: 1.0 });
-        assert_eq!("none".parse::<Ambient>().unwrap(), Ambient::None);
-        assert!(matches!("constant:-1".parse::<Ambient>(), Err(Error::InvalidOption { .. })));
-        assert!(matches!("sky".parse::<Ambient>(), Err(Error::InvalidOption { .. })));
-        assert_eq!("whitted-hall".parse::<IntegratorKind>().unwrap(), IntegratorKind::WhittedHall);
-        assert_eq!("path".parse::<IntegratorKind>().unwrap(), IntegratorKind::Path);
-        assert!("bdpt".parse::<IntegratorKind>().is_err());
-        assert_eq!("visible".parse::<WavelengthPdf>().unwrap(), WavelengthPdf::Visible);
-        assert!("uniform".parse::<WavelengthPdf>().is_err());
-    }
-
-    #[test]
     fn pixel_offsets_stay_inside_the_pixel() {
         for spp in [1, 2, 7, 64] {
             let o = pixel_offsets(spp);
             assert_eq!(o.len(), spp as usize);
             assert!(o.iter().all(|&(x, y)| (0.0..1.0).contains(&x) && (0.0..1.0).contains(&y)));
         }
-    }
-
-    #[test]
-    fn every_spectral_mode_gets_enough_lanes() {
-        assert_eq!(lane_count(SpectralMode::Rgb).unwrap(), 4);
-        assert_eq!(lane_count(SpectralMode::Bins(5)).unwrap(), 8);
-        assert_eq!(lane_count(SpectralMode::Bins(95)).unwrap(), 96);
-        assert_eq!(lane_count(SpectralMode::Hero { count: 8 }).unwrap(), 8);
-        assert!(lane_count(SpectralMode::Hero { count: 5 }).is_err());
-        assert!(lane_count(SpectralMode::Bins(97)).is_err());
-        // bins:1 and bins:0 reached an assert in the lane constructor: an error now.
-        assert!(lane_count(SpectralMode::Bins(1)).is_err() && lane_count(SpectralMode::Bins(0)).is_err());
     }
 }

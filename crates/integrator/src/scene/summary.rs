@@ -7,7 +7,7 @@ use geometry::{CameraDesc, IorDesc, LightDesc, MaterialDesc, SceneDescription, S
 use materials::Material;
 use serde_json::{Value, json};
 
-use crate::assembly::RenderScene;
+use crate::scene::assembly::RenderScene;
 
 /// Summarises a loaded description and the scene assembled from it as JSON.
 ///

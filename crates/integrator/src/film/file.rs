@@ -6,16 +6,16 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use crate::assembly::RenderScene;
 use crate::error::{Error, Result};
 use crate::film::{Film, ObjectId, PixelSums};
-use crate::render::RenderOptions;
+use crate::limits::{MAX_PIXELS, MAX_SIDE};
+use crate::options::RenderOptions;
 use crate::spectral::{MAX_BINS, SpectralMode};
 
 /// The first 8 bytes of every film file.
 pub const FILM_MAGIC: [u8; 8] = *b"SPTRFILM";
 /// The layout version this build writes and reads.
-pub const FILM_VERSION: u32 = 1;
+pub const FILM_VERSION: u32 = 2;
 /// Bytes per pixel of the sums: a u32 count and four i128 (Σ X, Σ Y, Σ Z, Σ Y²).
 const PIXEL_BYTES: usize = 4 + 4 * 16;
 /// Fixed part of the header after the length field (see `docs/film-format.md`).
@@ -42,14 +42,18 @@ pub struct FilmHeader {
     pub spectral: String,
     /// The program that wrote the file, e.g. `spectrace 0.1.0`.
     pub writer: String,
+    /// How the render's PNG is shown ([`crate::ViewPlan`]'s text, e.g. `exposure auto; tonemap
+    /// pbr-neutral`): decided with the scene, so `merge` repeats it. The film itself holds sums only.
+    pub view: String,
 }
 
 impl FilmHeader {
-    /// The header of a render of `scene` with `options` (its sample range, or all samples).
-    pub fn new(scene: &RenderScene, options: &RenderOptions, spectral: SpectralMode) -> Self {
+    /// The header of a render with `options` (its sample range, or all samples) of the scene whose
+    /// files digest to `scene_hash` ([`crate::RenderScene::source_hash`]).
+    pub fn new(scene_hash: u64, options: &RenderOptions, spectral: SpectralMode, view: String) -> Self {
         let key = options.result_key();
         Self {
-            scene_hash: scene.source_hash(),
+            scene_hash,
             options_hash: geometry::xxh64(key.as_bytes(), 0),
             options: key,
             seed: options.seed,
@@ -57,6 +61,7 @@ impl FilmHeader {
             samples: options.samples.clone().unwrap_or(0..options.spp),
             spectral: spectral.to_string(),
             writer: format!("spectrace {}", env!("CARGO_PKG_VERSION")),
+            view,
         }
     }
 }
@@ -163,10 +168,12 @@ fn parse_header(r: &mut Reader<'_>) -> Option<Parsed> {
     let spectral = r.text()?;
     let options = r.text()?;
     let writer = r.text()?;
+    let view = r.text()?;
     let wavelengths = (0..lanes)
         .map(|_| r.take(4).map(|b| f32::from_le_bytes(b.try_into().unwrap_or_default())))
         .collect::<Option<_>>()?;
-    let header = FilmHeader { scene_hash, options, options_hash, seed, spp, samples: start..end, spectral, writer };
+    let header =
+        FilmHeader { scene_hash, options, options_hash, seed, spp, samples: start..end, spectral, writer, view };
     Some(Parsed { header, width, height, lanes, has_first_sample: flags & 1 == 1, nonfinite, clamped, wavelengths })
 }
 
@@ -174,7 +181,7 @@ impl FilmHeader {
     /// Write `film` with this header to `path` atomically (a temporary beside it, fsynced,
     /// then renamed): what a checkpoint does without copying the film.
     pub fn write_film(&self, film: &Film, path: &Path) -> Result<()> {
-        crate::output::write_bytes_atomically(path, &encode(self, film))
+        crate::files::write_bytes_atomically(path, &encode(self, film))
     }
 }
 
@@ -195,6 +202,7 @@ fn encode(h: &FilmHeader, f: &Film) -> Vec<u8> {
     put_text(&mut header, &h.spectral);
     put_text(&mut header, &h.options);
     put_text(&mut header, &h.writer);
+    put_text(&mut header, &h.view);
     for w in &f.wavelengths {
         header.extend_from_slice(&w.to_le_bytes());
     }
@@ -283,9 +291,9 @@ impl FilmFile {
         let pixels = u64::from(p.width) * u64::from(p.height);
         let sane = p.width > 0
             && p.height > 0
-            && p.width <= crate::MAX_SIDE
-            && p.height <= crate::MAX_SIDE
-            && pixels <= crate::MAX_PIXELS
+            && p.width <= MAX_SIDE
+            && p.height <= MAX_SIDE
+            && pixels <= MAX_PIXELS
             && h.samples.start < h.samples.end
             && h.samples.end <= h.spp
             && h.options_hash == geometry::xxh64(h.options.as_bytes(), 0);
@@ -481,6 +489,13 @@ impl Merger {
                         ),
                     ));
                 }
+                if h.view != reference.view {
+                    return Err(mismatch(
+                        &path,
+                        first_path,
+                        format!("another view of the image (`{}`, not `{}`)", h.view, reference.view),
+                    ));
+                }
                 if h.writer != reference.writer {
                     // Same options and scene but another build: the numbers may differ.
                     return Err(mismatch(
@@ -575,6 +590,7 @@ mod tests {
             samples: 0..1,
             spectral: "bins:2".to_owned(),
             writer: "spectrace test".to_owned(),
+            view: "exposure +0 EV; tonemap clamp".to_owned(),
         };
         FilmFile { header, film }
     }

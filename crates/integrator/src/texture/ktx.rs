@@ -14,7 +14,7 @@ use std::io::Read;
 
 use geometry::{ImageDesc, MemoryBudget};
 
-use crate::texture::Image8;
+use crate::texture::texels::Image8;
 
 /// The KTX 2.0 file identifier (KTX 2.0 specification §3.1): «KTX 20»\r\n\x1A\n.
 const IDENTIFIER: [u8; 12] = [0xAB, b'K', b'T', b'X', b' ', b'2', b'0', 0xBB, b'\r', b'\n', 0x1A, b'\n'];

@@ -27,7 +27,7 @@ pub enum SpectralMode {
         /// Wavelengths per path (4 or 8).
         count: usize,
     },
-    /// Let the renderer choose for the scene (see [`crate::choose_auto`]).
+    /// Let the renderer choose for the scene (see `auto::choose_auto`).
     Auto,
 }
 
@@ -227,9 +227,60 @@ pub(crate) fn spectrum_to_rgb(s: &DenselySampledSpectrum, kind: SpectrumKind) ->
     [rgb.r as f32, rgb.g as f32, rgb.b as f32]
 }
 
+/// Lane counts the renderer is compiled for, smallest first ([`with_lanes`] has one arm each).
+const LANE_COUNTS: [usize; 7] = [4, 8, 16, 32, 48, 64, MAX_BINS];
+
+/// The lanes a spectral strategy needs.
+pub(crate) fn lane_count(spectral: SpectralMode) -> Result<usize> {
+    let bad = || Error::InvalidOption {
+        option: "spectral mode",
+        value: spectral.to_string(),
+        expected: "rgb, bins:N (2..=96), hero:4, hero:8 or auto",
+    };
+    match spectral {
+        SpectralMode::Rgb => Ok(4),
+        SpectralMode::Bins(n @ 2..=MAX_BINS) => LANE_COUNTS.iter().copied().find(|&lanes| n <= lanes).ok_or_else(bad),
+        SpectralMode::Hero { count: count @ (4 | 8) } => Ok(count),
+        SpectralMode::Bins(_) | SpectralMode::Hero { .. } | SpectralMode::Auto => Err(bad()),
+    }
+}
+
+/// Work generic over the lane count, for [`with_lanes`].
+pub(crate) trait LaneJob {
+    type Output;
+    fn run<const N: usize>(self) -> Self::Output;
+}
+
+/// The one place that turns a run-time lane count (one of [`LANE_COUNTS`], from
+/// [`lane_count`]) into a compile-time one.
+pub(crate) fn with_lanes<J: LaneJob>(lanes: usize, job: J) -> J::Output {
+    debug_assert!(LANE_COUNTS.contains(&lanes), "{lanes} lanes");
+    match lanes {
+        4 => job.run::<4>(),
+        8 => job.run::<8>(),
+        16 => job.run::<16>(),
+        32 => job.run::<32>(),
+        48 => job.run::<48>(),
+        64 => job.run::<64>(),
+        _ => job.run::<MAX_BINS>(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_spectral_mode_gets_enough_lanes() {
+        assert_eq!(lane_count(SpectralMode::Rgb).unwrap(), 4);
+        assert_eq!(lane_count(SpectralMode::Bins(5)).unwrap(), 8);
+        assert_eq!(lane_count(SpectralMode::Bins(95)).unwrap(), 96);
+        assert_eq!(lane_count(SpectralMode::Hero { count: 8 }).unwrap(), 8);
+        assert!(lane_count(SpectralMode::Hero { count: 5 }).is_err());
+        assert!(lane_count(SpectralMode::Bins(97)).is_err());
+        // bins:1 and bins:0 reached an assert in the lane constructor: an error now.
+        assert!(lane_count(SpectralMode::Bins(1)).is_err() && lane_count(SpectralMode::Bins(0)).is_err());
+    }
 
     #[test]
     fn parses_every_mode_and_rejects_the_rest() {

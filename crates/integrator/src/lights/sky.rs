@@ -19,7 +19,7 @@ use std::f64::consts::PI;
 use colorimetry::DenselySampledSpectrum;
 use glam::{DVec3, Vec3};
 
-use crate::envmap::{EnvironmentMap, daylight_basis_luminance};
+use crate::lights::envmap::{EnvironmentMap, daylight_basis_luminance};
 
 /// The turbidities the model's fits were made for (the paper's Figure 4 spans 2–10; outside, Y_z and the
 /// Perez coefficients leave their fitted range: Y_z < 0 at the horizon beyond T ≈ 11.2).
@@ -183,7 +183,7 @@ pub(crate) const SKY_MAP_SIZE: (usize, usize) = (512, 256);
 impl PreethamSky {
     /// The sky as a daylight environment map of `width` × `height` texels (each the model at its centre),
     /// times `intensity`, in the maps' orientation (`envmap.rs`, rotation 0).
-    pub(crate) fn bake(&self, width: usize, height: usize, intensity: f64) -> crate::Result<EnvironmentMap> {
+    pub(crate) fn bake(&self, width: usize, height: usize, intensity: f64) -> crate::error::Result<EnvironmentMap> {
         let basis = daylight_basis_luminance();
         let mut weights = Vec::with_capacity(width * height);
         for row in 0..height {

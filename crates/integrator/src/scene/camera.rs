@@ -124,8 +124,9 @@ pub(crate) fn choose_camera(
                         ));
                     }
                 }
-                let aspect =
-                    options.aspect.unwrap_or(crate::DEFAULT_RESOLUTION.0 as f32 / crate::DEFAULT_RESOLUTION.1 as f32);
+                let aspect = options.aspect.unwrap_or(
+                    crate::options::DEFAULT_RESOLUTION.0 as f32 / crate::options::DEFAULT_RESOLUTION.1 as f32,
+                );
                 let vfov = options.vfov_deg.unwrap_or(DEFAULT_VFOV_DEG);
                 let desc = default_camera(lo, hi, up_axis, vfov, aspect);
                 let up = if up_axis == UpAxis::Z { "Z" } else { "Y" };

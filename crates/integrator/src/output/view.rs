@@ -1,11 +1,10 @@
-//! Exposure and display rendering of the PNG (issue 13). The EXR stays scene-referred (absolute,
+//! Exposure and display rendering of the PNG. The EXR stays scene-referred (absolute,
 //! linear, unscaled); only the 8-bit PNG is exposed by 2^EV and tone-mapped, and the EXR records
 //! the exposure that its PNG used in a header attribute.
 
 use std::str::FromStr;
 
 use crate::error::{Error, Result};
-use crate::film::Image;
 
 /// The curve from exposed linear RGB to display values in [0, 1], before the sRGB transfer curve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -63,7 +62,7 @@ impl View {
 
     /// [`View::apply`] with the exposure's scale 2^EV computed once by the caller.
     #[inline]
-    fn apply_scaled(&self, rgb: [f32; 3], scale: f32) -> [f32; 3] {
+    pub(crate) fn apply_scaled(&self, rgb: [f32; 3], scale: f32) -> [f32; 3] {
         let exposed = rgb.map(|c| if c.is_finite() { (c * scale).max(0.0) } else { 0.0 });
         match self.tonemap {
             Tonemap::Clamp => exposed.map(|c| c.min(1.0)),
@@ -75,28 +74,6 @@ impl View {
 /// Middle grey: the display value the log-average luminance is mapped to by auto-exposure (Reinhard et
 /// al. 2002, "Photographic tone reproduction for digital images", the key a = 0.18 of a normal-key scene).
 pub const MIDDLE_GREY: f32 = 0.18;
-
-/// Auto-exposure: the EV that maps the image's log-average luminance to [`MIDDLE_GREY`],
-/// EV = log2(0.18 / exp(mean ln Y)) over the pixels with finite Y > 0 (Reinhard et al. 2002, eq. 1,
-/// without their δ: black pixels, such as an empty background, are left out rather than floored so that
-/// an object on black is exposed for itself). `None` when no pixel has light.
-pub fn auto_exposure_ev(image: &Image) -> Option<f32> {
-    let (mut sum, mut count) = (0.0f64, 0u64);
-    for p in image.pixels() {
-        let y = p[1];
-        if y.is_finite() && y > 0.0 {
-            sum += f64::from(y).ln();
-            count += 1;
-        }
-    }
-    if count == 0 {
-        return None;
-    }
-    let log_average = (sum / count as f64).exp();
-    let ev = (f64::from(MIDDLE_GREY) / log_average).log2();
-    // Y is bounded by the film (2^42) and positive, so this is finite; clamp anyway to what an f32 scale holds.
-    Some(ev.clamp(-120.0, 120.0) as f32)
-}
 
 /// Khronos PBR Neutral on non-negative linear Rec. 709 RGB, as its specification writes it
 /// (KhronosGroup/ToneMapping, `PBR_Neutral/README.md`): F90 = 0.04, K_s = 0.8 − F90, K_d = 0.15;
@@ -131,33 +108,71 @@ impl View {
     }
 }
 
-impl Image {
-    /// Set how the PNG shows this image (the EXR's pixels stay as rendered; its header records `view`).
-    pub fn set_view(&mut self, view: View) {
-        self.view = view;
-    }
+/// How a render's PNG exposure is chosen, before the image exists.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Exposure {
+    /// A fixed exposure in stops.
+    Fixed(f32),
+    /// The image's log-average luminance to [`MIDDLE_GREY`], once rendered ([`crate::auto_exposure_ev`]).
+    Auto,
+}
 
-    /// How the PNG shows this image.
-    pub fn view(&self) -> View {
-        self.view
-    }
+/// What a render decides about its PNG: the exposure rule and the tone curve. It is decided once, with
+/// the scene ([`crate::RenderScene::view_plan`]), and recorded in every film file of the render, so that
+/// `merge` of its parts shows the merged image exactly as the single render shows its own.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewPlan {
+    /// How the exposure is chosen.
+    pub exposure: Exposure,
+    /// The display curve.
+    pub tonemap: Tonemap,
+}
 
-    /// 8-bit display-encoded RGB through `view` (exposure, tone curve), then the sRGB transfer curve.
-    pub fn to_rgb8_view(&self, display: crate::Display, view: &View) -> Vec<u8> {
-        if view.is_identity() {
-            return self.to_rgb8(display);
+impl Default for ViewPlan {
+    /// EV 0 and clamp: the PNG is the EXR clipped.
+    fn default() -> Self {
+        Self { exposure: Exposure::Fixed(0.0), tonemap: Tonemap::Clamp }
+    }
+}
+
+impl std::fmt::Display for ViewPlan {
+    /// `exposure auto; tonemap pbr-neutral` or `exposure +1.5 EV; tonemap clamp`: the film file's text.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.exposure {
+            Exposure::Fixed(ev) => write!(f, "exposure {ev:+} EV; tonemap {}", self.tonemap),
+            Exposure::Auto => write!(f, "exposure auto; tonemap {}", self.tonemap),
         }
-        let scale = view.ev.exp2();
-        self.to_linear_rgb(display)
-            .iter()
-            .flat_map(|p| view.apply_scaled(*p, scale).map(colorimetry::srgb_encode_u8))
-            .collect()
+    }
+}
+
+impl FromStr for ViewPlan {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        let bad = || Error::InvalidOption {
+            option: "view",
+            value: s.to_owned(),
+            expected: "`exposure auto; tonemap NAME` or `exposure EV EV; tonemap NAME`",
+        };
+        let (exposure, tonemap) = s.split_once("; tonemap ").ok_or_else(bad)?;
+        let exposure = match exposure.strip_prefix("exposure ").ok_or_else(bad)? {
+            "auto" => Exposure::Auto,
+            ev => {
+                let ev: f32 = ev.strip_suffix(" EV").and_then(|e| e.parse().ok()).ok_or_else(bad)?;
+                if !ev.is_finite() {
+                    return Err(bad());
+                }
+                Exposure::Fixed(ev)
+            }
+        };
+        Ok(Self { exposure, tonemap: tonemap.parse()? })
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::output::developed::{Display, Image, auto_exposure_ev};
 
     fn grey_image(y: f32) -> Image {
         let mut image = Image::new(4, 3);
@@ -220,9 +235,9 @@ mod tests {
         assert_eq!(view.apply([0.1, 0.2, 0.3]), [0.4, 0.8, 1.0]);
         assert_eq!(view.apply([f32::NAN, -1.0, f32::INFINITY]), [0.0, 0.0, 0.0]);
         let image = grey_image(0.3);
-        assert_eq!(image.to_rgb8_view(crate::Display::Srgb, &View::default()), image.to_rgb8(crate::Display::Srgb));
-        let bright = image.to_rgb8_view(crate::Display::Srgb, &View { ev: 1.0, tonemap: Tonemap::Clamp });
-        let doubled = grey_image(0.6).to_rgb8(crate::Display::Srgb);
+        assert_eq!(image.to_rgb8_view(Display::Srgb, &View::default()), image.to_rgb8(Display::Srgb));
+        let bright = image.to_rgb8_view(Display::Srgb, &View { ev: 1.0, tonemap: Tonemap::Clamp });
+        let doubled = grey_image(0.6).to_rgb8(Display::Srgb);
         assert_eq!(bright, doubled);
         assert_eq!("pbr-neutral".parse::<Tonemap>().unwrap(), Tonemap::PbrNeutral);
         assert!("filmic".parse::<Tonemap>().is_err());

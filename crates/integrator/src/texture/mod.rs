@@ -20,8 +20,14 @@ use geometry::{AlphaMode, ImageDesc, MaterialDesc, MemoryBudget, TextureDesc, Wr
 use glam::{Vec2, Vec3, Vec4};
 use materials::Coat;
 
-use crate::surface::HitTangent;
 use rayon::prelude::*;
+
+use crate::surface::HitTangent;
+
+mod ktx;
+mod texels;
+
+pub(crate) use texels::Image8;
 
 /// Largest image side decoded (pixels): 16 K, the largest texture GPUs address; beyond it a
 /// file is more likely a memory bomb than a texture.
@@ -43,14 +49,6 @@ pub(crate) const MAX_REFINED_COLOURS: usize = 1 << 20;
 /// from looping.
 pub(crate) const MAX_ALPHA_SKIPS: u32 = 256;
 
-/// An image decoded to 8-bit RGBA as stored (sRGB-encoded or linear, as its role says).
-#[derive(Debug)]
-pub(crate) struct Image8 {
-    pub(crate) width: u32,
-    pub(crate) height: u32,
-    pub(crate) texels: Vec<[u8; 4]>,
-}
-
 /// Working bytes per texel of the hash table that finds a colour texture's distinct colours, at most
 /// (every texel distinct): a hashbrown bucket of key `[u8; 4]` and value `u32` (8 bytes) plus its
 /// control byte, at ≥ 8/7 buckets per entry, with the old and the doubled table both alive while it
@@ -60,7 +58,7 @@ const COLOUR_COUNT_BYTES_PER_TEXEL: u64 = 40;
 /// Bytes per texel of [`Image8`].
 const IMAGE8_BYTES_PER_TEXEL: u64 = 4;
 
-/// Decodes `image` (PNG, JPEG, WebP or an 8-bit KTX2 ([`crate::ktx`]), chosen by content) with bounded dimensions and allocation; 16-bit
+/// Decodes `image` (PNG, JPEG, WebP or an 8-bit KTX2 ([`ktx`]), chosen by content) with bounded dimensions and allocation; 16-bit
 /// channels are reduced to 8 bits (a warning names the image). The decoded size is read from the
 /// header and charged to `memory` before any texel is decoded: the decoder's output and the 8-bit
 /// copy as working memory, the kept texels for good. `Ok(None)` (with a warning) for an image that
@@ -71,8 +69,8 @@ fn decode(
     warnings: &mut Vec<String>,
 ) -> geometry::Result<Option<Image8>> {
     use image::ImageDecoder;
-    if crate::ktx::is_ktx2(&image.bytes) {
-        return crate::ktx::decode_ktx2(image, MAX_IMAGE_SIDE, memory, warnings);
+    if ktx::is_ktx2(&image.bytes) {
+        return ktx::decode_ktx2(image, MAX_IMAGE_SIDE, memory, warnings);
     }
     let skip = |e: &dyn std::fmt::Display, warnings: &mut Vec<String>| {
         warnings.push(format!("{}: cannot decode ({e}); the material's factor is used", image.label));
@@ -1285,11 +1283,11 @@ fn mtl_specular_maps(m: &mut MaterialDesc, warnings: &mut Vec<String>) {
     if m.textures.shininess.is_none() && m.textures.specular_map.is_none() {
         return;
     }
-    // The model the assembly will build (the one rule, `assembly::model_of`): the maps apply to the GGX
+    // The model the assembly will build (the one rule, `material_desc::model_of`): the maps apply to the GGX
     // layer over the diffuse one, and `map_Ns` to the conductor too; glass (smooth) and Lambertian surfaces
     // have no lobe for either (a material that fails to build fails later, with its own error).
     use materials::MaterialModel as M;
-    let model = crate::assembly::model_of(m).ok();
+    let model = crate::material_desc::model_of(m).ok();
     let (layered, conductor) =
         (matches!(model, Some(M::GltfMetalRough { .. })), matches!(model, Some(M::Conductor { .. })));
     if !(layered || conductor) && m.textures.shininess.take().is_some() {
@@ -1311,7 +1309,7 @@ fn mtl_specular_maps(m: &mut MaterialDesc, warnings: &mut Vec<String>) {
 }
 
 /// MTL `map_Ns` (`Ns` × the texels' luminance) as an image of roughness in G, by the exponent's mapping
-/// (`assembly::roughness_from_shininess`); `ns` the material's `Ns` (without one, the exponent of the default
+/// (`material_desc::roughness_from_shininess`); `ns` the material's `Ns` (without one, the exponent of the default
 /// roughness). The map's own image stays for other roles; this one is charged to `memory`.
 fn roughness_from_shininess_map(
     img: &Image8,
@@ -1319,7 +1317,7 @@ fn roughness_from_shininess_map(
     ns: Option<f32>,
     memory: &mut MemoryBudget,
 ) -> geometry::Result<Image8> {
-    use crate::assembly::{DEFAULT_ROUGHNESS, roughness_from_shininess, shininess_from_roughness};
+    use crate::material_desc::{DEFAULT_ROUGHNESS, roughness_from_shininess, shininess_from_roughness};
     let ns = ns.map_or(shininess_from_roughness(DEFAULT_ROUGHNESS), |n| n.max(0.0));
     let bytes = img.texels.len() as u64 * IMAGE8_BYTES_PER_TEXEL;
     memory.charge(std::path::Path::new(label), || "`map_Ns` as roughness".to_owned(), bytes)?;

@@ -17,8 +17,11 @@ use geometry::{Primitive, Scene};
 use glam::{Vec2, Vec3};
 use materials::sampling::{cosine_hemisphere, uniform_sphere};
 
-use crate::envmap::EnvironmentMap;
+pub(crate) mod envmap;
+pub(crate) mod sky;
+
 use crate::sampling::uniform_triangle;
+use envmap::EnvironmentMap;
 
 /// The shape of a light.
 #[derive(Debug, Clone, Copy)]

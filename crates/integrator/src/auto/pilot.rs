@@ -1,5 +1,5 @@
 //! `--spectral auto` for the path tracer, second step: among the strategies whose colour bias
-//! is negligible (first step, [`crate::choose_auto`]), the one expected to reach a given colour
+//! is negligible (first step, [`choose_auto`](crate::auto::choose::choose_auto)), the one expected to reach a given colour
 //! error in the least time. The rule is documented in `docs/path-tracer.md`, "Time to error".
 //!
 //! Time to an error is cost per sample × samples needed. Samples needed come from a short pilot
@@ -11,16 +11,14 @@
 use colorimetry::{Lab, Xyz, delta_e_2000};
 use rayon::prelude::*;
 
-use crate::assembly::RenderScene;
 use crate::error::Result;
 use crate::film::Sensor;
-use crate::path::PathTracer;
-use crate::render::{
-    Integrator, IntegratorKind, LaneJob, PathOptions, PixelSampler, RayCount, RenderOptions, SamplerKind, lane_count,
-    thread_pool, with_lanes,
-};
+use crate::integrators::{PathTracer, RayCount};
+use crate::options::{Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind};
+use crate::render::{PixelSampler, thread_pool};
 use crate::sampling::{Rng, Sampler};
-use crate::spectral::{Lanes, SpectralMode};
+use crate::scene::{RenderScene, scene_white};
+use crate::spectral::{LaneJob, Lanes, MAX_BINS, SpectralMode, lane_count, with_lanes};
 
 /// Cost of one lane per ray, relative to the ray's lane-independent cost (traversal, BSDF,
 /// light choice, RNG). Measured on the Cornell box (`docs/path-tracer.md`, "Time to error":
@@ -111,7 +109,7 @@ impl AutoCandidate {
 
 /// Modelled cost per ray of a strategy (see [`AutoCandidate::cost_per_sample`]).
 pub(crate) fn cost_per_ray(spectral: SpectralMode) -> f64 {
-    let lanes = lane_count(spectral).unwrap_or(crate::MAX_BINS) as f64;
+    let lanes = lane_count(spectral).unwrap_or(MAX_BINS) as f64;
     let hero = match spectral {
         SpectralMode::Hero { count } => count as f64,
         _ => 0.0,
@@ -121,13 +119,13 @@ pub(crate) fn cost_per_ray(spectral: SpectralMode) -> f64 {
 
 /// What `--spectral auto` picks for a render of `scene` with `options`:
 /// - the paper's model, a dispersive scene, or a path-traced scene whose cheapest unbiased
-///   bin count is no dearer per ray than `hero:4`: the first step's choice ([`crate::choose_auto`]);
+///   bin count is no dearer per ray than `hero:4`: the first step's choice ([`choose_auto`](crate::auto::choose::choose_auto));
 ///   fixed bins have no colour noise, so where they cost no more they reach any error first;
 /// - otherwise the candidates (that bin count if there is one, `hero:4`, `hero:8`) are piloted
 ///   and the one with the least cost per sample × (1-spp error)² wins: the least time to any
 ///   target error.
 pub fn auto_decision(scene: &RenderScene, options: &RenderOptions) -> Result<AutoDecision> {
-    let first = crate::choose_auto(scene, options.integrator.kind());
+    let first = crate::auto::choose::choose_auto(scene, options.integrator.kind());
     let keep = |reason: String| Ok(AutoDecision { spectral: first, candidates: Vec::new(), reason });
     let hero4 = SpectralMode::Hero { count: 4 };
     let bins = matches!(first, SpectralMode::Bins(_));
@@ -303,7 +301,7 @@ impl LaneJob for PilotJob<'_> {
     fn run<const N: usize>(self) -> Self::Output {
         let Self { scene, options, path, spectral, pixels } = self;
         let fixed = match spectral {
-            SpectralMode::Bins(n) => Some(Lanes::<N>::bins(n, &crate::scene_white(scene))),
+            SpectralMode::Bins(n) => Some(Lanes::<N>::bins(n, &scene_white(scene))),
             _ => None,
         };
         let (kernel, sensor): (PathTracer<'_, N>, Sensor<N>) = PathTracer::new(scene, fixed, &path);

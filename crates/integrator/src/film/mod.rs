@@ -1,6 +1,6 @@
-//! The film: how each sample's wavelengths are chosen ([`Sensor`]), the exact per-pixel sums
-//! samples are added to ([`Film`]), and the resolved image ([`Image`]) with its display
-//! conversion. Writing files is `output.rs`.
+//! The film: how each sample's wavelengths are chosen ([`Sensor`]) and the exact per-pixel sums
+//! samples are added to ([`Film`]); film files ([`file`]) carry it between processes. What is
+//! made of the sums for display (the image, its view, the files) is `output/`.
 //!
 //! **Why fixed-point sums.** A render split by sample range over several processes or machines
 //! must merge to exactly the bits of one render. Floating-point addition is not associative,
@@ -13,45 +13,13 @@
 //! more than 29 bits; so images come out bit-identical to f64 accumulation almost always, and
 //! otherwise within one f32 rounding.
 
-use colorimetry::{
-    DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, RgbColorSpace, SampledSpectrum, SampledWavelengths, Xyz,
-};
+use colorimetry::{DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, Observer, SampledSpectrum, SampledWavelengths};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::spectral::Lanes;
 
-/// Which display the output RGB is for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Display {
-    /// sRGB / Rec. 709 primaries, D65 white, sRGB transfer curve (the default).
-    Srgb,
-    /// The paper's 9300 K monitor (its eq. 4 matrix M), sRGB transfer curve for the PNG.
-    Paper9300,
-}
-
-impl std::str::FromStr for Display {
-    type Err = Error;
-
-    /// `srgb` or `paper9300`.
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "srgb" => Ok(Self::Srgb),
-            "paper9300" => Ok(Self::Paper9300),
-            _ => Err(Error::InvalidOption { option: "display", value: s.to_owned(), expected: "srgb or paper9300" }),
-        }
-    }
-}
-
-impl Display {
-    /// The RGB colour space of the display.
-    pub fn color_space(self) -> &'static RgbColorSpace {
-        match self {
-            Self::Srgb => RgbColorSpace::srgb(),
-            Self::Paper9300 => RgbColorSpace::paper_9300(),
-        }
-    }
-}
+pub(crate) mod file;
 
 /// What a pixel's first camera ray hit: a material (by index; `None` = the default material)
 /// or nothing. Reports use it to average over objects (e.g. "the spheres").
@@ -64,7 +32,7 @@ pub enum ObjectId {
 }
 
 /// Fractional bits of the first-moment sums (XYZ, spectral lanes).
-const FRACTION_BITS: i32 = 64;
+pub(crate) const FRACTION_BITS: i32 = 64;
 /// Fractional bits of the second-moment sum (Y²): squares need range more than resolution.
 /// Y² is kept for Y ≥ 2⁻¹⁶ (1.5·10⁻⁵, in units where white is 1); darker samples add 0 to it,
 /// so the variance of pixels that dark reads low.
@@ -135,7 +103,7 @@ fn inverse_power_of_two(bits: i32) -> f64 {
 /// 2¹⁰⁶ in magnitude (every sum of values ≤ 2⁴²) split into two parts that f64 holds exactly,
 /// so their one addition is the only rounding; larger ones take the general conversion.
 #[inline]
-fn from_fixed(sum: i128, bits: i32) -> f64 {
+pub(crate) fn from_fixed(sum: i128, bits: i32) -> f64 {
     const TWO_53: f64 = 9_007_199_254_740_992.0;
     let high = sum >> 53;
     let low = sum - (high << 53); // in [0, 2^53)
@@ -302,35 +270,6 @@ impl Film {
         self.nonfinite += other.nonfinite;
         self.clamped += other.clamped;
         Ok(())
-    }
-
-    /// The image: each pixel's mean XYZ (and spectral radiance) over its samples.
-    pub fn to_image(&self) -> Image {
-        let mut image = Image::new(self.width, self.height);
-        let mean = |sum: i128, inv: f64| (from_fixed(sum, FRACTION_BITS) * inv) as f32;
-        for (out, p) in image.xyz.iter_mut().zip(&self.pixels) {
-            let inv = 1.0 / f64::from(p.count.max(1));
-            *out = p.xyz.map(|s| mean(s, inv));
-        }
-        image.ids.copy_from_slice(&self.ids);
-        image.nonfinite = self.nonfinite;
-        if !self.wavelengths.is_empty() {
-            let lanes = self.wavelengths.len();
-            let values = self
-                .spectral
-                .chunks(lanes)
-                .zip(&self.pixels)
-                .flat_map(|(sums, p)| {
-                    let inv = 1.0 / f64::from(p.count.max(1));
-                    sums.iter().map(move |&s| mean(s, inv))
-                })
-                .collect();
-            image.spectral = Some(SpectralFilm { wavelengths: self.wavelengths.clone(), values });
-        }
-        // Means of finite fixed-point sums (|sum| < 2¹²⁷ · 2⁻⁶⁴) are finite: non-finite samples
-        // were counted and added as black by `add_sample`.
-        debug_assert!(image.xyz.iter().flatten().all(|v| v.is_finite()));
-        image
     }
 
     /// Per-pixel variance of the mean luminance, s²/n with s² the unbiased sample variance of
@@ -559,121 +498,6 @@ impl WavelengthTable {
             pdf[i] = self.pdf[bin];
         }
         SampledWavelengths::from_parts(lambda, pdf)
-    }
-}
-
-/// A rendered image: mean CIE XYZ per pixel, scaled so a white diffuser under the scene's light
-/// has Y = 1 (the paper's k normalisation, without its factor 100).
-#[derive(Debug, Clone)]
-pub struct Image {
-    pub(crate) width: u32,
-    pub(crate) height: u32,
-    pub(crate) xyz: Vec<[f32; 3]>,
-    /// What each pixel's first camera ray hit (for per-object statistics in reports).
-    pub(crate) ids: Vec<ObjectId>,
-    pub(crate) nonfinite: u64,
-    /// Spectral radiance per pixel at fixed wavelengths, when the render kept it.
-    pub(crate) spectral: Option<SpectralFilm>,
-    /// Per-pixel variance of the mean luminance and sample counts, for a variance image.
-    pub(crate) sample_stats: Option<SampleStats>,
-    /// How the PNG shows it (exposure, tone curve); recorded in the EXR's header when not the identity.
-    pub(crate) view: crate::exposure::View,
-}
-
-/// What [`Image::set_sample_statistics`] keeps of a film.
-#[derive(Debug, Clone)]
-pub(crate) struct SampleStats {
-    pub(crate) variance: Vec<f32>,
-    pub(crate) counts: Vec<u32>,
-}
-
-/// Per-pixel radiance at the lanes' wavelengths (`RenderOptions::spectral_film`): what a
-/// spectral EXR stores. Values are pixel-major: `values[pixel * wavelengths.len() + i]`.
-#[derive(Debug, Clone)]
-pub(crate) struct SpectralFilm {
-    pub(crate) wavelengths: Vec<f32>,
-    pub(crate) values: Vec<f32>,
-}
-
-impl Image {
-    /// A black image.
-    pub fn new(width: u32, height: u32) -> Self {
-        let n = width as usize * height as usize;
-        Self {
-            width,
-            height,
-            xyz: vec![[0.0; 3]; n],
-            ids: vec![ObjectId::Background; n],
-            nonfinite: 0,
-            spectral: None,
-            sample_stats: None,
-            view: crate::exposure::View::default(),
-        }
-    }
-
-    #[cfg(test)]
-    pub(crate) fn set_spectral(&mut self, film: SpectralFilm) {
-        debug_assert_eq!(film.values.len(), self.xyz.len() * film.wavelengths.len());
-        self.spectral = Some(film);
-    }
-
-    /// The wavelengths (nm) and per-pixel radiance at them (pixel-major, row by row from the
-    /// top), if the render kept a spectral film.
-    pub fn spectral(&self) -> Option<(&[f32], &[f32])> {
-        self.spectral.as_ref().map(|f| (f.wavelengths.as_slice(), f.values.as_slice()))
-    }
-
-    /// Keep `film`'s per-pixel luminance variance and sample counts (the film this image was
-    /// resolved from), for an [`crate::OutputKind::Variance`] image.
-    pub fn set_sample_statistics(&mut self, film: &Film) {
-        self.sample_stats = Some(SampleStats { variance: film.luminance_variance(), counts: film.sample_counts() });
-    }
-
-    /// Width in pixels.
-    pub fn width(&self) -> u32 {
-        self.width
-    }
-
-    /// Height in pixels.
-    pub fn height(&self) -> u32 {
-        self.height
-    }
-
-    /// XYZ of every pixel, row by row from the top.
-    pub fn pixels(&self) -> &[[f32; 3]] {
-        &self.xyz
-    }
-
-    /// What each pixel's first camera ray hit, row by row from the top.
-    pub fn object_ids(&self) -> &[ObjectId] {
-        &self.ids
-    }
-
-    /// XYZ of one pixel.
-    pub fn xyz(&self, x: u32, y: u32) -> [f32; 3] {
-        self.xyz[y as usize * self.width as usize + x as usize]
-    }
-
-    /// Samples that were NaN or infinite and were added to the film as black (must be 0).
-    pub fn nonfinite_samples(&self) -> u64 {
-        self.nonfinite
-    }
-
-    /// Linear RGB of the display for every pixel.
-    pub fn to_linear_rgb(&self, display: Display) -> Vec<[f32; 3]> {
-        let space = display.color_space();
-        self.xyz
-            .iter()
-            .map(|p| {
-                let rgb = space.xyz_to_rgb(Xyz { x: p[0].into(), y: p[1].into(), z: p[2].into() });
-                [rgb.r as f32, rgb.g as f32, rgb.b as f32]
-            })
-            .collect()
-    }
-
-    /// 8-bit display-encoded RGB (sRGB transfer curve, clipped to [0, 1]).
-    pub fn to_rgb8(&self, display: Display) -> Vec<u8> {
-        self.to_linear_rgb(display).iter().flat_map(|p| p.map(colorimetry::srgb_encode_u8)).collect()
     }
 }
 

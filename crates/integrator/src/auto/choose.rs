@@ -13,8 +13,8 @@ use colorimetry::{DenselySampledSpectrum, Lab, Xyz, delta_e_2000};
 use glam::Vec3;
 use materials::{Material, is_flat};
 
-use crate::assembly::RenderScene;
-use crate::render::IntegratorKind;
+use crate::options::IntegratorKind;
+use crate::scene::{RenderScene, emitter_spectra, scene_white};
 use crate::spectral::{Lanes, MAX_BINS, SpectralMode, SpectrumKind};
 
 /// Wavelength counts `auto` may choose, cheapest first.
@@ -79,9 +79,9 @@ pub fn choose_auto(scene: &RenderScene, integrator: IntegratorKind) -> SpectralM
 /// The fewest candidate bins that pass, or `None` when none does or the scene is too large to
 /// check.
 fn auto_bins(scene: &RenderScene) -> Option<usize> {
-    let lights = crate::emitter_spectra(scene);
+    let lights = emitter_spectra(scene);
     let surfaces = surface_spectra(scene, lights.len())?;
-    let white = crate::scene_white(scene);
+    let white = scene_white(scene);
     let xyz = colorimetry::relative_xyz;
     // (lit surface spectrum, its light's 1 nm XYZ, its own 1 nm XYZ).
     let cases: Vec<_> = lights
@@ -251,11 +251,11 @@ mod tests {
 
     /// ΔE00 of the lanes' colour of D65 × e^{−σ_a d} against its 1 nm colour.
     fn beer_error(scene: &RenderScene, bins: usize, d: f64) -> f64 {
-        let light = crate::emitter_spectra(scene)[0].clone();
+        let light = emitter_spectra(scene)[0].clone();
         let glass = scene.materials.iter().find(|m| m.name == "glass").unwrap();
         let sigma_a = glass.absorption.as_ref().unwrap().sigma_a();
         let lit = beer(sigma_a, d).product(&light);
-        let lanes = Lanes::<{ MAX_BINS }>::bins(bins, &crate::scene_white(scene));
+        let lanes = Lanes::<{ MAX_BINS }>::bins(bins, &scene_white(scene));
         let v = lanes.xyz(&lanes.project(&lit, SpectrumKind::Emission));
         let (white, exact) = (colorimetry::relative_xyz(&light), colorimetry::relative_xyz(&lit));
         let got = Xyz { x: v[0].into(), y: v[1].into(), z: v[2].into() };

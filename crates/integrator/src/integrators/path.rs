@@ -20,12 +20,13 @@ use materials::bsdf::{
 };
 use materials::{Anisotropy, Coat, Ior, LAMBDA_D, MaterialModel};
 
-use crate::assembly::RenderScene;
-use crate::envmap::EnvironmentMap;
 use crate::film::{ObjectId, Sensor, WavelengthTable};
+use crate::integrators::kernel::{Kernel, Radiance, RayCount};
+use crate::lights::envmap::EnvironmentMap;
 use crate::lights::{Emission, LightSampleContext, emits_towards};
-use crate::render::{Kernel, PathOptions, Radiance, RayCount, WavelengthPdf};
+use crate::options::{PathOptions, WavelengthPdf};
 use crate::sampling::{Sampler, power_heuristic};
+use crate::scene::RenderScene;
 use crate::spectral::{Lanes, SpectrumKind};
 use crate::surface::{HitTangent, tangent_frame, triangle_uvs};
 use crate::texture::{MAX_ALPHA_SKIPS, MaterialTextures, Uv, VertexColorHit};

@@ -11,11 +11,12 @@ use geometry::{Hit, Ray, spawn_ray, spawn_shadow_ray};
 use glam::{Vec2, Vec3};
 use materials::{hall, scattering};
 
-use crate::assembly::RenderScene;
 use crate::film::{ObjectId, Sensor};
+use crate::integrators::kernel::{Kernel, Radiance, RayCount};
 use crate::lights::{Emission, LightKind, LightSampleContext, emits_towards};
-use crate::render::{Ambient, Kernel, Radiance, RayCount, WhittedOptions};
+use crate::options::{Ambient, WhittedOptions};
 use crate::sampling::Sampler;
+use crate::scene::RenderScene;
 use crate::spectral::{Lanes, SpectrumKind};
 
 /// Most surfaces a shadow ray may cross before the light counts as blocked: enough for the

@@ -1,18 +1,19 @@
-//! Image files: linear-RGB OpenEXR, spectral OpenEXR (Fichet et al. 2021) and 8-bit PNG.
-//!
-//! All-or-nothing: [`Image::write_outputs`] writes every file of a render to a temporary file
-//! beside it, checks every write (the buffered writer's final flush included) and fsyncs it,
-//! and only when all of them succeeded renames them into place; on any error every temporary
-//! is removed and no output appears. A signal handler can call
-//! [`remove_pending_outputs`] to delete the temporaries of a write in progress before exiting.
+//! What a render's sums become for people and tools: the developed [`Image`], how its PNG is
+//! shown ([`view`]: exposure and tone curve), and the image files: linear-RGB OpenEXR, spectral
+//! OpenEXR (Fichet et al. 2021) and 8-bit PNG, written all or nothing ([`crate::files`]).
 
-use std::fs::File;
-use std::io::{BufWriter, Seek, Write};
+use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 use crate::error::{Error, Result};
-use crate::film::{Display, Image};
+use crate::files::{Encoder, check_distinct_outputs, write_all_or_nothing};
+use crate::film::Film;
+
+pub(crate) mod developed;
+pub(crate) mod view;
+
+pub use developed::{Display, Image, auto_exposure_ev};
+pub use view::{EXR_VIEW_ATTRIBUTE, Exposure, MIDDLE_GREY, Tonemap, View, ViewPlan, pbr_neutral};
 
 /// What one output file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,6 +36,76 @@ pub struct OutputFile {
     pub path: PathBuf,
     /// Its content.
     pub kind: OutputKind,
+}
+
+/// What a render writes and how its PNG is shown, planned once: `render` and `merge` both make their
+/// images through it from the film and the [`ViewPlan`] its header records, so the merge of a render's
+/// parts writes the single render's bytes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputPlan {
+    /// The files, in the order they are written.
+    pub outputs: Vec<OutputFile>,
+    /// How the PNG is shown.
+    pub view: ViewPlan,
+    /// Whether the image keeps the film's sample statistics (an [`OutputKind::Variance`] output).
+    variance: bool,
+}
+
+impl OutputPlan {
+    /// The files of `-o OUT.exr` (with `OUT.png` beside it), a spectral EXR and a variance EXR; each
+    /// checked to end in `.exr`, and no two on one path.
+    pub fn new(
+        exr: Option<&Path>,
+        display: Display,
+        spectral_exr: Option<&Path>,
+        variance: Option<&Path>,
+        view: ViewPlan,
+    ) -> Result<Self> {
+        let must_be_exr = |path: &Path, what: &str| -> Result<()> {
+            if path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+                Ok(())
+            } else {
+                Err(Error::Write { path: path.to_owned(), message: format!("{what} must end in .exr") })
+            }
+        };
+        let mut outputs = Vec::new();
+        if let Some(exr) = exr {
+            must_be_exr(exr, "the output (a .png is written beside it)")?;
+            outputs.push(OutputFile { path: exr.to_owned(), kind: OutputKind::Exr(display) });
+            outputs.push(OutputFile { path: exr.with_extension("png"), kind: OutputKind::Png(display) });
+        }
+        if let Some(path) = spectral_exr {
+            must_be_exr(path, "the spectral image")?;
+            outputs.push(OutputFile { path: path.to_owned(), kind: OutputKind::SpectralExr });
+        }
+        if let Some(path) = variance {
+            must_be_exr(path, "the variance image")?;
+            outputs.push(OutputFile { path: path.to_owned(), kind: OutputKind::Variance });
+        }
+        let paths: Vec<&Path> = outputs.iter().map(|o| o.path.as_path()).collect();
+        check_distinct_outputs(&paths)?;
+        Ok(Self { outputs, view, variance: variance.is_some() })
+    }
+
+    /// The image of `film` as these outputs show it, and the view its PNG takes (auto-exposure
+    /// resolved on this image).
+    pub fn develop(&self, film: &Film) -> (Image, View) {
+        let mut image = film.to_image();
+        if self.variance {
+            image.set_sample_statistics(film);
+        }
+        let view = self.view.view_for(&image);
+        image.set_view(view);
+        (image, view)
+    }
+
+    /// Write every output of `image`, all or nothing ([`Image::write_outputs`]).
+    pub fn write(&self, image: &Image) -> Result<()> {
+        if self.outputs.is_empty() {
+            return Ok(());
+        }
+        image.write_outputs(&self.outputs)
+    }
 }
 
 impl Image {
@@ -145,7 +216,7 @@ impl Image {
         let mut layer_attributes = LayerAttributes::named("rgb");
         if !self.view.is_identity() {
             layer_attributes.other.insert(
-                Text::from(crate::exposure::EXR_VIEW_ATTRIBUTE),
+                Text::from(view::EXR_VIEW_ATTRIBUTE),
                 AttributeValue::Text(Text::from(self.view.exr_text().as_str())),
             );
         }
@@ -194,167 +265,6 @@ impl Image {
     }
 }
 
-/// Writes one file's content into the buffered temporary.
-type Encoder<'a> = Box<dyn Fn(&mut BufWriter<File>) -> std::result::Result<(), String> + 'a>;
-
-/// Write `bytes` to `path` atomically: a temporary beside it, checked, fsynced, renamed.
-pub(crate) fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_all_or_nothing(&[(path, Box::new(|w: &mut BufWriter<File>| w.write_all(bytes).map_err(|e| e.to_string())))])
-}
-
-/// Every file to a temporary beside it, checked and fsynced; then, only when all succeeded,
-/// each renamed into place. On an error every temporary is removed and nothing is renamed.
-fn write_all_or_nothing(files: &[(&Path, Encoder<'_>)]) -> Result<()> {
-    let mut staged: Vec<(PathBuf, &Path)> = Vec::with_capacity(files.len());
-    for (path, encode) in files {
-        let result = temporary_path(path).and_then(|tmp| {
-            register(&tmp).map_err(|message| Error::Write { path: path.to_path_buf(), message })?;
-            staged.push((tmp.clone(), path));
-            write_file(&tmp, encode).map_err(|message| Error::Write { path: path.to_path_buf(), message })
-        });
-        if let Err(e) = result {
-            discard(&staged);
-            return Err(e);
-        }
-    }
-    // Every temporary is complete and on disk: rename them all. The registry stays locked
-    // so that a signal handler's cleanup waits for the renames instead of racing them.
-    let mut pending = lock_pending();
-    for (i, (tmp, path)) in staged.iter().enumerate() {
-        if let Err(e) = std::fs::rename(tmp, path) {
-            drop(pending);
-            // The ones already renamed are complete files; the rest are removed.
-            discard(&staged[i..]);
-            return Err(Error::Write { path: path.to_path_buf(), message: format!("rename: {e}") });
-        }
-        pending.paths.retain(|p| p != tmp);
-    }
-    drop(pending);
-    // Make the renames themselves durable (the folder entries), best effort: not every
-    // file system supports fsync on a folder.
-    for (_, path) in &staged {
-        if let Some(dir) = path.parent().map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d }) {
-            let _ = File::open(dir).and_then(|d| d.sync_all());
-        }
-    }
-    Ok(())
-}
-
-/// Refuse two outputs on one path (`-o x.exr --spectral-exr x.exr` silently replaced the RGB
-/// EXR). Paths are compared after resolving their folder (symbolic links, `..`), so
-/// `out/x.exr` and `out/../out/x.exr` clash too; a folder that does not exist is compared as
-/// written (the write then fails on it anyway).
-pub fn check_distinct_outputs(paths: &[&Path]) -> Result<()> {
-    let key = |p: &Path| -> PathBuf {
-        let parent = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        match (std::fs::canonicalize(parent), p.file_name()) {
-            (Ok(dir), Some(name)) => dir.join(name),
-            _ => p.to_owned(),
-        }
-    };
-    for (i, a) in paths.iter().enumerate() {
-        for b in &paths[..i] {
-            if key(a) == key(b) {
-                return Err(Error::Write {
-                    path: a.to_path_buf(),
-                    message: format!("given for two outputs (also {}); each output needs its own file", b.display()),
-                });
-            }
-        }
-    }
-    Ok(())
-}
-
-/// Temporaries of writes in progress, for [`remove_pending_outputs`]. `closed` once a
-/// cleanup ran: the process is exiting, so no new temporary may appear after it.
-struct Pending {
-    paths: Vec<PathBuf>,
-    closed: bool,
-}
-
-static PENDING: Mutex<Pending> = Mutex::new(Pending { paths: Vec::new(), closed: false });
-
-fn lock_pending() -> std::sync::MutexGuard<'static, Pending> {
-    lock(&PENDING)
-}
-
-fn lock(registry: &Mutex<Pending>) -> std::sync::MutexGuard<'_, Pending> {
-    // A panic while the lock was held leaves a list of paths that is still valid.
-    registry.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
-}
-
-fn register(tmp: &Path) -> std::result::Result<(), String> {
-    register_in(&PENDING, tmp)
-}
-
-fn register_in(registry: &Mutex<Pending>, tmp: &Path) -> std::result::Result<(), String> {
-    let mut pending = lock(registry);
-    if pending.closed {
-        return Err("the process is exiting (interrupted)".to_owned());
-    }
-    pending.paths.push(tmp.to_owned());
-    Ok(())
-}
-
-/// Remove the given temporaries and forget them.
-fn discard(staged: &[(PathBuf, &Path)]) {
-    let mut pending = lock_pending();
-    for (tmp, _) in staged {
-        let _ = std::fs::remove_file(tmp);
-        pending.paths.retain(|p| p != tmp);
-    }
-}
-
-/// Delete the temporary files of every write in progress and refuse new ones; for a SIGINT
-/// or SIGTERM handler that is about to exit the process. If the final renames are under way
-/// it waits for them (the outputs are then complete). Returns how many files it removed.
-pub fn remove_pending_outputs() -> usize {
-    remove_pending_in(&PENDING)
-}
-
-fn remove_pending_in(registry: &Mutex<Pending>) -> usize {
-    let mut pending = lock(registry);
-    pending.closed = true;
-    let removed = pending.paths.iter().filter(|p| std::fs::remove_file(p).is_ok()).count();
-    pending.paths.clear();
-    removed
-}
-
-/// `.out.exr.<pid>.tmp` beside `out.exr`: the same folder, so the rename cannot cross file
-/// systems.
-fn temporary_path(path: &Path) -> Result<PathBuf> {
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| Error::Write { path: path.to_owned(), message: "not a file name".to_owned() })?;
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(file_name);
-    tmp_name.push(format!(".{}.tmp", std::process::id()));
-    Ok(path.with_file_name(tmp_name))
-}
-
-/// Create `tmp`, encode into it through a buffer whose final flush is checked, and fsync it.
-/// (The `image` crate's `save_buffer` drops its `BufWriter`, and a drop ignores the flush
-/// error: on a full disk a PNG that fitted in the 8 KiB buffer came out as 0 bytes with
-/// success reported.)
-fn write_file(
-    tmp: &Path,
-    encode: &dyn Fn(&mut BufWriter<File>) -> std::result::Result<(), String>,
-) -> std::result::Result<(), String> {
-    let file = File::create(tmp).map_err(|e| e.to_string())?;
-    let file = encode_checked(file, encode)?;
-    file.sync_all().map_err(|e| format!("fsync: {e}"))
-}
-
-/// Encode into `inner` through a buffer and return it after a checked flush.
-fn encode_checked<W: Write>(
-    inner: W,
-    encode: impl FnOnce(&mut BufWriter<W>) -> std::result::Result<(), String>,
-) -> std::result::Result<W, String> {
-    let mut w = BufWriter::new(inner);
-    encode(&mut w)?;
-    w.into_inner().map_err(|e| e.error().to_string())
-}
-
 /// `S0.550,000000nm`: Fichet et al.'s emissive channel name (decimal comma, unit suffix).
 fn fichet_channel_name(lambda_nm: f32) -> String {
     format!("S0.{lambda_nm:.6}nm").replace('.', ",").replacen(',', ".", 1)
@@ -363,7 +273,10 @@ fn fichet_channel_name(lambda_nm: f32) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::film::SpectralFilm;
+    use std::io::BufWriter;
+
+    use crate::files::encode_checked;
+    use crate::output::developed::SpectralFilm;
 
     #[test]
     fn spectral_exr_reads_back_one_channel_per_wavelength() {
@@ -505,21 +418,6 @@ mod tests {
         assert!(matches!(err, Error::Write { .. }));
         assert!(check_distinct_outputs(&[&a, &dir.join("x.png")]).is_ok());
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "only `sub`");
-        std::fs::remove_dir_all(&dir).unwrap();
-    }
-
-    #[test]
-    fn a_signal_cleanup_removes_pending_temporaries_and_refuses_new_ones() {
-        // A registry of its own: closing the process-wide one would fail the other tests
-        // running in parallel.
-        let registry = Mutex::new(Pending { paths: Vec::new(), closed: false });
-        let dir = scratch("pending");
-        let tmp = dir.join(".x.exr.1.tmp");
-        std::fs::write(&tmp, b"partial").unwrap();
-        register_in(&registry, &tmp).unwrap();
-        assert_eq!(remove_pending_in(&registry), 1);
-        assert!(!tmp.exists());
-        assert!(register_in(&registry, &dir.join(".y.tmp")).is_err(), "no new temporary after the cleanup");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
