@@ -615,6 +615,14 @@ mod tests {
             Some(SpectrumDesc::Samples { lambda: vec![400.0, 700.0], values: vec![0.1, 0.9] })
         );
         assert!(s("{\"samples\":[[500,0.1],[400,0.9]]}").is_err());
+        // Values below f32's smallest normal (here f32 subnormals) are zero.
+        assert_eq!(
+            s("{\"samples\":[[400,1e-45],[500,1e-39],[600,1.2e-38],[700,-1e-40]]}").ok(),
+            Some(SpectrumDesc::Samples {
+                lambda: vec![400.0, 500.0, 600.0, 700.0],
+                values: vec![0.0, 0.0, 1.2e-38, 0.0]
+            })
+        );
         assert!(s("[1,2,3]").is_err());
         assert!(s("{\"rgb\":[1,2,3],\"x\":1}").is_err());
         // `"normalize": false`: the spectrum as given (absolute), for any spectral form.
