@@ -609,6 +609,46 @@ fn mtl_bad_line_names_file_and_line() {
 }
 
 #[test]
+fn a_repeated_mtllib_reads_its_file_once() {
+    let dir = temp_dir("mtllib-repeated");
+    let mtl: String = (0..50).map(|i| format!("newmtl m{i}\nKd 0.{i:02} 0.5 0.5\n")).collect();
+    write(&dir, "many.mtl", mtl.as_bytes());
+    write(&dir, "other.mtl", b"newmtl extra\nKd 1 0 0\n");
+    // 200 lines naming many.mtl (one of them as ./many.mtl, the same file), then another file once.
+    let mut obj = "mtllib many.mtl\n".repeat(199);
+    obj.push_str("mtllib ./many.mtl\nmtllib other.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m7\nf 1 2 3\n");
+    let d = load_scene(&write(&dir, "r.obj", obj.as_bytes())).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = d.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names.len(), 51, "{} materials", names.len());
+    assert_eq!(names[7], "m7");
+    assert_eq!(names[50], "extra");
+    assert_eq!(d.meshes[0].material(), Some(7));
+    assert_eq!(d.materials[7].base_color, Some(SpectrumDesc::Rgb([0.07, 0.5, 0.5])));
+    let notes: Vec<&String> = d.warnings.iter().filter(|w| w.contains("mtllib")).collect();
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(notes[0].contains("r.obj") && notes[0].contains("199 `mtllib` line(s)"), "{}", notes[0]);
+}
+
+#[test]
+fn mtl_material_structures_are_charged_to_the_budget() {
+    let dir = temp_dir("mtl-budget");
+    // 20 000 materials in a 270 KB file: the file fits a 4 MiB budget, its materials' records do not.
+    let mtl: String = (0..20_000).map(|i| format!("newmtl m{i}\n")).collect();
+    assert!(mtl.len() < 300_000);
+    write(&dir, "big.mtl", mtl.as_bytes());
+    let path = write(&dir, "b.obj", b"mtllib big.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let small = LoadOptions { max_memory: 4 << 20, ..LoadOptions::default() };
+    let e = load_scene_with(&path, &small).err().unwrap_or_else(|| panic!("20 000 materials fit in 4 MiB"));
+    let msg = e.to_string();
+    assert!(matches!(e, Error::OverBudget { requested, .. } if requested > 4 << 20), "{e:?}");
+    assert!(msg.contains("big.mtl") && msg.contains("20000 materials"), "{msg}");
+    // The default budget reads it, and the charge is in the description's accounting.
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.materials.len(), 20_000);
+    assert!(d.memory.used > 20_000 * 2048, "{}", d.memory.used);
+}
+
+#[test]
 fn obj_nan_vertex_and_bad_face_index_are_errors() {
     let dir = temp_dir("obj-bad");
     let (e, msg) = error_message(&write(&dir, "nan.obj", b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"));
