@@ -294,6 +294,8 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<Co
     let mut lines_and_points = 0usize;
     let mut counts = Counts::default();
     let mut unknown: Option<(usize, usize)> = None;
+    // Faces of one or two vertices: (count, first line).
+    let mut short_faces: Option<(usize, usize)> = None;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let mut words = raw.split_whitespace();
@@ -347,6 +349,15 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<Co
                     continue; // tobj ignores `p` lines.
                 }
                 if key == "f" {
+                    if rest.is_empty() {
+                        // tobj refuses it without a line number ("invalid polygon").
+                        return Err(syntax(path, line_no, "`f` without vertices"));
+                    }
+                    if rest.len() < 3 {
+                        // tobj reads it as a point or a line and drops it.
+                        let (count, _) = short_faces.get_or_insert((0, line_no));
+                        *count += 1;
+                    }
                     counts.corners += rest.len() as u64;
                     counts.triangles += rest.len().saturating_sub(2) as u64;
                 }
@@ -394,6 +405,12 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<Co
     if lines_and_points > 0 {
         warnings.push(format!(
             "{}: {lines_and_points} line/point element(s) skipped (only faces are rendered)",
+            path.display()
+        ));
+    }
+    if let Some((count, first)) = short_faces {
+        warnings.push(format!(
+            "{}: {count} face(s) with fewer than 3 vertices skipped (the first is line {first}); a face needs 3",
             path.display()
         ));
     }

@@ -299,6 +299,79 @@ fn gltf_mirroring_transform_keeps_winding_outward() {
 }
 
 #[test]
+fn gltf_triangle_lists_of_partial_triangles_are_noted() {
+    let dir = temp_dir("partial-triangles");
+    // Four vertices, not indexed: one triangle and one vertex left over.
+    let mut four = TRIANGLE.to_vec();
+    four.extend([1.0, 1.0, 0.0]);
+    let mut doc = triangle_gltf(Some(&data_uri(&f32_bytes(&four))), 48, json!({}));
+    doc["accessors"][0]["count"] = json!(4);
+    doc["bufferViews"][0]["byteLength"] = json!(48);
+    let d = load_scene(&write_gltf(&dir, "p.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].indices(), &[[0, 1, 2]]);
+    let notes: Vec<&String> = d.warnings.iter().filter(|w| w.contains("multiple of 3")).collect();
+    assert_eq!(notes.len(), 1, "{:?}", d.warnings);
+    assert!(
+        notes[0].contains("p.gltf")
+            && notes[0].contains("meshes[0] primitive 0: 4 vertices (not indexed)")
+            && notes[0].contains("the last 1 ignored"),
+        "{}",
+        notes[0]
+    );
+    // Five u16 indices: one triangle, two left over; the mesh placed twice is noted once.
+    let mut bytes = f32_bytes(&TRIANGLE);
+    bytes.extend([0u16, 1, 2, 0, 1].iter().flat_map(|i| i.to_le_bytes()));
+    let mut doc = triangle_gltf(Some(&data_uri(&bytes)), 46, json!({}));
+    doc["bufferViews"] = json!([{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 10}]);
+    doc["accessors"]
+        .as_array_mut()
+        .unwrap_or_else(|| panic!("accessors"))
+        .push(json!({"bufferView": 1, "componentType": 5123, "count": 5, "type": "SCALAR"}));
+    doc["meshes"][0]["primitives"][0]["indices"] = json!(1);
+    doc["nodes"] = json!([{"mesh": 0}, {"mesh": 0, "translation": [5, 0, 0]}]);
+    doc["scenes"] = json!([{"nodes": [0, 1]}]);
+    let d = load_scene(&write_gltf(&dir, "i.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes.len(), 2);
+    let notes: Vec<&String> = d.warnings.iter().filter(|w| w.contains("multiple of 3")).collect();
+    assert_eq!(notes.len(), 1, "{:?}", d.warnings);
+    assert!(notes[0].contains("i.gltf") && notes[0].contains("5 indices") && notes[0].contains("last 2"), "{notes:?}");
+}
+
+#[test]
+fn gltf_projective_node_matrix_is_noted_and_read_as_affine() {
+    let dir = temp_dir("projective");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    // Column-major: translation (2, 0, 0), bottom row (0.5, 0, 0, -1).
+    let matrix = json!([1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 2, 0, 0, -1]);
+    let doc = triangle_gltf(Some(&uri), 36, json!({"nodes": [{"matrix": matrix, "mesh": 0, "name": "lens"}]}));
+    let d = load_scene(&write_gltf(&dir, "p.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    let p = d.meshes[0].positions();
+    assert_eq!(p[1], Vec3::new(3.0, 0.0, 0.0));
+    // The affine part does not mirror: the face still points to +z (the determinant of the matrix as
+    // written, −1, would have reversed the winding).
+    let [a, b, c] = d.meshes[0].indices()[0];
+    let n = (p[b as usize] - p[a as usize]).cross(p[c as usize] - p[a as usize]);
+    assert!(n.z > 0.0, "{n}");
+    let note = d.warnings.iter().find(|w| w.contains("bottom row")).unwrap_or_else(|| panic!("{:?}", d.warnings));
+    assert!(note.contains("p.gltf: nodes[0] 'lens'") && note.contains("(0.5, 0, 0, -1)"), "{note}");
+}
+
+#[test]
+fn gltf_buffer_shorter_than_a_view_is_an_error_naming_both() {
+    let dir = temp_dir("short-buffer");
+    // 36 bytes of data, but the buffer declares 24: the view's last 12 bytes are not the buffer's.
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let (e, msg) = error_message(&write_gltf(&dir, "s.gltf", &triangle_gltf(Some(&uri), 24, json!({}))));
+    assert!(matches!(&e, Error::GltfData { context, .. } if context == "bufferViews[0]"), "{e:?}");
+    assert!(msg.contains("byteOffset 0 + byteLength 36 passes the end of buffers[0] (byteLength 24)"), "{msg}");
+    // A view starting inside the buffer and ending past it.
+    let mut doc = triangle_gltf(Some(&uri), 36, json!({}));
+    doc["bufferViews"][0]["byteOffset"] = json!(12);
+    let (_, msg) = error_message(&write_gltf(&dir, "o.gltf", &doc));
+    assert!(msg.contains("bufferViews[0]: byteOffset 12 + byteLength 36 passes the end of buffers[0]"), "{msg}");
+}
+
+#[test]
 fn gltf_strips_are_triangulated_and_lines_skipped() {
     let dir = temp_dir("modes");
     let quad = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0];
@@ -659,6 +732,21 @@ fn obj_nan_vertex_and_bad_face_index_are_errors() {
     assert!(msg.contains("line 4"), "{msg}");
     let (e, _) = error_message(&write(&dir, "huge.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/-99999999999999 2 3\n"));
     assert!(matches!(e, Error::IndexOutOfRange { .. }), "{e:?}");
+}
+
+#[test]
+fn obj_faces_of_fewer_than_three_vertices_are_noted() {
+    let dir = temp_dir("obj-short-faces");
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\nf 3\nf 2 3\n";
+    let d = load_scene(&write(&dir, "s.obj", obj)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].triangle_count(), 1);
+    let notes: Vec<&String> = d.warnings.iter().filter(|w| w.contains("fewer than 3")).collect();
+    assert_eq!(notes.len(), 1, "{:?}", d.warnings);
+    assert!(notes[0].contains("s.obj: 3 face(s)") && notes[0].contains("line 5"), "{}", notes[0]);
+    // A face of no vertices is malformed: an error with its line.
+    let (e, msg) = error_message(&write(&dir, "e.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf\n"));
+    assert!(matches!(e, Error::ObjSyntax { line: 5, .. }), "{e:?}");
+    assert!(msg.contains("e.obj:5: `f` without vertices"), "{msg}");
 }
 
 #[test]
