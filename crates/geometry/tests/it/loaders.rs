@@ -767,9 +767,9 @@ fn manifest_transform_that_makes_a_vertex_nan_is_refused() {
     let text = r#"{"objects": [{"type": "mesh", "file": "far.obj",
         "transform": {"matrix": [[1e30, 1e30, 0, 0], [-1e-30, 1e-30, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}}]}"#;
     let (e, msg) = error_message(&write(&dir, "m.json", text.as_bytes()));
-    let Error::IncludedFile { context, source, .. } = &e else { panic!("{e:?}") };
+    let Error::IncludedFile { context, cause, .. } = &e else { panic!("{e:?}") };
     assert_eq!(context, "objects[0]");
-    assert!(matches!(**source, Error::CoordinateTooLarge { vertex: 0, .. }), "{source:?}");
+    assert!(matches!(**cause, Error::CoordinateTooLarge { vertex: 0, .. }), "{cause:?}");
     assert!(msg.contains("objects[0]") && msg.contains("far.obj"), "{msg}");
 }
 
@@ -801,8 +801,8 @@ fn manifest_includes_keep_the_files_instances_under_their_transform() {
     assert_ne!(far, text);
     let e =
         load_scene_with(&write(&dir, "far.json", far.as_bytes()), &options).err().unwrap_or_else(|| panic!("loaded"));
-    let Error::IncludedFile { source, .. } = &e else { panic!("{e:?}") };
-    assert!(matches!(**source, Error::CoordinateTooLarge { .. }), "{source:?}");
+    let Error::IncludedFile { cause, .. } = &e else { panic!("{e:?}") };
+    assert!(matches!(**cause, Error::CoordinateTooLarge { .. }), "{cause:?}");
 }
 
 #[test]
@@ -966,6 +966,14 @@ fn missing_mesh_names_the_manifest_and_the_object() {
     let msg = e.to_string();
     assert!(matches!(e, Error::IncludedFile { .. }), "{e:?}");
     assert!(msg.contains("scene.json") && msg.contains("objects[1]") && msg.contains("nowhere.obj"), "{msg}");
+    // A report that walks the error's sources (anyhow's `{:#}`) states the cause once.
+    let mut chain = msg.clone();
+    let mut next = std::error::Error::source(&e);
+    while let Some(source) = next {
+        chain.push_str(&format!(": {source}"));
+        next = source.source();
+    }
+    assert_eq!(chain.matches("nowhere.obj").count(), 1, "{chain}");
 }
 
 /// The malformed files of /work/shared/real_assets/robustness (third-party, read only): none may panic.
