@@ -352,6 +352,12 @@ fn set_and_frame_render_what_the_edited_file_renders() {
     args.extend(small);
     refused(&dir, &args, 1, &["glass_torus.gltf: --frame and --set change a manifest"]);
     refused(&dir, &["render", "--set", "novalue", "-o", "bad.exr"], 2, &["expected PATH=VALUE"]);
+    // Without a scene file (the built-in default scene) there is no manifest to vary: refused, not ignored.
+    let needs = "--frame needs a scene manifest with \"frames\"";
+    refused(&dir, &["render", "--frame", "1", "-o", "bad.exr", "--width", "16", "--height", "12"], 1, &[needs]);
+    refused(&dir, &["info", "--frame", "0"], 1, &[needs]);
+    let needs = "--set needs a scene manifest";
+    refused(&dir, &["render", "--set", "lights.0.intensity=1", "-o", "bad.exr"], 1, &[needs]);
     // Parts of two variations are two renders.
     for (k, value, film) in [("1/2", "26882", "a.film"), ("2/2", "26883", "b.film")] {
         let set = format!("lights.0.intensity={value}");

@@ -179,9 +179,17 @@ fn load_errors_say_each_thing_once() {
             "objects": [{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}]}"#,
     )
     .unwrap();
+    // A manifest whose mesh file is missing, and one whose mesh file is malformed.
+    let missing_mesh = dir.join("missing_mesh.json");
+    std::fs::write(&missing_mesh, r#"{"objects": [{"type": "mesh", "file": "nowhere.obj"}]}"#).unwrap();
+    let bad_mesh = dir.join("bad_mesh.json");
+    std::fs::write(dir.join("bad.obj"), "v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n").unwrap();
+    std::fs::write(&bad_mesh, r#"{"objects": [{"type": "mesh", "file": "bad.obj"}]}"#).unwrap();
     for (scene, parts) in [
         (&missing, ["no_such_scene.json", "cannot read", "os error"]),
         (&bad_material, ["bad_material.json", "missing.csv", "os error"]),
+        (&missing_mesh, ["missing_mesh.json: objects[0]", "nowhere.obj", "os error"]),
+        (&bad_mesh, ["bad_mesh.json: objects[0]", "bad.obj: line 3", "not finite"]),
     ] {
         for command in ["render", "info"] {
             let output = spectrace().current_dir(&dir).arg(command).arg(scene).output().unwrap();

@@ -33,6 +33,7 @@ pub(crate) struct InfoArgs {
 }
 
 pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
+    args.load.check_scene(args.scene.as_deref())?;
     // The size a render with the same flags would frame a default view for.
     let mut assembly = args.camera.assembly((args.width, args.height));
     assembly.environment = args.env.option()?;

@@ -188,6 +188,23 @@ impl LoadArgs {
         }
     }
 
+    /// Refuses --frame and --set without a scene file: they change a manifest's document, and the
+    /// default scene is built in (a glTF or OBJ file given them is refused by the loader).
+    pub(crate) fn check_scene(&self, scene: Option<&Path>) -> anyhow::Result<()> {
+        if scene.is_some() {
+            return Ok(());
+        }
+        if self.frame.is_some() {
+            anyhow::bail!(
+                "--frame needs a scene manifest with \"frames\" (no scene file given; the default scene has none)"
+            );
+        }
+        if !self.set.is_empty() {
+            anyhow::bail!("--set needs a scene manifest (no scene file given; the default scene is built in)");
+        }
+        Ok(())
+    }
+
     /// `path` with `{frame}` replaced by the frame number (unchanged without --frame).
     pub(crate) fn frame_path(&self, path: &Path) -> PathBuf {
         match (self.frame, path.to_str()) {
@@ -268,6 +285,7 @@ fn with_frame_paths(args: &RenderArgs) -> RenderArgs {
 static WRITING: AtomicBool = AtomicBool::new(false);
 
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    args.load.check_scene(args.scene.as_deref())?;
     let args = &with_frame_paths(args);
     let parts = &args.parts;
     // Images are written unless only a film is asked for.

@@ -244,6 +244,33 @@ mod tests {
     }
 
     #[test]
+    fn values_below_f32s_smallest_normal_are_zero() {
+        use crate::{Integration, Observer, SampledWavelengths, luminance_normalized, reflectance_to_xyz};
+        // 1e-45 is an f32 subnormal (the smallest), 1e-39 one too, 1e-320 an f64 subnormal.
+        let text = "nm,a,b,c\n400,0.5,0.5,1e-320\n500,1e-45,1e-39,1e-320\n600,0.5,0.5,1e-320\n";
+        let table = parse_spectra_csv(text, "tiny.csv").unwrap();
+        for column in &table[..2] {
+            let s = &column.spectrum;
+            assert_eq!(s.values()[1], 0.0, "{}: 500 nm", column.name);
+            assert_eq!(s.eval(500.0), 0.0);
+            // In the renderer's f32 lanes every value is 0 or normal, never subnormal.
+            let lanes = s.sample(&SampledWavelengths::<4>::from_parts([450.0, 499.99, 500.0, 550.0], [1.0; 4]));
+            assert!(lanes.0.iter().all(|v| *v == 0.0 || v.is_normal()), "{}: {:?}", column.name, lanes.0);
+            assert!((lanes[0] - 0.25).abs() < 1e-6 && lanes[2] == 0.0, "{:?}", lanes.0);
+            let n = luminance_normalized(s);
+            assert!(n.values().iter().all(|v| v.is_finite()), "{:?}", n.values());
+            assert!((crate::relative_luminance(&n) - 1.0).abs() < 1e-12);
+        }
+        // A table of f64 subnormals is no light: its white is dark (0), not infinite.
+        let dark = &table[2].spectrum;
+        assert!(dark.values().iter().all(|v| *v == 0.0), "{:?}", dark.values());
+        let grey = DenselySampledSpectrum::constant(0.5);
+        let xyz = reflectance_to_xyz(&grey, dark, Observer::Cie1931, &Integration::Step(1.0));
+        assert_eq!((xyz.x, xyz.y, xyz.z), (0.0, 0.0, 0.0));
+        assert_eq!(luminance_normalized(dark).values(), dark.values());
+    }
+
+    #[test]
     fn each_bad_input_is_a_precise_error() {
         let e = |text: &str| parse_spectra_csv(text, "x.csv").unwrap_err();
         assert!(matches!(e(""), Error::Empty { .. }));

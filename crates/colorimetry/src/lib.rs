@@ -50,8 +50,8 @@ pub use lab::{Lab, delta_e_2000};
 pub use luminance::{K_M, luminance_normalized, luminous_efficacy, relative_luminance, relative_xyz, y_sum};
 pub use rgb::{Rgb, RgbColorSpace, bradford, quantize_u8, srgb_decode, srgb_encode, srgb_encode_u8};
 pub use spectrum::{
-    DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, MIN_STEP_NM, SampledSpectrum, SampledWavelengths,
-    VISIBLE_PDF_CENTER_NM, VISIBLE_PDF_RATE_PER_NM, visible_wavelength_shape,
+    DenselySampledSpectrum, LAMBDA_MAX, LAMBDA_MIN, MIN_SPECTRUM_VALUE, MIN_STEP_NM, SampledSpectrum,
+    SampledWavelengths, VISIBLE_PDF_CENTER_NM, VISIBLE_PDF_RATE_PER_NM, visible_wavelength_shape,
 };
 pub use xyz::{Integration, Xyz, emission_to_xyz, reflectance_to_xyz};
 

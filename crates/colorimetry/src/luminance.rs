@@ -46,10 +46,15 @@ pub fn relative_luminance(spd: &DenselySampledSpectrum) -> f64 {
 }
 
 /// The spectrum scaled to relative luminance 1 ([`relative_luminance`]): every value times
-/// `Σ ȳ / Σ S ȳ`. A spectrum of zero or negative luminance is returned unchanged.
+/// `Σ ȳ / Σ S ȳ`. A spectrum of zero or negative luminance is returned unchanged, as is one
+/// whose scale would not be finite.
 pub fn luminance_normalized(spd: &DenselySampledSpectrum) -> DenselySampledSpectrum {
     let sy = y_weighted_sum(|lambda| spd.eval(lambda));
-    if sy > 0.0 { spd.scaled(y_sum() / sy) } else { spd.clone() }
+    // Spectra hold no value below f32's smallest normal (`flush_tiny`), so Σ S ȳ is either 0 or
+    // far above the f64 subnormals whose reciprocal overflows; the check keeps an infinite scale
+    // (which would zero the spectrum through `map`) out regardless.
+    let scale = y_sum() / sy;
+    if sy > 0.0 && scale.is_finite() { spd.scaled(scale) } else { spd.clone() }
 }
 
 /// K_m, the maximum luminous efficacy of photopic vision: 683 lm/W at 540 THz (≈ 555 nm), the

@@ -35,6 +35,24 @@ pub(crate) const MAX_WAVELENGTH_NM: f64 = 1e5;
 /// `null`), and one value stays inside f32 (3.4e38, the renderer's lanes).
 pub(crate) const MAX_SPECTRUM_VALUE: f64 = 1e30;
 
+/// Smallest magnitude a spectral value keeps: f32's smallest normal number, 1.18e-38. Every
+/// [`DenselySampledSpectrum`] holds smaller values as zero (see `flush_tiny` for why).
+pub const MIN_SPECTRUM_VALUE: f64 = f32::MIN_POSITIVE as f64;
+
+/// `v`, or 0 when its magnitude is below [`MIN_SPECTRUM_VALUE`]. Every spectrum's values pass
+/// through this, because a value that small is noise no instrument reports, yet it is where
+/// arithmetic leaves the normal range: the renderer's lanes are f32, where such a value is
+/// subnormal (or zero), so a quantity divided by it overflows to infinity and infinity times a
+/// zero lane is NaN, in every sample that meets it. In the f64 sums here the same happens one
+/// step earlier for an f64-subnormal value (1e-320): its luminance Σ S ȳ is subnormal, and the
+/// normalisation Σ ȳ / Σ S ȳ ([`crate::luminance_normalized`], an illuminant's white in
+/// [`crate::reflectance_to_xyz`]) is infinite. Zero is the honest reading and stays finite in
+/// every use (a zero luminance is "no light", not a division).
+#[inline]
+pub(crate) fn flush_tiny(v: f64) -> f64 {
+    if v.abs() < MIN_SPECTRUM_VALUE { 0.0 } else { v }
+}
+
 /// Whole nanometres in [`LAMBDA_MIN`, `LAMBDA_MAX`]: 471, the rows of the CIE 1 nm tables.
 pub(crate) const VISIBLE_SAMPLES: usize = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
 
@@ -249,7 +267,8 @@ impl SampleGrid {
 }
 
 /// A spectrum tabulated on an even wavelength grid; linear interpolation between samples and
-/// zero outside the grid. Values are finite by construction.
+/// zero outside the grid. Values are finite by construction, and zero or at least
+/// [`MIN_SPECTRUM_VALUE`] in magnitude.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DenselySampledSpectrum {
     lambda_min: f64,
@@ -265,7 +284,7 @@ impl DenselySampledSpectrum {
     }
 
     /// [`Self::new`] with `origin` naming the source in errors.
-    pub(crate) fn new_in(origin: &str, lambda_min: f64, step: f64, values: Vec<f64>) -> Result<Self> {
+    pub(crate) fn new_in(origin: &str, lambda_min: f64, step: f64, mut values: Vec<f64>) -> Result<Self> {
         check_step(origin, step)?;
         if !lambda_min.is_finite() {
             return Err(Error::OutOfRange { what: "first wavelength", value: lambda_min, range: "finite" });
@@ -284,6 +303,9 @@ impl DenselySampledSpectrum {
         }
         if let Some(&v) = values.iter().find(|v| !v.is_finite()) {
             return Err(Error::OutOfRange { what: "spectrum value", value: v, range: "finite" });
+        }
+        for v in &mut values {
+            *v = flush_tiny(*v);
         }
         Ok(Self { lambda_min, step, values })
     }
@@ -312,6 +334,7 @@ impl DenselySampledSpectrum {
 
     /// The same value at every nanometre of 360–830 nm.
     pub fn constant(value: f64) -> Self {
+        let value = flush_tiny(value);
         Self { lambda_min: f64::from(LAMBDA_MIN), step: 1.0, values: vec![value; VISIBLE_SAMPLES] }
     }
 
@@ -393,15 +416,15 @@ impl DenselySampledSpectrum {
         self.map(|v| v * factor)
     }
 
-    /// `f` applied to every value (e.g. R(λ)ⁿ, t_λ^b). Non-finite results become 0 so the
-    /// invariant holds.
+    /// `f` applied to every value (e.g. R(λ)ⁿ, t_λ^b). Non-finite and tiny results become 0 so
+    /// the invariants hold.
     pub fn map(&self, f: impl Fn(f64) -> f64) -> Self {
         let values = self
             .values
             .iter()
             .map(|&v| {
                 let r = f(v);
-                if r.is_finite() { r } else { 0.0 }
+                if r.is_finite() { flush_tiny(r) } else { 0.0 }
             })
             .collect();
         Self { lambda_min: self.lambda_min, step: self.step, values }
@@ -413,7 +436,7 @@ impl DenselySampledSpectrum {
             .values
             .iter()
             .enumerate()
-            .map(|(i, &v)| v * other.eval(self.lambda_min + self.step * i as f64))
+            .map(|(i, &v)| flush_tiny(v * other.eval(self.lambda_min + self.step * i as f64)))
             .collect();
         Self { lambda_min: self.lambda_min, step: self.step, values }
     }

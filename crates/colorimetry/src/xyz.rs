@@ -104,7 +104,11 @@ pub fn reflectance_to_xyz(
         z += sr * cmf.z.eval(l);
         norm += s * ybar;
     }
+    // An illuminant with next to no light has a norm so small that 100 / norm overflows (an
+    // f64-subnormal one; spectra flush values below f32's smallest normal, which keeps norm far
+    // above that, but the white is said to be dark rather than infinite either way).
     let k = if norm > 0.0 { 100.0 / norm } else { 0.0 };
+    let k = if k.is_finite() { k } else { 0.0 };
     Xyz { x: k * x, y: k * y, z: k * z }
 }
 

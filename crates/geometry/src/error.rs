@@ -256,14 +256,16 @@ pub enum Error {
         detail: String,
     },
     /// A mesh file a manifest object includes could not be loaded.
-    #[error("{origin}: {context}: {source}")]
+    #[error("{origin}: {context}: {cause}")]
     IncludedFile {
         /// The manifest's path or name.
         origin: String,
         /// The object, e.g. `objects[3]`.
         context: String,
-        /// The included file's error (it names that file).
-        source: Box<Error>,
+        /// The included file's error (it names that file). Part of the message, so not named `source`:
+        /// thiserror would make it the error's source too, and a report that walks the chain (anyhow's
+        /// `{:#}`) would state it twice.
+        cause: Box<Error>,
     },
     // LOADERS-END
 }

@@ -139,7 +139,9 @@ pub(crate) fn spectrum(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<Spectr
                     return Err(ctx.err(&c, format!("wavelength {l} nm after {prev} nm (must increase)")));
                 }
                 lambda.push(l);
-                values.push(x);
+                // Below f32's smallest normal a value is zero, as in every spectrum the renderer builds
+                // (colorimetry's `MIN_SPECTRUM_VALUE`): an f32 subnormal divided into overflows.
+                values.push(if x.abs() < f32::MIN_POSITIVE { 0.0 } else { x });
             }
             if lambda.len() < 2 {
                 return Err(ctx.err(&c, "needs at least 2 samples"));

@@ -176,6 +176,7 @@ pub(crate) fn load_gltf_slice(
         .collect();
     let document = guard_panic(path, "gltf", || gltf::Document::from_json(root).map_err(gltf_err))?;
 
+    check_views(&document, path)?;
     let buffers = load_buffers(&document, base, blob, path, budget)?;
     let mut loader = Loader {
         path,
@@ -194,6 +195,7 @@ pub(crate) fn load_gltf_slice(
         let m = loader.material(&material, &document);
         loader.desc.materials.push(m);
     }
+    loader.partial_triangles(&document);
     loader.traverse(&document)?;
     Ok(loader.desc)
 }
@@ -412,6 +414,31 @@ fn load_buffers(
     Ok(out)
 }
 
+/// Every buffer view within its buffer's declared `byteLength` (glTF 2.0: a view's `byteOffset +
+/// byteLength` must not exceed it). The data read may be longer than declared (a GLB chunk's padding, a
+/// larger file), so a view past the declared end would otherwise be read from bytes the file says are
+/// not the buffer's.
+fn check_views(document: &gltf::Document, path: &Path) -> Result<()> {
+    for view in document.views() {
+        let buffer = view.buffer();
+        let end = view.offset().checked_add(view.length());
+        if end.is_none_or(|end| end > buffer.length()) {
+            return Err(Error::GltfData {
+                path: path.to_path_buf(),
+                context: format!("bufferViews[{}]", view.index()),
+                message: format!(
+                    "byteOffset {} + byteLength {} passes the end of buffers[{}] (byteLength {})",
+                    view.offset(),
+                    view.length(),
+                    buffer.index(),
+                    buffer.length()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// RFC 3986 percent-decoding; `None` on a malformed escape or a result that is not UTF-8.
 fn percent_decode(s: &str) -> Option<String> {
     let bytes = s.as_bytes();
@@ -454,6 +481,30 @@ impl Loader<'_> {
         self.desc.warnings.push(format!("{}: {message}", self.path.display()));
     }
 
+    /// One note per triangle-list primitive whose index count (vertex count when not indexed) is not a
+    /// multiple of 3, as glTF requires of a triangle list: its whole triangles are read, the rest dropped.
+    /// Said once per primitive here rather than at each placement of its mesh.
+    fn partial_triangles(&mut self, document: &gltf::Document) {
+        for mesh in document.meshes() {
+            for primitive in mesh.primitives().filter(|p| p.mode() == Mode::Triangles) {
+                let (what, count) = match (primitive.indices(), primitive.get(&Semantic::Positions)) {
+                    (Some(indices), _) => ("indices", indices.count()),
+                    (None, Some(positions)) => ("vertices (not indexed)", positions.count()),
+                    (None, None) => continue,
+                };
+                if count % 3 != 0 {
+                    let name = mesh.name().map(|n| format!(" '{n}'")).unwrap_or_default();
+                    self.warn(format!(
+                        "meshes[{}]{name} primitive {}: {count} {what}, not a multiple of 3 (glTF requires whole triangles); the last {} ignored",
+                        mesh.index(),
+                        primitive.index(),
+                        count % 3
+                    ));
+                }
+            }
+        }
+    }
+
     fn traverse(&mut self, document: &gltf::Document) -> Result<()> {
         let roots: Vec<gltf::Node<'_>> = match document.default_scene().or_else(|| document.scenes().next()) {
             Some(scene) => scene.nodes().collect(),
@@ -482,11 +533,27 @@ impl Loader<'_> {
                     "reached twice: the node hierarchy must be a set of disjoint trees (glTF 2.0 §3.5.3)",
                 ));
             }
-            let local = Mat4::from_cols_array_2d(&node.transform().matrix());
-            let world = parent * local;
-            let det = world.determinant();
+            let mut local = Mat4::from_cols_array_2d(&node.transform().matrix());
             let context =
                 format!("nodes[{}]{}", node.index(), node.name().map(|n| format!(" '{n}'")).unwrap_or_default());
+            let bottom = local.row(3);
+            if bottom != glam::Vec4::W {
+                // glTF requires a node's matrix to be decomposable to TRS, so affine. Points are placed by
+                // the affine part (w is never divided by); setting the row makes the determinant (mirroring,
+                // singularity) that part's too.
+                self.warn(format!(
+                    "{context}: matrix has bottom row ({}, {}, {}, {}), not (0, 0, 0, 1) (glTF requires an affine transform); used as (0, 0, 0, 1)",
+                    bottom.x, bottom.y, bottom.z, bottom.w
+                ));
+                local = Mat4::from_cols(
+                    local.x_axis.truncate().extend(0.0),
+                    local.y_axis.truncate().extend(0.0),
+                    local.z_axis.truncate().extend(0.0),
+                    local.w_axis.truncate().extend(1.0),
+                );
+            }
+            let world = parent * local;
+            let det = world.determinant();
             if !world.is_finite() || !det.is_finite() || det == 0.0 {
                 self.warn(format!(
                     "{context}: transform is singular or not finite; the node and its children are skipped"

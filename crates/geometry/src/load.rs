@@ -102,10 +102,10 @@ fn manifest(text: &str, base_dir: &Path, origin: &str, budget: &Budget) -> Resul
         let context = include.context.clone();
         let at = include.position + inserted;
         let before = desc.meshes.len();
-        include_file(&mut desc, include, budget).map_err(|source| Error::IncludedFile {
+        include_file(&mut desc, include, budget).map_err(|cause| Error::IncludedFile {
             origin: origin.to_owned(),
             context,
-            source: Box::new(source),
+            cause: Box::new(cause),
         })?;
         // include_file appends; rotate the new meshes to where the object stands in the manifest.
         let added = desc.meshes.len() - before;

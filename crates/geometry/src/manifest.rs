@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{Mat4, Quat, Vec3};
+use glam::{DVec3, Mat4, Quat, Vec3};
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
@@ -49,8 +49,10 @@ fn default_up() -> [f32; 3] {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraJson {
-    position: [f32; 3],
-    look_at: [f32; 3],
+    // As written (f64), so that a look_at that differs from the position only beyond f32's precision is
+    // told apart from one that equals it.
+    position: [f64; 3],
+    look_at: [f64; 3],
     #[serde(default = "default_up")]
     up: [f32; 3],
     vfov_deg: f32,
@@ -343,11 +345,31 @@ pub(crate) fn parse(
 }
 
 fn camera(ctx: &Ctx<'_>, c: CameraJson) -> Result<CameraDesc> {
-    let position = ctx.vec3("camera.position", c.position)?;
-    let look_at = ctx.vec3("camera.look_at", c.look_at)?;
+    // The same f32 values serde gave before these were read as f64.
+    let position = ctx.vec3("camera.position", c.position.map(|v| v as f32))?;
+    let look_at = ctx.vec3("camera.look_at", c.look_at.map(|v| v as f32))?;
     let up = ctx.unit("camera.up", c.up)?;
-    let dir =
-        (look_at - position).try_normalize().ok_or_else(|| ctx.err("camera.look_at", "equals camera.position"))?;
+    if c.position == c.look_at {
+        return Err(ctx.err("camera.look_at", "equals camera.position"));
+    }
+    if !(look_at - position).is_finite() {
+        return Err(ctx.err(
+            "camera.look_at",
+            format!(
+                "{:?} is too far from camera.position {:?} (their difference overflows f32)",
+                c.look_at, c.position
+            ),
+        ));
+    }
+    let dir = view_direction(position, look_at, c.position, c.look_at).ok_or_else(|| {
+        ctx.err(
+            "camera.look_at",
+            format!(
+                "{:?} is too close to camera.position {:?} for its magnitude (precision lost: positions are f32, about 7 significant digits)",
+                c.look_at, c.position
+            ),
+        )
+    })?;
     if dir.cross(up).length() < 1e-6 {
         return Err(ctx.err("camera.up", "is parallel to the viewing direction"));
     }
@@ -369,6 +391,22 @@ fn camera(ctx: &Ctx<'_>, c: CameraJson) -> Result<CameraDesc> {
         width: c.width,
         height: c.height,
     })
+}
+
+/// The viewing direction from the f32 `position` to the f32 `look_at`, if it is the direction the file
+/// writes (`written_*`, f64, distinct): `None` when the f32 difference cannot be normalised (it rounded to
+/// zero, underflows when squared, or overflows) or points more than 1 mrad away from the written one,
+/// as when a far camera's look_at is a few f32 steps from its position.
+fn view_direction(
+    position: Vec3,
+    look_at: Vec3,
+    written_position: [f64; 3],
+    written_look_at: [f64; 3],
+) -> Option<Vec3> {
+    let dir = (look_at - position).try_normalize()?;
+    let written = DVec3::from_array(written_look_at) - DVec3::from_array(written_position);
+    let written = written.try_normalize()?;
+    (written.cross(dir.as_dvec3()).length() <= 1e-3 && written.dot(dir.as_dvec3()) > 0.0).then_some(dir)
 }
 
 /// A light's `intensity` and `unit`: `allowed` units for its kind, the first being the default.
@@ -615,6 +653,14 @@ mod tests {
             Some(SpectrumDesc::Samples { lambda: vec![400.0, 700.0], values: vec![0.1, 0.9] })
         );
         assert!(s("{\"samples\":[[500,0.1],[400,0.9]]}").is_err());
+        // Values below f32's smallest normal (here f32 subnormals) are zero.
+        assert_eq!(
+            s("{\"samples\":[[400,1e-45],[500,1e-39],[600,1.2e-38],[700,-1e-40]]}").ok(),
+            Some(SpectrumDesc::Samples {
+                lambda: vec![400.0, 500.0, 600.0, 700.0],
+                values: vec![0.0, 0.0, 1.2e-38, 0.0]
+            })
+        );
         assert!(s("[1,2,3]").is_err());
         assert!(s("{\"rgb\":[1,2,3],\"x\":1}").is_err());
         // `"normalize": false`: the spectrum as given (absolute), for any spectral form.
@@ -723,6 +769,37 @@ mod tests {
         }
         // At the limit exactly: accepted.
         assert!(parse_text(r#"{"objects":[{"type":"sphere","center":[0,0,0],"radius":1e18}]}"#).is_ok());
+    }
+
+    #[test]
+    fn a_look_at_lost_to_f32_precision_is_not_called_equal() {
+        let camera = |position: &str, look_at: &str| {
+            let text =
+                format!(r#"{{"camera":{{"position":{position},"look_at":{look_at},"vfov_deg":40}},"objects":[]}}"#);
+            parse_text(&text).map(|d| d.camera.map(|c| (c.position, c.look_at)))
+        };
+        let message = |position: &str, look_at: &str| {
+            camera(position, look_at).err().map(|e| e.to_string()).unwrap_or_else(|| panic!("{look_at} accepted"))
+        };
+        assert_eq!(message("[1, 2, 3]", "[1, 2, 3]"), "test.json: camera.look_at: equals camera.position");
+        // Distinct as written, one f32 apart: the direction from the f32 values is not the file's.
+        assert_eq!(
+            message("[1e20, 0, 0]", "[1.00000000001e20, 0, 1e9]"),
+            "test.json: camera.look_at: [1.00000000001e20, 0.0, 1000000000.0] is too close to camera.position \
+             [1e20, 0.0, 0.0] for its magnitude (precision lost: positions are f32, about 7 significant digits)"
+        );
+        let m = message("[10000000, 10000000, 0]", "[10000000.3, 10000000.6, 0]");
+        assert!(m.contains("too close to camera.position [10000000.0, 10000000.0, 0.0]"), "{m}");
+        // A subnormal difference: its square underflows, so it has no direction.
+        let m = message("[0, 0, 0]", "[1e-45, 0, 0]");
+        assert!(m.contains("e-45, 0.0, 0.0] is too close to camera.position [0.0, 0.0, 0.0]"), "{m}");
+        let m = message("[-3e38, 0, 0]", "[3e38, 0, 0]");
+        assert!(m.contains("too far from camera.position [-3e38, 0.0, 0.0]"), "{m}");
+        // Far from the origin but distinct to f32's precision: accepted as before.
+        let far = camera("[1e20, 0, 0]", "[1e20, 0, 1e16]").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(far, Some((Vec3::new(1e20, 0.0, 0.0), Vec3::new(1e20, 0.0, 1e16))));
+        let near = camera("[0.1, 0.2, 0.3]", "[0.1, 0.2, 0.30001]").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(near, Some((Vec3::new(0.1, 0.2, 0.3), Vec3::new(0.1, 0.2, 0.30001))));
     }
 
     #[test]

@@ -58,9 +58,22 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
     let side: RefCell<HashMap<String, SideInfo>> = RefCell::new(HashMap::new());
     let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
     let mtl_warnings: RefCell<Vec<String>> = RefCell::new(Vec::new());
+    // Each MTL file is read once, by resolved path, and the repeats are counted for one note: tobj appends
+    // a file's materials again at every `mtllib` naming it, so 1000 lines naming a 10 000-material file
+    // made 10⁷ materials.
+    let seen: RefCell<HashMap<PathBuf, usize>> = RefCell::new(HashMap::new());
+    let repeated = |key: PathBuf| -> bool {
+        let mut seen = seen.borrow_mut();
+        let count = seen.entry(key).or_insert(0);
+        *count += 1;
+        *count > 1
+    };
     let options = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
     let loader = |mtl: &Path| -> tobj::MTLLoadResult {
         let Some(base) = base else {
+            if repeated(mtl.to_path_buf()) {
+                return Ok((Vec::new(), HashMap::new()));
+            }
             mtl_warnings.borrow_mut().push(format!(
                 "{}: mtllib {} not loaded (OBJ read from memory)",
                 path.display(),
@@ -68,14 +81,22 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
             ));
             return Err(tobj::LoadError::OpenFileFailed);
         };
-        let read = mtl
+        let resolved = mtl
             .to_str()
             .ok_or_else(|| Error::ReadFile {
                 path: mtl.to_path_buf(),
                 cause: std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8"),
             })
-            .and_then(|m| budget.resolve(path, base, m))
-            .and_then(|mtl_path| budget.read(path, &mtl_path).map(|b| (mtl_path, b)));
+            .and_then(|m| budget.resolve(path, base, m));
+        if let Ok(mtl_path) = &resolved {
+            // `sub/../a.mtl` and `a.mtl` are one file; a file that does not exist keeps its written path.
+            let key = std::fs::canonicalize(mtl_path).unwrap_or_else(|_| mtl_path.clone());
+            if repeated(key) {
+                // Nothing to merge: the materials (or the warning) of the first `mtllib` stand.
+                return Ok((Vec::new(), HashMap::new()));
+            }
+        }
+        let read = resolved.and_then(|mtl_path| budget.read(path, &mtl_path).map(|b| (mtl_path, b)));
         let (mtl_path, text) = match read {
             Ok((mtl_path, bytes)) => (mtl_path, String::from_utf8_lossy(&bytes).into_owned()),
             // A missing MTL is a warning (the geometry still renders); a refused one (device, absolute
@@ -114,6 +135,13 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
         return Err(e);
     }
     desc.warnings.extend(mtl_warnings.into_inner());
+    let repeats: usize = seen.into_inner().values().map(|n| n - 1).sum();
+    if repeats > 0 {
+        desc.warnings.push(format!(
+            "{}: {repeats} `mtllib` line(s) name a material file already read; each file is read once",
+            path.display()
+        ));
+    }
     let side = side.into_inner();
     // A missing MTL file was reported as a warning above.
     let materials: Vec<tobj::Material> = materials.unwrap_or_default();
@@ -266,6 +294,8 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<Co
     let mut lines_and_points = 0usize;
     let mut counts = Counts::default();
     let mut unknown: Option<(usize, usize)> = None;
+    // Faces of one or two vertices: (count, first line).
+    let mut short_faces: Option<(usize, usize)> = None;
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let mut words = raw.split_whitespace();
@@ -319,6 +349,15 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<Co
                     continue; // tobj ignores `p` lines.
                 }
                 if key == "f" {
+                    if rest.is_empty() {
+                        // tobj refuses it without a line number ("invalid polygon").
+                        return Err(syntax(path, line_no, "`f` without vertices"));
+                    }
+                    if rest.len() < 3 {
+                        // tobj reads it as a point or a line and drops it.
+                        let (count, _) = short_faces.get_or_insert((0, line_no));
+                        *count += 1;
+                    }
                     counts.corners += rest.len() as u64;
                     counts.triangles += rest.len().saturating_sub(2) as u64;
                 }
@@ -369,6 +408,12 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<Co
             path.display()
         ));
     }
+    if let Some((count, first)) = short_faces {
+        warnings.push(format!(
+            "{}: {count} face(s) with fewer than 3 vertices skipped (the first is line {first}); a face needs 3",
+            path.display()
+        ));
+    }
     if let Some((count, first)) = unknown {
         warnings.push(format!(
             "{}: {count} line(s) are not OBJ statements (the first is line {first}); ignored",
@@ -377,6 +422,16 @@ fn prescan_obj(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<Co
     }
     Ok(counts)
 }
+
+/// Bytes charged per MTL material (`newmtl`): tobj's `Material` (312 B on a 64-bit target), the side info
+/// (112 B), the description (1408 B) and three name-keyed map entries, 1.9 KB in all; the test
+/// `material_charge_covers_its_records` checks the sum against it. Their heap parts (names, values) are
+/// charged with the text.
+const BYTES_PER_MATERIAL: u64 = 2048;
+
+/// Bytes charged per other MTL statement: its sanitised line (a short number such as `1e-30` prints as
+/// 32 digits, three times for `Kd`) and its entry in the side info or tobj's map.
+const BYTES_PER_MTL_STATEMENT: u64 = 256;
 
 /// What the MTL pre-scan keeps aside for one material.
 #[derive(Default, Debug)]
@@ -467,6 +522,26 @@ fn texture_statement<'a>(
 /// Rewrites MTL text into lines tobj parses without panicking; returns the text, per-material side info and
 /// warnings. Errors name the MTL file and line.
 fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, HashMap<String, SideInfo>, Vec<String>)> {
+    // What the file becomes, charged before any of it is built: per material the records of tobj, of
+    // the side info and of the description (with their map entries), per statement its sanitised line and
+    // its entry, and the names and values, copied about four times on the way (sanitised text, tobj's
+    // strings, side info, description). A 10 000-material file is charged ≈ 30 MB.
+    let (mut materials, mut statements) = (0u64, 0u64);
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("newmtl") => materials += 1,
+            Some(word) if !word.starts_with('#') => statements += 1,
+            _ => {}
+        }
+    }
+    budget.charge(
+        path,
+        || format!("{materials} materials and {statements} statements read into the loader's structures"),
+        materials
+            .saturating_mul(BYTES_PER_MATERIAL)
+            .saturating_add(statements.saturating_mul(BYTES_PER_MTL_STATEMENT))
+            .saturating_add((text.len() as u64).saturating_mul(4)),
+    )?;
     let mut out = String::with_capacity(text.len());
     let mut side: HashMap<String, SideInfo> = HashMap::new();
     let mut warnings = Vec::new();
@@ -685,6 +760,18 @@ pub(crate) fn sanitize_mtl_text(text: &str, path: &Path) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn material_charge_covers_its_records() {
+        use std::mem::size_of;
+        // A name-keyed map entry: the key, the value and about a word of table overhead.
+        let entry = |value: usize| size_of::<String>() + value + 16;
+        let records = size_of::<tobj::Material>()
+            + entry(size_of::<usize>())
+            + entry(size_of::<SideInfo>())
+            + size_of::<MaterialDesc>();
+        assert!(records as u64 <= BYTES_PER_MATERIAL, "{records} bytes per material");
+    }
 
     #[test]
     fn one_component_colour_is_expanded() {

@@ -299,6 +299,79 @@ fn gltf_mirroring_transform_keeps_winding_outward() {
 }
 
 #[test]
+fn gltf_triangle_lists_of_partial_triangles_are_noted() {
+    let dir = temp_dir("partial-triangles");
+    // Four vertices, not indexed: one triangle and one vertex left over.
+    let mut four = TRIANGLE.to_vec();
+    four.extend([1.0, 1.0, 0.0]);
+    let mut doc = triangle_gltf(Some(&data_uri(&f32_bytes(&four))), 48, json!({}));
+    doc["accessors"][0]["count"] = json!(4);
+    doc["bufferViews"][0]["byteLength"] = json!(48);
+    let d = load_scene(&write_gltf(&dir, "p.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].indices(), &[[0, 1, 2]]);
+    let notes: Vec<&String> = d.warnings.iter().filter(|w| w.contains("multiple of 3")).collect();
+    assert_eq!(notes.len(), 1, "{:?}", d.warnings);
+    assert!(
+        notes[0].contains("p.gltf")
+            && notes[0].contains("meshes[0] primitive 0: 4 vertices (not indexed)")
+            && notes[0].contains("the last 1 ignored"),
+        "{}",
+        notes[0]
+    );
+    // Five u16 indices: one triangle, two left over; the mesh placed twice is noted once.
+    let mut bytes = f32_bytes(&TRIANGLE);
+    bytes.extend([0u16, 1, 2, 0, 1].iter().flat_map(|i| i.to_le_bytes()));
+    let mut doc = triangle_gltf(Some(&data_uri(&bytes)), 46, json!({}));
+    doc["bufferViews"] = json!([{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 10}]);
+    doc["accessors"]
+        .as_array_mut()
+        .unwrap_or_else(|| panic!("accessors"))
+        .push(json!({"bufferView": 1, "componentType": 5123, "count": 5, "type": "SCALAR"}));
+    doc["meshes"][0]["primitives"][0]["indices"] = json!(1);
+    doc["nodes"] = json!([{"mesh": 0}, {"mesh": 0, "translation": [5, 0, 0]}]);
+    doc["scenes"] = json!([{"nodes": [0, 1]}]);
+    let d = load_scene(&write_gltf(&dir, "i.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes.len(), 2);
+    let notes: Vec<&String> = d.warnings.iter().filter(|w| w.contains("multiple of 3")).collect();
+    assert_eq!(notes.len(), 1, "{:?}", d.warnings);
+    assert!(notes[0].contains("i.gltf") && notes[0].contains("5 indices") && notes[0].contains("last 2"), "{notes:?}");
+}
+
+#[test]
+fn gltf_projective_node_matrix_is_noted_and_read_as_affine() {
+    let dir = temp_dir("projective");
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    // Column-major: translation (2, 0, 0), bottom row (0.5, 0, 0, -1).
+    let matrix = json!([1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 2, 0, 0, -1]);
+    let doc = triangle_gltf(Some(&uri), 36, json!({"nodes": [{"matrix": matrix, "mesh": 0, "name": "lens"}]}));
+    let d = load_scene(&write_gltf(&dir, "p.gltf", &doc)).unwrap_or_else(|e| panic!("{e}"));
+    let p = d.meshes[0].positions();
+    assert_eq!(p[1], Vec3::new(3.0, 0.0, 0.0));
+    // The affine part does not mirror: the face still points to +z (the determinant of the matrix as
+    // written, −1, would have reversed the winding).
+    let [a, b, c] = d.meshes[0].indices()[0];
+    let n = (p[b as usize] - p[a as usize]).cross(p[c as usize] - p[a as usize]);
+    assert!(n.z > 0.0, "{n}");
+    let note = d.warnings.iter().find(|w| w.contains("bottom row")).unwrap_or_else(|| panic!("{:?}", d.warnings));
+    assert!(note.contains("p.gltf: nodes[0] 'lens'") && note.contains("(0.5, 0, 0, -1)"), "{note}");
+}
+
+#[test]
+fn gltf_buffer_shorter_than_a_view_is_an_error_naming_both() {
+    let dir = temp_dir("short-buffer");
+    // 36 bytes of data, but the buffer declares 24: the view's last 12 bytes are not the buffer's.
+    let uri = data_uri(&f32_bytes(&TRIANGLE));
+    let (e, msg) = error_message(&write_gltf(&dir, "s.gltf", &triangle_gltf(Some(&uri), 24, json!({}))));
+    assert!(matches!(&e, Error::GltfData { context, .. } if context == "bufferViews[0]"), "{e:?}");
+    assert!(msg.contains("byteOffset 0 + byteLength 36 passes the end of buffers[0] (byteLength 24)"), "{msg}");
+    // A view starting inside the buffer and ending past it.
+    let mut doc = triangle_gltf(Some(&uri), 36, json!({}));
+    doc["bufferViews"][0]["byteOffset"] = json!(12);
+    let (_, msg) = error_message(&write_gltf(&dir, "o.gltf", &doc));
+    assert!(msg.contains("bufferViews[0]: byteOffset 12 + byteLength 36 passes the end of buffers[0]"), "{msg}");
+}
+
+#[test]
 fn gltf_strips_are_triangulated_and_lines_skipped() {
     let dir = temp_dir("modes");
     let quad = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0];
@@ -609,6 +682,46 @@ fn mtl_bad_line_names_file_and_line() {
 }
 
 #[test]
+fn a_repeated_mtllib_reads_its_file_once() {
+    let dir = temp_dir("mtllib-repeated");
+    let mtl: String = (0..50).map(|i| format!("newmtl m{i}\nKd 0.{i:02} 0.5 0.5\n")).collect();
+    write(&dir, "many.mtl", mtl.as_bytes());
+    write(&dir, "other.mtl", b"newmtl extra\nKd 1 0 0\n");
+    // 200 lines naming many.mtl (one of them as ./many.mtl, the same file), then another file once.
+    let mut obj = "mtllib many.mtl\n".repeat(199);
+    obj.push_str("mtllib ./many.mtl\nmtllib other.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m7\nf 1 2 3\n");
+    let d = load_scene(&write(&dir, "r.obj", obj.as_bytes())).unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = d.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names.len(), 51, "{} materials", names.len());
+    assert_eq!(names[7], "m7");
+    assert_eq!(names[50], "extra");
+    assert_eq!(d.meshes[0].material(), Some(7));
+    assert_eq!(d.materials[7].base_color, Some(SpectrumDesc::Rgb([0.07, 0.5, 0.5])));
+    let notes: Vec<&String> = d.warnings.iter().filter(|w| w.contains("mtllib")).collect();
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(notes[0].contains("r.obj") && notes[0].contains("199 `mtllib` line(s)"), "{}", notes[0]);
+}
+
+#[test]
+fn mtl_material_structures_are_charged_to_the_budget() {
+    let dir = temp_dir("mtl-budget");
+    // 20 000 materials in a 270 KB file: the file fits a 4 MiB budget, its materials' records do not.
+    let mtl: String = (0..20_000).map(|i| format!("newmtl m{i}\n")).collect();
+    assert!(mtl.len() < 300_000);
+    write(&dir, "big.mtl", mtl.as_bytes());
+    let path = write(&dir, "b.obj", b"mtllib big.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let small = LoadOptions { max_memory: 4 << 20, ..LoadOptions::default() };
+    let e = load_scene_with(&path, &small).err().unwrap_or_else(|| panic!("20 000 materials fit in 4 MiB"));
+    let msg = e.to_string();
+    assert!(matches!(e, Error::OverBudget { requested, .. } if requested > 4 << 20), "{e:?}");
+    assert!(msg.contains("big.mtl") && msg.contains("20000 materials"), "{msg}");
+    // The default budget reads it, and the charge is in the description's accounting.
+    let d = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.materials.len(), 20_000);
+    assert!(d.memory.used > 20_000 * 2048, "{}", d.memory.used);
+}
+
+#[test]
 fn obj_nan_vertex_and_bad_face_index_are_errors() {
     let dir = temp_dir("obj-bad");
     let (e, msg) = error_message(&write(&dir, "nan.obj", b"v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n"));
@@ -619,6 +732,21 @@ fn obj_nan_vertex_and_bad_face_index_are_errors() {
     assert!(msg.contains("line 4"), "{msg}");
     let (e, _) = error_message(&write(&dir, "huge.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/-99999999999999 2 3\n"));
     assert!(matches!(e, Error::IndexOutOfRange { .. }), "{e:?}");
+}
+
+#[test]
+fn obj_faces_of_fewer_than_three_vertices_are_noted() {
+    let dir = temp_dir("obj-short-faces");
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\nf 3\nf 2 3\n";
+    let d = load_scene(&write(&dir, "s.obj", obj)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(d.meshes[0].triangle_count(), 1);
+    let notes: Vec<&String> = d.warnings.iter().filter(|w| w.contains("fewer than 3")).collect();
+    assert_eq!(notes.len(), 1, "{:?}", d.warnings);
+    assert!(notes[0].contains("s.obj: 3 face(s)") && notes[0].contains("line 5"), "{}", notes[0]);
+    // A face of no vertices is malformed: an error with its line.
+    let (e, msg) = error_message(&write(&dir, "e.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf\n"));
+    assert!(matches!(e, Error::ObjSyntax { line: 5, .. }), "{e:?}");
+    assert!(msg.contains("e.obj:5: `f` without vertices"), "{msg}");
 }
 
 #[test]
@@ -639,9 +767,9 @@ fn manifest_transform_that_makes_a_vertex_nan_is_refused() {
     let text = r#"{"objects": [{"type": "mesh", "file": "far.obj",
         "transform": {"matrix": [[1e30, 1e30, 0, 0], [-1e-30, 1e-30, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}}]}"#;
     let (e, msg) = error_message(&write(&dir, "m.json", text.as_bytes()));
-    let Error::IncludedFile { context, source, .. } = &e else { panic!("{e:?}") };
+    let Error::IncludedFile { context, cause, .. } = &e else { panic!("{e:?}") };
     assert_eq!(context, "objects[0]");
-    assert!(matches!(**source, Error::CoordinateTooLarge { vertex: 0, .. }), "{source:?}");
+    assert!(matches!(**cause, Error::CoordinateTooLarge { vertex: 0, .. }), "{cause:?}");
     assert!(msg.contains("objects[0]") && msg.contains("far.obj"), "{msg}");
 }
 
@@ -673,8 +801,8 @@ fn manifest_includes_keep_the_files_instances_under_their_transform() {
     assert_ne!(far, text);
     let e =
         load_scene_with(&write(&dir, "far.json", far.as_bytes()), &options).err().unwrap_or_else(|| panic!("loaded"));
-    let Error::IncludedFile { source, .. } = &e else { panic!("{e:?}") };
-    assert!(matches!(**source, Error::CoordinateTooLarge { .. }), "{source:?}");
+    let Error::IncludedFile { cause, .. } = &e else { panic!("{e:?}") };
+    assert!(matches!(**cause, Error::CoordinateTooLarge { .. }), "{cause:?}");
 }
 
 #[test]
@@ -838,6 +966,14 @@ fn missing_mesh_names_the_manifest_and_the_object() {
     let msg = e.to_string();
     assert!(matches!(e, Error::IncludedFile { .. }), "{e:?}");
     assert!(msg.contains("scene.json") && msg.contains("objects[1]") && msg.contains("nowhere.obj"), "{msg}");
+    // A report that walks the error's sources (anyhow's `{:#}`) states the cause once.
+    let mut chain = msg.clone();
+    let mut next = std::error::Error::source(&e);
+    while let Some(source) = next {
+        chain.push_str(&format!(": {source}"));
+        next = source.source();
+    }
+    assert_eq!(chain.matches("nowhere.obj").count(), 1, "{chain}");
 }
 
 /// The malformed files of /work/shared/real_assets/robustness (third-party, read only): none may panic.
