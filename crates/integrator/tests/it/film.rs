@@ -2,7 +2,7 @@
 
 use std::sync::atomic::AtomicBool;
 
-use integrator::{Film, Integrator, PathOptions, RenderOptions, RenderScene, SpectralMode, WavelengthPdf};
+use integrator::{Film, Integrator, PathOptions, RenderOptions, RenderScene, SpectralMode, ViewPlan, WavelengthPdf};
 
 use crate::reference;
 
@@ -115,7 +115,7 @@ fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
         ..RenderOptions::default()
     };
     let whole = film(&scene, &options);
-    let header = FilmHeader::new(scene.source_hash(), &options, SpectralMode::Bins(8));
+    let header = FilmHeader::new(scene.source_hash(), &options, SpectralMode::Bins(8), ViewPlan::default().to_string());
     let saved: Mutex<Vec<Vec<u8>>> = Mutex::new(Vec::new());
     let write = |f: &Film| {
         let bytes = FilmFile { header: header.clone(), film: f.clone() }.to_bytes();
@@ -149,8 +149,12 @@ fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
         assert!(resumed == whole, "resumed after pass {}", k + 1);
     }
     // A film of another seed is refused.
-    let other =
-        FilmHeader::new(scene.source_hash(), &RenderOptions { seed: 4, ..options.clone() }, SpectralMode::Bins(8));
+    let other = FilmHeader::new(
+        scene.source_hash(),
+        &RenderOptions { seed: 4, ..options.clone() },
+        SpectralMode::Bins(8),
+        ViewPlan::default().to_string(),
+    );
     let file = FilmFile::from_bytes(&saved[0], std::path::Path::new("c.film")).unwrap();
     assert!(file.resumable(&other, 10, 8, std::path::Path::new("c.film")).is_err());
 }
