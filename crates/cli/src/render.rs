@@ -19,73 +19,73 @@ pub(crate) struct RenderArgs {
     scene: Option<PathBuf>,
     /// Output EXR (linear RGB); a display-encoded PNG of the same name is written beside it
     /// [default: render.exr, none when --film is given].
-    #[arg(short, long)]
+    #[arg(help_heading = "Output", short, long)]
     output: Option<PathBuf>,
     /// Image width in pixels [default: the scene's, else 640].
-    #[arg(long)]
+    #[arg(help_heading = "Output", long)]
     width: Option<u32>,
     /// Image height in pixels [default: the scene's, else 480].
-    #[arg(long)]
+    #[arg(help_heading = "Output", long)]
     height: Option<u32>,
     /// Light transport: `whitted-hall` (the paper's model), `path` (physically based spectral
     /// path tracing) or `auto` (the scene's `settings.integrator`, else path; the paper's scenes
     /// ask for whitted-hall).
-    #[arg(long, default_value = "auto")]
+    #[arg(help_heading = "Light transport", long, default_value = "auto")]
     integrator: crate::view::IntegratorChoice,
     /// Spectral sampling: `rgb`, `bins:N` (N wavelengths over 360-830 nm; bins:95 = 5 nm),
     /// `hero[:K]` (path tracer: K = 4 or 8 wavelengths drawn per sample) or `auto` (chosen from
     /// the scene's spectra).
-    #[arg(long, default_value = "auto")]
+    #[arg(help_heading = "Sampling", long, default_value = "auto")]
     spectral: SpectralMode,
     /// Samples per pixel (whitted-hall: deterministic sub-pixel positions; path: jittered).
-    #[arg(long, default_value_t = 1)]
+    #[arg(help_heading = "Sampling", long, default_value_t = 1)]
     spp: u32,
     /// Seed of the path tracer's random numbers (same seed: same image, any thread count).
-    #[arg(long, default_value_t = 0)]
+    #[arg(help_heading = "Sampling", long, default_value_t = 0)]
     seed: u64,
     /// Stop after this many seconds: samples are then taken one per pixel per pass, and rows not
     /// started when time is up are skipped (every pixel gets at least one sample).
-    #[arg(long, value_parser = parse_seconds)]
+    #[arg(help_heading = "Sampling", long, value_parser = parse_seconds)]
     time_limit: Option<std::time::Duration>,
     /// Path tracer with `hero:K`: wavelength density, `illuminant` (follows the lights'
     /// spectra) or `visible` (pbrt-v4's).
-    #[arg(long, default_value = "illuminant")]
+    #[arg(help_heading = "Sampling", long, default_value = "illuminant")]
     wavelength_pdf: WavelengthPdf,
     /// Path tracer: the samples' random numbers, `sobol` (padded Sobol' points, shuffled and shifted,
     /// stratified over each pixel's samples) or `independent` (PCG32 per sample) [default:
     /// sobol].
-    #[arg(long)]
+    #[arg(help_heading = "Sampling", long)]
     sampler: Option<SamplerKind>,
     /// Bouguer-Beer absorption inside transparent objects (the paper's eq. 8).
-    #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
+    #[arg(help_heading = "Light transport", long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     absorption: bool,
     /// Ambient term: `objects` (the paper's eq. 9), `objects:K_A`, `constant:K_A` or `none`.
-    #[arg(long, default_value = "objects")]
+    #[arg(help_heading = "Light transport", long, default_value = "objects")]
     ambient: Ambient,
     /// Output display: `srgb` or `paper9300` (the paper's 9300 K monitor, its eq. 4).
-    #[arg(long, default_value = "srgb")]
+    #[arg(help_heading = "Output", long, default_value = "srgb")]
     display: Display,
     /// Maximum recursion depth [default: the scene's `max_depth`, else 20 for whitted-hall (the
     /// paper's value) or 64 for path].
-    #[arg(long)]
+    #[arg(help_heading = "Light transport", long)]
     max_depth: Option<u32>,
     /// Path tracer: bounces before Russian roulette may end a path [default: the scene's
     /// `rr_depth`, else 3].
-    #[arg(long)]
+    #[arg(help_heading = "Light transport", long)]
     rr_depth: Option<u32>,
     /// Skip ray-tree branches whose weight is below this (0 = trace the full tree).
-    #[arg(long, default_value_t = 1e-3)]
+    #[arg(help_heading = "Light transport", long, default_value_t = 1e-3)]
     min_weight: f32,
     /// Worker threads, 1 to 1024 [default: all cores].
-    #[arg(long)]
+    #[arg(help_heading = "Limits", long)]
     threads: Option<usize>,
     /// Also write a spectral OpenEXR (Fichet et al. 2021 layout: one channel `S0.<λ>nm` per
     /// wavelength, relative radiance). Needs fixed wavelengths: `--spectral bins:N`, or `auto`
     /// where it chooses bins.
-    #[arg(long, value_name = "FILE.exr")]
+    #[arg(help_heading = "Output", long, value_name = "FILE.exr")]
     spectral_exr: Option<PathBuf>,
     /// No progress bar or notes on stderr.
-    #[arg(short, long)]
+    #[arg(help_heading = "Output", short, long)]
     quiet: bool,
     #[command(flatten)]
     parts: PartArgs,
@@ -101,6 +101,7 @@ pub(crate) struct RenderArgs {
 
 /// Rendering a part of a render, checkpoints and resuming (docs/film-format.md).
 #[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Distributed and resumable rendering")]
 pub(crate) struct PartArgs {
     /// Render part K of M of the samples (K = 1..M, e.g. a Slurm array task id); needs --film.
     /// Merge the parts with `spectrace merge`.
@@ -162,19 +163,19 @@ fn parse_interval(s: &str) -> Result<std::time::Duration, String> {
 pub(crate) struct LoadArgs {
     /// Memory budget for the scene's data, in bytes or with a K/M/G suffix (powers of 1024): files,
     /// decoded geometry and the BVH; a scene that needs more is refused before allocating [default: 8G].
-    #[arg(long, value_parser = parse_bytes)]
+    #[arg(long, value_parser = parse_bytes, help_heading = "Limits")]
     max_memory: Option<u64>,
     /// Let a scene refer to files by absolute path (refused by default: a scene is a movable folder).
-    #[arg(long)]
+    #[arg(long, help_heading = "Limits")]
     allow_absolute_paths: bool,
     /// Change a value of the manifest before it is read, e.g. `materials.glass.ior=1.6` or
     /// `lights.0.intensity=2` (a dotted path: keys, and array indices from 0; the value is JSON, or
     /// else a string). Repeatable; a later one wins. For sweeps (docs/scene-format.md "Overrides and frames").
-    #[arg(long = "set", value_name = "PATH=VALUE", action = clap::ArgAction::Append)]
+    #[arg(long = "set", value_name = "PATH=VALUE", action = clap::ArgAction::Append, help_heading = "Scene")]
     set: Vec<geometry::Override>,
     /// Render frame K (from 0) of the manifest's `frames`: its changes apply before --set. `{frame}` in
     /// output and film paths becomes K.
-    #[arg(long, value_name = "K")]
+    #[arg(long, value_name = "K", help_heading = "Scene")]
     frame: Option<u32>,
 }
 

@@ -42,6 +42,7 @@ impl IntegratorChoice {
 
 /// Camera choice and overrides.
 #[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Camera")]
 pub(crate) struct CameraArgs {
     /// One of the file's cameras, by index (file order, from 0) or by name [default: the first].
     #[arg(long, value_name = "N|NAME")]
@@ -90,6 +91,7 @@ impl CameraArgs {
 /// Image-based lighting from the command line.
 #[derive(Debug, Clone, clap::Args)]
 #[command(group(clap::ArgGroup::new("env_source").args(["env", "light_env"]).multiple(false)))]
+#[command(next_help_heading = "Lights and exposure")]
 pub(crate) struct EnvArgs {
     /// Light the scene with an equirectangular environment map (Radiance .hdr or OpenEXR .exr; +Y up,
     /// docs/scene-format.md "Environment maps"): it replaces the file's environment and background,
@@ -210,6 +212,7 @@ impl EnvArgs {
 
 /// The PNG's exposure and tone curve (the EXR is never scaled).
 #[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Lights and exposure")]
 pub(crate) struct ExposureArgs {
     /// Exposure of the PNG in stops: its values are the EXR's × 2^EV [default: 0, or auto for
     /// files with photometric lights (glTF KHR_lights_punctual)].
