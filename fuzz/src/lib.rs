@@ -141,3 +141,79 @@ pub fn csv(data: &[u8]) {
         run_description(desc);
     }
 }
+
+/// Target `film`: a film file's bytes, read as `merge` and `--resume` read them; a film that
+/// reads is merged with itself (refused: the same samples twice), checked for resumption
+/// against its own header, and developed into an image as `merge` would (no file written).
+pub fn film(data: &[u8]) {
+    let path = Path::new("fuzz.film");
+    let Ok(file) = integrator::FilmFile::from_bytes(data, path) else { return };
+    let merged = integrator::merge_parts(vec![(path.into(), file.clone()), ("again.film".into(), file.clone())]);
+    assert!(merged.is_err(), "the same sample range twice must not merge");
+    let (width, height) = (file.film.width(), file.film.height());
+    let header = file.header.clone();
+    let view = header.view.parse::<integrator::ViewPlan>().unwrap_or_default();
+    if let Ok(film) = file.resumable(&header, width, height, path) {
+        let plan = integrator::OutputPlan::new(None, integrator::Display::Srgb, None, None, view)
+            .expect("a plan without files");
+        let (image, v) = plan.develop(&film);
+        assert!(v.ev.is_finite(), "view {v:?}");
+        for c in image.to_linear_rgb(integrator::Display::Srgb) {
+            assert!(c.iter().all(|x| x.is_finite()), "non-finite pixel {c:?}");
+        }
+        std::hint::black_box(image.to_rgb8(integrator::Display::Srgb));
+    }
+}
+
+/// Target `envmap`: an environment map's bytes, as `.hdr` when they start with `#?` (Radiance's
+/// magic) and as `.exr` otherwise, lighting a one-sphere manifest rendered 8×8.
+pub fn envmap(data: &[u8]) {
+    let name = if data.starts_with(b"#?") { "fuzz.hdr" } else { "fuzz.exr" };
+    put(name, data);
+    let manifest = format!(
+        r#"{{
+        "camera": {{"position": [0, 0, 4], "look_at": [0, 0, 0], "vfov_deg": 40}},
+        "lights": [{{"type": "environment", "map": "{name}"}}],
+        "materials": {{"m": {{"model": "diffuse", "base_color": {{"rgb": [0.5, 0.5, 0.5]}}}}}},
+        "objects": [{{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}}]
+    }}"#
+    );
+    if let Ok(desc) = geometry::parse_manifest(&manifest, scratch(), "fuzz.json") {
+        run_description(desc);
+    }
+}
+
+/// Target `texture`: an image's bytes (PNG, JPEG, WebP or KTX2, told apart by content) as the
+/// base colour, normal and metallic–roughness texture of a glTF quad rendered 8×8.
+pub fn texture(data: &[u8]) {
+    put("fuzz.img", data);
+    run_file(&put("fuzz.gltf", TEXTURED_QUAD.as_bytes()));
+}
+
+/// A unit quad facing +Z with uvs, one material whose three textures read `fuzz.img`, and a
+/// camera in front of it.
+const TEXTURED_QUAD: &str = r#"{
+  "asset": {"version": "2.0"},
+  "scene": 0,
+  "scenes": [{"nodes": [0, 1]}],
+  "nodes": [{"mesh": 0}, {"camera": 0, "translation": [0, 0, 2]}],
+  "cameras": [{"type": "perspective", "perspective": {"yfov": 0.9, "znear": 0.01}}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]}],
+  "materials": [{
+    "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicRoughnessTexture": {"index": 0}},
+    "normalTexture": {"index": 0}
+  }],
+  "textures": [{"source": 0}],
+  "images": [{"uri": "fuzz.img"}],
+  "buffers": [{"byteLength": 92, "uri": "data:application/octet-stream;base64,AACAvwAAgL8AAAAAAACAPwAAgL8AAAAAAACAPwAAgD8AAAAAAACAvwAAgD8AAAAAAAAAAAAAgD8AAIA/AACAPwAAgD8AAAAAAAAAAAAAAAAAAAEAAgAAAAIAAwA="}],
+  "bufferViews": [
+    {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+    {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+    {"buffer": 0, "byteOffset": 80, "byteLength": 12}
+  ],
+  "accessors": [
+    {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]},
+    {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+    {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+  ]
+}"#;

@@ -16,12 +16,15 @@ type Target = fn(&[u8]);
 #[test]
 fn every_fuzz_regression_replays_without_a_panic() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/regressions");
-    let targets: [(&str, Target); 5] = [
+    let targets: [(&str, Target); 8] = [
         ("gltf", pipeline::gltf),
         ("glb", pipeline::glb),
         ("obj_mtl", pipeline::obj_mtl),
         ("manifest", pipeline::manifest),
         ("csv", pipeline::csv),
+        ("film", pipeline::film),
+        ("envmap", pipeline::envmap),
+        ("texture", pipeline::texture),
     ];
     let mut replayed = 0;
     let mut failures = Vec::new();
