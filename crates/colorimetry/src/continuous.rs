@@ -81,7 +81,7 @@ impl Spectrum {
             Self::Blackbody(_) => 1.0,
             Self::RgbAlbedo(s) => s.max_value(),
             Self::RgbUnbounded(s) => f64::from(s.scale) * s.sigmoid.max_value(),
-            Self::RgbIlluminant(s) => f64::from(s.scale) * s.sigmoid.max_value() * srgb_illuminant().max_value(),
+            Self::RgbIlluminant(s) => f64::from(s.0.scale) * s.0.sigmoid.max_value() * srgb_illuminant().max_value(),
         }
     }
 
@@ -297,34 +297,30 @@ pub fn srgb_illuminant() -> &'static DenselySampledSpectrum {
 /// White (1, 1, 1) has relative luminance 1; its XYZ relative to `Σȳ`
 /// ([`crate::relative_xyz`]) is the sRGB XYZ of `rgb` (within the sigmoid's accuracy).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RgbIlluminantSpectrum {
-    sigmoid: RgbSigmoid,
-    scale: f32,
-}
+pub struct RgbIlluminantSpectrum(RgbUnboundedSpectrum);
 
 impl RgbIlluminantSpectrum {
     /// Linear sRGB `rgb` (≥ 0) by table lookup (a few ns; see [`RgbSigmoid::from_rgb`]).
     pub fn from_rgb(table: &RgbToSpectrumTable, rgb: [f32; 3]) -> Self {
-        let (color, scale) = split_brightness_f32(rgb);
-        Self { sigmoid: RgbSigmoid::from_rgb(table, color), scale }
+        Self(RgbUnboundedSpectrum::from_rgb(table, rgb))
     }
 
     /// Linear sRGB `rgb` by the exact fit of [`crate::upsample_illuminant`] (about 20 µs):
     /// the same spectrum as [`crate::upsample_illuminant_spectrum`], up to f32 rounding.
     pub fn fit(rgb: [f64; 3]) -> Self {
-        let (polynomial, scale) = upsample_illuminant(rgb);
-        Self { sigmoid: polynomial.into(), scale: scale as f32 }
+        Self(RgbUnboundedSpectrum::fit(rgb))
     }
 
     /// The value at `lambda` nm.
     pub fn eval(&self, lambda: f64) -> f64 {
-        f64::from(self.scale) * self.sigmoid.eval(lambda) * srgb_illuminant().eval(lambda)
+        self.0.eval(lambda) * srgb_illuminant().eval(lambda)
     }
 
-    /// Values at the sampled wavelengths (f32).
+    /// Values at the sampled wavelengths (f32): sigmoid × illuminant, then the scale, in that
+    /// order (the order fixes the f32 rounding every render was made with).
     #[inline]
     pub fn sample<const N: usize>(&self, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
-        self.sigmoid.sample(lambda) * srgb_illuminant().sample(lambda) * self.scale
+        self.0.sigmoid.sample(lambda) * srgb_illuminant().sample(lambda) * self.0.scale
     }
 }
 
