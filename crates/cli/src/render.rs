@@ -319,24 +319,27 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Before loading or rendering anything: the image files (the view is the scene's, below), and
     // no two outputs on one path, which would replace each other.
     let png = image_path.as_deref().map(png_path).transpose()?;
+    // A clash names the PNG that -o writes too, which the user did not type.
+    let clash = |e: integrator::Error| match (e, &image_path, &png) {
+        (integrator::Error::Write { path, message }, Some(output), Some(png)) => {
+            anyhow::anyhow!("{}: {message} (-o {} also writes {})", path.display(), output.display(), png.display())
+        }
+        (other, ..) => other.into(),
+    };
     let mut plan = OutputPlan::new(
         image_path.as_deref(),
         args.display,
         args.spectral_exr.as_deref(),
         None,
         integrator::ViewPlan::default(),
-    )?;
+    )
+    .map_err(clash)?;
     let mut paths: Vec<&Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(parts.film.as_deref());
     if parts.checkpoint != parts.film {
         paths.extend(parts.checkpoint.as_deref());
     }
-    integrator::check_distinct_outputs(&paths).map_err(|e| match (e, &image_path, &png) {
-        (integrator::Error::Write { path, message }, Some(output), Some(png)) => {
-            anyhow::anyhow!("{}: {message} (-o {} also writes {})", path.display(), output.display(), png.display())
-        }
-        (other, ..) => other.into(),
-    })?;
+    integrator::check_distinct_outputs(&paths).map_err(clash)?;
 
     let mut assembly = args.camera.assembly((args.width, args.height));
     assembly.environment = args.env.option()?;

@@ -626,8 +626,8 @@ mod tests {
             assert!(e.starts_with("p.film: corrupted"), "{at}: {e}");
         }
         let mut b = bytes.clone();
-        b[8] = 2;
-        assert!(err(&b).contains("version 2"), "{}", err(&b));
+        b[8] = 3;
+        assert!(err(&b).contains("version 3"), "{}", err(&b));
         let mut b = bytes.clone();
         b[0] = b'X';
         assert!(err(&b).contains("not a spectrace film file"));

@@ -187,43 +187,7 @@ impl RenderScene {
             mut memory,
         } = desc;
         let started = std::time::Instant::now();
-        // Decided once: a material used by a mesh with vertex colours has a base colour varying per hit,
-        // as a textured one does (the path tracer's textured instantiation then reads them).
-        // Placed objects' meshes count as the others do: their hits find their vertex data too.
-        let without_material = meshes
-            .iter()
-            .chain(instances.iter().flat_map(geometry::Instances::meshes))
-            .filter(|m| tinting_colors(m).is_some() && m.material().is_none())
-            .count();
-        if without_material > 0 {
-            // An OBJ without MTL: its colours are the surface's as written, so they take a white diffuse
-            // base rather than tinting the default grey.
-            let index = material_descs.len() as u32;
-            let mut white = MaterialDesc::new("vertex colours", MaterialFormat::Manifest);
-            white.base_color = Some(SpectrumDesc::Rgb([1.0; 3]));
-            material_descs.push(white);
-            for m in meshes
-                .iter_mut()
-                .chain(placed_meshes(&mut instances))
-                .filter(|m| tinting_colors(m).is_some() && m.material().is_none())
-            {
-                m.set_material(Some(index));
-            }
-            warnings.push(format!(
-                "{without_material} mesh(es) with vertex colours and no material: rendered as white diffuse × their colours"
-            ));
-        }
-        let mut vertex_colored = vec![false; material_descs.len()];
-        for m in meshes
-            .iter()
-            .chain(instances.iter().flat_map(geometry::Instances::meshes))
-            .filter(|m| tinting_colors(m).is_some())
-            .filter_map(geometry::Mesh::material)
-        {
-            if let Some(flag) = vertex_colored.get_mut(m as usize) {
-                *flag = true;
-            }
-        }
+        let vertex_colored = vertex_colored_materials(&mut meshes, &mut instances, &mut material_descs, &mut warnings);
         let mut textures =
             load_material_textures(&images, &mut material_descs, &vertex_colored, &mut memory, &mut warnings)?;
         if textures.iter().all(Option::is_none) {
@@ -282,150 +246,16 @@ impl RenderScene {
             (format == geometry::SceneFormat::Gltf && !light_descs.is_empty()) || options.sky.is_some();
         let resolution = image_size(&camera, None, None);
 
-        if let Some(env) = &options.environment {
-            // The map replaces what escaping rays would have seen: the file's environments and background.
-            let replaced = light_descs.iter().filter(|l| matches!(l, LightDesc::Environment { .. })).count();
-            light_descs.retain(|l| !matches!(l, LightDesc::Environment { .. }));
-            let had_background = background.take().is_some();
-            warnings.push(format!(
-                "--env: the scene is lit by the environment map {} × {}{}",
-                env.path.display(),
-                env.intensity,
-                match (replaced, had_background) {
-                    (0, false) => String::new(),
-                    (n, b) => format!(
-                        " (replacing the file's {n} environment light(s){})",
-                        if b { " and its background" } else { "" }
-                    ),
-                }
-            ));
-            light_descs.push(LightDesc::Environment {
-                spectrum: SpectrumDesc::Named("D65".into()),
-                intensity: LightAmount { value: env.intensity, unit: LightUnit::Nit },
-                map: Some(EnvironmentMapDesc { path: env.path.clone(), rotation_deg: env.rotation_deg }),
-            });
-        }
-        let sky_lights = match &options.sky {
-            Some(_) if options.environment.is_some() => {
-                return Err(Error::EnvironmentMap {
-                    path: PathBuf::from("--light-env sky"),
-                    reason: "the sky and an environment map cannot both light a scene (at most one map)".to_owned(),
-                });
-            }
-            Some(sky) => {
-                let replaced = light_descs.iter().filter(|l| matches!(l, LightDesc::Environment { .. })).count();
-                light_descs.retain(|l| !matches!(l, LightDesc::Environment { .. }));
-                let had_background = background.take().is_some();
-                let lit = !light_descs.is_empty() || materials.iter().any(Material::emits);
-                let (added, descs, note) = sky_lights(sky, &camera, lit)?;
-                warnings.push(format!(
-                    "{note}{}",
-                    match (replaced, had_background) {
-                        (0, false) => String::new(),
-                        (n, b) => format!(
-                            " (replacing the file's {n} environment light(s){})",
-                            if b { " and its background" } else { "" }
-                        ),
-                    }
-                ));
-                Some((added, descs))
-            }
-            None => None,
-        };
-        let mut lights = Vec::with_capacity(light_descs.len());
-        let mut map_seen: Option<usize> = None;
-        for (index, l) in light_descs.iter().enumerate() {
-            lights.push(match l {
-                LightDesc::Environment { intensity, map: Some(m), .. } => {
-                    if let Some(first) = map_seen {
-                        return Err(Error::EnvironmentMap {
-                            path: m.path.clone(),
-                            reason: format!(
-                                "light {index}: a scene has at most one environment map (light {first} is one)"
-                            ),
-                        });
-                    }
-                    map_seen = Some(index);
-                    let map =
-                        EnvironmentMap::load(&m.path, intensity.value, m.rotation_deg, &mut memory, &mut warnings)?;
-                    // Films record the scene's digest: the map's bytes are part of the scene.
-                    source_hash = geometry::xxh64(&map.digest().to_le_bytes(), source_hash);
-                    Light::environment_map(map)
-                }
-                _ => light_from_desc(l).map_err(|source| Error::Light { index, source })?,
-            });
-        }
+        let sky_lights =
+            replace_environment(options, &mut light_descs, &mut background, &camera, &materials, &mut warnings)?;
+        let mut lights = build_lights(&light_descs, &mut memory, &mut source_hash, &mut warnings)?;
         if let Some((added, descs)) = sky_lights {
             lights.extend(added);
             light_descs.extend(descs);
         }
         let emissive = materials.iter().any(Material::emits);
-        let unlit = lights.is_empty() && background.is_none();
-        if options.default_lights == DefaultLights::None {
-            if unlit && !emissive {
-                return Err(Error::NoLight);
-            }
-        } else if unlit && matches!(format, SceneFormat::Gltf | SceneFormat::Obj) {
-            // A glTF or OBJ file has no way to say "lit by the world": light it as a viewer would.
-            let environment = options.default_lights == DefaultLights::EnvironmentAndKey;
-            let added = default_lights(&camera, emissive, environment);
-            for light in &added {
-                lights.push(light_from_desc(light).map_err(|source| Error::Spectrum {
-                    what: "the default lights (added because the file has none)",
-                    source,
-                })?);
-            }
-            warnings.push(if emissive && !environment {
-                "no light in the file: its emitters light it alone (--light-env none)".to_owned()
-            } else if emissive {
-                format!(
-                    "no light in the file: added a uniform D65 environment of {DIM_ENVIRONMENT_NITS} nits (Blender's default world) to its emitters"
-                )
-            } else if !environment {
-                format!(
-                    "no light in the file: added a D65 key light of {:.3} lux from above and to the right of the camera over a black background (--light-env none; a white surface facing the camera reads {KEY_NITS:.1})",
-                    key_illuminance()
-                )
-            } else {
-                format!(
-                    "no light in the file: added a uniform D65 environment of {ENVIRONMENT_NITS} nits and a D65 key light of {:.3} lux from above and to the right of the camera (a white surface facing the camera reads {:.1})",
-                    key_illuminance(),
-                    ENVIRONMENT_NITS + KEY_NITS
-                )
-            });
-            light_descs.extend(added);
-        } else if options.default_lights == DefaultLights::EnvironmentAndKey
-            && matches!(format, SceneFormat::Gltf | SceneFormat::Obj)
-            && background.is_none()
-            && !light_descs.iter().any(|l| matches!(l, LightDesc::Environment { .. }))
-        {
-            // The file's own lights, but no world: glTF cannot carry one, and a Blender scene exported
-            // with its lamps lost the world it was lit in. Put it back (Blender's default world in its
-            // lamps' units, capped below weak lamps), so what the lamps leave unlit is dim, not black.
-            let nits = lamp_world_nits(&light_descs, center);
-            let world = uniform_environment(nits);
-            lights.push(light_from_desc(&world).map_err(|source| Error::Spectrum {
-                what: "the default world (added because the file has no environment)",
-                source,
-            })?);
-            warnings.push(format!(
-                "the file's lights have no world around them: added a uniform D65 environment of {nits:.4} nits (Blender's default world in its lamps' units, {LAMP_WORLD_NITS:.1}, at most a fill 3 stops below the brightest lamp; --light-env none: none)"
-            ));
-            light_descs.push(world);
-        } else if lights.is_empty() && !emissive {
-            let light = default_light(center, radius);
-            lights.push(light_from_desc(&light).map_err(|source| Error::Spectrum {
-                what: "the default light (added because the scene has none)",
-                source,
-            })?);
-            if let LightDesc::Point { position, intensity, .. } = &light {
-                warnings.push(format!(
-                    "no light in the scene: added a D65 point light at ({:.3}, {:.3}, {:.3}) with intensity {:.4} cd (illuminance 1 lux at the centre)",
-                    position.x, position.y, position.z, intensity.value
-                ));
-            }
-            light_descs.push(light);
-        }
+        let world = World { format, camera: &camera, center, radius, emissive, has_background: background.is_some() };
+        add_default_lights(options.default_lights, &world, &mut lights, &mut light_descs, &mut warnings)?;
 
         let background = match background {
             Some((spectrum, intensity)) => Some(
@@ -902,6 +732,231 @@ fn warn_isotropic_parts(descs: &[MaterialDesc], materials: &[Material], warnings
             )),
         }
     }
+}
+
+/// Which materials have a base colour varying per hit through vertex colours (decided once, as for
+/// textures: the path tracer's textured instantiation then reads them). Meshes with vertex colours
+/// and no material get a white diffuse one (an OBJ without MTL: its colours are the surface's as
+/// written). Placed objects' meshes count as the others do: their hits find their vertex data too.
+fn vertex_colored_materials(
+    meshes: &mut [geometry::Mesh],
+    instances: &mut [geometry::Instances],
+    material_descs: &mut Vec<MaterialDesc>,
+    warnings: &mut Vec<String>,
+) -> Vec<bool> {
+    let without_material = meshes
+        .iter()
+        .chain(instances.iter().flat_map(geometry::Instances::meshes))
+        .filter(|m| tinting_colors(m).is_some() && m.material().is_none())
+        .count();
+    if without_material > 0 {
+        // An OBJ without MTL: its colours are the surface's as written, so they take a white diffuse
+        // base rather than tinting the default grey.
+        let index = material_descs.len() as u32;
+        let mut white = MaterialDesc::new("vertex colours", MaterialFormat::Manifest);
+        white.base_color = Some(SpectrumDesc::Rgb([1.0; 3]));
+        material_descs.push(white);
+        for m in meshes
+            .iter_mut()
+            .chain(placed_meshes(instances))
+            .filter(|m| tinting_colors(m).is_some() && m.material().is_none())
+        {
+            m.set_material(Some(index));
+        }
+        warnings.push(format!(
+            "{without_material} mesh(es) with vertex colours and no material: rendered as white diffuse × their colours"
+        ));
+    }
+    let mut vertex_colored = vec![false; material_descs.len()];
+    for m in meshes
+        .iter()
+        .chain(instances.iter().flat_map(geometry::Instances::meshes))
+        .filter(|m| tinting_colors(m).is_some())
+        .filter_map(geometry::Mesh::material)
+    {
+        if let Some(flag) = vertex_colored.get_mut(m as usize) {
+            *flag = true;
+        }
+    }
+    vertex_colored
+}
+
+/// The lights that replace the file's environments and background (what escaping rays would have
+/// seen): `--env`'s map, added to `light_descs`, or `--light-env sky`, returned as built lights and
+/// their descriptions (at most one of them).
+fn replace_environment(
+    options: &AssemblyOptions,
+    light_descs: &mut Vec<LightDesc>,
+    background: &mut Option<(SpectrumDesc, f32)>,
+    camera: &CameraDesc,
+    materials: &[Material],
+    warnings: &mut Vec<String>,
+) -> Result<Option<(Vec<Light>, Vec<LightDesc>)>> {
+    if let Some(env) = &options.environment {
+        let replaced = drop_environments(light_descs, background);
+        warnings.push(format!(
+            "--env: the scene is lit by the environment map {} × {}{replaced}",
+            env.path.display(),
+            env.intensity,
+        ));
+        light_descs.push(LightDesc::Environment {
+            spectrum: SpectrumDesc::Named("D65".into()),
+            intensity: LightAmount { value: env.intensity, unit: LightUnit::Nit },
+            map: Some(EnvironmentMapDesc { path: env.path.clone(), rotation_deg: env.rotation_deg }),
+        });
+    }
+    Ok(match &options.sky {
+        Some(_) if options.environment.is_some() => {
+            return Err(Error::EnvironmentMap {
+                path: PathBuf::from("--light-env sky"),
+                reason: "the sky and an environment map cannot both light a scene (at most one map)".to_owned(),
+            });
+        }
+        Some(sky) => {
+            let replaced = drop_environments(light_descs, background);
+            let lit = !light_descs.is_empty() || materials.iter().any(Material::emits);
+            let (added, descs, note) = sky_lights(sky, camera, lit)?;
+            warnings.push(format!("{note}{replaced}"));
+            Some((added, descs))
+        }
+        None => None,
+    })
+}
+
+/// Remove the file's environment lights and background; the note's tail saying what was replaced.
+fn drop_environments(light_descs: &mut Vec<LightDesc>, background: &mut Option<(SpectrumDesc, f32)>) -> String {
+    let replaced = light_descs.iter().filter(|l| matches!(l, LightDesc::Environment { .. })).count();
+    light_descs.retain(|l| !matches!(l, LightDesc::Environment { .. }));
+    let had_background = background.take().is_some();
+    match (replaced, had_background) {
+        (0, false) => String::new(),
+        (n, b) => {
+            format!(" (replacing the file's {n} environment light(s){})", if b { " and its background" } else { "" })
+        }
+    }
+}
+
+/// The lights the descriptions ask for; an environment map is loaded (at most one) and its bytes
+/// join the scene's digest, which films record.
+fn build_lights(
+    light_descs: &[LightDesc],
+    memory: &mut geometry::MemoryBudget,
+    source_hash: &mut u64,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Light>> {
+    let mut lights = Vec::with_capacity(light_descs.len());
+    let mut map_seen: Option<usize> = None;
+    for (index, l) in light_descs.iter().enumerate() {
+        lights.push(match l {
+            LightDesc::Environment { intensity, map: Some(m), .. } => {
+                if let Some(first) = map_seen {
+                    return Err(Error::EnvironmentMap {
+                        path: m.path.clone(),
+                        reason: format!(
+                            "light {index}: a scene has at most one environment map (light {first} is one)"
+                        ),
+                    });
+                }
+                map_seen = Some(index);
+                let map = EnvironmentMap::load(&m.path, intensity.value, m.rotation_deg, memory, warnings)?;
+                // Films record the scene's digest: the map's bytes are part of the scene.
+                *source_hash = geometry::xxh64(&map.digest().to_le_bytes(), *source_hash);
+                Light::environment_map(map)
+            }
+            _ => light_from_desc(l).map_err(|source| Error::Light { index, source })?,
+        });
+    }
+    Ok(lights)
+}
+
+/// What the default lights depend on besides the file's lights.
+struct World<'a> {
+    format: SceneFormat,
+    camera: &'a CameraDesc,
+    center: Vec3,
+    radius: f32,
+    emissive: bool,
+    has_background: bool,
+}
+
+/// Light a scene that has too little light as a viewer would (`docs/defaults.md`): glTF and OBJ files
+/// without lights get an environment and a key light (or the emitters alone), files with lamps and no
+/// world a dim world, and a manifest without any light a point light; `DefaultLights::None` makes an
+/// unlit scene an error instead.
+fn add_default_lights(
+    default: DefaultLights,
+    world: &World<'_>,
+    lights: &mut Vec<Light>,
+    light_descs: &mut Vec<LightDesc>,
+    warnings: &mut Vec<String>,
+) -> Result<()> {
+    let unlit = lights.is_empty() && !world.has_background;
+    if default == DefaultLights::None {
+        if unlit && !world.emissive {
+            return Err(Error::NoLight);
+        }
+    } else if unlit && matches!(world.format, SceneFormat::Gltf | SceneFormat::Obj) {
+        // A glTF or OBJ file has no way to say "lit by the world": light it as a viewer would.
+        let environment = default == DefaultLights::EnvironmentAndKey;
+        let added = default_lights(world.camera, world.emissive, environment);
+        for light in &added {
+            lights.push(light_from_desc(light).map_err(|source| Error::Spectrum {
+                what: "the default lights (added because the file has none)",
+                source,
+            })?);
+        }
+        warnings.push(if world.emissive && !environment {
+            "no light in the file: its emitters light it alone (--light-env none)".to_owned()
+        } else if world.emissive {
+            format!(
+                "no light in the file: added a uniform D65 environment of {DIM_ENVIRONMENT_NITS} nits (Blender's default world) to its emitters"
+            )
+        } else if !environment {
+            format!(
+                "no light in the file: added a D65 key light of {:.3} lux from above and to the right of the camera over a black background (--light-env none; a white surface facing the camera reads {KEY_NITS:.1})",
+                key_illuminance()
+            )
+        } else {
+            format!(
+                "no light in the file: added a uniform D65 environment of {ENVIRONMENT_NITS} nits and a D65 key light of {:.3} lux from above and to the right of the camera (a white surface facing the camera reads {:.1})",
+                key_illuminance(),
+                ENVIRONMENT_NITS + KEY_NITS
+            )
+        });
+        light_descs.extend(added);
+    } else if default == DefaultLights::EnvironmentAndKey
+        && matches!(world.format, SceneFormat::Gltf | SceneFormat::Obj)
+        && !world.has_background
+        && !light_descs.iter().any(|l| matches!(l, LightDesc::Environment { .. }))
+    {
+        // The file's own lights, but no world: glTF cannot carry one, and a Blender scene exported
+        // with its lamps lost the world it was lit in. Put it back (Blender's default world in its
+        // lamps' units, capped below weak lamps), so what the lamps leave unlit is dim, not black.
+        let nits = lamp_world_nits(light_descs, world.center);
+        let world = uniform_environment(nits);
+        lights.push(light_from_desc(&world).map_err(|source| Error::Spectrum {
+            what: "the default world (added because the file has no environment)",
+            source,
+        })?);
+        warnings.push(format!(
+            "the file's lights have no world around them: added a uniform D65 environment of {nits:.4} nits (Blender's default world in its lamps' units, {LAMP_WORLD_NITS:.1}, at most a fill 3 stops below the brightest lamp; --light-env none: none)"
+        ));
+        light_descs.push(world);
+    } else if lights.is_empty() && !world.emissive {
+        let light = default_light(world.center, world.radius);
+        lights.push(light_from_desc(&light).map_err(|source| Error::Spectrum {
+            what: "the default light (added because the scene has none)",
+            source,
+        })?);
+        if let LightDesc::Point { position, intensity, .. } = &light {
+            warnings.push(format!(
+                "no light in the scene: added a D65 point light at ({:.3}, {:.3}, {:.3}) with intensity {:.4} cd (illuminance 1 lux at the centre)",
+                position.x, position.y, position.z, intensity.value
+            ));
+        }
+        light_descs.push(light);
+    }
+    Ok(())
 }
 
 /// A mesh's vertex colours unless every one is opaque white: exporters write those (Blender's for
