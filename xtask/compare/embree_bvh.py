@@ -20,7 +20,7 @@ rays against a one-triangle scene the rays all miss at the root, and reported; "
 subtract it (favouring Embree), "gross" figures do not.
 
 The "net" figures favour Embree by far more than the loop: a root-miss query is also Embree's
-own fixed cost per query (about 22 ns of one here, session 23, `docs/perf.md`), which the
+own fixed cost per query (about 22 ns of one here, `docs/perf.md`), which the
 subtraction removes too. `embree_direct.c` calls the same library from C in a plain loop and
 measures Embree as it runs; `trace_ab.py` alternates it with ours on the same rays. Its rates
 fall between this script's two (closer to "gross"), and they are the ones to compare with.

@@ -25,13 +25,13 @@ renderers).
     python3 xtask/compare/mitsuba_cornell.py --out target/mitsuba-compare --threads 1 \
         --spp 4 16 64 --ref-spp 1024
 
-Issue 17's comparison (Mitsuba's vectorised variant, 512², 2 threads, one reference):
+The headline comparison (Mitsuba's vectorised variant, 512², 2 threads, one reference):
 
     python3 xtask/compare/mitsuba_cornell.py --out target/mitsuba-compare --threads 2 \
         --spp 16 32 64 128 --ref-spp 8192 --repeats 3 --score common \
         --variants scalar_spectral llvm_ad_spectral
 
-Time to mean ΔE00 < 1 itself (issue 17's headline) needs errors measured below what a
+Time to mean ΔE00 < 1 itself (the headline figure) needs errors measured below what a
 reference's own noise lets it score (a 4096-spp reference of this box leaves mean ΔE00 ~1.1):
 `--pair` renders every point with a second seed and takes each renderer's error against the
 truth from the two images' difference (`pair_errors`), and the time to the threshold from it:
@@ -292,7 +292,7 @@ def main():
         )
     # `--score mitsuba` needs no reference of spectrace's: Mitsuba's LLVM variant converges one
     # about twice as fast (16384 spp at 512²: ~25 min on two cores), so every image is scored
-    # against it (as issue 17's figures were).
+    # against it (as the headline figures were).
     if args.score not in ("mitsuba", "none"):
         ref_s = cached(
             f"ref_spectrace_{n}_{args.ref_spp}",

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Render spectrace's rough materials and Mitsuba 3's (variant scalar_spectral) on the same
-scene and score the difference (issue 11).
+scene and score the difference.
 
 An optional comparison tool: the project does not need it. It needs `pip install mitsuba
 colour-science OpenEXR` and a release build (`cargo build --release -p cli`).

@@ -1,5 +1,5 @@
-"""What texture prefiltering (mip-maps, ray differentials) could gain, measured before adding it (issue 12,
-item 1): the error at equal samples of a point-sampled (bilinear) texture against that of its ideal prefilter
+"""What texture prefiltering (mip-maps, ray differentials) could gain, measured before adding it: the
+error at equal samples of a point-sampled (bilinear) texture against that of its ideal prefilter
 where the texture is minified everywhere, which is where a mip-map helps most.
 
 The scene: a 400 × 400 floor (an OBJ quad, Lambertian, `map_Kd -s 4000 4000` of a 2 × 2 checker of sRGB 230

@@ -106,7 +106,7 @@ def perf_costs(data, binary):
             # An inlined frame's line comes first, then the real frame at the same address: if
             # that is in our binary, so is the address (addr2line reads its whole inline chain).
             # Left as a library frame, the path loop inlined into `PixelSampler::sample` was
-            # charged to the film (sessions 16-17).
+            # charged to the film in earlier profiles.
             if dso.endswith(name) and not frames[-1][2]:
                 frames[-1] = (addr, frames[-1][1], True)
             continue

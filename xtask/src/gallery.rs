@@ -1,6 +1,6 @@
 //! `cargo xtask gallery`: renders every glTF and OBJ under the third-party asset folder
 //! (`../shared/real_assets`, read in place, never copied) with the `spectrace` binary and **no
-//! flags** but a small size, and tabulates what a new user would see (issue 13): the integrator,
+//! flags** but a small size, and tabulates what a new user would see: the integrator,
 //! camera and exposure chosen, the PNG's mean luminance and its clipped pixels, the wall time
 //! (load and render), the file's warnings and non-finite samples; and a contact sheet
 //! (`gallery.html`, the PNGs with their rows). The project's own glTF scenes (`scenes/`) are

@@ -21,7 +21,7 @@ use crate::project_root;
 /// Where the crate embeds the table from (`include_bytes!` in `colorimetry/src/upsample.rs`).
 const TABLE_PATH: &str = "data/rgb_to_spectrum_srgb.bin";
 
-/// The project's round-trip target (issue 2): max ΔE00 below 0.01.
+/// The project's round-trip target: max ΔE00 below 0.01.
 const MAX_DELTA_E00: f64 = 0.01;
 
 /// A round trip counts as exact below this ΔE00: the fit stops at 1e-10 ΔE*ab

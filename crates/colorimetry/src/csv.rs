@@ -190,7 +190,7 @@ mod tests {
         assert!((t[0].spectrum.eval(415.0) - 0.25).abs() < 1e-12);
     }
 
-    /// Issue 16: CSV files whose first lines are `#` comments were rejected. Comments (also
+    /// CSV files whose first lines are `#` comments used to be rejected. Comments (also
     /// indented, also between rows and after the last one), blank and whitespace-only lines
     /// and CRLF endings are skipped; the line numbers of errors stay the file's own.
     #[test]

@@ -1062,7 +1062,7 @@ mod tests {
 
     #[test]
     fn every_grid_is_bounded_before_it_is_allocated() {
-        // Issue 16 item 4: the grid was unbounded (terabyte allocations, `capacity overflow`,
+        // The grid used to be unbounded (terabyte allocations, `capacity overflow`,
         // an integer overflow in `from_samples`).
         let step = DenselySampledSpectrum::new(500.0, 1e-10, vec![1.0, 1.0]).unwrap_err();
         assert_eq!(step.to_string(), "spectrum: wavelength step 1e-10 nm is finer than the minimum, 0.001 nm");

@@ -5,7 +5,7 @@ use crate::{
     reflectance_to_xyz,
 };
 
-/// The project's target for the round trip (issue 2): ΔE00 < 0.01.
+/// The project's target for the round trip: ΔE00 < 0.01.
 pub(crate) const TARGET_DELTA_E00: f64 = 0.01;
 
 /// ΔE00 between linear sRGB `rgb` and the colour of `reflectance` through the crate's

@@ -1,5 +1,5 @@
 //! BVH build time, memory and ray throughput (primary and incoherent rays), one thread, at
-//! every SIMD level this CPU supports, on the issue-15 scenes: procedural terrains of 100k
+//! every SIMD level this CPU supports, on the benchmark scenes: procedural terrains of 100k
 //! and 1.0M triangles and a closed 1.3M-triangle icosphere. Rays are generated before timing:
 //! 1024² primary rays from a camera, and one cosine-weighted hemisphere ray spawned from each
 //! primary hit. `obvhs_moller_trumbore_*` traces the 1M terrain's rays through obvhs's own
@@ -62,7 +62,7 @@ fn bench(c: &mut Criterion) {
 }
 
 /// The same rays through obvhs's own CWBVH and Möller–Trumbore test (not watertight): the
-/// comparison issue 3 quoted, measured in the same process and conditions.
+/// baseline comparison, measured in the same process and conditions.
 fn obvhs_reference(
     group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
     mesh: &Mesh,

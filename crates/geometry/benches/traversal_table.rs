@@ -1,4 +1,4 @@
-//! The issue-15 throughput table: closest-hit (primary and incoherent rays) and any-hit
+//! The throughput table: closest-hit (primary and incoherent rays) and any-hit
 //! (incoherent rays) per scene at every SIMD level this CPU supports, one thread, in
 //! interleaved rounds (each round runs every level once on every ray set, so slow phases of a
 //! shared machine hit all levels alike); the median of the rounds' throughputs, in rays per
@@ -14,7 +14,7 @@
 //! direction) and our hit counts (`SCENE.hits.json`) are written to DIR for
 //! `xtask/compare/embree_bvh.py`, which traces the same rays with Embree through embreex, and
 //! `xtask/compare/embree_direct.c`, which calls the same library from C (with `trace_ab.py`
-//! alternating it and `examples/trace_exported.rs`: the comparison to quote, session 23).
+//! alternating it and `examples/trace_exported.rs`: the comparison to quote).
 
 use std::hint::black_box;
 use std::time::Instant;

@@ -4,7 +4,7 @@
 //! the 4 ms clock to 0.4 %): a fixed workload for an instruction count, or for an A/B of two
 //! builds on the very same rays (`taskset -c 1`, the two binaries alternating).
 //! `xtask/compare/embree_direct.c` runs the same rays through Embree, with the same arguments
-//! and output format (it replaced session 21's `embree_trace.py`, which went through embreex's
+//! and output format (it replaced an earlier `embree_trace.py`, which went through embreex's
 //! Python loop); `xtask/compare/trace_ab.py` alternates any of them on one core.
 //!
 //!     cargo build --profile bench -p geometry --example trace_exported

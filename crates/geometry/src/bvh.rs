@@ -66,7 +66,7 @@ fn padded(lo: Vec3, hi: Vec3) -> Aabb {
 /// collapse's, `wide.rs`) sum node areas in f32, which
 /// overflows to ∞ once the sum passes 3.4e38 (≈ 2000 coincident triangles spanning 1e18, the
 /// loaders' coordinate limit); every split then costs ∞ and none is chosen. (obvhs's CWBVH
-/// conversion, used until session 14, then read an invalid child slot; our collapse then builds
+/// conversion, which we used before, then read an invalid child slot; our collapse then builds
 /// two-child wide nodes, several times the nodes of a sane tree.) Below 2⁴⁰ a node's half area is at most
 /// 3·(2⁴¹)² ≈ 1.5e25, so the sum over the 2³⁰ nodes of the largest tree stays below 2e34.
 const MAX_UNSCALED_MAGNITUDE: f32 = (1u64 << 40) as f32;
@@ -84,7 +84,7 @@ enum Leaves {
 
 /// The eight-wide BVH over `bounds` (whose union is `lo`..`hi`) and its primitives in leaf order:
 /// [`sah::build`] builds the binary tree (binned SAH, split costs in blocks of four triangles:
-/// session 23, `docs/perf.md`; obvhs's PLOC and reinsertion before), which
+/// `docs/perf.md`; obvhs's PLOC and reinsertion before), which
 /// [`WideBvh::from_bvh2`] collapses. Bounds beyond ±[`MAX_UNSCALED_MAGNITUDE`] are first scaled by
 /// a power of two 2⁻ᵏ ≤ 1/(the largest magnitude), and the tree's boxes by 2ᵏ back. Scaling by a
 /// power of two is exact (no bound reaches the subnormal range at these magnitudes unless it is
@@ -98,7 +98,7 @@ enum Leaves {
 /// each (1 thread, AVX2, primary/incoherent/any-hit M rays/s): on the 100k terrain leaves costed
 /// 0.3·n gave 6.24/3.33/3.60, 0.3·(1 + 0.3·(n − 1)) 6.25/3.59/3.99; on the 1M terrain
 /// 0.3·(1 + 0.1·(n − 1)) gave 4.37/2.21/2.28 against 4.52/2.48/2.66. A leaf of five to eight is
-/// two packets, costed as a full one plus one of n − 4 (session 22; costing it as one packet of n,
+/// two packets, costed as a full one plus one of n − 4 (costing it as one packet of n,
 /// so that larger leaves are chosen more often, measured within ±1 % of that: terrain 2k and
 /// 100k, `trace_exported`, 4 interleaved rounds). A placement is a leaf of its
 /// own: each is a whole object's traversal (leaves of up to four cost the instanced row 10–20 %).
@@ -150,7 +150,7 @@ fn build_scaled(mut bounds: Vec<Aabb>, lo: Vec3, hi: Vec3, leaves: Leaves) -> Co
 /// with the threshold switched, 5 interleaved pairs; ratios of this layout to that one,
 /// primary/incoherent/any-hit): terrain 100k 1.00/0.95/0.98, terrain 1M 1.03/1.08/1.08,
 /// icosphere 1.3M 0.95/0.94/0.93, instanced 0.93/0.91/0.93, for 60 instead of 90 bytes per
-/// triangle (the bound is 64). Leaves of one or two triangles were two thirds of all
+/// triangle (the target bound is 64). Leaves of one or two triangles were two thirds of all
 /// in the tree of packets only (1M terrain).
 const PACKED_FROM: usize = 3;
 
@@ -472,7 +472,7 @@ impl Scene {
     /// instructions, but independent integer compares. One sum of the six components times 0,
     /// a dozen instructions but five dependent additions, together with `TriangleRay::new`'s
     /// permutation as a `match`, measured ~2 % slower end to end on the Cornell box path tracer,
-    /// whose rays arrive just computed: session 21, `docs/perf.md`.)
+    /// whose rays arrive just computed: `docs/perf.md`.)
     fn valid(ray: &Ray) -> bool {
         ray.origin.is_finite() && ray.dir.is_finite() && ray.dir != Vec3::ZERO
     }
@@ -546,7 +546,7 @@ impl Scene {
 
     /// (mesh, triangle within it) of the triangle with index `index` among all triangles.
     /// (`#[inline]`: it was a call per hit. A shortcut for scenes of one mesh saved a further 5
-    /// instructions per ray, callgrind, session 21: not worth a special case.)
+    /// instructions per ray, callgrind: not worth a special case.)
     #[inline]
     fn triangle_source(&self, index: usize) -> (usize, usize) {
         let mesh = self.triangle_offsets.partition_point(|&o| o as usize <= index) - 1;

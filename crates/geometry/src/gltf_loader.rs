@@ -1685,7 +1685,7 @@ fn extras_value(extras: &gltf::json::Extras) -> Option<serde_json::Value> {
 mod tests {
     use super::*;
 
-    /// Issue 13: every perspective camera is kept with its name (`--camera N|NAME` chooses); the first is
+    /// Every perspective camera is kept with its name (`--camera N|NAME` chooses); the first is
     /// the default; an unnamed camera takes its node's name, else its rank.
     #[test]
     fn glb_header_shorter_than_itself_is_a_clear_error() {

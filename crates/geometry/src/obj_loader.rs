@@ -634,7 +634,7 @@ fn sanitize_mtl(text: &str, path: &Path, budget: &Budget) -> Result<(String, Has
             },
             "map_Kd" | "map_d" | "norm" | "map_Ke" | "map_Bump" | "map_bump" | "bump" | "map_Ks" | "map_Ns" => {
                 let mut ignored = Vec::new();
-                // The statements read since issue 12's last items (bump, specular colour and exponent maps)
+                // The statements supported most recently (bump, specular colour and exponent maps)
                 // were warnings before: a bad one stays a warning, so no file that loaded fails now; the file
                 // rules (a path outside the folder, the memory budget) stay errors, as for every image read.
                 let lenient = matches!(key, "map_Bump" | "map_bump" | "bump" | "map_Ks" | "map_Ns");

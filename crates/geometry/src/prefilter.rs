@@ -1,6 +1,6 @@
 //! Triangles that cannot change an image, removed before the BVH build.
 //!
-//! (Written for obvhs's PLOC build, the BVH builder until session 23; the binned SAH build that
+//! (Written for obvhs's PLOC build, the earlier BVH builder; the binned SAH build that
 //! replaced it splits coincident boxes in the middle by count, in O(n log n), but these triangles
 //! still cost memory and time and change no image.) obvhs's PLOC build pairs each cluster with the neighbour (within a small window of the Morton order)
 //! whose union box has the least area, and merges two clusters only when they choose each other. Its

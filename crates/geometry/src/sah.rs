@@ -4,8 +4,8 @@
 //! of four, the triangle packet (`wide.rs` `PACKET`, passed in by `bvh.rs`), as Embree's builders do (its `sahBlockSize`): the sides of a
 //! split tend to hold multiples of four, and the collapse finds full packets.
 //!
-//! Until session 23 obvhs built this tree (PLOC, then reinsertion: its `medium_build` preset).
-//! Measured against that (`docs/perf.md`, session 23), with the same collapse and traversal: the
+//! obvhs built this tree before (PLOC, then reinsertion: its `medium_build` preset).
+//! Measured against that (`docs/perf.md`), with the same collapse and traversal: the
 //! trees' surface-area cost in Embree's units (a wide node 1, a block of four triangles 1) falls
 //! from 9.20 / 13.80 / 16.55 to 6.49 / 11.18 / 13.90 on the 2k / 100k / 1M terrains (Embree's
 //! own trees: 6.32 / 11.11 / 13.81), queries run 13–53 % faster, and memory falls from 57–59 to

@@ -73,9 +73,9 @@ impl SimdLevel {
 
     /// The fastest level this CPU supports: AVX2 where it is present, AVX-512 or not, else SSE2.
     /// The AVX-512 level is the same eight-lane kernel in EVEX encodings; it has measured no
-    /// faster than AVX2 on any row of `traversal_table` on the two AVX-512 machines these
-    /// sessions ran on (an AMD EPYC and an Intel Xeon; 1–11 % slower on the Xeon, and
-    /// 2.5–3.5 % slower end to end: `docs/perf.md`, session 20), so it runs only when asked for.
+    /// faster than AVX2 on any row of `traversal_table` on the two AVX-512 machines it was
+    /// measured on (an AMD EPYC and an Intel Xeon; 1–11 % slower on the Xeon, and
+    /// 2.5–3.5 % slower end to end: `docs/perf.md`), so it runs only when asked for.
     pub(crate) fn detected() -> SimdLevel {
         if SimdLevel::Avx2.is_supported() { SimdLevel::Avx2 } else { SimdLevel::Sse2 }
     }

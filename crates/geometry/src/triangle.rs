@@ -64,10 +64,10 @@ fn edge_f64(x0: f32, y1: f32, y0: f32, x1: f32) -> f32 {
 /// Intersect the triangle (p0, p1, p2) in (0, t_max), t in units of the ray's direction (strictly
 /// before `t_max`, as traversal needs: a later triangle must be strictly closer to replace a hit);
 /// degenerate triangles never hit. The ray's axis permutation is applied by indexed loads.
-/// (Until session 22 it was a const-generic parameter, the whole query compiled three times
+/// (It used to be a const-generic parameter, the whole query compiled three times
 /// and picked per ray: that `match` on the ray's dominant axis was a branch most incoherent rays
 /// mispredicted, and three copies of the kernel; run-time indices cost almost nothing, and
-/// the queries ran 5–11 % faster: `docs/perf.md`, session 22.)
+/// the queries ran 5–11 % faster: `docs/perf.md`.)
 ///
 /// The edge functions are plain `a·b − c·d` in f32, as in Woop et al. (not pbrt-v4's FMA
 /// `DifferenceOfProducts`): the two triangles sharing an edge evaluate it on the same
@@ -108,7 +108,7 @@ pub(crate) fn intersect_triangle(r: &TriangleRay, t_max: f32, p0: Vec3, p1: Vec3
     }
     // Edges of both signs: outside. `|` and `&`, not `||` and `&&`: one branch on the outcome
     // (mostly "outside", well predicted) instead of one per edge sign, which a ray's position
-    // makes random (session 22: 0.4 fewer mispredictions per incoherent ray, cachegrind).
+    // makes random (0.4 fewer mispredictions per incoherent ray, cachegrind).
     if ((e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0)) & ((e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0)) {
         return None;
     }
@@ -208,7 +208,7 @@ impl TrianglePacket {
 ///
 /// With `EARLY` the test returns as soon as the edge tests leave no lane (closest-hit queries);
 /// without it (any-hit queries) it runs on to its one final branch. The same hits either way;
-/// session 22 (`trace_exported`, 4 rounds): any-hit rays 2–4 % faster without that exit,
+/// measured (`trace_exported`, 4 rounds): any-hit rays 2–4 % faster without that exit,
 /// closest-hit rays no faster (primary up to 2.6 % slower), so each query keeps its better one.
 #[inline(always)]
 pub(crate) fn intersect_packet<const EARLY: bool>(

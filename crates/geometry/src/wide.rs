@@ -1,5 +1,5 @@
 //! Our eight-wide BVH and its traversal. `sah.rs` builds a binary BVH (binned SAH; obvhs's PLOC
-//! and reinsertion until session 23), which we collapse into eight-wide nodes by a surface-area cost ([`WideBvh::from_bvh2`]):
+//! and reinsertion before), which we collapse into eight-wide nodes by a surface-area cost ([`WideBvh::from_bvh2`]):
 //! full-precision child boxes in structure-of-arrays form, so a node test is eight slab tests
 //! on rows of eight lanes, and leaves of up to eight primitives; `bvh.rs` stores a leaf of three
 //! to eight triangles as one or two four-lane packets (`triangle.rs` `TrianglePacket`), a
@@ -8,20 +8,20 @@
 //! loop, generic over it. Children are visited nearest first and stack entries carry their entry
 //! distance, so subtrees behind the closest hit so far are skipped when popped.
 //!
-//! Until session 14 the tree was obvhs's compressed wide BVH (CWBVH, Ylitie et al. 2017),
+//! Originally the tree was obvhs's compressed wide BVH (CWBVH, Ylitie et al. 2017),
 //! decoded node by node. Its leaves hold at most three primitives (the format's limit) and were
 //! small (1M terrain: 1.49 triangles on average), and one scalar watertight test per triangle
 //! was cheaper than a four-lane test of so few. Our own collapse with the same cost
 //! reproduces obvhs's tree (10 673 nodes on the 100k terrain, both); costing a leaf of three
 //! or four as one four-lane test (`bvh.rs` `build_scaled`) gives a third fewer nodes (10 673
 //! → 7 110; 1M terrain 106 224 → 70 488). Against the CWBVH, `traversal_table` at AVX2 (1
-//! thread, median ratio of 6 interleaved pairs of runs, session 14): primary/incoherent/any-hit
+//! thread, median ratio of 6 interleaved pairs of runs): primary/incoherent/any-hit
 //! ×1.08/1.19/1.19 on the 100k terrain, ×1.07/1.14/1.19 on 1M, ×1.13/1.23/1.25 on the 1.3M
 //! icosphere, ×1.07/1.16/1.11 instanced, for 60 bytes per triangle instead of 64.
 //!
-//! Measured and rejected (session 13, `docs/perf.md`): software prefetch of pushed nodes and of
+//! Measured and rejected (`docs/perf.md`): software prefetch of pushed nodes and of
 //! hit leaves' triangles, and the reciprocals as one four-lane division, all within noise.
-//! Session 14: prefetch (three lines) of each leaf's singles or packet when it is pushed,
+//! On our own layout, prefetch (three lines) of each leaf's singles or packet when it is pushed,
 //! ×0.95–1.02 at AVX2 (5 pairs per scene, the same binary switched): within noise.
 //!
 //! Measured and rejected on the CWBVH (1M-triangle benchmark, one thread, same-session A/B
@@ -44,7 +44,7 @@
 //! so a box test can never cull a ray that the watertight triangle test would hit. (Folding the
 //! scale into the far planes' reciprocals, `inv · (1 + 2γ(3))` once per ray, and into `t_max`
 //! is as conservative, four roundings either way, and saves a multiplication per node: measured
-//! in session 21, 0–2 % faster in `traversal_table` but 3–5 % slower end to end on the Cornell
+//! 0–2 % faster in `traversal_table` but 3–5 % slower end to end on the Cornell
 //! box path tracer (three more per-ray registers), so not kept: `docs/perf.md`.) obvhs's own
 //! CWBVH node test also clamps the entry distance to a scene-scale ε = 1e-4 (`cwbvh/node.rs`
 //! `EPSILON`), which culls every box closer than 1e-4 along the ray; here entry is clamped to 0.
@@ -89,13 +89,13 @@ const EMPTY: u32 = u32::MAX;
 /// Set in a child reference that is a leaf: bits 28–30 hold count − 1, bits 0–27 where it
 /// starts (its first slot, or its first packet: [`WideBvh::from_bvh2`]). (28 bits: 2²⁸ ≈ 268M
 /// primitives per tree, which the loaders' charge of 256 bytes per triangle puts at a 64 GiB
-/// budget; until session 22 leaves held four and starts had 29 bits.)
+/// budget; when leaves held at most four, starts had 29 bits.)
 const LEAF: u32 = 1 << 31;
 const LEAF_START_BITS: u32 = 28;
 /// One past the largest start a leaf reference can address.
 pub(crate) const MAX_PRIMITIVES: usize = 1 << LEAF_START_BITS;
-/// Most primitives a leaf can hold (count − 1 in three bits). Eight rather than four (session
-/// 22, `docs/perf.md`): a third fewer nodes (terrain 100k 7110 → 4864) and 3–10 % faster
+/// Most primitives a leaf can hold (count − 1 in three bits). Eight rather than four (`docs/perf.md`):
+/// a third fewer nodes (terrain 100k 7110 → 4864) and 3–10 % faster
 /// queries in `traversal_table`, for 2–4 bytes per triangle less; every node visited is several
 /// hard-to-predict branches (leaf or not, how many children), a second packet of a leaf none.
 pub(crate) const MAX_LEAF: usize = 8;
@@ -359,7 +359,7 @@ impl WideBvh {
         // Which of bounds[2a], bounds[2a+1] is the near plane on each axis: the reciprocal's
         // sign bit (it is never ±0 or NaN, so the bit says `r < 0`). As `usize::from(r < 0.0)`
         // some builds compiled it to three branches that the paper's scene mispredicted 0.3
-        // times per ray (cachegrind, session 22); a bit cannot become a branch.
+        // times per ray (cachegrind); a bit cannot become a branch.
         let near = inv.map(|r| (r.to_bits() >> 31) as usize);
         let ray = NodeRay { origin, inv, near, far_scale: FAR_SCALE };
 

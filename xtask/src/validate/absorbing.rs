@@ -3,7 +3,7 @@
 //! paper's model (deterministic: one render each) and the path tracer (at high spp, against a
 //! cached `bins:95` reference; ΔE00 of 4×4-block means, so that what is compared is the colour
 //! and not the per-pixel noise). `bins:8` is tabled beside it: the cheapest bins, what the rule
-//! chose before it looked at σ_a (the violet error of issue 16 on a narrow absorption band).
+//! chose before it looked at σ_a (the violet error it made on a narrow absorption band).
 
 use super::refs::RefCache;
 use super::*;
@@ -22,7 +22,7 @@ const SCENES: &[(&str, Size, Size)] = &[
     ("gltf/glass_torus.gltf", (80, 60), (40, 30)),
 ];
 
-/// Largest mean ΔE00 accepted between `auto` and the references: a fifth of a JND (issue 16).
+/// Largest mean ΔE00 accepted between `auto` and the references: a fifth of a JND.
 const MAX_DELTA_E: f64 = 0.2;
 
 /// Path tracer spp: (full, quick). The quick run checks only the slabs (see [`checks`]).

@@ -1,4 +1,4 @@
-//! `auto` by time to error (issue 17, item 4): on each scene, every candidate strategy is
+//! `auto` by time to error: on each scene, every candidate strategy is
 //! piloted (as `auto` pilots where it is unsure) and rendered to a measured error against a
 //! converged reference, and the checks are that
 //! - the pilot's ratio of the candidates' spp to mean ΔE00 1 matches the measured ratio to within

@@ -19,7 +19,7 @@ fn lambdas_8() -> SampledWavelengths<8> {
 
 #[test]
 fn rgb_albedo_fit_round_trips_within_target() {
-    // The project's target (issue 2): ΔE00 < 0.01. The exact fit reaches 1e-8 (5e-3 next to
+    // The project's target: ΔE00 < 0.01. The exact fit reaches 1e-8 (5e-3 next to
     // white, see `white_round_trips_within_target`); storing it in f32 costs up to 2⁻²⁴ of
     // each coefficient.
     let mut worst: f64 = 0.0;

@@ -32,7 +32,7 @@ fn colorchecker_xyz_matches_colour_science_to_1e_4_relative() {
     assert_eq!(rows, 96, "24 patches × 4 illuminants");
     let names: Vec<&str> = worst.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(names, ["D65", "A", "F2", "F11"]);
-    // The issue asks for 1e-4; both sides evaluate the same sums in f64 on the same tables,
+    // The target is 1e-4; both sides evaluate the same sums in f64 on the same tables,
     // so the measured difference is at rounding level (≤ 1e-15, see data/PROVENANCE.md).
     for (name, w) in &worst {
         eprintln!("max relative XYZ difference vs colour-science, {name}: {w:.2e}");

@@ -68,7 +68,7 @@ fn each_bad_file_is_an_error_naming_the_file_and_line() {
 
 #[test]
 fn comment_and_blank_lines_are_skipped_but_counted() {
-    // Issue 16: a file whose first lines are `#` comments was rejected. Comments may come
+    // A file whose first lines are `#` comments used to be rejected. Comments may come
     // before the header and between rows (indented too), with CRLF line ends.
     let text = "# Measured 2026-12-01, 1 nm\r\n#\r\n\r\nwavelength_nm,a\r\n  # a comment between rows\r\n400,0.25\r\n\r\n410,0.75\r\n";
     let path = write("commented.csv", text);
@@ -94,7 +94,7 @@ enum Expected {
     Held(&'static str),
 }
 
-/// Issue 16 items 4 and 9: each of these panicked (`capacity overflow`), aborted allocating
+/// Before their fixes, each of these panicked (`capacity overflow`), aborted allocating
 /// terabytes, overflowed an integer, printed `null` or was held flat across the visible range
 /// unannounced; now each is a one-line error with the file and line.
 const REGRESSIONS: [(&str, Expected); 5] = [
@@ -191,7 +191,7 @@ fn only_regular_files_of_bounded_size_are_read() {
 
 #[test]
 fn a_spectrum_overlapping_the_visible_range_is_held_across_it() {
-    // Issue 16 item 9: 100–300 nm was held flat over 360–830 nm, silently (now an error, see
+    // 100–300 nm used to be held flat over 360–830 nm, silently (now an error, see
     // `ultraviolet_only.csv` in the regressions above). One that overlaps the range is
     // extended as before.
     let path = write("partly_visible.csv", "wavelength_nm,a\n300,0.5\n400,0.25\n");

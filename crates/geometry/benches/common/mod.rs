@@ -196,7 +196,7 @@ pub(crate) fn export(dir: &str, name: &str, mesh: &Mesh, primary: &[Ray], incohe
 /// A named scene generator.
 pub(crate) type SceneMaker = (&'static str, fn() -> Mesh);
 
-/// The issue-15 scenes: 2·224² ≈ 100k and 2·708² ≈ 1.0M terrain triangles, a closed
+/// The benchmark scenes: 2·224² ≈ 100k and 2·708² ≈ 1.0M terrain triangles, a closed
 /// 20·4⁸ = 1,310,720-triangle icosphere.
 pub(crate) const SCENES: [SceneMaker; 3] = [
     ("terrain_100k", || terrain(224)),

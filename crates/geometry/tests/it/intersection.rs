@@ -314,7 +314,7 @@ proptest! {
 
 #[test]
 fn rays_at_vertices_of_a_1_3m_triangle_sphere_never_leak() {
-    // The issue's trap at full size: a closed icosphere of 20·4⁸ = 1,310,720 triangles, where
+    // The watertightness trap at full size: a closed icosphere of 20·4⁸ = 1,310,720 triangles, where
     // obvhs's own Möller–Trumbore test and unpadded box test leak by the thousands. Every
     // vertex (655,362) is aimed at from the centre and from one random point outside.
     let center = Vec3::new(-0.4, 0.25, 0.6);
@@ -444,7 +444,7 @@ fn flattened(mesh: &Mesh, m: glam::Mat4) -> Mesh {
     Mesh::new(t.positions().to_vec(), t.normals().map(<[Vec3]>::to_vec), None, indices, t.material()).unwrap()
 }
 
-/// Issue 12: the two-level BVH (one object BVH, placements with object-to-world transforms) finds
+/// The two-level BVH (one object BVH, placements with object-to-world transforms) finds
 /// the hits of world-space copies: same material, same facing normal, t within 1e-5 relative, and the
 /// two points within the sum of their error bounds (the instanced bound transforms the object-space one
 /// conservatively); shadow queries agree; a ray spawned from an instanced hit never re-hits its surface.

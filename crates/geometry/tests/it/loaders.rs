@@ -462,7 +462,7 @@ fn gltf_unsupported_required_extension_is_named() {
     let (e, msg) = error_message(&write_gltf(&dir, "d.gltf", &doc));
     assert!(matches!(e, Error::UnsupportedExtension { .. }), "{e:?}");
     assert!(msg.contains("EXT_lights_image_based"), "{msg}");
-    // Draco required but used by no primitive: nothing is missing, so the file loads (issue 12; see
+    // Draco required but used by no primitive: nothing is missing, so the file loads (see
     // `compressed_data_variants_and_animations_get_one_line_each`).
     let doc = triangle_gltf(
         Some(&uri),
@@ -819,7 +819,7 @@ fn gltf_primitive_without_material_gets_an_empty_gltf_material() {
     assert_eq!(d.materials[m], MaterialDesc::new("gltf-default", MaterialFormat::Gltf));
 }
 
-// --- issue 16: bounded resources, hostile geometry, clear errors (each failed before the fix) ---
+// --- Bounded resources, hostile geometry, clear errors (each failed before its fix) ---
 
 /// A glTF whose `nodes` all instance mesh 0, whose POSITION accessor has `count` vertices without a buffer
 /// view (all zeros: free in file size, not in memory).
@@ -861,7 +861,7 @@ fn budget_is_per_scene_not_per_accessor_read() {
     assert!(matches!(e, Error::OverBudget { limit, .. } if limit == 64 << 20), "{e:?}");
     assert!(msg.contains("fifty.gltf") && msg.contains(&(64u64 << 20).to_string()), "{msg}");
     // By default the 49 copies (1.6M triangles) would pass `flatten_triangles`: the mesh is read once and
-    // placed 50 times (issue 12), within the budget.
+    // placed 50 times (two-level BVH), within the budget.
     match load_scene_with(&fifty, &options) {
         Ok(_) | Err(Error::NoGeometry { .. }) => {}
         Err(e) => panic!("{e}"),
@@ -1026,7 +1026,7 @@ fn the_source_digest_covers_referenced_files_but_not_where_the_scene_lies() {
     assert_ne!(scene("reference/cornell_box.json").source_hash, original);
 }
 
-/// Issue 12: a glTF file with no nodes, or whose scene lists none (the `nodes` key is optional in glTF 2.0),
+/// A glTF file with no nodes, or whose scene lists none (the `nodes` key is optional in glTF 2.0),
 /// is valid: "nothing to render" naming the file and the reason, not a parse error (the scene without a
 /// `nodes` key was "missing field `nodes`" before). Also in a GLB container.
 #[test]
@@ -1064,7 +1064,7 @@ fn gltf_without_nodes_is_nothing_to_render_not_a_parse_error() {
     assert!(matches!(e, Error::NoGeometry { .. }) && msg.contains("scene 0 has no nodes"), "{msg}");
 }
 
-/// Issue 12: Draco, meshopt and KTX2 get one line naming the extension and a way forward: an error when
+/// Draco, meshopt and KTX2 get one line naming the extension and a way forward: an error when
 /// the geometry exists only compressed, a warning when an uncompressed fallback is there; variants keep
 /// the default material and animations (also `KHR_animation_pointer` ones, which `gltf-json` could not
 /// parse: "missing field `node`") are ignored, each with one warning, required or not. Before: Draco and
@@ -1192,7 +1192,7 @@ fn instanced_triangle_gltf() -> serde_json::Value {
     d
 }
 
-/// Issue 12: `EXT_mesh_gpu_instancing` places the node's mesh once per instance (it was drawn once, at the
+/// `EXT_mesh_gpu_instancing` places the node's mesh once per instance (it was drawn once, at the
 /// node, silently); with repeated node references a mesh placed 4 times is copied into world space while
 /// the copies are small, and kept once with 4 transforms (two-level BVH) beyond `flatten_triangles`.
 #[test]
@@ -1297,7 +1297,7 @@ pub(crate) fn write_forest(dir: &Path) -> PathBuf {
     write(dir, "forest.glb", &glb)
 }
 
-/// Issue 12: 10⁴ instances of a 100k-triangle mesh load (two-level BVH) within the default memory budget
+/// 10⁴ instances of a 100k-triangle mesh load (two-level BVH) within the default memory budget
 /// (0.4 s, 9 MB of BVH); as world-space copies the same file is refused by the budget before anything
 /// is allocated, not an out-of-memory abort. `SPECTRACE_FOREST_DIR=DIR` keeps the file there for measuring
 /// the CLI (`/usr/bin/time -v spectrace info DIR/forest.glb`).

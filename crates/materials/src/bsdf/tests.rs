@@ -12,7 +12,7 @@ use super::*;
 
 const FRAME: Frame = Frame { n: Vec3::Z, ns: Vec3::Z };
 
-/// The roughness grid and incident angles (degrees from the normal) of the issue.
+/// The roughness grid and incident angles (degrees from the normal) the BSDFs are tested at.
 const ALPHAS: [f32; 4] = [0.05, 0.2, 0.5, 1.0];
 const ANGLES: [f32; 4] = [0.0, 30.0, 60.0, 85.0];
 
@@ -769,7 +769,7 @@ fn anisotropic_metal_is_the_extensions_ggx_along_its_direction() {
 
 #[test]
 fn chi2_gltf_metal_rough() {
-    // roughness = √α for the issue's α grid.
+    // roughness = √α for the α grid (`ALPHAS`).
     chi2_family(&grid_cases(|a| {
         [0.0, 0.5, 1.0].map(|m| (format!("glTF metallic {m} α {a}"), gltf(0.8, m, a.sqrt()), a, false)).to_vec()
     }));
