@@ -212,96 +212,110 @@ pub(crate) struct PathTracer<'a, const N: usize> {
     rough: bool,
 }
 
+/// Every spectrum a render reads, each with what it is (the lanes project reflectances, emission
+/// and absorption differently), indexed by [`SpecId`].
+#[derive(Default)]
+struct SpectrumTable(Vec<(DenselySampledSpectrum, SpectrumKind)>);
+
+impl SpectrumTable {
+    fn add(&mut self, s: DenselySampledSpectrum, kind: SpectrumKind) -> SpecId {
+        self.0.push((s, kind));
+        (self.0.len() - 1) as SpecId
+    }
+}
+
+/// `s · k` clamped to [0, 1]: a reflectance as Hall's coefficient scales it.
+fn clamp01(s: &DenselySampledSpectrum, k: f32) -> DenselySampledSpectrum {
+    s.map(|v| (v * f64::from(k)).clamp(0.0, 1.0))
+}
+
+/// A material as the path tracer reads it: its model's lobes with their spectra in `table`.
+fn path_material(table: &mut SpectrumTable, m: &materials::Material) -> PathMaterial {
+    // (Only the glTF models read it; only glTF materials have it.)
+    let specular = m.dielectric_specular.as_ref().map(|d| SpecularLayer {
+        weight: d.weight,
+        f0: table.add(d.f0.clone(), SpectrumKind::Reflectance),
+        f0_max: d.f0.max_value() as f32,
+        f0_scale: d.f0_scale,
+    });
+    let scattering = match m.model {
+        MaterialModel::Diffuse => {
+            PathScattering::Diffuse { r: table.add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance) }
+        }
+        MaterialModel::Mirror => {
+            PathScattering::Mirror { r: table.add(clamp01(&m.specular, m.ks), SpectrumKind::Reflectance) }
+        }
+        MaterialModel::Dielectric { roughness } => {
+            let tint = table.add(clamp01(&m.transmittance, m.kt), SpectrumKind::Reflectance);
+            // (`KHR_materials_anisotropy` stretches even a smooth interface: the rough lobe then.)
+            if roughness > 0.0 || m.anisotropy.is_some() {
+                PathScattering::RoughDielectric {
+                    tint,
+                    alpha: roughness * roughness,
+                    compensate: m.multiple_scattering,
+                }
+            } else {
+                PathScattering::Dielectric { tint }
+            }
+        }
+        MaterialModel::ThinDielectric => PathScattering::ThinDielectric {
+            tint: table.add(clamp01(&m.transmittance, m.kt), SpectrumKind::Reflectance),
+            eta: m.ior.eval(LAMBDA_D),
+        },
+        MaterialModel::Conductor { metal, roughness } => PathScattering::Conductor {
+            metal,
+            r: table.add(clamp01(&m.specular, m.ks), SpectrumKind::Reflectance),
+            alpha: roughness * roughness,
+            compensate: m.multiple_scattering,
+        },
+        MaterialModel::GltfMetalRough { metallic, roughness } => PathScattering::GltfMetalRough {
+            base: table.add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance),
+            metallic,
+            roughness,
+            ior: m.ior.eval(LAMBDA_D),
+            specular,
+        },
+        // glTF's base colour is the diffuse colour and the transmission tint alike (k_d = 1 − k_t is
+        // Hall's split, which the mixture weight replaces).
+        MaterialModel::GltfTransmission { metallic, roughness, transmission, thin } => {
+            PathScattering::GltfTransmission {
+                base: table.add(clamp01(&m.diffuse, 1.0), SpectrumKind::Reflectance),
+                metallic,
+                roughness,
+                ior: m.ior.eval(LAMBDA_D),
+                transmission,
+                thin,
+                specular,
+            }
+        }
+    };
+    PathMaterial {
+        scattering,
+        sigma_a: m
+            .absorption
+            .as_ref()
+            .filter(|_| m.absorbs())
+            .map(|a| table.add(a.sigma_a().clone(), SpectrumKind::SigmaA)),
+        emission: m.emission.as_ref().filter(|_| m.emits()).map(|e| table.add(e.clone(), SpectrumKind::Emission)),
+        two_sided: m.two_sided,
+        ior: m.ior,
+        coat: m.coat,
+        sheen: m.sheen.as_ref().map(|s| PathSheen {
+            color: table.add(s.color.clone(), SpectrumKind::Reflectance),
+            color_max: s.color_max,
+            roughness: s.roughness,
+        }),
+        anisotropy: m.anisotropy,
+    }
+}
+
 impl<'a, const N: usize> PathTracer<'a, N> {
     /// The tracer for `scene` and the film's sensor: `fixed` lanes (`rgb`, `bins:N`), or hero
     /// wavelengths (`None`) drawn from `options.wavelength_pdf`.
     pub(crate) fn new(scene: &'a RenderScene, fixed: Option<Lanes<N>>, options: &PathOptions) -> (Self, Sensor<N>) {
-        let mut table: Vec<(DenselySampledSpectrum, SpectrumKind)> = Vec::new();
-        let mut add = |s: DenselySampledSpectrum, kind: SpectrumKind| -> SpecId {
-            table.push((s, kind));
-            (table.len() - 1) as SpecId
-        };
-        let clamp01 = |s: &DenselySampledSpectrum, k: f32| s.map(|v| (v * f64::from(k)).clamp(0.0, 1.0));
-        let mut path_material = |m: &materials::Material| -> PathMaterial {
-            // (Only the glTF models read it; only glTF materials have it.)
-            let specular = m.dielectric_specular.as_ref().map(|d| SpecularLayer {
-                weight: d.weight,
-                f0: add(d.f0.clone(), SpectrumKind::Reflectance),
-                f0_max: d.f0.max_value() as f32,
-                f0_scale: d.f0_scale,
-            });
-            let scattering = match m.model {
-                MaterialModel::Diffuse => {
-                    PathScattering::Diffuse { r: add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance) }
-                }
-                MaterialModel::Mirror => {
-                    PathScattering::Mirror { r: add(clamp01(&m.specular, m.ks), SpectrumKind::Reflectance) }
-                }
-                MaterialModel::Dielectric { roughness } => {
-                    let tint = add(clamp01(&m.transmittance, m.kt), SpectrumKind::Reflectance);
-                    // (`KHR_materials_anisotropy` stretches even a smooth interface: the rough lobe then.)
-                    if roughness > 0.0 || m.anisotropy.is_some() {
-                        PathScattering::RoughDielectric {
-                            tint,
-                            alpha: roughness * roughness,
-                            compensate: m.multiple_scattering,
-                        }
-                    } else {
-                        PathScattering::Dielectric { tint }
-                    }
-                }
-                MaterialModel::ThinDielectric => PathScattering::ThinDielectric {
-                    tint: add(clamp01(&m.transmittance, m.kt), SpectrumKind::Reflectance),
-                    eta: m.ior.eval(LAMBDA_D),
-                },
-                MaterialModel::Conductor { metal, roughness } => PathScattering::Conductor {
-                    metal,
-                    r: add(clamp01(&m.specular, m.ks), SpectrumKind::Reflectance),
-                    alpha: roughness * roughness,
-                    compensate: m.multiple_scattering,
-                },
-                MaterialModel::GltfMetalRough { metallic, roughness } => PathScattering::GltfMetalRough {
-                    base: add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance),
-                    metallic,
-                    roughness,
-                    ior: m.ior.eval(LAMBDA_D),
-                    specular,
-                },
-                // glTF's base colour is the diffuse colour and the transmission tint alike (k_d = 1 − k_t is
-                // Hall's split, which the mixture weight replaces).
-                MaterialModel::GltfTransmission { metallic, roughness, transmission, thin } => {
-                    PathScattering::GltfTransmission {
-                        base: add(clamp01(&m.diffuse, 1.0), SpectrumKind::Reflectance),
-                        metallic,
-                        roughness,
-                        ior: m.ior.eval(LAMBDA_D),
-                        transmission,
-                        thin,
-                        specular,
-                    }
-                }
-            };
-            PathMaterial {
-                scattering,
-                sigma_a: m
-                    .absorption
-                    .as_ref()
-                    .filter(|_| m.absorbs())
-                    .map(|a| add(a.sigma_a().clone(), SpectrumKind::SigmaA)),
-                emission: m.emission.as_ref().filter(|_| m.emits()).map(|e| add(e.clone(), SpectrumKind::Emission)),
-                two_sided: m.two_sided,
-                ior: m.ior,
-                coat: m.coat,
-                sheen: m.sheen.as_ref().map(|s| PathSheen {
-                    color: add(s.color.clone(), SpectrumKind::Reflectance),
-                    color_max: s.color_max,
-                    roughness: s.roughness,
-                }),
-                anisotropy: m.anisotropy,
-            }
-        };
-        let materials: Vec<PathMaterial> = scene.materials.iter().map(&mut path_material).collect();
-        let default_material = path_material(&scene.default_material);
+        let mut table = SpectrumTable::default();
+        let materials: Vec<PathMaterial> = scene.materials.iter().map(|m| path_material(&mut table, m)).collect();
+        let default_material = path_material(&mut table, &scene.default_material);
         let rough = materials.iter().chain([&default_material]).any(|m| {
             m.coat.is_some()
                 || m.sheen.is_some()
@@ -314,9 +328,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         // The spectrum of each light, in the table: a light's own, the background, or the
         // emitting material's.
         let mut emission = |e: Emission| match e {
-            Emission::Light(i) => add(scene.lights[i].spectrum.clone(), SpectrumKind::Emission),
+            Emission::Light(i) => table.add(scene.lights[i].spectrum.clone(), SpectrumKind::Emission),
             Emission::Background => {
-                add(scene.background.clone().expect("the environment sums a background"), SpectrumKind::Emission)
+                table.add(scene.background.clone().expect("the environment sums a background"), SpectrumKind::Emission)
             }
             Emission::Material(m) => {
                 materials.get(m as usize).and_then(|m| m.emission).expect("area lights emit by their material")
@@ -331,17 +345,18 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 .lights
                 .iter()
                 .position(|l| l.map.is_some())
-                .map(|i| add(scene.lights[i].spectrum.clone(), SpectrumKind::Emission)),
+                .map(|i| table.add(scene.lights[i].spectrum.clone(), SpectrumKind::Emission)),
             _ => None,
         };
         let emissive_textures = scene.textures.iter().flatten().any(MaterialTextures::has_emissive_texture);
-        let illuminant = emissive_textures.then(|| add(colorimetry::srgb_illuminant().clone(), SpectrumKind::Emission));
+        let illuminant =
+            emissive_textures.then(|| table.add(colorimetry::srgb_illuminant().clone(), SpectrumKind::Emission));
         let textured_lights = if emissive_textures { textured_lights(scene) } else { Vec::new() };
         let rgb_lanes = fixed.as_ref().is_some_and(|lanes| lanes.rgb);
 
         let (spectra, sensor) = match fixed {
             Some(lanes) => {
-                let projected = table.iter().map(|(s, kind)| SampledSpectrum(lanes.project(s, *kind))).collect();
+                let projected = table.0.iter().map(|(s, kind)| SampledSpectrum(lanes.project(s, *kind))).collect();
                 (Spectra::Fixed(projected), Sensor::Fixed(lanes))
             }
             None => {
@@ -352,12 +367,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                             .iter()
                             .chain(environment_spectra.iter().skip(1))
                             .chain(map_mean.iter())
-                            .map(|&id| &table[id as usize].0)
+                            .map(|&id| &table.0[id as usize].0)
                             .collect();
                         Sensor::Tabulated(WavelengthTable::illuminant(&emitters))
                     }
                 };
-                (Spectra::Dense(table.into_iter().map(|(s, _)| s).collect()), sensor)
+                (Spectra::Dense(table.0.into_iter().map(|(s, _)| s).collect()), sensor)
             }
         };
         let max_depth = options
@@ -537,6 +552,46 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         ior.eval(lambda.lambda(j))
     }
 
+    /// Radiance of the environment along an escaping ray and its MIS weight against light sampling,
+    /// when `bsdf` gives the previous vertex's BSDF density and shading normal (`None`: weight 1,
+    /// after a specular bounce or at the camera, which light sampling cannot reach).
+    #[inline]
+    fn escaped_radiance(
+        &self,
+        ray: &Ray,
+        lambda: &SampledWavelengths<N>,
+        bsdf: Option<(f32, Vec3)>,
+    ) -> (SampledSpectrum<N>, f32) {
+        let emitters = &self.scene.emitters;
+        let mut le = self.environment_radiance(lambda);
+        if let Some(map) = emitters.environment_map() {
+            le += self.map_radiance(map, ray.dir.normalize(), lambda);
+        }
+        let weight = match bsdf {
+            None => 1.0,
+            Some((prev_pdf, prev_ns)) => {
+                let ctx = LightSampleContext { p: ray.origin, ns: prev_ns };
+                power_heuristic(prev_pdf, emitters.pdf_li_escaped(&ctx, ray.dir.normalize()))
+            }
+        };
+        (le, weight)
+    }
+
+    /// What an emissive surface sends back: its emissive texture at `uv`, else its emission spectrum.
+    #[inline]
+    fn surface_emission(
+        &self,
+        emission: SpecId,
+        textures: Option<&MaterialTextures>,
+        uv: Uv,
+        lambda: &SampledWavelengths<N>,
+    ) -> SampledSpectrum<N> {
+        match textures.filter(|t| t.has_emissive_texture()) {
+            Some(t) => self.textured_emission(t, uv, lambda),
+            None => self.spectra.eval(emission, lambda),
+        }
+    }
+
     /// Radiance along a camera ray (pbrt-v4 `PathIntegrator::Li`).
     ///
     /// `ROUGH`: whether the scene has rough or layered materials; without them the smooth models'
@@ -571,18 +626,9 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         loop {
             count.rays += 1;
             let Some(hit) = self.scene.geometry.intersect(&ray, f32::INFINITY) else {
-                let emitters = &self.scene.emitters;
-                if emitters.has_environment() {
-                    let mut le = self.environment_radiance(lambda);
-                    if let Some(map) = emitters.environment_map() {
-                        le += self.map_radiance(map, ray.dir.normalize(), lambda);
-                    }
-                    let weight = if specular_bounce {
-                        1.0
-                    } else {
-                        let ctx = LightSampleContext { p: ray.origin, ns: prev_ns };
-                        power_heuristic(prev_pdf, emitters.pdf_li_escaped(&ctx, ray.dir.normalize()))
-                    };
+                if self.scene.emitters.has_environment() {
+                    let weight = if specular_bounce { None } else { Some((prev_pdf, prev_ns)) };
+                    let (le, weight) = self.escaped_radiance(&ray, lambda, weight);
                     radiance += beta * le * weight;
                 }
                 break;
@@ -628,11 +674,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     let light_pdf = self.scene.emitters.pdf_li_hit(hit.primitive, hit.n, wo, segment);
                     power_heuristic(prev_pdf, light_pdf)
                 };
-                let le = match textures.filter(|t| t.has_emissive_texture()) {
-                    Some(t) => self.textured_emission(t, uv, lambda),
-                    None => self.spectra.eval(e, lambda),
-                };
-                radiance += beta * le * weight;
+                radiance += beta * self.surface_emission(e, textures, uv, lambda) * weight;
             }
             if depth >= self.max_depth || beta.is_black() {
                 break;
