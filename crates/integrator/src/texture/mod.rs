@@ -81,6 +81,9 @@ fn decode(
         Ok(reader) => reader,
         Err(e) => return skip(&e, warnings),
     };
+    if reader.format() == Some(image::ImageFormat::Jpeg) && !jpeg_is_complete(&image.bytes) {
+        return skip(&"truncated: the JPEG data ends before its end-of-image marker", warnings);
+    }
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIDE);
     limits.max_image_height = Some(MAX_IMAGE_SIDE);
@@ -111,6 +114,34 @@ fn decode(
     // `into_rgba8` keeps the buffer when the image is RGBA8 already.
     let texels = decoded.into_rgba8().into_raw().chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
     Ok(Some(Image8 { width, height, texels }))
+}
+
+/// Whether a JPEG stream (`bytes` from its start-of-image marker) reaches its end-of-image marker
+/// (FF D9). The decoder fills the rows of a file cut short with grey and reports no error, so this is
+/// what tells a truncated file from a whole one. The walk skips each marker segment by its length (an
+/// EXIF thumbnail's own FF D9 inside APP1 is passed over) and, in the entropy-coded data after a start of
+/// scan, skips stuffed bytes (FF 00), fill bytes (FF FF) and restart markers (FF D0–D7); whatever follows
+/// the end-of-image marker (padding, appended data) is not read.
+fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let mut i = 2;
+    while i + 1 < bytes.len() {
+        if bytes[i] != 0xFF {
+            i += 1;
+            continue;
+        }
+        match bytes[i + 1] {
+            0xD9 => return true,
+            // Fill byte: the marker code follows.
+            0xFF => i += 1,
+            // A stuffed FF, a restart marker, a second SOI or TEM: no length follows.
+            0x00 | 0xD0..=0xD8 | 0x01 => i += 2,
+            _ => {
+                let Some(length) = bytes.get(i + 2..i + 4) else { return false };
+                i += 2 + usize::from(u16::from_be_bytes([length[0], length[1]]));
+            }
+        }
+    }
+    false
 }
 
 /// Where a texture is read: its size, wrap modes, filter and uv transform.
@@ -1448,6 +1479,12 @@ mod tests {
         bytes
     }
 
+    fn decoded(label: &str, bytes: Vec<u8>) -> (Option<Image8>, Vec<String>) {
+        let mut warnings = Vec::new();
+        let desc = ImageDesc { label: label.into(), mime: None, bytes: bytes.into() };
+        (decode(&desc, &mut MemoryBudget::default(), &mut warnings).unwrap(), warnings)
+    }
+
     /// Identical image bytes, however many entries hold them, are decoded and charged once, and materials
     /// reading them with the same factor share one palette: 20 materials over 3 copies of one image are
     /// charged exactly what one material over one image is. Another factor is another palette, charged
@@ -1484,6 +1521,57 @@ mod tests {
         let (textures, decoded, used) = load(&images, &mut materials);
         assert_eq!((decoded, used), (1, one + 16_384 + 4096 * 28));
         assert!(!Arc::ptr_eq(palette(0), &textures[20].as_ref().unwrap().base_color.as_ref().unwrap().palette));
+    }
+
+    /// A JPEG cut in half is refused with the note a truncated PNG gets, naming the image; the whole file
+    /// decodes, and bytes after its end-of-image marker are not read. Before, the half file decoded without
+    /// a word, its missing rows grey.
+    #[test]
+    fn a_truncated_jpeg_is_named_as_truncated_as_a_truncated_png_is() {
+        let jpeg = encoded_gradient(image::ImageFormat::Jpeg);
+        let (whole, warnings) = decoded("photo.jpg", jpeg.clone());
+        let whole = whole.expect("the whole JPEG decodes");
+        assert_eq!((whole.width, whole.height, warnings.len()), (64, 64, 0), "{warnings:?}");
+        // Lossy, but the bottom row's green is near 4 × 63.
+        assert!(whole.texels[63 * 64 + 32][1] > 230, "{:?}", whole.texels[63 * 64 + 32]);
+        let (half, warnings) = decoded("photo.jpg", jpeg[..jpeg.len() / 2].to_vec());
+        assert!(half.is_none(), "the half JPEG is not used");
+        assert_eq!(
+            warnings,
+            [
+                "photo.jpg: cannot decode (truncated: the JPEG data ends before its end-of-image marker); the material's factor is used"
+            ]
+        );
+        let mut padded = jpeg.clone();
+        padded.extend_from_slice(&[0; 64]);
+        let (padded, warnings) = decoded("photo.jpg", padded);
+        assert_eq!(padded.map(|i| i.texels), Some(whole.texels), "{warnings:?}");
+        let png = encoded_gradient(image::ImageFormat::Png);
+        let (half, warnings) = decoded("photo.png", png[..png.len() / 2].to_vec());
+        assert!(half.is_none());
+        assert!(
+            warnings.len() == 1
+                && warnings[0].starts_with("photo.png: cannot decode (")
+                && warnings[0].ends_with("; the material's factor is used"),
+            "{warnings:?}"
+        );
+    }
+
+    /// The end-of-image marker is found by walking the segments: one inside a segment (an EXIF thumbnail's)
+    /// does not make a truncated file whole, and stuffed bytes and restart markers in the scan are passed.
+    #[test]
+    fn jpeg_completeness_walks_segments_and_scan_data() {
+        // SOI, APP1 of 6 bytes holding FF D9, SOS of 4 bytes, scan data with FF 00 and RST0, EOI.
+        let whole = [
+            0xFF, 0xD8, 0xFF, 0xE1, 0x00, 0x06, 0xFF, 0xD9, 0xFF, 0xD9, 0xFF, 0xDA, 0x00, 0x04, 0x01, 0x02, 0x12, 0xFF,
+            0x00, 0x34, 0xFF, 0xD0, 0x56, 0xFF, 0xFF, 0xD9,
+        ];
+        assert!(jpeg_is_complete(&whole));
+        for cut in 2..whole.len() - 1 {
+            assert!(!jpeg_is_complete(&whole[..cut]), "cut at {cut}");
+        }
+        // A segment length running past the end.
+        assert!(!jpeg_is_complete(&[0xFF, 0xD8, 0xFF, 0xE0, 0xFF, 0xFF, 0xFF, 0xD9]));
     }
 
     #[test]
