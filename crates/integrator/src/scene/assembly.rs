@@ -188,7 +188,7 @@ impl RenderScene {
         } = desc;
         let started = std::time::Instant::now();
         let vertex_colored = vertex_colored_materials(&mut meshes, &mut instances, &mut material_descs, &mut warnings);
-        let mut textures =
+        let (mut textures, decoded) =
             load_material_textures(&images, &mut material_descs, &vertex_colored, &mut memory, &mut warnings)?;
         if textures.iter().all(Option::is_none) {
             textures.clear();
@@ -196,7 +196,7 @@ impl RenderScene {
             let bytes = texture_bytes(&textures);
             warnings.push(format!(
                 "textures: {} images, {:.1} MiB of texel data, decoded and fitted to spectra in {:.2} s; rendered by the path integrator (whitted-hall uses the factors and an emissive texture's mean colour)",
-                images.len(),
+                decoded,
                 bytes as f64 / (1024.0 * 1024.0),
                 started.elapsed().as_secs_f64()
             ));

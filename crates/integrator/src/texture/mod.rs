@@ -25,6 +25,7 @@ use rayon::prelude::*;
 use crate::surface::HitTangent;
 
 mod ktx;
+mod shared;
 mod texels;
 
 pub(crate) use texels::Image8;
@@ -80,6 +81,9 @@ fn decode(
         Ok(reader) => reader,
         Err(e) => return skip(&e, warnings),
     };
+    if reader.format() == Some(image::ImageFormat::Jpeg) && !jpeg_is_complete(&image.bytes) {
+        return skip(&"truncated: the JPEG data ends before its end-of-image marker", warnings);
+    }
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIDE);
     limits.max_image_height = Some(MAX_IMAGE_SIDE);
@@ -110,6 +114,34 @@ fn decode(
     // `into_rgba8` keeps the buffer when the image is RGBA8 already.
     let texels = decoded.into_rgba8().into_raw().chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
     Ok(Some(Image8 { width, height, texels }))
+}
+
+/// Whether a JPEG stream (`bytes` from its start-of-image marker) reaches its end-of-image marker
+/// (FF D9). The decoder fills the rows of a file cut short with grey and reports no error, so this is
+/// what tells a truncated file from a whole one. The walk skips each marker segment by its length (an
+/// EXIF thumbnail's own FF D9 inside APP1 is passed over) and, in the entropy-coded data after a start of
+/// scan, skips stuffed bytes (FF 00), fill bytes (FF FF) and restart markers (FF D0–D7); whatever follows
+/// the end-of-image marker (padding, appended data) is not read.
+fn jpeg_is_complete(bytes: &[u8]) -> bool {
+    let mut i = 2;
+    while i + 1 < bytes.len() {
+        if bytes[i] != 0xFF {
+            i += 1;
+            continue;
+        }
+        match bytes[i + 1] {
+            0xD9 => return true,
+            // Fill byte: the marker code follows.
+            0xFF => i += 1,
+            // A stuffed FF, a restart marker, a second SOI or TEM: no length follows.
+            0x00 | 0xD0..=0xD8 | 0x01 => i += 2,
+            _ => {
+                let Some(length) = bytes.get(i + 2..i + 4) else { return false };
+                i += 2 + usize::from(u16::from_be_bytes([length[0], length[1]]));
+            }
+        }
+    }
+    false
 }
 
 /// Where a texture is read: its size, wrap modes, filter and uv transform.
@@ -252,47 +284,79 @@ impl EntryRgb for EmissiveEntry {
     }
 }
 
-/// A colour texture as spectra: a palette of fitted sigmoids and an index per texel. The entries are
-/// reflectances ([`PaletteEntry`]) but for emissive textures ([`EmissiveEntry`]).
+/// A colour image as spectra, whatever samples it: an entry per distinct texel and each texel's entry.
+/// It depends on the texels, the factor and whether alpha tells texels apart, not on the sampler: every
+/// texture reading the same image with the same factor shares one (`Arc`), as the materials of a texture
+/// atlas do.
 #[derive(Debug)]
-pub(crate) struct ColorTexture<E = PaletteEntry> {
-    sampler: Sampler,
+pub(crate) struct Palette<E = PaletteEntry> {
     index: Vec<u32>,
-    palette: Vec<E>,
+    entries: Vec<E>,
 }
 
-impl ColorTexture {
-    /// From an sRGB-encoded image; `factor` (linear RGBA) multiplies every texel before the fit.
-    /// `exact` is false when the image had more than [`MAX_REFINED_COLOURS`] distinct colours and
-    /// the table lookup was used. Without `alpha`, texels differing only in alpha share an entry
-    /// (whose alpha is then one of theirs: the caller does not read it).
-    fn new(
+impl<E> Palette<E> {
+    /// The entry of texel `i`.
+    #[inline]
+    fn at(&self, i: usize) -> &E {
+        &self.entries[self.index[i] as usize]
+    }
+
+    /// Whether every entry was fitted exactly: at most [`MAX_REFINED_COLOURS`] distinct colours (beyond,
+    /// the table lookup was used).
+    fn exact(&self) -> bool {
+        self.entries.len() <= MAX_REFINED_COLOURS
+    }
+
+    /// Bytes held: 4 per texel and the entries.
+    fn bytes(&self) -> usize {
+        self.index.len() * 4 + self.entries.len() * std::mem::size_of::<E>()
+    }
+}
+
+impl Palette {
+    /// Of an sRGB-encoded image as reflectances; `factor` (linear RGBA) multiplies every texel before the
+    /// fit. Without `alpha`, texels differing only in alpha share an entry (whose alpha is then one of
+    /// theirs: the caller does not read it).
+    fn reflectance(
         image: &Image8,
         label: &str,
-        desc: &TextureDesc,
         factor: [f32; 4],
         alpha: bool,
         memory: &mut MemoryBudget,
-    ) -> geometry::Result<(Self, bool)> {
-        Self::with_palette(image, label, desc, alpha, memory, |linear, alpha, exact| {
+    ) -> geometry::Result<Self> {
+        Self::fit(image, label, alpha, memory, |linear, alpha, exact| {
             let c = |i: usize| linear[i] * factor[i];
             palette_entry([c(0), c(1), c(2)], alpha * factor[3], exact)
         })
     }
 }
 
-impl<E: Send> ColorTexture<E> {
-    /// From an sRGB-encoded image, each distinct texel's entry made by `entry` from its linear RGB, its
+impl Palette<EmissiveEntry> {
+    /// Of an sRGB-encoded image as light colours: each texel × `factor` (linear RGB, clamped below at 0).
+    fn emission(image: &Image8, label: &str, factor: [f32; 3], memory: &mut MemoryBudget) -> geometry::Result<Self> {
+        Self::fit(image, label, false, memory, |linear, _, exact| {
+            let rgb = [0, 1, 2].map(|i| (linear[i] * factor[i]).max(0.0));
+            let spectrum = if exact {
+                RgbUnboundedSpectrum::fit(rgb.map(f64::from))
+            } else {
+                RgbUnboundedSpectrum::from_rgb(colorimetry::RgbToSpectrumTable::srgb(), rgb)
+            };
+            EmissiveEntry { spectrum, rgb }
+        })
+    }
+}
+
+impl<E: Send> Palette<E> {
+    /// Of an sRGB-encoded image, each distinct texel's entry made by `entry` from its linear RGB, its
     /// alpha and whether the exact fit is wanted (at most [`MAX_REFINED_COLOURS`] distinct colours);
     /// texels are distinct by their RGBA, or by their RGB alone without `alpha`.
-    fn with_palette(
+    fn fit(
         image: &Image8,
         label: &str,
-        desc: &TextureDesc,
         alpha: bool,
         memory: &mut MemoryBudget,
         entry: impl Fn([f32; 3], f32, bool) -> E + Sync,
-    ) -> geometry::Result<(Self, bool)> {
+    ) -> geometry::Result<Self> {
         let path = std::path::Path::new(label);
         let texels = image.texels.len() as u64;
         let index_bytes = texels * 4;
@@ -309,19 +373,49 @@ impl<E: Send> ColorTexture<E> {
             index_bytes.saturating_add(palette_bytes),
         )?;
         let exact = distinct.len() <= MAX_REFINED_COLOURS;
-        let palette = distinct
+        let entries = distinct
             .par_iter()
             .map(|t| {
                 let c = |i: usize| srgb_decode(f64::from(t[i]) / 255.0) as f32;
                 entry([c(0), c(1), c(2)], f32::from(t[3]) / 255.0, exact)
             })
             .collect();
-        Ok((Self { sampler: Sampler::new(desc, image.width, image.height), index, palette }, exact))
+        Ok(Self { index, entries })
     }
+}
 
-    /// Bytes held: 4 per texel and the palette.
-    fn bytes(&self) -> usize {
-        self.index.len() * 4 + self.palette.len() * std::mem::size_of::<E>()
+/// A colour texture as spectra: where it is read, and its image's [`Palette`] (reflectances
+/// ([`PaletteEntry`]) but for emissive textures ([`EmissiveEntry`])).
+#[derive(Debug)]
+pub(crate) struct ColorTexture<E = PaletteEntry> {
+    sampler: Sampler,
+    palette: Arc<Palette<E>>,
+}
+
+impl<E> ColorTexture<E> {
+    /// `palette` (of an image of `width` × `height`) read as `desc` says.
+    fn with_palette(desc: &TextureDesc, width: u32, height: u32, palette: Arc<Palette<E>>) -> Self {
+        Self { sampler: Sampler::new(desc, width, height), palette }
+    }
+}
+
+impl ColorTexture {
+    /// From an sRGB-encoded image; `factor` (linear RGBA) multiplies every texel before the fit.
+    /// `exact` is false when the image had more than [`MAX_REFINED_COLOURS`] distinct colours and
+    /// the table lookup was used. Without `alpha`, texels differing only in alpha share an entry
+    /// (whose alpha is then one of theirs: the caller does not read it).
+    #[cfg(test)]
+    fn new(
+        image: &Image8,
+        label: &str,
+        desc: &TextureDesc,
+        factor: [f32; 4],
+        alpha: bool,
+        memory: &mut MemoryBudget,
+    ) -> geometry::Result<(Self, bool)> {
+        let palette = Palette::reflectance(image, label, factor, alpha, memory)?;
+        let exact = palette.exact();
+        Ok((Self::with_palette(desc, image.width, image.height, Arc::new(palette)), exact))
     }
 }
 
@@ -331,7 +425,7 @@ impl<E: EntryRgb> ColorTexture<E> {
     fn rgb(&self, uv: Uv) -> [f32; 3] {
         let mut rgb = [0.0; 3];
         for (i, w) in self.sampler.footprint(uv) {
-            let e = self.palette[self.index[i] as usize].rgb();
+            let e = self.palette.at(i).rgb();
             for (sum, value) in rgb.iter_mut().zip(e) {
                 *sum += w * value;
             }
@@ -355,7 +449,7 @@ impl ColorTexture {
             if w == 0.0 {
                 continue;
             }
-            let e = &self.palette[self.index[i] as usize];
+            let e = self.palette.at(i);
             if rgb_lanes {
                 for c in 0..3.min(N) {
                     r.0[c] += w * e.rgb[c];
@@ -371,7 +465,7 @@ impl ColorTexture {
     /// Only the alpha at `uv` (shadow rays and cut-outs need no spectrum).
     #[inline]
     fn alpha(&self, uv: Uv) -> f32 {
-        self.sampler.footprint(uv).iter().map(|&(i, w)| w * self.palette[self.index[i] as usize].alpha).sum()
+        self.sampler.footprint(uv).iter().map(|&(i, w)| w * self.palette.at(i).alpha).sum()
     }
 }
 
@@ -386,11 +480,29 @@ impl ColorTexture {
 #[derive(Debug)]
 pub(crate) struct SpecularColorTexture {
     color: ColorTexture,
-    /// `max_value` of each palette entry's sigmoid.
-    max: Vec<f32>,
+    /// `max_value` of each palette entry's sigmoid (shared with the palette's other users).
+    max: Arc<[f32]>,
 }
 
 impl SpecularColorTexture {
+    /// What the texels are multiplied by before the fit: `specularColorFactor` ÷ its largest component.
+    fn factor(layer: &geometry::SpecularLayer) -> [f32; 4] {
+        let scale = layer.color_scale();
+        let factor = layer.color.map(|c| if scale > 0.0 { c / scale } else { 0.0 });
+        [factor[0], factor[1], factor[2], 1.0]
+    }
+
+    /// The largest value over the spectrum of each entry of `palette` (charged to `memory`).
+    fn max_values(palette: &Palette, label: &str, memory: &mut MemoryBudget) -> geometry::Result<Arc<[f32]>> {
+        memory.charge(
+            std::path::Path::new(label),
+            || format!("the largest F0 of each of {} specular colours", palette.entries.len()),
+            (palette.entries.len() * 4) as u64,
+        )?;
+        Ok(palette.entries.iter().map(|e| e.sigmoid.max_value() as f32).collect())
+    }
+
+    #[cfg(test)]
     fn new(
         image: &Image8,
         label: &str,
@@ -398,17 +510,10 @@ impl SpecularColorTexture {
         layer: &geometry::SpecularLayer,
         memory: &mut MemoryBudget,
     ) -> geometry::Result<(Self, bool)> {
-        let scale = layer.color_scale();
-        let factor = layer.color.map(|c| if scale > 0.0 { c / scale } else { 0.0 });
-        let (color, exact) =
-            ColorTexture::new(image, label, desc, [factor[0], factor[1], factor[2], 1.0], false, memory)?;
-        memory.charge(
-            std::path::Path::new(label),
-            || format!("the largest F0 of each of {} specular colours", color.palette.len()),
-            (color.palette.len() * 4) as u64,
-        )?;
-        let max = color.palette.iter().map(|e| e.sigmoid.max_value() as f32).collect();
-        Ok((Self { color, max }, exact))
+        let palette = Palette::reflectance(image, label, Self::factor(layer), false, memory)?;
+        let max = Self::max_values(&palette, label, memory)?;
+        let exact = palette.exact();
+        Ok((Self { color: ColorTexture::with_palette(desc, image.width, image.height, Arc::new(palette)), max }, exact))
     }
 
     /// (F0 at the path's wavelengths, F0_max) at `uv`, `f0_scale` being k above (linear RGB on RGB lanes,
@@ -427,8 +532,8 @@ impl SpecularColorTexture {
             if w == 0.0 {
                 continue;
             }
-            let entry = self.color.index[i] as usize;
-            let e = &self.color.palette[entry];
+            let entry = self.color.palette.index[i] as usize;
+            let e = &self.color.palette.entries[entry];
             if rgb_lanes {
                 for c in 0..3.min(N) {
                     f0.0[c] += w * (f0_scale * e.rgb[c]).min(1.0);
@@ -443,10 +548,6 @@ impl SpecularColorTexture {
             }
         }
         (f0, f0_max)
-    }
-
-    fn bytes(&self) -> usize {
-        self.color.bytes() + self.max.len() * 4
     }
 }
 
@@ -471,6 +572,7 @@ pub(crate) struct EmissiveEntry {
 pub(crate) struct EmissiveTexture(ColorTexture<EmissiveEntry>);
 
 impl EmissiveTexture {
+    #[cfg(test)]
     fn new(
         image: &Image8,
         label: &str,
@@ -478,16 +580,9 @@ impl EmissiveTexture {
         factor: [f32; 3],
         memory: &mut MemoryBudget,
     ) -> geometry::Result<(Self, bool)> {
-        let (texture, exact) = ColorTexture::with_palette(image, label, desc, false, memory, |linear, _, exact| {
-            let rgb = [0, 1, 2].map(|i| (linear[i] * factor[i]).max(0.0));
-            let spectrum = if exact {
-                RgbUnboundedSpectrum::fit(rgb.map(f64::from))
-            } else {
-                RgbUnboundedSpectrum::from_rgb(colorimetry::RgbToSpectrumTable::srgb(), rgb)
-            };
-            EmissiveEntry { spectrum, rgb }
-        })?;
-        Ok((Self(texture), exact))
+        let palette = Palette::emission(image, label, factor, memory)?;
+        let exact = palette.exact();
+        Ok((Self(ColorTexture::with_palette(desc, image.width, image.height, Arc::new(palette))), exact))
     }
 
     /// The radiance at `uv` at the path's wavelengths, `illuminant` being D65 at luminance 1 there
@@ -505,7 +600,7 @@ impl EmissiveTexture {
             if w == 0.0 {
                 continue;
             }
-            let e = &self.0.palette[self.0.index[i] as usize];
+            let e = self.0.palette.at(i);
             if rgb_lanes {
                 for c in 0..3.min(N) {
                     l.0[c] += w * e.rgb[c];
@@ -928,12 +1023,22 @@ impl MaterialTextures {
         self.base_color.is_some()
     }
 
-    /// Bytes of texel data held (for `info`) by colour textures.
-    fn color_bytes(&self) -> usize {
-        self.base_color.as_ref().map_or(0, ColorTexture::bytes)
-            + self.specular_color.as_ref().map_or(0, SpecularColorTexture::bytes)
-            + self.emissive.as_ref().map_or(0, |t| t.0.bytes())
-            + self.sheen_color.as_ref().map_or(0, ColorTexture::bytes)
+    /// What the colour textures hold (for `info`), each as its address and size in bytes: palettes and a
+    /// specular texture's largest values, shared between textures and materials that read the same image
+    /// with the same factor (the address tells a shared one).
+    fn color_data(&self) -> impl Iterator<Item = (usize, usize)> {
+        fn palette<E>(p: &Arc<Palette<E>>) -> (usize, usize) {
+            (Arc::as_ptr(p) as usize, p.bytes())
+        }
+        [
+            self.base_color.as_ref().map(|t| palette(&t.palette)),
+            self.specular_color.as_ref().map(|t| palette(&t.color.palette)),
+            self.specular_color.as_ref().map(|t| (t.max.as_ptr() as usize, t.max.len() * 4)),
+            self.emissive.as_ref().map(|t| palette(&t.0.palette)),
+            self.sheen_color.as_ref().map(|t| palette(&t.palette)),
+        ]
+        .into_iter()
+        .flatten()
     }
 
     /// The decoded images the data textures read (shared between roles and materials).
@@ -1040,14 +1145,20 @@ fn scaled_by_channel(texture: &Option<DataTexture>, uv: Uv, factor: f32, channel
     texture.as_ref().map_or(factor, |t| factor * t.eval(uv)[channel])
 }
 
-/// Bytes of texel data the textures hold: each colour texture's indices and palette, and each
-/// decoded data image once however many roles and materials share it.
+/// Bytes of texel data the textures hold: each colour palette and each decoded data image once however
+/// many roles and materials share it.
 pub(crate) fn texture_bytes(textures: &[Option<MaterialTextures>]) -> usize {
-    let mut images: Vec<&Arc<Image8>> = textures.iter().flatten().flat_map(MaterialTextures::data_images).collect();
-    images.sort_by_key(|i| Arc::as_ptr(i));
-    images.dedup_by(|a, b| Arc::ptr_eq(a, b));
-    textures.iter().flatten().map(MaterialTextures::color_bytes).sum::<usize>()
-        + images.iter().map(|i| i.texels.len() * 4).sum::<usize>()
+    let mut held: Vec<(usize, usize)> = textures.iter().flatten().flat_map(MaterialTextures::color_data).collect();
+    held.extend(
+        textures
+            .iter()
+            .flatten()
+            .flat_map(MaterialTextures::data_images)
+            .map(|i| (Arc::as_ptr(i) as usize, i.texels.len() * 4)),
+    );
+    held.sort_unstable();
+    held.dedup_by_key(|&mut (address, _)| address);
+    held.iter().map(|&(_, bytes)| bytes).sum()
 }
 
 /// The textures of each material (`None` where a material has none), decoded from `images`. An
@@ -1056,31 +1167,18 @@ pub(crate) fn texture_bytes(textures: &[Option<MaterialTextures>]) -> usize {
 /// emission (`desc.emission`) to its mean colour × factor, the surface's power for light sampling (the
 /// texels give the radiance per hit); over a spectral emission it is not applied (a warning). Materials marked in
 /// `vertex_colored` (used by a mesh with vertex colours) get an entry even without textures: their
-/// base colour varies per hit as a texture's does.
+/// base colour varies per hit as a texture's does. Each distinct image is decoded once, and what is
+/// derived from it once per factor ([`shared`]); the count of images decoded comes with the textures.
 pub(crate) fn load_material_textures(
     images: &[ImageDesc],
     materials: &mut [MaterialDesc],
     vertex_colored: &[bool],
     memory: &mut MemoryBudget,
     warnings: &mut Vec<String>,
-) -> geometry::Result<Vec<Option<MaterialTextures>>> {
+) -> geometry::Result<(Vec<Option<MaterialTextures>>, usize)> {
     // Decoded images live until every material has taken its share: each is charged once, when
     // first decoded, and kept charged.
-    let mut decoded: HashMap<usize, Option<Arc<Image8>>> = HashMap::new();
-    let mut image = |index: usize,
-                     memory: &mut MemoryBudget,
-                     warnings: &mut Vec<String>|
-     -> geometry::Result<Option<Arc<Image8>>> {
-        if let Some(done) = decoded.get(&index) {
-            return Ok(done.clone());
-        }
-        let img = match images.get(index) {
-            Some(desc) => decode(desc, memory, warnings)?.map(Arc::new),
-            None => None,
-        };
-        decoded.insert(index, img.clone());
-        Ok(img)
-    };
+    let mut shared = shared::SharedImages::new(images);
     let mut out = Vec::with_capacity(materials.len());
     for (index, m) in materials.iter_mut().enumerate() {
         let vertex_colors = vertex_colored.get(index).copied().unwrap_or(false);
@@ -1105,7 +1203,7 @@ pub(crate) fn load_material_textures(
             let second_uvs = textures.roles().into_iter().flatten().any(|t| t.tex_coord == 1);
             let mut emissive = None;
             if let Some(t) = &textures.emissive
-                && let Some(img) = image(t.image, memory, warnings)?
+                && let Some(img) = shared.image(t.image, memory, warnings)?
             {
                 // glTF multiplies by `emissiveFactor`, whose default black means no emission (the
                 // loader leaves `emission` unset then); MTL's `map_Ke` without `Ke` stands alone.
@@ -1128,14 +1226,11 @@ pub(crate) fn load_material_textures(
                 if factor != [0.0; 3] && strength > 0.0 {
                     // The material's own emission becomes the mean over the image: what light sampling
                     // chooses the surface by, and what the hero wavelengths' density follows.
-                    let mean = mean_linear_rgb(&img);
+                    let mean = shared.mean(&img);
                     m.emission = Some(geometry::SpectrumDesc::Rgb([0, 1, 2].map(|i| factor[i] * mean[i])));
-                    let label = images.get(t.image).map_or("?", |i| i.label.as_str());
-                    let (texture, exact) = EmissiveTexture::new(&img, label, t, factor.map(|f| f * strength), memory)?;
-                    if !exact {
-                        warnings.push(table_lookup_warning(label, texture.0.palette.len()));
-                    }
-                    emissive = Some(texture);
+                    let label = shared.label(t.image);
+                    let factor = factor.map(|f| f * strength);
+                    emissive = Some(shared.emissive_texture(&img, label, t, factor, memory, warnings)?);
                 }
             }
             let factor_rgb = match (&m.base_color, m.format) {
@@ -1147,40 +1242,29 @@ pub(crate) fn load_material_textures(
             let alpha_factor = m.alpha.unwrap_or(1.0);
             let mut base_color = None;
             if let Some(t) = &textures.base_color
-                && let Some(img) = image(t.image, memory, warnings)?
+                && let Some(img) = shared.image(t.image, memory, warnings)?
             {
-                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
                 let factor = [factor_rgb[0], factor_rgb[1], factor_rgb[2], alpha_factor];
-                let (texture, exact) = ColorTexture::new(&img, label, t, factor, true, memory)?;
-                if !exact {
-                    warnings.push(table_lookup_warning(label, texture.palette.len()));
-                }
-                base_color = Some(texture);
+                let label = shared.label(t.image);
+                base_color = Some(shared.color_texture(&img, label, t, factor, true, memory, warnings)?);
             }
             let mut specular_color = None;
             // A black factor makes F0 0 whatever the texels (no fit needed).
             if let (Some(t), Some(layer)) = (&textures.specular_color, &m.specular_layer)
                 && layer.color_scale() > 0.0
-                && let Some(img) = image(t.image, memory, warnings)?
+                && let Some(img) = shared.image(t.image, memory, warnings)?
             {
-                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
-                let (texture, exact) = SpecularColorTexture::new(&img, label, t, layer, memory)?;
-                if !exact {
-                    warnings.push(table_lookup_warning(label, texture.color.palette.len()));
-                }
-                specular_color = Some(texture);
+                let label = shared.label(t.image);
+                specular_color = Some(shared.specular_texture(&img, label, t, layer, memory, warnings)?);
             }
             let mut sheen_color = None;
             if let (Some(t), Some(sheen)) = (&textures.sheen_color, &m.sheen)
-                && let Some(img) = image(t.image, memory, warnings)?
+                && let Some(img) = shared.image(t.image, memory, warnings)?
             {
-                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                let label = shared.label(t.image);
                 let c = sheen.color;
-                let (texture, exact) = ColorTexture::new(&img, label, t, [c[0], c[1], c[2], 1.0], false, memory)?;
-                if !exact {
-                    warnings.push(table_lookup_warning(label, texture.palette.len()));
-                }
-                sheen_color = Some(texture);
+                let factor = [c[0], c[1], c[2], 1.0];
+                sheen_color = Some(shared.color_texture(&img, label, t, factor, false, memory, warnings)?);
             }
             // MTL `map_Bump`: a height field, or a normal map in Blender's files (decided from the texels).
             let (mut bump, mut bump_as_normal) = (None, None);
@@ -1188,38 +1272,38 @@ pub(crate) fn load_material_textures(
                 && textures.normal.is_some()
             {
                 // Not decoded (nor charged): the `norm` map wins.
-                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                let label = shared.label(t.image);
                 warnings.push(format!(
                     "material {:?}: `map_Bump` {label} not used: the material has a `norm` normal map",
                     m.name
                 ));
             } else if let Some(t) = &textures.bump
-                && let Some(img) = image(t.image, memory, warnings)?
+                && let Some(img) = shared.image(t.image, memory, warnings)?
             {
-                let label = images.get(t.image).map_or("?", |i| i.label.as_str());
+                let label = shared.label(t.image);
                 let name = &m.name;
-                if reads_as_normal_map(&img) {
+                if shared.reads_as_normal_map(&img) {
                     warnings.push(format!(
                         "material {name:?}: `map_Bump` {label} read as a tangent-space normal map of strength {} (its texels are blue-dominant, as Blender's exporter writes normal maps there)",
                         t.scale
                     ));
-                    bump_as_normal = Some(DataTexture::new(img, t));
+                    bump_as_normal = Some(DataTexture::new(img.image, t));
                 } else {
                     warnings.push(format!(
                         "material {name:?}: `map_Bump` {label} read as a height field: luminance × {} scene units",
                         t.scale
                     ));
-                    bump = Some(DataTexture::new(img, t));
+                    bump = Some(DataTexture::new(img.image, t));
                 }
             }
             let roughness = match &textures.shininess {
-                Some(t) => image(t.image, memory, warnings)?
-                    .map(|img| {
-                        let label = images.get(t.image).map_or("?", |i| i.label.as_str());
-                        roughness_from_shininess_map(&img, label, m.shininess, memory)
-                            .map(|img| DataTexture::new(Arc::new(img), t))
-                    })
-                    .transpose()?,
+                Some(t) => match shared.image(t.image, memory, warnings)? {
+                    Some(img) => {
+                        let label = shared.label(t.image);
+                        Some(DataTexture::new(shared.roughness(&img, label, m.shininess, memory)?, t))
+                    }
+                    None => None,
+                },
                 None => None,
             };
             let mut data = |t: &Option<TextureDesc>,
@@ -1227,7 +1311,7 @@ pub(crate) fn load_material_textures(
                             warnings: &mut Vec<String>|
              -> geometry::Result<Option<DataTexture>> {
                 let Some(t) = t else { return Ok(None) };
-                Ok(image(t.image, memory, warnings)?.map(|img| DataTexture::new(img, t)))
+                Ok(shared.image(t.image, memory, warnings)?.map(|img| DataTexture::new(img.image, t)))
             };
             let metallic_roughness = data(&textures.metallic_roughness, memory, warnings)?;
             let normal = match bump_as_normal {
@@ -1268,7 +1352,7 @@ pub(crate) fn load_material_textures(
         };
         out.push(entry);
     }
-    Ok(out)
+    Ok((out, shared.decoded_count()))
 }
 
 /// MTL `map_Ns` where it can apply (a material with a specular lobe; a warning otherwise), and `map_Ks` (the
@@ -1385,6 +1469,109 @@ mod tests {
         let xyz = Xyz { x: xyz.x / 100.0, y: xyz.y / 100.0, z: xyz.z / 100.0 };
         let target = srgb.rgb_to_xyz(Rgb { r: rgb[0], g: rgb[1], b: rgb[2] });
         delta_e_2000(Lab::from_xyz(target, white), Lab::from_xyz(xyz, white))
+    }
+
+    /// A 64×64 gradient (every row different) encoded as `format`.
+    fn encoded_gradient(format: image::ImageFormat) -> Vec<u8> {
+        let img = image::RgbImage::from_fn(64, 64, |x, y| image::Rgb([(4 * x) as u8, (4 * y) as u8, 128]));
+        let mut bytes = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut bytes), format).unwrap();
+        bytes
+    }
+
+    fn decoded(label: &str, bytes: Vec<u8>) -> (Option<Image8>, Vec<String>) {
+        let mut warnings = Vec::new();
+        let desc = ImageDesc { label: label.into(), mime: None, bytes: bytes.into() };
+        (decode(&desc, &mut MemoryBudget::default(), &mut warnings).unwrap(), warnings)
+    }
+
+    /// Identical image bytes, however many entries hold them, are decoded and charged once, and materials
+    /// reading them with the same factor share one palette: 20 materials over 3 copies of one image are
+    /// charged exactly what one material over one image is. Another factor is another palette, charged
+    /// once more.
+    #[test]
+    fn materials_sharing_an_image_and_factor_share_its_decode_and_palette() {
+        let png = encoded_gradient(image::ImageFormat::Png);
+        let image = |i: usize| ImageDesc { label: format!("copy{i}.png"), mime: None, bytes: png.clone().into() };
+        let material = |image: usize, factor: f32| {
+            let mut m = MaterialDesc::new("m", geometry::MaterialFormat::Gltf);
+            m.base_color = Some(geometry::SpectrumDesc::Rgb([factor; 3]));
+            m.textures.base_color = Some(TextureDesc::new(image));
+            m
+        };
+        let load = |images: &[ImageDesc], materials: &mut [MaterialDesc]| {
+            let mut memory = MemoryBudget::default();
+            let mut warnings = Vec::new();
+            let (textures, decoded) =
+                load_material_textures(images, materials, &[], &mut memory, &mut warnings).unwrap();
+            assert!(warnings.is_empty(), "{warnings:?}");
+            (textures, decoded, memory.used)
+        };
+        let (_, decoded, one) = load(&[image(0)], &mut [material(0, 0.5)]);
+        // 64² texels: 16 KiB kept, 16 KiB of indices, 64 × 64 distinct colours of 28 bytes.
+        assert_eq!((decoded, one), (1, 16_384 + 16_384 + 4096 * 28));
+        let images = [image(0), image(1), image(2)];
+        let mut materials: Vec<MaterialDesc> = (0..20).map(|i| material(i % 3, 0.5)).collect();
+        let (textures, decoded, used) = load(&images, &mut materials);
+        assert_eq!((decoded, used), (1, one));
+        let palette = |i: usize| &textures[i].as_ref().unwrap().base_color.as_ref().unwrap().palette;
+        assert!((1..20).all(|i| Arc::ptr_eq(palette(0), palette(i))));
+        assert_eq!(texture_bytes(&textures), 16_384 + 4096 * 28, "one palette (colour textures keep no decoded image)");
+        materials.push(material(1, 0.25));
+        let (textures, decoded, used) = load(&images, &mut materials);
+        assert_eq!((decoded, used), (1, one + 16_384 + 4096 * 28));
+        assert!(!Arc::ptr_eq(palette(0), &textures[20].as_ref().unwrap().base_color.as_ref().unwrap().palette));
+    }
+
+    /// A JPEG cut in half is refused with the note a truncated PNG gets, naming the image; the whole file
+    /// decodes, and bytes after its end-of-image marker are not read. Before, the half file decoded without
+    /// a word, its missing rows grey.
+    #[test]
+    fn a_truncated_jpeg_is_named_as_truncated_as_a_truncated_png_is() {
+        let jpeg = encoded_gradient(image::ImageFormat::Jpeg);
+        let (whole, warnings) = decoded("photo.jpg", jpeg.clone());
+        let whole = whole.expect("the whole JPEG decodes");
+        assert_eq!((whole.width, whole.height, warnings.len()), (64, 64, 0), "{warnings:?}");
+        // Lossy, but the bottom row's green is near 4 × 63.
+        assert!(whole.texels[63 * 64 + 32][1] > 230, "{:?}", whole.texels[63 * 64 + 32]);
+        let (half, warnings) = decoded("photo.jpg", jpeg[..jpeg.len() / 2].to_vec());
+        assert!(half.is_none(), "the half JPEG is not used");
+        assert_eq!(
+            warnings,
+            [
+                "photo.jpg: cannot decode (truncated: the JPEG data ends before its end-of-image marker); the material's factor is used"
+            ]
+        );
+        let mut padded = jpeg.clone();
+        padded.extend_from_slice(&[0; 64]);
+        let (padded, warnings) = decoded("photo.jpg", padded);
+        assert_eq!(padded.map(|i| i.texels), Some(whole.texels), "{warnings:?}");
+        let png = encoded_gradient(image::ImageFormat::Png);
+        let (half, warnings) = decoded("photo.png", png[..png.len() / 2].to_vec());
+        assert!(half.is_none());
+        assert!(
+            warnings.len() == 1
+                && warnings[0].starts_with("photo.png: cannot decode (")
+                && warnings[0].ends_with("; the material's factor is used"),
+            "{warnings:?}"
+        );
+    }
+
+    /// The end-of-image marker is found by walking the segments: one inside a segment (an EXIF thumbnail's)
+    /// does not make a truncated file whole, and stuffed bytes and restart markers in the scan are passed.
+    #[test]
+    fn jpeg_completeness_walks_segments_and_scan_data() {
+        // SOI, APP1 of 6 bytes holding FF D9, SOS of 4 bytes, scan data with FF 00 and RST0, EOI.
+        let whole = [
+            0xFF, 0xD8, 0xFF, 0xE1, 0x00, 0x06, 0xFF, 0xD9, 0xFF, 0xD9, 0xFF, 0xDA, 0x00, 0x04, 0x01, 0x02, 0x12, 0xFF,
+            0x00, 0x34, 0xFF, 0xD0, 0x56, 0xFF, 0xFF, 0xD9,
+        ];
+        assert!(jpeg_is_complete(&whole));
+        for cut in 2..whole.len() - 1 {
+            assert!(!jpeg_is_complete(&whole[..cut]), "cut at {cut}");
+        }
+        // A segment length running past the end.
+        assert!(!jpeg_is_complete(&[0xFF, 0xD8, 0xFF, 0xE0, 0xFF, 0xFF, 0xFF, 0xD9]));
     }
 
     #[test]
@@ -1509,7 +1696,7 @@ mod tests {
             material(geometry::SpectrumDesc::Rgb([0.5, 0.25, 1.0])),
         ];
         let mut warnings = Vec::new();
-        let textures =
+        let (textures, _) =
             load_material_textures(&images, &mut materials, &[false; 2], &mut MemoryBudget::default(), &mut warnings)
                 .unwrap();
         assert!(textures[0].as_ref().is_none_or(|t| !t.has_emissive_texture()), "spectral: not applied");
@@ -1576,12 +1763,12 @@ mod tests {
         let alpha_only = Image8 { width: 2, height: 1, texels: vec![[255, 128, 0, 255], [255, 128, 0, 10]] };
         let mut memory = MemoryBudget::default();
         let emissive = EmissiveTexture::new(&alpha_only, "test", &desc, factor, &mut memory).unwrap().0;
-        assert_eq!(emissive.0.palette.len(), 1);
+        assert_eq!(emissive.0.palette.entries.len(), 1);
         let layer = geometry::SpecularLayer { factor: 1.0, color: [1.0; 3] };
         let specular = SpecularColorTexture::new(&alpha_only, "test", &desc, &layer, &mut memory).unwrap().0;
-        assert_eq!(specular.color.palette.len(), 1);
+        assert_eq!(specular.color.palette.entries.len(), 1);
         let base = ColorTexture::new(&alpha_only, "test", &desc, [1.0; 4], true, &mut memory).unwrap().0;
-        assert_eq!(base.palette.len(), 2, "base colour keeps its alpha per texel");
+        assert_eq!(base.palette.entries.len(), 2, "base colour keeps its alpha per texel");
     }
 
     #[test]

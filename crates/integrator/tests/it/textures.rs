@@ -1075,3 +1075,101 @@ fn anisotropy_stretches_the_lobe_along_the_extensions_direction() {
     assert!(distinct >= 12, "only {distinct} pixels tell the rotated lobe from the isotropic and the mirrored one");
     assert!(glass_distinct >= 12, "only {glass_distinct} pixels tell the stretched glass from the isotropic");
 }
+
+/// A 512×512 PNG of 64 flat colours (8×8 blocks of 64×64 texels) at `dir/name`: 1 MiB of texels, and as a
+/// colour texture 1 MiB of palette indices and 64 entries.
+fn write_atlas(dir: &Path, name: &str) {
+    let texels: Vec<[u8; 4]> = (0..512 * 512u32)
+        .map(|i| {
+            let (bx, by) = ((i % 512) / 64, (i / 512) / 64);
+            [30 + 25 * bx as u8, 30 + 25 * by as u8, 128, 255]
+        })
+        .collect();
+    write_png(&dir.join(name), 512, 512, &texels);
+}
+
+/// The `textures:` note of a scene's assembly.
+fn texture_note(scene: &RenderScene) -> &str {
+    scene.warnings.iter().find(|w| w.starts_with("textures:")).map_or("(no textures note)", String::as_str)
+}
+
+/// `scene`'s image, every pixel's XYZ, path-traced on RGB lanes.
+fn render_xyz(scene: &RenderScene) -> Vec<[f32; 3]> {
+    let opts = integrator::RenderOptions { spectral: SpectralMode::Rgb, spp: 1, ..options(8, 8) }
+        .path(|p| p.max_depth = Some(1));
+    let (image, _) = render_with(scene, &opts);
+    (0..8).flat_map(|y| (0..8).map(move |x| (x, y))).map(|(x, y)| image.xyz(x, y)).collect()
+}
+
+/// One image named by 50 glTF `images` entries (an exporter writing one per texture), each the base colour of
+/// its own material: decoded once and fitted once, 1 MiB of indices and 64 colours in all, and the scene
+/// renders as one material with the image does. Before, it was decoded 50 times and each material fitted
+/// its own copy: "50 images, 50.1 MiB of texel data" (a 4096² atlas used 40 times took 2.6 GB).
+#[test]
+fn one_image_used_by_fifty_gltf_materials_is_decoded_and_fitted_once() {
+    let dir = folder("shared-gltf");
+    write_atlas(&dir, "atlas.png");
+    let m =
+        r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0, "roughnessFactor": 1}}"#;
+    let single = write_gltf_quad(&dir, m, r#""textures": [{"source": 0}], "images": [{"uri": "atlas.png"}]"#, "");
+    let single = scene_around(&dir, &single, [0.0, 0.0, -1.0], "");
+    assert!(
+        texture_note(&single).starts_with("textures: 1 images, 1.0 MiB of texel data"),
+        "{}",
+        texture_note(&single)
+    );
+    let want = render_xyz(&single);
+    // The same quad drawn 50 times over, primitive i with material i, texture i and image i.
+    let path = dir.join("quad.gltf");
+    let mut gltf: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).expect("read glTF")).expect("glTF JSON");
+    let n = 50;
+    let material: serde_json::Value = serde_json::from_str(m).expect("material JSON");
+    gltf["materials"] = (0..n)
+        .map(|i| {
+            let mut m = material.clone();
+            m["pbrMetallicRoughness"]["baseColorTexture"]["index"] = i.into();
+            m
+        })
+        .collect();
+    gltf["textures"] = (0..n).map(|i| serde_json::json!({"source": i})).collect();
+    gltf["images"] = (0..n).map(|_| serde_json::json!({"uri": "atlas.png"})).collect();
+    let primitive = gltf["meshes"][0]["primitives"][0].clone();
+    gltf["meshes"][0]["primitives"] = (0..n)
+        .map(|i| {
+            let mut p = primitive.clone();
+            p["material"] = i.into();
+            p
+        })
+        .collect();
+    std::fs::write(&path, gltf.to_string()).expect("write glTF");
+    let shared = scene_around(&dir, &path, [0.0, 0.0, -1.0], "");
+    assert!(
+        texture_note(&shared).starts_with("textures: 1 images, 1.0 MiB of texel data"),
+        "{}",
+        texture_note(&shared)
+    );
+    assert_eq!(shared.materials().len(), n + 1, "the 50 materials and the manifest's");
+    assert_eq!(render_xyz(&shared), want, "the shared texture renders as the single one");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// OBJ materials sharing one `map_Kd` (an exported texture atlas): the image was read once already, but each
+/// material fitted its own palette ("1 images, 50.1 MiB"); now one palette serves all 50.
+#[test]
+fn one_map_kd_shared_by_fifty_mtl_materials_is_fitted_once() {
+    let dir = folder("shared-mtl");
+    write_atlas(&dir, "atlas.png");
+    let n = 50;
+    let mtl: String = (0..n).map(|i| format!("newmtl m{i}\nKd 0.8 0.8 0.8\nmap_Kd atlas.png\n\n")).collect();
+    std::fs::write(dir.join("atlas.mtl"), mtl).expect("write MTL");
+    let faces: String = (0..n).map(|i| format!("usemtl m{i}\nf 1/1 4/4 3/3\nf 1/1 3/3 2/2\n")).collect();
+    let obj =
+        format!("mtllib atlas.mtl\nv -1 1 0\nv 1 1 0\nv 1 -1 0\nv -1 -1 0\nvt 0 1\nvt 1 1\nvt 1 0\nvt 0 0\n{faces}");
+    let path = dir.join("atlas.obj");
+    std::fs::write(&path, obj).expect("write OBJ");
+    let scene = scene_around(&dir, &path, [0.0, 0.0, -1.0], "");
+    assert!(texture_note(&scene).starts_with("textures: 1 images, 1.0 MiB of texel data"), "{}", texture_note(&scene));
+    assert_eq!(scene.materials().len(), n + 1, "the 50 materials and the manifest's");
+    std::fs::remove_dir_all(&dir).ok();
+}
