@@ -1,9 +1,9 @@
 //! The scene manifest: a small JSON file a user writes by hand (format in `docs/scene-format.md`).
 //!
-//! Parsing is two-staged: serde reads the structure (unknown top-level, camera, light, object and transform
-//! keys are errors naming the key, so typos are never silent), then each value that can take several forms
-//! (spectra, IORs, absorption) is converted by hand with a context path such as `materials.glass.ior`, so
-//! every error says where it is.
+//! Parsing is two-staged: serde reads the structure (unknown top-level, camera, light, object, transform and
+//! settings keys are errors naming the key, so typos are never silent), then each value that can take several
+//! forms (spectra, IORs, absorption) is converted by hand with a context path such as `materials.glass.ior`,
+//! so every error says where it is.
 
 use std::path::{Path, PathBuf};
 
@@ -13,10 +13,10 @@ use serde_json::{Map, Value};
 
 use crate::desc::{
     CameraDesc, EnvironmentMapDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, Projection,
-    SceneDescription, SceneFormat, SpectrumDesc,
+    SceneDescription, SceneFormat, Settings, SpectrumDesc,
 };
 use crate::error::{Error, Result};
-use crate::forms::{Ctx, absorption, ior, number, spectrum};
+use crate::forms::{Ctx, absorption, ior, number, spectrum, unknown_key};
 use crate::limits::{Budget, check_coordinates};
 use crate::shapes::{Mesh, Sphere};
 
@@ -197,6 +197,9 @@ struct MaterialJson {
     extras: Map<String, Value>,
 }
 
+/// The keys of `settings`, each read by [`settings`].
+const SETTINGS_KEYS: &[&str] = &["integrator", "max_depth", "rr_depth"];
+
 /// Model hints the layers above understand (see [`MaterialDesc::model`]).
 const KNOWN_MODELS: &[&str] = &["hall", "diffuse", "dielectric", "conductor", "mirror"];
 
@@ -286,7 +289,7 @@ pub(crate) fn parse(
     if let Some(bg) = &json.background {
         desc.background = Some(background(&ctx, bg)?);
     }
-    desc.settings = json.settings;
+    desc.settings = settings(&ctx, &json.settings)?;
 
     for (i, object) in json.objects.into_iter().enumerate() {
         let context = format!("objects[{i}]");
@@ -507,6 +510,40 @@ fn background(ctx: &Ctx<'_>, v: &Value) -> Result<(SpectrumDesc, f32)> {
         return Ok((s, intensity(ctx, "background", i, None, &[LightUnit::Nit])?.value));
     }
     Ok((spectrum(ctx, "background", v)?, 1.0))
+}
+
+/// The `settings` object: each key known and its value in range, or an error naming the key.
+fn settings(ctx: &Ctx<'_>, json: &Map<String, Value>) -> Result<Settings> {
+    let mut out = Settings::default();
+    for (key, value) in json {
+        let context = format!("settings.{key}");
+        match key.as_str() {
+            "integrator" => {
+                // Which names exist is the integrators' business (`--integrator auto` checks it).
+                let name = value.as_str().ok_or_else(|| {
+                    ctx.err(&context, format!("expected a string (\"whitted-hall\" or \"path\"), got {value}"))
+                })?;
+                out.integrator = Some(name.to_owned());
+            }
+            "max_depth" => out.max_depth = Some(depth(ctx, &context, value)?),
+            "rr_depth" => out.rr_depth = Some(depth(ctx, &context, value)?),
+            _ => return Err(unknown_key(ctx, "settings", key, SETTINGS_KEYS)),
+        }
+    }
+    Ok(out)
+}
+
+/// A depth setting: a whole number in `0..=Settings::MAX_DEPTH` (`20.0` is 20). `-3`, `2.5`, `1e30` and `"20"`
+/// are refused rather than clamped, truncated, saturated or ignored: a mistake in the file must not quietly
+/// change the render.
+fn depth(ctx: &Ctx<'_>, context: &str, value: &Value) -> Result<u32> {
+    let max = Settings::MAX_DEPTH;
+    value
+        .as_f64()
+        .filter(|d| d.fract() == 0.0 && (0.0..=f64::from(max)).contains(d))
+        // In range and whole: exact.
+        .map(|d| d as u32)
+        .ok_or_else(|| ctx.err(context, format!("expected an integer in 0..={max}, got {value}")))
 }
 
 fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>) -> Result<MaterialDesc> {
@@ -808,5 +845,59 @@ mod tests {
             parse_text(r#"{"materials":{"m":{"ks":0.1,"spectral_override":"x"}}}"#).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(d.materials[0].extras, Some(serde_json::json!({"spectral_override":"x"})));
         assert!(d.warnings.iter().any(|w| w.contains("spectral_override")));
+    }
+
+    #[test]
+    fn settings_are_typed_and_checked() {
+        let settings = |body: &str| parse_text(&format!(r#"{{"settings":{body}}}"#)).map(|d| d.settings);
+        let message =
+            |body: &str| settings(body).err().map(|e| e.to_string()).unwrap_or_else(|| panic!("{body} loaded"));
+        assert_eq!(
+            settings(r#"{"max_depth":20,"rr_depth":0,"integrator":"whitted-hall"}"#).ok(),
+            Some(Settings { integrator: Some("whitted-hall".into()), max_depth: Some(20), rr_depth: Some(0) })
+        );
+        // A whole number written as a float is that number; the limit itself is accepted.
+        assert_eq!(
+            settings(r#"{"max_depth":20.0,"rr_depth":1024}"#).ok().map(|s| (s.max_depth, s.rr_depth)),
+            Some((Some(20), Some(1024)))
+        );
+        assert_eq!(settings("{}").ok(), Some(Settings::default()));
+        // A wrong type or a value out of range is an error naming its place, not clamped, saturated or ignored.
+        assert_eq!(
+            message(r#"{"max_depth":-3}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got -3"
+        );
+        assert_eq!(
+            message(r#"{"max_depth":"20"}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got \"20\""
+        );
+        assert_eq!(
+            message(r#"{"max_depth":1e30}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got 1e+30"
+        );
+        assert_eq!(
+            message(r#"{"rr_depth":-1}"#),
+            "test.json: settings.rr_depth: expected an integer in 0..=1024, got -1"
+        );
+        assert_eq!(
+            message(r#"{"max_depth":2.5}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got 2.5"
+        );
+        assert_eq!(
+            message(r#"{"max_depth":1025}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got 1025"
+        );
+        assert_eq!(
+            message(r#"{"max_dpeth":8}"#),
+            "test.json: settings.max_dpeth: unknown key; did you mean `max_depth`? (known keys: integrator, max_depth, rr_depth)"
+        );
+        assert_eq!(
+            message(r#"{"ambient":0.1}"#),
+            "test.json: settings.ambient: unknown key (known keys: integrator, max_depth, rr_depth)"
+        );
+        assert_eq!(
+            message(r#"{"integrator":3}"#),
+            "test.json: settings.integrator: expected a string (\"whitted-hall\" or \"path\"), got 3"
+        );
     }
 }
