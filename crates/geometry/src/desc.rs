@@ -430,8 +430,8 @@ pub struct MaterialDesc {
     pub alpha_mode: Option<AlphaMode>,
     /// glTF `baseColorFactor`'s alpha.
     pub alpha: Option<f32>,
-    /// Raw glTF material `extras`, unknown manifest keys, or MTL statements this loader does not read, passed
-    /// up untouched (spectral overrides go here).
+    /// Raw glTF material `extras`, a manifest material's `extras` object, or MTL statements this loader does not
+    /// read, passed up untouched (spectral overrides go here).
     pub extras: Option<serde_json::Value>,
 }
 

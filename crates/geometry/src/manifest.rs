@@ -1,9 +1,9 @@
 //! The scene manifest: a small JSON file a user writes by hand (format in `docs/scene-format.md`).
 //!
-//! Parsing is two-staged: serde reads the structure (unknown top-level, camera, light, object, transform and
-//! settings keys are errors naming the key, so typos are never silent), then each value that can take several
-//! forms (spectra, IORs, absorption) is converted by hand with a context path such as `materials.glass.ior`,
-//! so every error says where it is.
+//! Parsing is two-staged: serde reads the structure (unknown top-level, camera, light, object, transform,
+//! material and settings keys are errors naming the key, so typos are never silent), then each value that can
+//! take several forms (spectra, IORs, absorption) is converted by hand with a context path such as
+//! `materials.glass.ior`, so every error says where it is.
 
 use std::path::{Path, PathBuf};
 
@@ -171,8 +171,10 @@ enum ScaleJson {
     PerAxis([f32; 3]),
 }
 
-/// Material keys; anything else goes to `extras` (with a warning, so typos are visible).
+/// Material keys ([`MATERIAL_KEYS`]); free-form data for the layers above goes under `extras`, so a misspelt
+/// key is an error, not data.
 #[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
 struct MaterialJson {
     model: Option<String>,
     metal: Option<String>,
@@ -193,9 +195,33 @@ struct MaterialJson {
     emission_strength: Option<f32>,
     double_sided: Option<bool>,
     multiple_scattering: Option<bool>,
-    #[serde(flatten)]
-    extras: Map<String, Value>,
+    extras: Option<Value>,
 }
+
+/// The fields of [`MaterialJson`], checked before serde reads them so that an unknown one gets a
+/// did-you-mean (a test keeps the two lists equal).
+const MATERIAL_KEYS: &[&str] = &[
+    "model",
+    "metal",
+    "base_color",
+    "diffuse",
+    "specular",
+    "ks",
+    "shininess",
+    "metallic",
+    "roughness",
+    "transmission",
+    "transmittance",
+    "ior",
+    "dispersion",
+    "absorption",
+    "thickness",
+    "emission",
+    "emission_strength",
+    "double_sided",
+    "multiple_scattering",
+    "extras",
+];
 
 /// The keys of `settings`, each read by [`settings`].
 const SETTINGS_KEYS: &[&str] = &["integrator", "max_depth", "rr_depth"];
@@ -262,7 +288,7 @@ pub(crate) fn parse(
     // deterministic.
     let mut names: Vec<String> = Vec::new();
     for (name, value) in &json.materials {
-        desc.materials.push(material(&ctx, name, value, &mut desc.warnings)?);
+        desc.materials.push(material(&ctx, name, value)?);
         names.push(name.clone());
     }
     let lookup = |name: &Option<String>, context: &str| -> Result<Option<u32>> {
@@ -546,8 +572,11 @@ fn depth(ctx: &Ctx<'_>, context: &str, value: &Value) -> Result<u32> {
         .ok_or_else(|| ctx.err(context, format!("expected an integer in 0..={max}, got {value}")))
 }
 
-fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>) -> Result<MaterialDesc> {
+fn material(ctx: &Ctx<'_>, name: &str, value: &Value) -> Result<MaterialDesc> {
     let context = format!("materials.{name}");
+    if let Some(key) = value.as_object().and_then(|o| o.keys().find(|k| !MATERIAL_KEYS.contains(&k.as_str()))) {
+        return Err(unknown_key(ctx, &context, key, MATERIAL_KEYS));
+    }
     let m: MaterialJson = serde_json::from_value(value.clone()).map_err(|e| ctx.err(&context, e.to_string()))?;
     let mut out = MaterialDesc::new(name, MaterialFormat::Manifest);
     // Ranges are checked here (an out-of-range value is an error naming its key); defaults are not filled
@@ -591,15 +620,16 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>
     out.emission_strength = non_negative("emission_strength", m.emission_strength)?;
     out.double_sided = m.double_sided;
     out.multiple_scattering = m.multiple_scattering;
-    if !m.extras.is_empty() {
-        let keys: Vec<&str> = m.extras.keys().map(String::as_str).collect();
-        warnings.push(format!(
-            "{}: {context}: unknown key(s) {} kept in extras for the layers above",
-            ctx.origin,
-            keys.join(", ")
-        ));
-        out.extras = Some(Value::Object(m.extras));
-    }
+    // Passed up untouched, as a glTF material's `extras` are.
+    out.extras = match m.extras {
+        None => None,
+        Some(extras @ Value::Object(_)) => Some(extras),
+        Some(other) => {
+            return Err(
+                ctx.err(format!("{context}.extras"), format!("expected an object of free-form data, got {other}"))
+            );
+        }
+    };
     Ok(out)
 }
 
@@ -840,11 +870,39 @@ mod tests {
     }
 
     #[test]
-    fn unknown_material_key_goes_to_extras_with_a_warning() {
-        let d =
-            parse_text(r#"{"materials":{"m":{"ks":0.1,"spectral_override":"x"}}}"#).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(d.materials[0].extras, Some(serde_json::json!({"spectral_override":"x"})));
-        assert!(d.warnings.iter().any(|w| w.contains("spectral_override")));
+    fn a_misspelt_material_key_is_refused_with_the_key_it_means() {
+        let message = |material: &str| {
+            let text = format!(r#"{{"materials":{{"m":{material}}}}}"#);
+            parse_text(&text).err().map(|e| e.to_string()).unwrap_or_else(|| panic!("{material} loaded"))
+        };
+        let m = message(r#"{"base_colour":"colorchecker:13"}"#);
+        assert!(m.starts_with("test.json: materials.m.base_colour: unknown key; did you mean `base_color`?"), "{m}");
+        assert!(m.contains("known keys: model, metal, base_color,") && m.ends_with("extras)"), "{m}");
+        // Far from every key: refused with the list only.
+        let m = message(r#"{"fluorescense":0.5}"#);
+        assert!(m.starts_with("test.json: materials.m.fluorescense: unknown key (known keys: model,"), "{m}");
+        // Free-form data has one place, an object.
+        assert_eq!(
+            message(r#"{"extras":3}"#),
+            "test.json: materials.m.extras: expected an object of free-form data, got 3"
+        );
+    }
+
+    #[test]
+    fn material_extras_are_passed_up_untouched() {
+        let d = parse_text(r#"{"materials":{"m":{"ks":0.1,"extras":{"anything":1,"spectral_override":"x"}}}}"#)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.materials[0].extras, Some(serde_json::json!({"anything":1,"spectral_override":"x"})));
+        assert_eq!(d.materials[0].ks, Some(0.1));
+        assert!(d.warnings.is_empty(), "{:?}", d.warnings);
+    }
+
+    #[test]
+    fn material_keys_list_the_fields_serde_reads() {
+        // serde's own list of the struct's fields, in declaration order, from its unknown-field error.
+        let e = serde_json::from_str::<MaterialJson>(r#"{"?":0}"#).err().map(|e| e.to_string()).unwrap_or_default();
+        let quoted: Vec<String> = MATERIAL_KEYS.iter().map(|k| format!("`{k}`")).collect();
+        assert!(e.contains(&format!("expected one of {}", quoted.join(", "))), "{e}");
     }
 
     #[test]
