@@ -78,6 +78,40 @@ fn render_of_a_scene_file_with_options() {
 }
 
 #[test]
+fn a_bad_setting_or_material_key_is_refused_naming_the_file_and_the_key() {
+    let dir = scratch("bad_settings");
+    let sphere = r#"{"type": "sphere", "center": [0, 0, 0], "radius": 1, "material": "m"}"#;
+    let write = |name: &str, material: &str, settings: &str| {
+        let text = format!(r#"{{"materials": {{"m": {material}}}, "objects": [{sphere}], "settings": {settings}}}"#);
+        std::fs::write(dir.join(name), text).unwrap();
+    };
+    write("typo.json", "{}", r#"{"max_dpeth": 8}"#);
+    write("negative.json", "{}", r#"{"max_depth": -3}"#);
+    write("colour.json", r#"{"base_colour": "colorchecker:15"}"#, "{}");
+    write("ok.json", r#"{"base_color": "colorchecker:15", "extras": {"anything": 1}}"#, r#"{"max_depth": 4}"#);
+    let refuse = |scene: &str, set: Option<&str>, needle: &str| {
+        let mut args = vec!["render", "-q", "--width", "8", "--height", "6", "-o", "o.exr", scene];
+        args.extend(set.map(|s| ["--set", s]).into_iter().flatten());
+        refused(&dir, &args, 1, &[needle])
+    };
+    refuse("typo.json", None, "typo.json: settings.max_dpeth: unknown key; did you mean `max_depth`?");
+    refuse("negative.json", None, "negative.json: settings.max_depth: expected an integer in 0..=1024, got -3");
+    refuse("colour.json", None, "colour.json: materials.m.base_colour: unknown key; did you mean `base_color`?");
+    // A value set on the command line is checked as one in the file is.
+    refuse(
+        "ok.json",
+        Some("settings.max_depth=1e30"),
+        "settings.max_depth: expected an integer in 0..=1024, got 1e+30",
+    );
+    let output = spectrace()
+        .current_dir(&dir)
+        .args(["render", "-q", "--width", "8", "--height", "6", "-o", "o.exr", "ok.json"])
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+}
+
+#[test]
 fn a_path_tracer_flag_given_to_the_paper_model_is_named_not_dropped() {
     let dir = scratch("rr_depth_whitted");
     let output = spectrace()

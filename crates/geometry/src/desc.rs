@@ -430,8 +430,8 @@ pub struct MaterialDesc {
     pub alpha_mode: Option<AlphaMode>,
     /// glTF `baseColorFactor`'s alpha.
     pub alpha: Option<f32>,
-    /// Raw glTF material `extras`, unknown manifest keys, or MTL statements this loader does not read, passed
-    /// up untouched (spectral overrides go here).
+    /// Raw glTF material `extras`, a manifest material's `extras` object, or MTL statements this loader does not
+    /// read, passed up untouched (spectral overrides go here).
     pub extras: Option<serde_json::Value>,
 }
 
@@ -679,6 +679,28 @@ pub enum SceneFormat {
     Obj,
 }
 
+/// A manifest's `"settings"`: every key is one of these, its value checked when the file is read, so the
+/// integrators above read one typed value each (an unwritten key is `None`: the integrator's default).
+/// Serialises as written (unset keys left out), for `spectrace info`.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Settings {
+    /// The model `--integrator auto` renders with, by name as written (the layers above know the names).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrator: Option<String>,
+    /// The recursion limit (bounces), in `0..=`[`Settings::MAX_DEPTH`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_depth: Option<u32>,
+    /// The bounces before the path tracer's Russian roulette may end a path, in `0..=`[`Settings::MAX_DEPTH`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rr_depth: Option<u32>,
+}
+
+impl Settings {
+    /// The largest `max_depth` and `rr_depth` a manifest may ask for: far beyond any converged render (a
+    /// path rarely survives 64 bounces), while a value written by mistake (`1e30`) is refused, not saturated.
+    pub const MAX_DEPTH: u32 = 1024;
+}
+
 /// Everything read from a scene file: world-space geometry, materials, lights, camera and settings.
 #[derive(Clone, Debug)]
 pub struct SceneDescription {
@@ -704,8 +726,8 @@ pub struct SceneDescription {
     pub cameras: Vec<(String, CameraDesc)>,
     /// Radiance seen by rays that escape the scene (spectrum, scale); not a light.
     pub background: Option<(SpectrumDesc, f32)>,
-    /// Free-form render settings from the manifest (`"max_depth"`, …), interpreted by the layers above.
-    pub settings: serde_json::Map<String, serde_json::Value>,
+    /// The manifest's render settings, each key checked when the file is read (none for glTF and OBJ).
+    pub settings: Settings,
     /// Things the user should know: skipped primitives, ignored textures, defaults added.
     pub warnings: Vec<String>,
     /// Digest (XXH64) of the bytes of every file read to build the description, the scene file
@@ -732,7 +754,7 @@ impl SceneDescription {
             camera: None,
             cameras: Vec::new(),
             background: None,
-            settings: serde_json::Map::new(),
+            settings: Settings::default(),
             warnings: Vec::new(),
             source_hash: 0,
             memory: crate::MemoryBudget::default(),

@@ -70,6 +70,36 @@ pub(crate) fn only_keys(ctx: &Ctx<'_>, context: &str, obj: &Map<String, Value>, 
     }
 }
 
+/// The error for `key`, not one of the `known` keys of the object at `context`: it lists them, and names the
+/// nearest when it is within two edits (a typo such as `max_dpeth` or `base_colour`), so a misspelt key is
+/// refused with its fix instead of being ignored.
+pub(crate) fn unknown_key(ctx: &Ctx<'_>, context: &str, key: &str, known: &[&str]) -> Error {
+    let nearest = known.iter().map(|k| (edit_distance(key, k), *k)).filter(|(d, _)| *d <= 2).min_by_key(|(d, _)| *d);
+    let hint = nearest.map(|(_, k)| format!("; did you mean `{k}`?")).unwrap_or_default();
+    ctx.err(format!("{context}.{key}"), format!("unknown key{hint} (known keys: {})", known.join(", ")))
+}
+
+/// Edits (insert, delete or replace a character, or swap two neighbours) that turn `a` into `b`: the
+/// optimal string alignment distance, so a swapped pair (`dpeth`) counts as one typo.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    // Three rows of the table: i − 2, i − 1 and i characters of `a` against every prefix of `b`.
+    let mut before: Vec<usize> = Vec::new();
+    let mut previous: Vec<usize> = (0..=b.len()).collect();
+    for i in 1..=a.len() {
+        let mut current = vec![i; b.len() + 1];
+        for j in 1..=b.len() {
+            let replace = previous[j - 1] + usize::from(a[i - 1] != b[j - 1]);
+            current[j] = replace.min(previous[j] + 1).min(current[j - 1] + 1);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                current[j] = current[j].min(before[j - 2] + 1);
+            }
+        }
+        before = std::mem::replace(&mut previous, current);
+    }
+    previous[b.len()]
+}
+
 /// `number | "name" | {"rgb":[r,g,b]} | {"csv":"file","column":"c"} | {"samples":[[λ,v],…]} | {"name":"n"}`;
 /// the `name`, `csv` and `samples` objects may add `"normalize": false` (an absolute emission
 /// spectrum, [`SpectrumDesc::Absolute`]; `true` is the default).
@@ -221,4 +251,21 @@ pub(crate) fn absorption(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<Abso
         return Err(ctx.err(format!("{context}.attenuation_distance"), format!("{distance} must be > 0")));
     }
     Ok(AbsorptionDesc::Attenuation { color, distance })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edit_distance_counts_a_swapped_pair_as_one_edit() {
+        assert_eq!(edit_distance("max_depth", "max_depth"), 0);
+        assert_eq!(edit_distance("max_dpeth", "max_depth"), 1);
+        assert_eq!(edit_distance("base_colour", "base_color"), 1);
+        assert_eq!(edit_distance("maxdepth", "max_depth"), 1);
+        assert_eq!(edit_distance("depth", "max_depth"), 4);
+        assert_eq!(edit_distance("", "ks"), 2);
+        assert_eq!(edit_distance("ks", ""), 2);
+        assert_eq!(edit_distance("ïor", "ior"), 1);
+    }
 }

@@ -64,7 +64,7 @@ mod prefilter;
 pub use desc::{
     AbsorptionDesc, AlphaMode, AnisotropyLayer, CameraDesc, Clearcoat, EnvironmentMapDesc, ImageDesc, IorDesc,
     LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, MaterialTextures, Projection, SceneDescription,
-    SceneFormat, SheenLayer, SpectrumDesc, SpecularLayer, TextureDesc, TextureTransform, WrapMode,
+    SceneFormat, Settings, SheenLayer, SpectrumDesc, SpecularLayer, TextureDesc, TextureTransform, WrapMode,
 };
 pub use hash::xxh64;
 pub use limits::{DEFAULT_FLATTEN_TRIANGLES, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE, MemoryBudget};

@@ -1,9 +1,9 @@
 //! The scene manifest: a small JSON file a user writes by hand (format in `docs/scene-format.md`).
 //!
-//! Parsing is two-staged: serde reads the structure (unknown top-level, camera, light, object and transform
-//! keys are errors naming the key, so typos are never silent), then each value that can take several forms
-//! (spectra, IORs, absorption) is converted by hand with a context path such as `materials.glass.ior`, so
-//! every error says where it is.
+//! Parsing is two-staged: serde reads the structure (unknown top-level, camera, light, object, transform,
+//! material and settings keys are errors naming the key, so typos are never silent), then each value that can
+//! take several forms (spectra, IORs, absorption) is converted by hand with a context path such as
+//! `materials.glass.ior`, so every error says where it is.
 
 use std::path::{Path, PathBuf};
 
@@ -13,10 +13,10 @@ use serde_json::{Map, Value};
 
 use crate::desc::{
     CameraDesc, EnvironmentMapDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, Projection,
-    SceneDescription, SceneFormat, SpectrumDesc,
+    SceneDescription, SceneFormat, Settings, SpectrumDesc,
 };
 use crate::error::{Error, Result};
-use crate::forms::{Ctx, absorption, ior, number, spectrum};
+use crate::forms::{Ctx, absorption, ior, number, spectrum, unknown_key};
 use crate::limits::{Budget, check_coordinates};
 use crate::shapes::{Mesh, Sphere};
 
@@ -171,8 +171,10 @@ enum ScaleJson {
     PerAxis([f32; 3]),
 }
 
-/// Material keys; anything else goes to `extras` (with a warning, so typos are visible).
+/// Material keys ([`MATERIAL_KEYS`]); free-form data for the layers above goes under `extras`, so a misspelt
+/// key is an error, not data.
 #[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
 struct MaterialJson {
     model: Option<String>,
     metal: Option<String>,
@@ -193,9 +195,36 @@ struct MaterialJson {
     emission_strength: Option<f32>,
     double_sided: Option<bool>,
     multiple_scattering: Option<bool>,
-    #[serde(flatten)]
-    extras: Map<String, Value>,
+    extras: Option<Value>,
 }
+
+/// The fields of [`MaterialJson`], checked before serde reads them so that an unknown one gets a
+/// did-you-mean (a test keeps the two lists equal).
+const MATERIAL_KEYS: &[&str] = &[
+    "model",
+    "metal",
+    "base_color",
+    "diffuse",
+    "specular",
+    "ks",
+    "shininess",
+    "metallic",
+    "roughness",
+    "transmission",
+    "transmittance",
+    "ior",
+    "dispersion",
+    "absorption",
+    "thickness",
+    "emission",
+    "emission_strength",
+    "double_sided",
+    "multiple_scattering",
+    "extras",
+];
+
+/// The keys of `settings`, each read by [`settings`].
+const SETTINGS_KEYS: &[&str] = &["integrator", "max_depth", "rr_depth"];
 
 /// Model hints the layers above understand (see [`MaterialDesc::model`]).
 const KNOWN_MODELS: &[&str] = &["hall", "diffuse", "dielectric", "conductor", "mirror"];
@@ -259,7 +288,7 @@ pub(crate) fn parse(
     // deterministic.
     let mut names: Vec<String> = Vec::new();
     for (name, value) in &json.materials {
-        desc.materials.push(material(&ctx, name, value, &mut desc.warnings)?);
+        desc.materials.push(material(&ctx, name, value)?);
         names.push(name.clone());
     }
     let lookup = |name: &Option<String>, context: &str| -> Result<Option<u32>> {
@@ -286,7 +315,7 @@ pub(crate) fn parse(
     if let Some(bg) = &json.background {
         desc.background = Some(background(&ctx, bg)?);
     }
-    desc.settings = json.settings;
+    desc.settings = settings(&ctx, &json.settings)?;
 
     for (i, object) in json.objects.into_iter().enumerate() {
         let context = format!("objects[{i}]");
@@ -509,8 +538,45 @@ fn background(ctx: &Ctx<'_>, v: &Value) -> Result<(SpectrumDesc, f32)> {
     Ok((spectrum(ctx, "background", v)?, 1.0))
 }
 
-fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>) -> Result<MaterialDesc> {
+/// The `settings` object: each key known and its value in range, or an error naming the key.
+fn settings(ctx: &Ctx<'_>, json: &Map<String, Value>) -> Result<Settings> {
+    let mut out = Settings::default();
+    for (key, value) in json {
+        let context = format!("settings.{key}");
+        match key.as_str() {
+            "integrator" => {
+                // Which names exist is the integrators' business (`--integrator auto` checks it).
+                let name = value.as_str().ok_or_else(|| {
+                    ctx.err(&context, format!("expected a string (\"whitted-hall\" or \"path\"), got {value}"))
+                })?;
+                out.integrator = Some(name.to_owned());
+            }
+            "max_depth" => out.max_depth = Some(depth(ctx, &context, value)?),
+            "rr_depth" => out.rr_depth = Some(depth(ctx, &context, value)?),
+            _ => return Err(unknown_key(ctx, "settings", key, SETTINGS_KEYS)),
+        }
+    }
+    Ok(out)
+}
+
+/// A depth setting: a whole number in `0..=Settings::MAX_DEPTH` (`20.0` is 20). `-3`, `2.5`, `1e30` and `"20"`
+/// are refused rather than clamped, truncated, saturated or ignored: a mistake in the file must not quietly
+/// change the render.
+fn depth(ctx: &Ctx<'_>, context: &str, value: &Value) -> Result<u32> {
+    let max = Settings::MAX_DEPTH;
+    value
+        .as_f64()
+        .filter(|d| d.fract() == 0.0 && (0.0..=f64::from(max)).contains(d))
+        // In range and whole: exact.
+        .map(|d| d as u32)
+        .ok_or_else(|| ctx.err(context, format!("expected an integer in 0..={max}, got {value}")))
+}
+
+fn material(ctx: &Ctx<'_>, name: &str, value: &Value) -> Result<MaterialDesc> {
     let context = format!("materials.{name}");
+    if let Some(key) = value.as_object().and_then(|o| o.keys().find(|k| !MATERIAL_KEYS.contains(&k.as_str()))) {
+        return Err(unknown_key(ctx, &context, key, MATERIAL_KEYS));
+    }
     let m: MaterialJson = serde_json::from_value(value.clone()).map_err(|e| ctx.err(&context, e.to_string()))?;
     let mut out = MaterialDesc::new(name, MaterialFormat::Manifest);
     // Ranges are checked here (an out-of-range value is an error naming its key); defaults are not filled
@@ -554,15 +620,16 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value, warnings: &mut Vec<String>
     out.emission_strength = non_negative("emission_strength", m.emission_strength)?;
     out.double_sided = m.double_sided;
     out.multiple_scattering = m.multiple_scattering;
-    if !m.extras.is_empty() {
-        let keys: Vec<&str> = m.extras.keys().map(String::as_str).collect();
-        warnings.push(format!(
-            "{}: {context}: unknown key(s) {} kept in extras for the layers above",
-            ctx.origin,
-            keys.join(", ")
-        ));
-        out.extras = Some(Value::Object(m.extras));
-    }
+    // Passed up untouched, as a glTF material's `extras` are.
+    out.extras = match m.extras {
+        None => None,
+        Some(extras @ Value::Object(_)) => Some(extras),
+        Some(other) => {
+            return Err(
+                ctx.err(format!("{context}.extras"), format!("expected an object of free-form data, got {other}"))
+            );
+        }
+    };
     Ok(out)
 }
 
@@ -803,10 +870,92 @@ mod tests {
     }
 
     #[test]
-    fn unknown_material_key_goes_to_extras_with_a_warning() {
-        let d =
-            parse_text(r#"{"materials":{"m":{"ks":0.1,"spectral_override":"x"}}}"#).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(d.materials[0].extras, Some(serde_json::json!({"spectral_override":"x"})));
-        assert!(d.warnings.iter().any(|w| w.contains("spectral_override")));
+    fn a_misspelt_material_key_is_refused_with_the_key_it_means() {
+        let message = |material: &str| {
+            let text = format!(r#"{{"materials":{{"m":{material}}}}}"#);
+            parse_text(&text).err().map(|e| e.to_string()).unwrap_or_else(|| panic!("{material} loaded"))
+        };
+        let m = message(r#"{"base_colour":"colorchecker:13"}"#);
+        assert!(m.starts_with("test.json: materials.m.base_colour: unknown key; did you mean `base_color`?"), "{m}");
+        assert!(m.contains("known keys: model, metal, base_color,") && m.ends_with("extras)"), "{m}");
+        // Far from every key: refused with the list only.
+        let m = message(r#"{"fluorescense":0.5}"#);
+        assert!(m.starts_with("test.json: materials.m.fluorescense: unknown key (known keys: model,"), "{m}");
+        // Free-form data has one place, an object.
+        assert_eq!(
+            message(r#"{"extras":3}"#),
+            "test.json: materials.m.extras: expected an object of free-form data, got 3"
+        );
+    }
+
+    #[test]
+    fn material_extras_are_passed_up_untouched() {
+        let d = parse_text(r#"{"materials":{"m":{"ks":0.1,"extras":{"anything":1,"spectral_override":"x"}}}}"#)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.materials[0].extras, Some(serde_json::json!({"anything":1,"spectral_override":"x"})));
+        assert_eq!(d.materials[0].ks, Some(0.1));
+        assert!(d.warnings.is_empty(), "{:?}", d.warnings);
+    }
+
+    #[test]
+    fn material_keys_list_the_fields_serde_reads() {
+        // serde's own list of the struct's fields, in declaration order, from its unknown-field error.
+        let e = serde_json::from_str::<MaterialJson>(r#"{"?":0}"#).err().map(|e| e.to_string()).unwrap_or_default();
+        let quoted: Vec<String> = MATERIAL_KEYS.iter().map(|k| format!("`{k}`")).collect();
+        assert!(e.contains(&format!("expected one of {}", quoted.join(", "))), "{e}");
+    }
+
+    #[test]
+    fn settings_are_typed_and_checked() {
+        let settings = |body: &str| parse_text(&format!(r#"{{"settings":{body}}}"#)).map(|d| d.settings);
+        let message =
+            |body: &str| settings(body).err().map(|e| e.to_string()).unwrap_or_else(|| panic!("{body} loaded"));
+        assert_eq!(
+            settings(r#"{"max_depth":20,"rr_depth":0,"integrator":"whitted-hall"}"#).ok(),
+            Some(Settings { integrator: Some("whitted-hall".into()), max_depth: Some(20), rr_depth: Some(0) })
+        );
+        // A whole number written as a float is that number; the limit itself is accepted.
+        assert_eq!(
+            settings(r#"{"max_depth":20.0,"rr_depth":1024}"#).ok().map(|s| (s.max_depth, s.rr_depth)),
+            Some((Some(20), Some(1024)))
+        );
+        assert_eq!(settings("{}").ok(), Some(Settings::default()));
+        // A wrong type or a value out of range is an error naming its place, not clamped, saturated or ignored.
+        assert_eq!(
+            message(r#"{"max_depth":-3}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got -3"
+        );
+        assert_eq!(
+            message(r#"{"max_depth":"20"}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got \"20\""
+        );
+        assert_eq!(
+            message(r#"{"max_depth":1e30}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got 1e+30"
+        );
+        assert_eq!(
+            message(r#"{"rr_depth":-1}"#),
+            "test.json: settings.rr_depth: expected an integer in 0..=1024, got -1"
+        );
+        assert_eq!(
+            message(r#"{"max_depth":2.5}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got 2.5"
+        );
+        assert_eq!(
+            message(r#"{"max_depth":1025}"#),
+            "test.json: settings.max_depth: expected an integer in 0..=1024, got 1025"
+        );
+        assert_eq!(
+            message(r#"{"max_dpeth":8}"#),
+            "test.json: settings.max_dpeth: unknown key; did you mean `max_depth`? (known keys: integrator, max_depth, rr_depth)"
+        );
+        assert_eq!(
+            message(r#"{"ambient":0.1}"#),
+            "test.json: settings.ambient: unknown key (known keys: integrator, max_depth, rr_depth)"
+        );
+        assert_eq!(
+            message(r#"{"integrator":3}"#),
+            "test.json: settings.integrator: expected a string (\"whitted-hall\" or \"path\"), got 3"
+        );
     }
 }

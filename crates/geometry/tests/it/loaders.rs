@@ -133,7 +133,7 @@ fn five_spheres_has_the_papers_table_1_parameters() {
     assert!(d.spheres.iter().all(|s| s.radius() == 1.0));
     let camera = d.camera.as_ref().unwrap_or_else(|| panic!("camera"));
     assert_eq!((camera.width, camera.height), (Some(640), Some(480)));
-    assert_eq!(d.settings.get("max_depth"), Some(&json!(20)));
+    assert_eq!(d.settings.max_depth, Some(20));
     let [LightDesc::Point { position, spectrum, .. }] = d.lights.as_slice() else { panic!("{:?}", d.lights) };
     assert_eq!(spectrum, &SpectrumDesc::Named("D65".into()));
     // Far from the centre: ≥ 10× the spheres' extent (≈ 11 units).

@@ -375,12 +375,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 (Spectra::Dense(table.0.into_iter().map(|(s, _)| s).collect()), sensor)
             }
         };
-        let max_depth = options
-            .max_depth
-            .unwrap_or_else(|| scene.setting_f64("max_depth").map_or(DEFAULT_MAX_DEPTH, |d| d.max(0.0) as u32));
-        let rr_depth = options
-            .rr_depth
-            .unwrap_or_else(|| scene.setting_f64("rr_depth").map_or(RR_START_DEPTH, |d| d.max(0.0) as u32));
+        let max_depth = options.max_depth.or(scene.settings.max_depth).unwrap_or(DEFAULT_MAX_DEPTH);
+        let rr_depth = options.rr_depth.or(scene.settings.rr_depth).unwrap_or(RR_START_DEPTH);
         let tracer = Self {
             scene,
             spectra,

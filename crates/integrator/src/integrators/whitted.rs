@@ -143,7 +143,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
             default_material,
             lights,
             background,
-            max_depth: options.max_depth.unwrap_or_else(|| scene.setting_f64("max_depth").map_or(20, |d| d as u32)),
+            max_depth: options.max_depth.or(scene.settings.max_depth).unwrap_or(20),
             min_weight: options.min_weight,
             map_lambda: lanes.wavelengths,
             map_rgb: lanes.rgb,
