@@ -169,7 +169,7 @@ fn bad_arguments_and_cells_are_errors() {
 
 #[test]
 fn hostile_spectra_and_steps_are_errors_not_crashes_or_nulls() {
-    // Issue 16 items 4 and 9, each once a panic, a terabyte allocation or a `null` in the JSON.
+    // Each was once a panic, a terabyte allocation or a `null` in the JSON.
     // The hostile CSV inputs are the fuzz regressions; the library's test `every_csv_fuzz_
     // regression_is_the_error_it_should_be` checks each, so one of each kind of argument here.
     let regression = |name: &str| format!("{}/../../fuzz/regressions/csv/{name}", env!("CARGO_MANIFEST_DIR"));

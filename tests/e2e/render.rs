@@ -248,7 +248,7 @@ fn info_reports_what_the_default_scene_needs() {
     assert_eq!(json["spectral_auto"], "bins:32");
 }
 
-/// Issue 17: where `auto` pilots (F11's lines need bins:95, dearer per ray than hero:4), the
+/// Where `auto` pilots (F11's lines need bins:95, dearer per ray than hero:4), the
 /// render says what the pilot measured and `info` tables it; a render too small to pilot says
 /// nothing and keeps the first step's choice.
 #[test]
@@ -287,7 +287,7 @@ fn auto_says_what_its_pilot_measured() {
 
 #[test]
 fn image_and_pool_limits_are_checked_before_rendering() {
-    // Issue 16 items 3, 8, 9: 65536² passed the per-side check and aborted allocating 51 GB;
+    // 65536² passed the per-side check and aborted allocating 51 GB;
     // `--threads 100000` hung; `--width 0` reported "480".
     let dir = scratch("render_limits");
     for (args, needle) in [
@@ -375,7 +375,7 @@ fn sigterm_during_a_render_exits_130_and_writes_nothing() {
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
 }
 
-/// Issue 13: with no flags, the paper's scenes render with the paper's model and everything else
+/// With no flags, the paper's scenes render with the paper's model and everything else
 /// with the path tracer, each saying why; a file without camera gets the three-quarter view.
 #[test]
 fn no_flags_choose_the_integrator_and_camera_and_say_why() {

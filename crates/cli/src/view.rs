@@ -1,5 +1,5 @@
-//! Arguments shared by `render` and `info` that decide what a render looks like with no flags
-//! (issue 13): the integrator, the camera and the PNG's exposure.
+//! Arguments shared by `render` and `info` that decide what a render looks like with no flags:
+//! the integrator, the camera and the PNG's exposure.
 
 use std::str::FromStr;
 

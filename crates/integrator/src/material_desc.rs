@@ -365,7 +365,7 @@ pub(crate) fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         emission,
         model,
         // glTF writes a transmission factor, not Hall's constants: its reflection and transmission share
-        // the light by Fresnel (issue 11: k_s = k_t = 1 made glass 10–30× brighter than paper).
+        // the light by Fresnel (k_s = k_t = 1 made glass 10–30× brighter than paper).
         fresnel_weighted: desc.format == MaterialFormat::Gltf && transmits,
         // glTF's doubleSided defaults to false; the manifest's `double_sided` and OBJ default to both sides.
         two_sided: desc.double_sided.unwrap_or(desc.format != MaterialFormat::Gltf),

@@ -1,4 +1,4 @@
-//! Renders that check the material models end to end (issue 11): a sphere lit from the camera, so
+//! Renders that check the material models end to end: a sphere lit from the camera, so
 //! every pixel's light is direct (nothing else to bounce off) and the image is deterministic up to
 //! pixel jitter.
 
@@ -79,7 +79,7 @@ fn highlight_fwhm_deg(image: &Image) -> f32 {
     2.0 * 2.0 * rho.asin().to_degrees()
 }
 
-/// Issue 11: the highlight of a glTF metal widens monotonically with roughness (a measured width,
+/// The highlight of a glTF metal widens monotonically with roughness (a measured width,
 /// not a look). Before the glTF model was wired, every metallic ≥ 0.5 surface was a perfect mirror,
 /// which shows a point light as nothing: all widths were 0.
 #[test]
@@ -101,7 +101,7 @@ fn gltf_metal_highlight_widens_monotonically_with_roughness() {
     assert!(widths[0] > 0.0, "{widths:?}");
 }
 
-/// Issue 11: glTF's default material (every factor omitted: white, metallic 1, roughness 1) rendered
+/// The default glTF material (every factor omitted: white, metallic 1, roughness 1) rendered
 /// as a black mirror (mean luminance 0); it is a rough white metal. Measured: 0.37 of a white Lambertian
 /// sphere's mean luminance under a light at the eye (the glTF metal lobe is single-scattering GGX at
 /// α = 1, which loses ≈ 40 % of the energy, and scatters less straight back than Lambert).
@@ -241,7 +241,7 @@ fn an_unknown_metal_is_an_error_naming_the_material_and_the_known_metals() {
     assert!(e.contains("materials.m.metal"), "{e}");
 }
 
-/// Issue 11, item 7: in the paper's model glTF glass (k_s = k_t = 1, base colour white) reflected
+/// In the paper's model glTF glass (k_s = k_t = 1, base colour white) reflected
 /// k_d + k_s + k_t ≈ 3 times the light it received. In a uniform environment no point of a glass sphere
 /// may be brighter than the environment (Fresnel-weighted reflection + transmission ≤ 1).
 #[test]
@@ -369,7 +369,7 @@ fn mixture_z(image: &Image, parts: &[(f64, &Image)]) -> f64 {
     mean / (var / n).sqrt()
 }
 
-/// Issue 11: KHR_materials_transmission below 1 is the extension's blend, mix(diffuse, btdf, t) under one
+/// KHR_materials_transmission below 1 is the extension's blend, mix(diffuse, btdf, t) under one
 /// specular layer, inside mix(dielectric, metal, metallic). With one scattering event per path the image
 /// of the blend is the blend of the images of its parts: t = 0.5 is half the opaque surface and half the
 /// glass, and metallic 0.5 adds half the metal. Before, t = 0.5 was glass with half its transmission
@@ -398,7 +398,7 @@ fn gltf_transmission_below_one_is_the_extensions_blend() {
     assert!(wrong.abs() > 8.0, "wrong weights must be rejected: z = {wrong}");
 }
 
-/// Issue 11: `KHR_materials_clearcoat` is `mix(material, specular_brdf(α_c), clearcoat · F(N·V))`, F Schlick's
+/// `KHR_materials_clearcoat` is `mix(material, specular_brdf(α_c), clearcoat · F(N·V))`, F Schlick's
 /// of index 1.5, and `KHR_materials_specular` 0 turns the dielectric layer off. Seen near the normal
 /// (N·V > 0.99 on the quad: F = 0.04 to 1e-9), one scattering event per path, so images mix linearly:
 /// - a black base with its layer off reflects nothing at all (exactly 0);

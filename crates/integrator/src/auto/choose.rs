@@ -262,7 +262,7 @@ mod tests {
         delta_e_2000(Lab::from_xyz(exact, white), Lab::from_xyz(got, white))
     }
 
-    /// Issue 16: the rule looked at light × surface products only, never at σ_a, and chose
+    /// The rule looked at light × surface products only, never at σ_a, and chose
     /// bins:8 for glass with a narrow absorption band at 580 nm, which it renders violet.
     #[test]
     fn a_narrow_absorption_band_is_not_rendered_with_eight_bins() {

@@ -341,7 +341,7 @@ mod tests {
 
     #[test]
     fn a_full_disk_is_an_error_even_when_the_image_fits_the_buffer() {
-        // Issue 16 item 5: the PNG fits BufWriter's 8 KiB buffer, so the encoder itself never
+        // The PNG fits BufWriter's 8 KiB buffer, so the encoder itself never
         // sees the failing disk; only the final flush does. Dropping the buffer (what
         // `image::save_buffer_with_format` does) swallows that error: the bug, shown here.
         let image = Image::new(4, 4);

@@ -1,4 +1,4 @@
-//! The one place a render's camera is decided (issue 13): the file's camera (or the one
+//! The one place a render's camera is decided: the file's camera (or the one
 //! `--camera N|NAME` names), else a default three-quarter view that frames the scene's bounds;
 //! then the command line's `--look-from`, `--look-at` and `--fov`, which work for every format.
 

@@ -235,7 +235,7 @@ mod tests {
         assert_eq!(s["materials"][1]["uses"]["specular_layer"], json!(false));
     }
 
-    /// Issue 10: `info` reports the assembled model and the one `is_transmissive`. `"model": "dielectric"`
+    /// `info` reports the assembled model and the one `is_transmissive`. `"model": "dielectric"`
     /// with transmission 0 is a dielectric whose transmission is black (reflection only), so not transmissive;
     /// without `transmission` it is clear glass.
     #[test]

@@ -1,4 +1,4 @@
-//! Issue 13: what a file renders with when the user gives no flags (integrator, camera, exposure).
+//! What a file renders with when the user gives no flags (integrator, camera, exposure).
 
 use std::path::Path;
 
@@ -98,7 +98,7 @@ fn the_exr_records_the_pngs_exposure_only_when_there_is_one() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Issue 12: an orthographic camera 2·1.6 wide and 2 high at z = 5, looking at a black unit quad centred
+/// An orthographic camera 2·1.6 wide and 2 high at z = 5, looking at a black unit quad centred
 /// at the origin before a white background, on a 32×20 image (0.1 scene units per pixel): the quad covers
 /// exactly pixels x = 11..=20, y = 5..=14 (x = −1.6 + 0.1·(px + ½) within ±0.5), whatever the depth. The
 /// camera was ignored (the default view used) before.
@@ -136,7 +136,7 @@ fn an_orthographic_camera_fills_exactly_the_predicted_pixels() {
     }
 }
 
-/// Issue 12: a glTF camera's `aspectRatio` (and an orthographic camera's xmag / ymag) sets the default
+/// A glTF camera's `aspectRatio` (and an orthographic camera's xmag / ymag) sets the default
 /// height from the default width, and the other side when only one is given; an explicit size wins.
 #[test]
 fn a_cameras_aspect_ratio_drives_the_default_image_size() {
@@ -195,7 +195,7 @@ fn base64_encode(bytes: &[u8]) -> String {
     out
 }
 
-/// Issue 12: a mesh placed by transforms (two-level BVH) renders as its world-space copies do: 12
+/// A mesh placed by transforms (two-level BVH) renders as its world-space copies do: 12
 /// tilted, scaled (some mirrored) boxes under a point light, whitted-hall at pixel centres; every pixel
 /// within 1e-3 of the copies' image but for silhouette pixels (at most 1 %).
 #[test]

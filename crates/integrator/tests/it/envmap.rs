@@ -1,4 +1,4 @@
-//! Environment maps end to end (issue 13): maps written here in code (never third-party HDRIs), read
+//! Environment maps end to end: maps written here in code (never third-party HDRIs), read
 //! from `.hdr` and `.exr`, rendered with known answers; bad files are errors naming the file.
 
 use std::path::{Path, PathBuf};

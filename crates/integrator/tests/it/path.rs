@@ -235,7 +235,7 @@ fn auto_picks_hero_for_dispersion_and_bins_otherwise() {
     assert_eq!(integrator::choose_auto(&f11, IntegratorKind::Path), SpectralMode::Bins(95));
 }
 
-/// Issue 17: where hero wavelengths might be faster than the unbiased bins (bins dearer per ray
+/// Where hero wavelengths might be faster than the unbiased bins (bins dearer per ray
 /// than hero:4, or no bins unbiased), `auto` pilots the candidates and takes the least cost ×
 /// error². F11's lines: bins:95 has no colour noise on the chart and wins outright, and hero:8's
 /// error is below hero:4's. The narrow absorption band, which no bin count holds: hero:8, whose
@@ -357,7 +357,7 @@ fn shadow_rays_are_counted_among_the_rays() {
     assert!(closest >= 16 * 16 * 4, "{closest} closest-hit rays for 1024 camera rays");
 }
 
-/// Issue 16: the Russian-roulette start depth was fixed at 3. `settings.rr_depth` (or
+/// The Russian-roulette start depth was fixed at 3. `settings.rr_depth` (or
 /// `PathOptions::rr_depth`) moves it: starting at 0 ends paths sooner in the Cornell box (fewer
 /// rays), never starting (≥ max_depth) traces every path to the limit or its escape (more), the
 /// setting and the option give the same image, and every choice stays unbiased (mean Y within

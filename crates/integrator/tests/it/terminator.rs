@@ -1,4 +1,4 @@
-//! The shadow terminator of smooth-shaded low-poly meshes (issue 12): light reaches as far as the
+//! The shadow terminator of smooth-shaded low-poly meshes: light reaches as far as the
 //! shading normals say, not only to each flat facet's own horizon (which drew every facet edge as a
 //! step in the shadow).
 

@@ -1,4 +1,4 @@
-//! Image textures end to end (issue 12): a textured quad, lit by a delta light and seen head on,
+//! Image textures end to end: a textured quad, lit by a delta light and seen head on,
 //! renders each texel's colour at the pixels the uv mapping predicts; cut-outs, texture
 //! transforms and normal maps change exactly the pixels and values they should.
 //!
@@ -215,7 +215,7 @@ fn texture_transform_offset_moves_texels_as_the_extension_says() {
     assert_eq!(row(scaled, used), "rrggrrgg");
 }
 
-/// Issue 11: `KHR_materials_transmission`'s texture multiplies the factor per texel. Left texel R = 255
+/// `KHR_materials_transmission`'s texture multiplies the factor per texel. Left texel R = 255
 /// (transmission 1: thin glass, which under a delta light and one bounce shows almost nothing), right texel
 /// R = 0 (opaque plastic). Each half renders as the untextured material of its transmission does.
 /// Before, the texture was ignored (with a warning) and the whole quad was glass.
@@ -249,7 +249,7 @@ fn transmission_texture_multiplies_the_factor_per_texel() {
     }
 }
 
-/// Issue 12: the textures of `KHR_materials_specular` (A × `specularFactor`) and `KHR_materials_clearcoat`
+/// The textures of `KHR_materials_specular` (A × `specularFactor`) and `KHR_materials_clearcoat`
 /// (R × `clearcoatFactor`) vary those factors per texel: with the left texel 1 and the right 0, each half
 /// renders as the untextured material with that factor does. The specular layer over a black base is
 /// all the reflection there is, so its off half is exactly black. Before, both textures were ignored

@@ -1,4 +1,4 @@
-//! Photometric units end to end (issue 13): a light stated in cd, lux, lm or W lights a white
+//! Photometric units end to end: a light stated in cd, lux, lm or W lights a white
 //! Lambertian plane with the luminance photometry predicts, and the film's Y is in nits.
 
 use integrator::SpectralMode;

@@ -1,4 +1,4 @@
-//! Vertex colours end to end (issue 12, item 3): glTF 2.0 §3.7.2.1 and §3.9.2 define the base colour
+//! Vertex colours end to end: glTF 2.0 §3.7.2.1 and §3.9.2 define the base colour
 //! as `baseColorFactor × baseColorTexture × COLOR_0` in linear RGB, so a quad whose vertices are all
 //! one colour on a white factor must render as the same quad with that colour as its factor.
 //!
