@@ -53,9 +53,14 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
         args.variance.as_deref(),
         integrator::ViewPlan::default(),
     )?;
+    if let Some(film) = &args.film {
+        crate::render::check_film_extension("--film", film)?;
+    }
     let mut paths: Vec<&std::path::Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(args.film.as_deref());
-    integrator::check_distinct_outputs(&paths)?;
+    // Before reading a part: no output on a part (it would be replaced) or on another output.
+    let parts: Vec<(&std::path::Path, &str)> = args.parts.iter().map(|p| (p.as_path(), "the part")).collect();
+    integrator::check_outputs_spare_inputs(&paths, &parts)?;
 
     let start = Instant::now();
     // One part at a time: only the sum and the part being added are in memory.

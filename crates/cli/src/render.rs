@@ -317,25 +317,35 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     // Before loading or rendering anything: the image files (the view is the scene's, below), and
     // no two outputs on one path, which would replace each other.
+    for (flag, path) in [("--film", &parts.film), ("--checkpoint", &parts.checkpoint)] {
+        if let Some(path) = path {
+            check_film_extension(flag, path)?;
+        }
+    }
     let png = image_path.as_deref().map(png_path).transpose()?;
+    // The PNG is not named on the command line: an error about it says where it comes from.
+    let explain = |e: integrator::Error| -> anyhow::Error {
+        match (e, &image_path, &png) {
+            (integrator::Error::Write { path, message }, Some(output), Some(png)) => {
+                anyhow::anyhow!("{}: {message} (-o {} also writes {})", path.display(), output.display(), png.display())
+            }
+            (other, ..) => other.into(),
+        }
+    };
     let mut plan = OutputPlan::new(
         image_path.as_deref(),
         args.display,
         args.spectral_exr.as_deref(),
         None,
         integrator::ViewPlan::default(),
-    )?;
+    )
+    .map_err(explain)?;
     let mut paths: Vec<&Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(parts.film.as_deref());
     if parts.checkpoint != parts.film {
         paths.extend(parts.checkpoint.as_deref());
     }
-    integrator::check_distinct_outputs(&paths).map_err(|e| match (e, &image_path, &png) {
-        (integrator::Error::Write { path, message }, Some(output), Some(png)) => {
-            anyhow::anyhow!("{}: {message} (-o {} also writes {})", path.display(), output.display(), png.display())
-        }
-        (other, ..) => other.into(),
-    })?;
+    integrator::check_distinct_outputs(&paths).map_err(explain)?;
 
     let mut assembly = args.camera.assembly((args.width, args.height));
     assembly.environment = args.env.option()?;
@@ -347,6 +357,15 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         None => RenderScene::from_description_with(RenderScene::default_description()?, &assembly)
             .context("building the default scene")?,
     };
+    // Still before anything is written: no output may replace a file the scene was read from, nor
+    // the film to resume, unless it is the film or checkpoint that continues it (what a resumed
+    // render writes there holds the resumed samples and more).
+    let inputs: Vec<(&Path, &str)> = scene.input_files().iter().map(|p| (p.as_path(), "the scene's input")).collect();
+    integrator::check_outputs_spare_inputs(&paths, &inputs).map_err(explain)?;
+    if let Some(resume) = &parts.resume {
+        let images: Vec<&Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
+        integrator::check_outputs_spare_inputs(&images, &[(resume, "the film to resume")]).map_err(explain)?;
+    }
     let (integrator_kind, integrator_note) = args.integrator.resolve(&scene);
     let (view_plan, exposure_why) = args.exposure.plan(&scene)?;
     plan.view = view_plan;
@@ -520,6 +539,15 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
 fn cancelled() -> ! {
     eprintln!("spectrace: render cancelled; nothing was written");
     std::process::exit(i32::from(EXIT_CANCELLED));
+}
+
+/// A film or checkpoint path must end in `.film`: the rule that keeps `--film scene.gltf` or
+/// `--checkpoint render.png` from being taken for a film's name (the file would hold film bytes).
+pub(crate) fn check_film_extension(flag: &str, path: &Path) -> anyhow::Result<()> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(ext) if ext.eq_ignore_ascii_case("film") => Ok(()),
+        _ => anyhow::bail!("{flag} {}: a film file must end in .film", path.display()),
+    }
 }
 
 /// `out.exr` → `out.png`; the output must be an `.exr` so the pair is unambiguous.

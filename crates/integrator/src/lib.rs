@@ -75,7 +75,7 @@ pub use film::file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Mer
 pub use film::{Film, ObjectId};
 
 // Images and their files.
-pub use files::{check_distinct_outputs, remove_pending_outputs};
+pub use files::{check_distinct_outputs, check_outputs_spare_inputs, remove_pending_outputs};
 pub use output::{
     Display, EXR_VIEW_ATTRIBUTE, Exposure, Image, MIDDLE_GREY, OutputFile, OutputKind, OutputPlan, Tonemap, View,
     ViewPlan, auto_exposure_ev, pbr_neutral,

@@ -124,6 +124,8 @@ pub struct RenderScene {
     pub warnings: Vec<String>,
     /// Digest of the scene's files ([`SceneDescription::source_hash`]).
     pub(crate) source_hash: u64,
+    /// The files the scene was read from ([`SceneDescription::source_files`], and the environment map).
+    pub(crate) source_files: Vec<std::path::PathBuf>,
     /// What loading and assembly charged to the scene's memory budget (files, geometry, decoded
     /// images), and the budget: `info` reports it, so a user can size `--max-memory`.
     pub(crate) memory: geometry::MemoryBudget,
@@ -184,6 +186,7 @@ impl RenderScene {
             settings,
             mut warnings,
             mut source_hash,
+            mut source_files,
             mut memory,
         } = desc;
         let started = std::time::Instant::now();
@@ -350,6 +353,10 @@ impl RenderScene {
                         EnvironmentMap::load(&m.path, intensity.value, m.rotation_deg, &mut memory, &mut warnings)?;
                     // Films record the scene's digest: the map's bytes are part of the scene.
                     source_hash = geometry::xxh64(&map.digest().to_le_bytes(), source_hash);
+                    // `--env` names a map the loaders never saw.
+                    if !source_files.contains(&m.path) {
+                        source_files.push(m.path.clone());
+                    }
                     Light::environment_map(map)
                 }
                 _ => light_from_desc(l).map_err(|source| Error::Light { index, source })?,
@@ -455,6 +462,7 @@ impl RenderScene {
             light_descs,
             warnings,
             source_hash,
+            source_files,
             memory,
         };
         scene.emitters = Emitters::new(
@@ -483,6 +491,13 @@ impl RenderScene {
     /// record it so that parts are known to come from the same scene.
     pub fn source_hash(&self) -> u64 {
         self.source_hash
+    }
+
+    /// The files the scene was read from: the scene file, the files it refers to (meshes, MTL,
+    /// buffers, textures, spectrum CSVs) and the environment map, as resolved (relative to the
+    /// working folder unless absolute); none for a scene built in code. No output may replace one.
+    pub fn input_files(&self) -> &[std::path::PathBuf] {
+        &self.source_files
     }
 
     /// The image size the scene asks for (the paper's 640×480 if it does not say; a camera's aspect
