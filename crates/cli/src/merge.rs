@@ -86,6 +86,13 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
         }
     }
     let file = &merged.file;
+    // As `render` does: the parts' non-finite samples were added as black.
+    let samples = file.film.sample_counts().iter().map(|&c| u64::from(c)).sum();
+    match integrator::nonfinite_verdict(file.film.nonfinite_samples(), samples) {
+        integrator::NonfiniteVerdict::Clean => {}
+        integrator::NonfiniteVerdict::Warn(message) => eprintln!("spectrace: warning: {message}"),
+        integrator::NonfiniteVerdict::Refuse(message) => anyhow::bail!("{message}; nothing was written"),
+    }
     if args.spectral_exr.is_some() && file.film.wavelengths().is_empty() {
         anyhow::bail!(
             "--spectral-exr: the films have no per-wavelength sums (render the parts with --spectral-film and bins:N)"

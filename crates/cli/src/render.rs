@@ -479,6 +479,13 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         Err(integrator::Error::Cancelled) => cancelled(),
         other => other?,
     };
+    // Non-finite samples are added as black: a few are said loudly (even with --quiet), and an
+    // image made mostly of them is not written at all, film included.
+    match integrator::nonfinite_verdict(stats.nonfinite_samples, stats.samples) {
+        integrator::NonfiniteVerdict::Clean => {}
+        integrator::NonfiniteVerdict::Warn(message) => eprintln!("spectrace: warning: {message}"),
+        integrator::NonfiniteVerdict::Refuse(message) => anyhow::bail!("{message}; nothing was written"),
+    }
     // The film first: it is what a time-limited or partial render is for.
     for path in [&parts.film, &parts.checkpoint].into_iter().flatten() {
         header.write_film(&film, path).context("writing the film")?;

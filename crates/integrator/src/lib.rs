@@ -61,7 +61,9 @@ pub use options::{
     Ambient, DEFAULT_K_A, DEFAULT_RESOLUTION, Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind,
     WavelengthPdf, WhittedOptions, part_samples,
 };
-pub use render::{Checkpoint, Progress, RenderControl, RenderStats};
+pub use render::{
+    Checkpoint, MAX_NONFINITE_SHARE, NonfiniteVerdict, Progress, RenderControl, RenderStats, nonfinite_verdict,
+};
 pub use spectral::{MAX_BINS, SpectralMode};
 
 // Scenes.
