@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -284,6 +284,9 @@ fn with_frame_paths(args: &RenderArgs) -> RenderArgs {
 /// Whether the outputs are being written: a signal then removes their temporaries and exits.
 static WRITING: AtomicBool = AtomicBool::new(false);
 
+/// SIGINTs and SIGTERMs received: the second exits at once, whatever the render is doing.
+static SIGNALS: AtomicU32 = AtomicU32::new(0);
+
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     args.load.check_scene(args.scene.as_deref())?;
     let args = &with_frame_paths(args);
@@ -438,13 +441,17 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let cancel = Arc::new(AtomicBool::new(false));
     {
         let cancel = Arc::clone(&cancel);
-        // SIGINT and SIGTERM (ctrlc's `termination` feature): during the render, stop at the
-        // next row; during the write, remove the temporaries and exit at once.
+        // SIGINT and SIGTERM (ctrlc's `termination` feature): during the render, stop within
+        // a few samples; during the write, or at a second signal (a render that does not stop
+        // soon enough for the user), remove the temporaries (a checkpoint being written) and
+        // exit at once.
         let _ = ctrlc::set_handler(move || {
+            let again = SIGNALS.fetch_add(1, Ordering::SeqCst) > 0;
             cancel.store(true, Ordering::SeqCst);
-            if WRITING.load(Ordering::SeqCst) {
+            if WRITING.load(Ordering::SeqCst) || again {
                 integrator::remove_pending_outputs();
-                eprintln!("spectrace: interrupted while writing; nothing was written");
+                let when = if again { "interrupted again" } else { "interrupted while writing" };
+                eprintln!("spectrace: {when}; nothing was written");
                 std::process::exit(i32::from(EXIT_CANCELLED));
             }
         });

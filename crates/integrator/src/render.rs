@@ -293,6 +293,13 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     let rotation = sampler.rotation(pixel);
                     let next = samples.start + row.count(x);
                     for i in first_sample.max(next)..last_sample {
+                        // Within the pixel too: a row of 64 pixels at 2²⁰ spp is minutes of work.
+                        // A relaxed load every CANCEL_EVERY samples costs nothing next to them,
+                        // and a cancelled render's film is dropped, so a pixel left half done is
+                        // never seen.
+                        if i % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
+                            return Err(Error::Cancelled);
+                        }
                         let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed, &mut count);
                         if i == 0 {
                             row.set_first_hit(x, r.first);
@@ -337,6 +344,11 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     };
     Ok((film, stats))
 }
+
+/// Samples between two looks at the cancel flag in the pixel loop: a sample takes from about a
+/// microsecond (one sphere, whitted-hall) to a few hundred (deep paths), so a Ctrl-C is seen
+/// within milliseconds at worst.
+const CANCEL_EVERY: u32 = 16;
 
 /// Everything that decides one camera sample: the film's wavelengths, the camera ray and the
 /// integrator's radiance along it. The pixel loop and `auto`'s pilot (`pilot.rs`) take their
