@@ -376,3 +376,49 @@ fn set_and_frame_render_what_the_edited_file_renders() {
         &["b.film: cannot merge with a.film", "a different scene"],
     );
 }
+
+/// `bytes` of a film file claiming `count` non-finite samples, its checksums remade: no valid
+/// scene makes them any more, but a film records them, so this is how a render or merge meets them.
+fn with_nonfinite(bytes: &[u8], count: u64) -> Vec<u8> {
+    let mut b = bytes.to_vec();
+    // Magic, version, header length (16 bytes), then 3 u64 and 7 u32 fields before the count.
+    b[68..76].copy_from_slice(&count.to_le_bytes());
+    let header_end = 16 + u32::from_le_bytes(b[12..16].try_into().unwrap()) as usize;
+    let header = geometry::xxh64(&b[..header_end], 0);
+    b[header_end..header_end + 8].copy_from_slice(&header.to_le_bytes());
+    let end = b.len() - 8;
+    let all = geometry::xxh64(&b[..end], 0);
+    b[end..].copy_from_slice(&all.to_le_bytes());
+    b
+}
+
+#[test]
+fn non_finite_samples_are_a_warning_and_beyond_one_percent_an_error() {
+    let dir = scratch("farm_nonfinite");
+    let scene = cornell();
+    let args = ["render", &scene, "--width", "8", "--height", "6", "--spp", "4", "--integrator", "path", "-q"];
+    let args = [&args[..], &["--spectral", "bins:8"]].concat();
+    run(&dir, &[&args[..], &["--part", "1/2", "--film", "a.film"]].concat());
+    run(&dir, &[&args[..], &["--part", "2/2", "--film", "b.film"]].concat());
+    let a = std::fs::read(dir.join("a.film")).unwrap();
+    // 96 samples a part: 1 of the 192 is 0.52 %, written with a warning; 2 % is refused.
+    for (name, count) in [("one.film", 1), ("four.film", 4), ("all.film", 96)] {
+        std::fs::write(dir.join(name), with_nonfinite(&a, count)).unwrap();
+        assert_eq!(integrator::FilmFile::read(&dir.join(name)).unwrap().film.nonfinite_samples(), count);
+    }
+    let stderr = run(&dir, &["merge", "one.film", "b.film", "-o", "one.exr"]);
+    assert!(
+        stderr.contains("spectrace: warning: 1 of 192 samples (0.521 %) were NaN or infinite and were added as black"),
+        "{stderr}"
+    );
+    assert!(dir.join("one.exr").exists() && dir.join("one.png").exists());
+    refused(
+        &dir,
+        &["merge", "four.film", "b.film", "-o", "four.exr", "--film", "m.film", "-q"],
+        1,
+        &["4 of 192 samples (2.083 %) were NaN or infinite, more than 1 %", "nothing was written"],
+    );
+    // A render that resumes a film holding them counts them too (here nothing is left to render).
+    let resume = [&args[..], &["--part", "1/2", "--resume", "all.film", "--film", "r.film", "-o", "r.exr"]].concat();
+    refused(&dir, &resume, 1, &["96 of 96 samples (100.000 %) were NaN or infinite", "nothing was written"]);
+}

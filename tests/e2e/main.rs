@@ -2,4 +2,5 @@
 mod color;
 mod farm;
 mod fuzz_replay;
+mod outputs;
 mod render;

@@ -375,6 +375,40 @@ fn sigterm_during_a_render_exits_130_and_writes_nothing() {
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
 }
 
+#[test]
+fn ctrl_c_stops_a_render_of_many_samples_per_pixel_within_a_second() {
+    // Cancellation was seen between rows only: at 2^20 spp a row of 64 pixels is minutes of work,
+    // and SIGINT took 24 s to end this render.
+    let dir = scratch("render_sigint_spp");
+    let mut child = spectrace()
+        .current_dir(&dir)
+        .args(["render", "--spp", "1048576", "--width", "64", "--height", "48", "--threads", "1", "--quiet"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Long enough for the handler to be installed (the scene loads in milliseconds).
+    std::thread::sleep(std::time::Duration::from_millis(1000));
+    assert!(child.try_wait().unwrap().is_none(), "the render ended before the signal");
+    let sent = std::time::Instant::now();
+    let killed = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    while child.try_wait().unwrap().is_none() {
+        if sent.elapsed() > std::time::Duration::from_secs(2) {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("still rendering 2 s after SIGINT");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let latency = sent.elapsed();
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("render cancelled; nothing was written"), "{stderr}");
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing written");
+    eprintln!("SIGINT to exit: {latency:?}");
+}
+
 /// With no flags, the paper's scenes render with the paper's model and everything else
 /// with the path tracer, each saying why; a file without camera gets the three-quarter view.
 #[test]

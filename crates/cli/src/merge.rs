@@ -53,9 +53,14 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
         args.variance.as_deref(),
         integrator::ViewPlan::default(),
     )?;
+    if let Some(film) = &args.film {
+        crate::render::check_film_extension("--film", film)?;
+    }
     let mut paths: Vec<&std::path::Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(args.film.as_deref());
-    integrator::check_distinct_outputs(&paths)?;
+    // Before reading a part: no output on a part (it would be replaced) or on another output.
+    let parts: Vec<(&std::path::Path, &str)> = args.parts.iter().map(|p| (p.as_path(), "the part")).collect();
+    integrator::check_outputs_spare_inputs(&paths, &parts)?;
 
     let start = Instant::now();
     // One part at a time: only the sum and the part being added are in memory.
@@ -81,6 +86,13 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
         }
     }
     let file = &merged.file;
+    // As `render` does: the parts' non-finite samples were added as black.
+    let samples = file.film.sample_counts().iter().map(|&c| u64::from(c)).sum();
+    match integrator::nonfinite_verdict(file.film.nonfinite_samples(), samples) {
+        integrator::NonfiniteVerdict::Clean => {}
+        integrator::NonfiniteVerdict::Warn(message) => eprintln!("spectrace: warning: {message}"),
+        integrator::NonfiniteVerdict::Refuse(message) => anyhow::bail!("{message}; nothing was written"),
+    }
     if args.spectral_exr.is_some() && file.film.wavelengths().is_empty() {
         anyhow::bail!(
             "--spectral-exr: the films have no per-wavelength sums (render the parts with --spectral-film and bins:N)"

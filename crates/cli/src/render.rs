@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use anyhow::Context as _;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -285,6 +285,9 @@ fn with_frame_paths(args: &RenderArgs) -> RenderArgs {
 /// Whether the outputs are being written: a signal then removes their temporaries and exits.
 static WRITING: AtomicBool = AtomicBool::new(false);
 
+/// SIGINTs and SIGTERMs received: the second exits at once, whatever the render is doing.
+static SIGNALS: AtomicU32 = AtomicU32::new(0);
+
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     args.load.check_scene(args.scene.as_deref())?;
     let args = &with_frame_paths(args);
@@ -318,13 +321,20 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     // Before loading or rendering anything: the image files (the view is the scene's, below), and
     // no two outputs on one path, which would replace each other.
-    let png = image_path.as_deref().map(png_path).transpose()?;
-    // A clash names the PNG that -o writes too, which the user did not type.
-    let clash = |e: integrator::Error| match (e, &image_path, &png) {
-        (integrator::Error::Write { path, message }, Some(output), Some(png)) => {
-            anyhow::anyhow!("{}: {message} (-o {} also writes {})", path.display(), output.display(), png.display())
+    for (flag, path) in [("--film", &parts.film), ("--checkpoint", &parts.checkpoint)] {
+        if let Some(path) = path {
+            check_film_extension(flag, path)?;
         }
-        (other, ..) => other.into(),
+    }
+    let png = image_path.as_deref().map(png_path).transpose()?;
+    // The PNG is not named on the command line: an error about it says where it comes from.
+    let explain = |e: integrator::Error| -> anyhow::Error {
+        match (e, &image_path, &png) {
+            (integrator::Error::Write { path, message }, Some(output), Some(png)) => {
+                anyhow::anyhow!("{}: {message} (-o {} also writes {})", path.display(), output.display(), png.display())
+            }
+            (other, ..) => other.into(),
+        }
     };
     let mut plan = OutputPlan::new(
         image_path.as_deref(),
@@ -333,13 +343,13 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         None,
         integrator::ViewPlan::default(),
     )
-    .map_err(clash)?;
+    .map_err(explain)?;
     let mut paths: Vec<&Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(parts.film.as_deref());
     if parts.checkpoint != parts.film {
         paths.extend(parts.checkpoint.as_deref());
     }
-    integrator::check_distinct_outputs(&paths).map_err(clash)?;
+    integrator::check_distinct_outputs(&paths).map_err(explain)?;
 
     let mut assembly = args.camera.assembly((args.width, args.height));
     assembly.environment = args.env.option()?;
@@ -351,6 +361,15 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         None => RenderScene::from_description_with(RenderScene::default_description()?, &assembly)
             .context("building the default scene")?,
     };
+    // Still before anything is written: no output may replace a file the scene was read from, nor
+    // the film to resume, unless it is the film or checkpoint that continues it (what a resumed
+    // render writes there holds the resumed samples and more).
+    let inputs: Vec<(&Path, &str)> = scene.input_files().iter().map(|p| (p.as_path(), "the scene's input")).collect();
+    integrator::check_outputs_spare_inputs(&paths, &inputs).map_err(explain)?;
+    if let Some(resume) = &parts.resume {
+        let images: Vec<&Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
+        integrator::check_outputs_spare_inputs(&images, &[(resume, "the film to resume")]).map_err(explain)?;
+    }
     let (integrator_kind, integrator_note) = args.integrator.resolve(&scene);
     let (view_plan, exposure_why) = args.exposure.plan(&scene)?;
     plan.view = view_plan;
@@ -423,13 +442,17 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let cancel = Arc::new(AtomicBool::new(false));
     {
         let cancel = Arc::clone(&cancel);
-        // SIGINT and SIGTERM (ctrlc's `termination` feature): during the render, stop at the
-        // next row; during the write, remove the temporaries and exit at once.
+        // SIGINT and SIGTERM (ctrlc's `termination` feature): during the render, stop within
+        // a few samples; during the write, or at a second signal (a render that does not stop
+        // soon enough for the user), remove the temporaries (a checkpoint being written) and
+        // exit at once.
         let _ = ctrlc::set_handler(move || {
+            let again = SIGNALS.fetch_add(1, Ordering::SeqCst) > 0;
             cancel.store(true, Ordering::SeqCst);
-            if WRITING.load(Ordering::SeqCst) {
+            if WRITING.load(Ordering::SeqCst) || again {
                 integrator::remove_pending_outputs();
-                eprintln!("spectrace: interrupted while writing; nothing was written");
+                let when = if again { "interrupted again" } else { "interrupted while writing" };
+                eprintln!("spectrace: {when}; nothing was written");
                 std::process::exit(i32::from(EXIT_CANCELLED));
             }
         });
@@ -464,6 +487,13 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         Err(integrator::Error::Cancelled) => cancelled(),
         other => other?,
     };
+    // Non-finite samples are added as black: a few are said loudly (even with --quiet), and an
+    // image made mostly of them is not written at all, film included.
+    match integrator::nonfinite_verdict(stats.nonfinite_samples, stats.samples) {
+        integrator::NonfiniteVerdict::Clean => {}
+        integrator::NonfiniteVerdict::Warn(message) => eprintln!("spectrace: warning: {message}"),
+        integrator::NonfiniteVerdict::Refuse(message) => anyhow::bail!("{message}; nothing was written"),
+    }
     // The film first: it is what a time-limited or partial render is for.
     for path in [&parts.film, &parts.checkpoint].into_iter().flatten() {
         header.write_film(&film, path).context("writing the film")?;
@@ -524,6 +554,15 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
 fn cancelled() -> ! {
     eprintln!("spectrace: render cancelled; nothing was written");
     std::process::exit(i32::from(EXIT_CANCELLED));
+}
+
+/// A film or checkpoint path must end in `.film`: the rule that keeps `--film scene.gltf` or
+/// `--checkpoint render.png` from being taken for a film's name (the file would hold film bytes).
+pub(crate) fn check_film_extension(flag: &str, path: &Path) -> anyhow::Result<()> {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(ext) if ext.eq_ignore_ascii_case("film") => Ok(()),
+        _ => anyhow::bail!("{flag} {}: a film file must end in .film", path.display()),
+    }
 }
 
 /// `out.exr` → `out.png`; the output must be an `.exr` so the pair is unambiguous.

@@ -735,6 +735,11 @@ pub struct SceneDescription {
     /// it); 0 for a description built in code. Film files record it so that parts rendered
     /// on different machines are known to come from the same scene.
     pub source_hash: u64,
+    /// Every file read to build the description (the scene file, included meshes, MTL files, buffers and
+    /// images) or checked for the layers above to read (spectrum CSVs, an environment map), as resolved
+    /// (relative to the working folder unless absolute), each once; empty for a description built in code.
+    /// A render refuses to write an output over one of them.
+    pub source_files: Vec<std::path::PathBuf>,
     /// The memory the loaders charged and the scene's budget ([`crate::LoadOptions::max_memory`]): the
     /// assembly step charges the images it decodes against what is left.
     pub memory: crate::MemoryBudget,
@@ -757,6 +762,7 @@ impl SceneDescription {
             settings: Settings::default(),
             warnings: Vec::new(),
             source_hash: 0,
+            source_files: Vec::new(),
             memory: crate::MemoryBudget::default(),
         }
     }

@@ -139,11 +139,19 @@ pub(crate) struct Budget {
     used: Cell<u64>,
     /// (length, XXH64) of every file read, in order: the scene's content digest.
     sources: std::cell::RefCell<Vec<(u64, u64)>>,
+    /// Every file read or checked to be read later (spectrum CSVs, an environment map), in order:
+    /// what a render must not write over.
+    files: std::cell::RefCell<Vec<PathBuf>>,
 }
 
 impl Budget {
     pub(crate) fn new(options: LoadOptions) -> Self {
-        Self { options, used: Cell::new(0), sources: std::cell::RefCell::new(Vec::new()) }
+        Self {
+            options,
+            used: Cell::new(0),
+            sources: std::cell::RefCell::new(Vec::new()),
+            files: std::cell::RefCell::new(Vec::new()),
+        }
     }
 
     /// A budget with the default memory limit that also allows absolute paths (for unit tests, whose inputs
@@ -216,6 +224,11 @@ impl Budget {
         crate::hash::xxh64(&bytes, 0)
     }
 
+    /// The files read or checked so far ([`Budget::check_file`]), each once, in the order first met.
+    pub(crate) fn files(&self) -> Vec<PathBuf> {
+        self.files.borrow().clone()
+    }
+
     /// Checks that `file` is a regular file of at most `max_bytes` (without reading it); returns its size.
     pub(crate) fn check_file(&self, referrer: &Path, file: &Path, max_bytes: u64) -> Result<u64> {
         // A file the scene refers to names the scene file too: which file asked for it.
@@ -237,6 +250,11 @@ impl Budget {
                 size: meta.len(),
                 limit,
             });
+        }
+        // Every file a loader reads passes here first (`read` too), so this is the list of inputs.
+        let mut files = self.files.borrow_mut();
+        if !files.iter().any(|f| f == file) {
+            files.push(file.to_path_buf());
         }
         Ok(meta.len())
     }

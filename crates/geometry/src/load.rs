@@ -59,6 +59,7 @@ pub fn load_scene_with(path: &Path, options: &LoadOptions) -> Result<SceneDescri
     };
     let mut desc = finish(desc, &path.display().to_string());
     desc.source_hash = budget.content_hash();
+    desc.source_files = budget.files();
     desc.memory = budget.memory();
     if extension == "json" { Ok(desc) } else { require_geometry(desc, path) }
 }
@@ -90,6 +91,7 @@ pub fn parse_manifest_with(
     budget.record(text.as_bytes());
     let mut desc = finish(manifest(text, base_dir, origin, &budget)?, origin);
     desc.source_hash = budget.content_hash();
+    desc.source_files = budget.files();
     desc.memory = budget.memory();
     Ok(desc)
 }

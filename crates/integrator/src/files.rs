@@ -62,16 +62,9 @@ pub(crate) fn write_all_or_nothing(files: &[(&Path, Encoder<'_>)]) -> Result<()>
 /// `out/x.exr` and `out/../out/x.exr` clash too; a folder that does not exist is compared as
 /// written (the write then fails on it anyway).
 pub fn check_distinct_outputs(paths: &[&Path]) -> Result<()> {
-    let key = |p: &Path| -> PathBuf {
-        let parent = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        match (std::fs::canonicalize(parent), p.file_name()) {
-            (Ok(dir), Some(name)) => dir.join(name),
-            _ => p.to_owned(),
-        }
-    };
     for (i, a) in paths.iter().enumerate() {
         for b in &paths[..i] {
-            if key(a) == key(b) {
+            if entry_key(a) == entry_key(b) {
                 return Err(Error::Write {
                     path: a.to_path_buf(),
                     message: format!("given for two outputs (also {}); each output needs its own file", b.display()),
@@ -80,6 +73,43 @@ pub fn check_distinct_outputs(paths: &[&Path]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Refuse an output on the path of one of the command's inputs, each given with what it is for
+/// the message (`the scene's file`, `a part being merged`): an output is renamed into place, so
+/// it would replace the input (`-o tex.exr` wrote `tex.png` over the scene's texture, `--film
+/// scene.mtl` replaced the MTL with film bytes). Also refuses two outputs on one path
+/// ([`check_distinct_outputs`]). A path that does not exist yet is no input, and an input is
+/// matched as its folder entry (what the rename replaces) and as the file a symbolic link leads
+/// to.
+pub fn check_outputs_spare_inputs(outputs: &[&Path], inputs: &[(&Path, &str)]) -> Result<()> {
+    check_distinct_outputs(outputs)?;
+    let inputs: Vec<(PathBuf, Option<PathBuf>, &Path, &str)> = inputs
+        .iter()
+        .filter(|(path, _)| path.exists())
+        .map(|&(path, what)| (entry_key(path), std::fs::canonicalize(path).ok(), path, what))
+        .collect();
+    for output in outputs {
+        let key = entry_key(output);
+        let hit = inputs.iter().find(|(entry, target, ..)| *entry == key || target.as_ref() == Some(&key));
+        if let Some((.., input, what)) = hit {
+            return Err(Error::Write {
+                path: output.to_path_buf(),
+                message: format!("would overwrite {what} {}; write the output elsewhere", input.display()),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The folder entry `p` names: its folder resolved (symbolic links, `..`) and its file name; a
+/// folder that does not exist is kept as written.
+fn entry_key(p: &Path) -> PathBuf {
+    let parent = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    match (std::fs::canonicalize(parent), p.file_name()) {
+        (Ok(dir), Some(name)) => dir.join(name),
+        _ => p.to_owned(),
+    }
 }
 
 /// Temporaries of writes in progress, for [`remove_pending_outputs`]. `closed` once a
@@ -189,6 +219,38 @@ mod tests {
         assert_eq!(remove_pending_in(&registry), 1);
         assert!(!tmp.exists());
         assert!(register_in(&registry, &dir.join(".y.tmp")).is_err(), "no new temporary after the cleanup");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn an_output_on_an_input_is_refused_naming_both() {
+        let dir = std::env::temp_dir().join(format!("spectrace-inputs-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let texture = dir.join("tex.png");
+        std::fs::write(&texture, b"texels").unwrap();
+        let link = dir.join("link.png");
+        let _ = std::fs::remove_file(&link);
+        std::os::unix::fs::symlink(&texture, &link).unwrap();
+        let inputs = [(link.as_path(), "the scene's file")];
+        // The input by another spelling of its folder, and the file its link leads to.
+        for output in [dir.join("sub/../link.png"), dir.join("tex.png")] {
+            let e = check_outputs_spare_inputs(&[&dir.join("a.exr"), &output], &inputs).unwrap_err().to_string();
+            assert_eq!(
+                e,
+                format!(
+                    "{}: would overwrite the scene's file {}; write the output elsewhere",
+                    output.display(),
+                    link.display()
+                )
+            );
+        }
+        assert!(check_outputs_spare_inputs(&[&dir.join("tex.exr")], &inputs).is_ok());
+        // An input that does not exist (yet) cannot be overwritten.
+        let missing = dir.join("missing.film");
+        assert!(check_outputs_spare_inputs(&[&missing], &[(&missing, "the film to resume")]).is_ok());
+        // Two outputs on one path are still refused.
+        let twice = check_outputs_spare_inputs(&[&missing, &missing], &[]).unwrap_err().to_string();
+        assert!(twice.contains("given for two outputs"), "{twice}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -61,7 +61,9 @@ pub use options::{
     Ambient, DEFAULT_K_A, DEFAULT_RESOLUTION, Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind,
     WavelengthPdf, WhittedOptions, part_samples,
 };
-pub use render::{Checkpoint, Progress, RenderControl, RenderStats};
+pub use render::{
+    Checkpoint, MAX_NONFINITE_SHARE, NonfiniteVerdict, Progress, RenderControl, RenderStats, nonfinite_verdict,
+};
 pub use spectral::{MAX_BINS, SpectralMode};
 
 // Scenes.
@@ -75,7 +77,7 @@ pub use film::file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Mer
 pub use film::{Film, ObjectId};
 
 // Images and their files.
-pub use files::{check_distinct_outputs, remove_pending_outputs};
+pub use files::{check_distinct_outputs, check_outputs_spare_inputs, remove_pending_outputs};
 pub use output::{
     Display, EXR_VIEW_ATTRIBUTE, Exposure, Image, MIDDLE_GREY, OutputFile, OutputKind, OutputPlan, Tonemap, View,
     ViewPlan, auto_exposure_ev, pbr_neutral,

@@ -48,12 +48,54 @@ pub struct RenderStats {
     pub shadow_rays: u64,
     /// Wall time of the pixel loop (scene assembly excluded).
     pub elapsed: Duration,
-    /// Samples whose value was NaN or infinite (added as black; must be 0).
+    /// Samples whose value was NaN or infinite (added as black; must be 0): see
+    /// [`nonfinite_verdict`].
     pub nonfinite_samples: u64,
+    /// Samples the film holds (all pixels; a resumed film's included, as in `nonfinite_samples`).
+    pub samples: u64,
     /// Fewest samples any pixel got (fewer than asked if a time limit stopped the render).
     pub spp: u32,
     /// Samples whose value was beyond the film's range (2⁴²) and was clamped (should be 0).
     pub clamped_samples: u64,
+}
+
+/// Largest share of a render's samples that may be non-finite for its images to be written.
+/// A non-finite sample is added as black, so a share s darkens the image by s on average: at
+/// 1 % that stays within the noise of a few hundred spp and is not mistaken for a dark scene,
+/// while more means a material, light or texture that fails systematically, and the image
+/// (black where it fails, in the worst case all of it) would be a wrong answer given silently.
+pub const MAX_NONFINITE_SHARE: f64 = 0.01;
+
+/// What a render's non-finite samples (NaN or infinite, added to the film as black) mean for
+/// its images, from [`nonfinite_verdict`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum NonfiniteVerdict {
+    /// None: the image is what the renderer computed.
+    Clean,
+    /// A few (at most [`MAX_NONFINITE_SHARE`]): write the image, and say so loudly.
+    Warn(String),
+    /// More than [`MAX_NONFINITE_SHARE`]: the image would be a silent wrong answer; write nothing.
+    Refuse(String),
+}
+
+/// The verdict on `nonfinite` non-finite samples out of `samples` ([`RenderStats`]); the
+/// messages give the count and the share.
+pub fn nonfinite_verdict(nonfinite: u64, samples: u64) -> NonfiniteVerdict {
+    if nonfinite == 0 {
+        return NonfiniteVerdict::Clean;
+    }
+    let share = nonfinite as f64 / samples.max(1) as f64;
+    let counted = format!("{nonfinite} of {samples} samples ({:.3} %) were NaN or infinite", 100.0 * share);
+    if share > MAX_NONFINITE_SHARE {
+        NonfiniteVerdict::Refuse(format!(
+            "{counted}, more than {} %: the image would be black where they fell; a bug in a material, light or texture (please report the scene)",
+            100.0 * MAX_NONFINITE_SHARE
+        ))
+    } else {
+        NonfiniteVerdict::Warn(format!(
+            "{counted} and were added as black: the image is darker where they fell (please report the scene)"
+        ))
+    }
 }
 
 /// Calls [`render_film_with`] makes between passes over the image: a checkpoint.
@@ -251,6 +293,13 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     let rotation = sampler.rotation(pixel);
                     let next = samples.start + row.count(x);
                     for i in first_sample.max(next)..last_sample {
+                        // Within the pixel too: a row of 64 pixels at 2²⁰ spp is minutes of work.
+                        // A relaxed load every CANCEL_EVERY samples costs nothing next to them,
+                        // and a cancelled render's film is dropped, so a pixel left half done is
+                        // never seen.
+                        if i % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
+                            return Err(Error::Cancelled);
+                        }
                         let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed, &mut count);
                         if i == 0 {
                             row.set_first_hit(x, r.first);
@@ -289,11 +338,17 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
         shadow_rays: shadow_rays.into_inner(),
         elapsed: start.elapsed(),
         nonfinite_samples: film.nonfinite_samples(),
+        samples: film.sample_counts().iter().map(|&c| u64::from(c)).sum(),
         spp: film.min_sample_count(),
         clamped_samples: film.clamped_samples(),
     };
     Ok((film, stats))
 }
+
+/// Samples between two looks at the cancel flag in the pixel loop: a sample takes from about a
+/// microsecond (one sphere, whitted-hall) to a few hundred (deep paths), so a Ctrl-C is seen
+/// within milliseconds at worst.
+const CANCEL_EVERY: u32 = 16;
 
 /// Everything that decides one camera sample: the film's wavelengths, the camera ray and the
 /// integrator's radiance along it. The pixel loop and `auto`'s pilot (`pilot.rs`) take their
@@ -408,6 +463,34 @@ fn pixel_offsets(spp: u32) -> Vec<(f32, f32)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn non_finite_samples_warn_up_to_one_percent_and_refuse_beyond() {
+        assert_eq!(nonfinite_verdict(0, 1000), NonfiniteVerdict::Clean);
+        assert_eq!(nonfinite_verdict(0, 0), NonfiniteVerdict::Clean);
+        assert_eq!(
+            nonfinite_verdict(3, 3072),
+            NonfiniteVerdict::Warn(
+                "3 of 3072 samples (0.098 %) were NaN or infinite and were added as black: the image is darker where they fell (please report the scene)"
+                    .to_owned()
+            )
+        );
+        // Exactly 1 % is still written; one more sample is not.
+        assert!(matches!(nonfinite_verdict(10, 1000), NonfiniteVerdict::Warn(_)));
+        assert_eq!(
+            nonfinite_verdict(11, 1000),
+            NonfiniteVerdict::Refuse(
+                "11 of 1000 samples (1.100 %) were NaN or infinite, more than 1 %: the image would be black where they fell; a bug in a material, light or texture (please report the scene)"
+                    .to_owned()
+            )
+        );
+        // All of them: the silent black image this is for.
+        let all = nonfinite_verdict(3072, 3072);
+        assert!(
+            matches!(&all, NonfiniteVerdict::Refuse(m) if m.starts_with("3072 of 3072 samples (100.000 %)")),
+            "{all:?}"
+        );
+    }
 
     #[test]
     fn pixel_offsets_stay_inside_the_pixel() {

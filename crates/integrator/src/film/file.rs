@@ -177,6 +177,60 @@ fn parse_header(r: &mut Reader<'_>) -> Option<Parsed> {
     Some(Parsed { header, width, height, lanes, has_first_sample: flags & 1 == 1, nonfinite, clamped, wavelengths })
 }
 
+/// The header of a film file of `file_len` bytes from its first bytes (`bytes`: the whole file,
+/// or at least [`MAX_PREFIX_BYTES`] of it), and where its payload starts; errors name `path`:
+/// not a film file, another version, a damaged header, or a length other than the one the header
+/// announces.
+fn read_header(bytes: &[u8], file_len: u64, path: &Path) -> Result<(Parsed, usize)> {
+    let bad = |message: String| Error::FilmFile { path: path.to_owned(), message };
+    if bytes.len() < 8 || bytes[..8] != FILM_MAGIC {
+        return Err(bad("not a spectrace film file (no SPTRFILM magic number)".to_owned()));
+    }
+    let mut r = Reader { bytes, at: 8 };
+    let version = r.u32().ok_or_else(|| bad(format!("truncated: {file_len} bytes, ends in the header")))?;
+    if version != FILM_VERSION {
+        return Err(bad(format!(
+            "film format version {version}, but this build reads version {FILM_VERSION} only (merge with the spectrace that rendered it)"
+        )));
+    }
+    let header_len = r.u32().ok_or_else(|| bad(format!("truncated: {file_len} bytes, ends in the header")))? as usize;
+    // The header has its own checksum, so the size it announces can be trusted: a short
+    // file is then "truncated", a damaged one "corrupted".
+    let header_end = 16usize.saturating_add(header_len);
+    if header_end as u64 + 8 > MAX_PREFIX_BYTES {
+        return Err(bad(format!("corrupted: a header of {header_len} bytes, longer than any film's")));
+    }
+    let (Some(header), Some(stored)) =
+        (bytes.get(16..header_end), header_end.checked_add(8).and_then(|end| bytes.get(header_end..end)))
+    else {
+        return Err(bad(format!("truncated: {file_len} bytes, ends in the header")));
+    };
+    let stored = u64::from_le_bytes(stored.try_into().unwrap_or_default());
+    if geometry::xxh64(&bytes[..header_end], 0) != stored {
+        return Err(bad("corrupted: the header's checksum does not match".to_owned()));
+    }
+    let mut hr = Reader { bytes: header, at: 0 };
+    let p = parse_header(&mut hr)
+        .filter(|_| hr.at == header.len())
+        .ok_or_else(|| bad("corrupted: the header does not parse".to_owned()))?;
+    let payload_at = header_end + 8;
+    let expected = p.payload_bytes().and_then(|payload| payload.checked_add(payload_at + 8));
+    match expected.map(|e| e as u64) {
+        Some(e) if file_len < e => Err(bad(format!("truncated: {file_len} bytes of the {e} its header announces"))),
+        Some(e) if file_len > e => Err(bad(format!("corrupted: {file_len} bytes, but its header announces {e}"))),
+        Some(_) => Ok((p, payload_at)),
+        None => Err(bad("corrupted: the header announces an impossible size".to_owned())),
+    }
+}
+
+/// Longest header (magic, version, length, the fields, four texts of [`MAX_TEXT`] bytes and
+/// [`MAX_BINS`] wavelengths, its checksum): the prefix [`FilmFile::read`] reads first.
+const MAX_PREFIX_BYTES: u64 = (16 + FIXED_HEADER_BYTES + 4 * (4 + MAX_TEXT) + 4 * MAX_BINS + 8) as u64;
+
+/// Largest film file a valid header can announce: [`MAX_PIXELS`] pixels of sums, material ids and
+/// [`MAX_BINS`] per-wavelength sums, after the longest header, and the checksum (≈ 216 GB).
+pub(crate) const MAX_FILM_BYTES: u64 = MAX_PREFIX_BYTES + MAX_PIXELS * (PIXEL_BYTES + 4 + 16 * MAX_BINS) as u64 + 8;
+
 impl FilmHeader {
     /// Write `film` with this header to `path` atomically (a temporary beside it, fsynced,
     /// then renamed): what a checkpoint does without copying the film.
@@ -241,44 +295,7 @@ impl FilmFile {
     /// truncated, corrupted (checksum), or impossible values.
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self> {
         let bad = |message: String| Error::FilmFile { path: path.to_owned(), message };
-        if bytes.len() < 8 || bytes[..8] != FILM_MAGIC {
-            return Err(bad("not a spectrace film file (no SPTRFILM magic number)".to_owned()));
-        }
-        let mut r = Reader { bytes, at: 8 };
-        let version = r.u32().ok_or_else(|| bad(format!("truncated: {} bytes, ends in the header", bytes.len())))?;
-        if version != FILM_VERSION {
-            return Err(bad(format!(
-                "film format version {version}, but this build reads version {FILM_VERSION} only (merge with the spectrace that rendered it)"
-            )));
-        }
-        let header_len =
-            r.u32().ok_or_else(|| bad(format!("truncated: {} bytes, ends in the header", bytes.len())))? as usize;
-        // The header has its own checksum, so the size it announces can be trusted: a short
-        // file is then "truncated", a damaged one "corrupted".
-        let header_end = 16usize.saturating_add(header_len);
-        let (Some(header), Some(stored)) = (bytes.get(16..header_end), bytes.get(header_end..header_end + 8)) else {
-            return Err(bad(format!("truncated: {} bytes, ends in the header", bytes.len())));
-        };
-        let stored = u64::from_le_bytes(stored.try_into().unwrap_or_default());
-        if geometry::xxh64(&bytes[..header_end], 0) != stored {
-            return Err(bad("corrupted: the header's checksum does not match".to_owned()));
-        }
-        let mut hr = Reader { bytes: header, at: 0 };
-        let p = parse_header(&mut hr)
-            .filter(|_| hr.at == header.len())
-            .ok_or_else(|| bad("corrupted: the header does not parse".to_owned()))?;
-        let payload_at = header_end + 8;
-        let expected = p.payload_bytes().and_then(|payload| payload.checked_add(payload_at + 8));
-        match expected {
-            Some(e) if bytes.len() < e => {
-                return Err(bad(format!("truncated: {} bytes of the {e} its header announces", bytes.len())));
-            }
-            Some(e) if bytes.len() > e => {
-                return Err(bad(format!("corrupted: {} bytes, but its header announces {e}", bytes.len())));
-            }
-            Some(_) => {}
-            None => return Err(bad("corrupted: the header announces an impossible size".to_owned())),
-        }
+        let (p, payload_at) = read_header(bytes, bytes.len() as u64, path)?;
         let (body, tail) = bytes.split_at(bytes.len() - 8);
         let stored = u64::from_le_bytes(tail.try_into().unwrap_or_default());
         let computed = geometry::xxh64(body, 0);
@@ -338,10 +355,29 @@ impl FilmFile {
         Ok(Self { header: p.header, film })
     }
 
-    /// Read a film file.
+    /// Read a film file: a regular file (a FIFO would block the read, a device never end it) of
+    /// the length its header announces, which is checked before the payload is read.
     pub fn read(path: &Path) -> Result<Self> {
-        let bytes =
-            std::fs::read(path).map_err(|e| Error::FilmFile { path: path.to_owned(), message: e.to_string() })?;
+        use std::io::Read as _;
+        let fail = |message: String| Error::FilmFile { path: path.to_owned(), message };
+        // The metadata before opening: opening a FIFO blocks until a writer comes.
+        let meta = std::fs::metadata(path).map_err(|e| fail(e.to_string()))?;
+        if !meta.is_file() {
+            return Err(fail("not a regular file (a device, FIFO or folder cannot be a film)".to_owned()));
+        }
+        let len = meta.len();
+        if len > MAX_FILM_BYTES {
+            return Err(fail(format!("{len} bytes, more than any film can have ({MAX_FILM_BYTES})")));
+        }
+        let mut file = std::fs::File::open(path).map_err(|e| fail(e.to_string()))?;
+        // The header says how long the file must be: a damaged or foreign file is refused
+        // before its bulk is read.
+        let mut bytes = Vec::new();
+        (&mut file).take(MAX_PREFIX_BYTES.min(len)).read_to_end(&mut bytes).map_err(|e| fail(e.to_string()))?;
+        read_header(&bytes, len, path)?;
+        // The file may have grown since the metadata was read: never read past its length.
+        bytes.reserve_exact((len as usize).saturating_sub(bytes.len()));
+        file.take(len - bytes.len() as u64).read_to_end(&mut bytes).map_err(|e| fail(e.to_string()))?;
         Self::from_bytes(&bytes, path)
     }
 
@@ -626,8 +662,8 @@ mod tests {
             assert!(e.starts_with("p.film: corrupted"), "{at}: {e}");
         }
         let mut b = bytes.clone();
-        b[8] = 3;
-        assert!(err(&b).contains("version 3"), "{}", err(&b));
+        b[8] = 9;
+        assert!(err(&b).contains("version 9"), "{}", err(&b));
         let mut b = bytes.clone();
         b[0] = b'X';
         assert!(err(&b).contains("not a spectrace film file"));
@@ -638,5 +674,67 @@ mod tests {
         let mut b = bytes.clone();
         b[12] ^= 1;
         assert!(err(&b).contains("corrupted") || err(&b).contains("truncated"), "{}", err(&b));
+    }
+
+    /// `FilmFile::read(path)`'s error, or a failure if it takes more than 5 s (a FIFO's open
+    /// would block for ever: the read runs on a thread that is abandoned then).
+    fn read_error_promptly(path: &Path) -> String {
+        let (send, receive) = std::sync::mpsc::channel();
+        let owned = path.to_owned();
+        std::thread::spawn(move || send.send(FilmFile::read(&owned).map(|_| ()).map_err(|e| e.to_string())));
+        match receive.recv_timeout(std::time::Duration::from_secs(5)) {
+            Ok(result) => result.expect_err("not a film"),
+            Err(_) => panic!("reading {} did not return within 5 s", path.display()),
+        }
+    }
+
+    #[test]
+    fn only_regular_files_of_the_length_their_header_announces_are_read() {
+        let dir = std::env::temp_dir().join(format!("spectrace-film-read-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        // A FIFO: opening it blocked until a writer came; merge and --resume hung.
+        let fifo = dir.join("fifo.film");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            let e = read_error_promptly(&fifo);
+            assert_eq!(
+                e,
+                format!("{}: not a regular file (a device, FIFO or folder cannot be a film)", fifo.display())
+            );
+        } else {
+            eprintln!("skipped the FIFO: no mkfifo here");
+        }
+        // A device that never ends: it was read until the 2 GB allocation failed.
+        let e = read_error_promptly(Path::new("/dev/zero"));
+        assert_eq!(e, "/dev/zero: not a regular file (a device, FIFO or folder cannot be a film)");
+        assert!(read_error_promptly(&dir).contains("not a regular file"));
+        // A valid film with a long tail (sparse: nothing is written or read but the header):
+        // refused from the header's length.
+        let good = dir.join("good.film");
+        let bytes = sample_file().to_bytes();
+        std::fs::write(&good, &bytes).unwrap();
+        assert_eq!(FilmFile::read(&good).unwrap(), sample_file());
+        let long = dir.join("long.film");
+        std::fs::write(&long, &bytes).unwrap();
+        let file = std::fs::OpenOptions::new().write(true).open(&long).unwrap();
+        file.set_len(1 << 32).unwrap();
+        let e = read_error_promptly(&long);
+        assert_eq!(
+            e,
+            format!("{}: corrupted: {} bytes, but its header announces {}", long.display(), 1u64 << 32, bytes.len())
+        );
+        // Beyond what any header allows: refused before opening.
+        if file.set_len(MAX_FILM_BYTES + 1).is_ok() {
+            let e = read_error_promptly(&long);
+            assert_eq!(
+                e,
+                format!(
+                    "{}: {} bytes, more than any film can have ({MAX_FILM_BYTES})",
+                    long.display(),
+                    MAX_FILM_BYTES + 1
+                )
+            );
+        }
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -125,6 +125,8 @@ pub struct RenderScene {
     pub warnings: Vec<String>,
     /// Digest of the scene's files ([`SceneDescription::source_hash`]).
     pub(crate) source_hash: u64,
+    /// The files the scene was read from ([`SceneDescription::source_files`], and the environment map).
+    pub(crate) source_files: Vec<std::path::PathBuf>,
     /// What loading and assembly charged to the scene's memory budget (files, geometry, decoded
     /// images), and the budget: `info` reports it, so a user can size `--max-memory`.
     pub(crate) memory: geometry::MemoryBudget,
@@ -185,6 +187,7 @@ impl RenderScene {
             settings,
             mut warnings,
             mut source_hash,
+            mut source_files,
             mut memory,
         } = desc;
         let started = std::time::Instant::now();
@@ -249,7 +252,7 @@ impl RenderScene {
 
         let sky_lights =
             replace_environment(options, &mut light_descs, &mut background, &camera, &materials, &mut warnings)?;
-        let mut lights = build_lights(&light_descs, &mut memory, &mut source_hash, &mut warnings)?;
+        let mut lights = build_lights(&light_descs, &mut memory, &mut source_hash, &mut source_files, &mut warnings)?;
         if let Some((added, descs)) = sky_lights {
             lights.extend(added);
             light_descs.extend(descs);
@@ -286,6 +289,7 @@ impl RenderScene {
             light_descs,
             warnings,
             source_hash,
+            source_files,
             memory,
         };
         scene.emitters = Emitters::new(
@@ -314,6 +318,13 @@ impl RenderScene {
     /// record it so that parts are known to come from the same scene.
     pub fn source_hash(&self) -> u64 {
         self.source_hash
+    }
+
+    /// The files the scene was read from: the scene file, the files it refers to (meshes, MTL,
+    /// buffers, textures, spectrum CSVs) and the environment map, as resolved (relative to the
+    /// working folder unless absolute); none for a scene built in code. No output may replace one.
+    pub fn input_files(&self) -> &[std::path::PathBuf] {
+        &self.source_files
     }
 
     /// The image size the scene asks for (the paper's 640×480 if it does not say; a camera's aspect
@@ -833,6 +844,7 @@ fn build_lights(
     light_descs: &[LightDesc],
     memory: &mut geometry::MemoryBudget,
     source_hash: &mut u64,
+    source_files: &mut Vec<PathBuf>,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Light>> {
     let mut lights = Vec::with_capacity(light_descs.len());
@@ -852,6 +864,10 @@ fn build_lights(
                 let map = EnvironmentMap::load(&m.path, intensity.value, m.rotation_deg, memory, warnings)?;
                 // Films record the scene's digest: the map's bytes are part of the scene.
                 *source_hash = geometry::xxh64(&map.digest().to_le_bytes(), *source_hash);
+                // `--env` names a map the loaders never saw.
+                if !source_files.contains(&m.path) {
+                    source_files.push(m.path.clone());
+                }
                 Light::environment_map(map)
             }
             _ => light_from_desc(l).map_err(|source| Error::Light { index, source })?,
