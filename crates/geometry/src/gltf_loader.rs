@@ -187,6 +187,7 @@ pub(crate) fn load_gltf_slice(
         budget,
         desc: SceneDescription::empty(SceneFormat::Gltf),
         default_material: None,
+        refused: None,
     };
     for note in notes {
         loader.warn(note);
@@ -197,7 +198,10 @@ pub(crate) fn load_gltf_slice(
     }
     loader.partial_triangles(&document);
     loader.traverse(&document)?;
-    Ok(loader.desc)
+    match loader.refused {
+        Some(e) => Err(e),
+        None => Ok(loader.desc),
+    }
 }
 
 /// The file with `"nodes": []` added to every scene that has no `nodes` key and without its animations
@@ -470,6 +474,9 @@ struct Loader<'a> {
     desc: SceneDescription,
     /// Index of the glTF default material, added on first use by a primitive without a material.
     default_material: Option<u32>,
+    /// The first image that the file rules refuse (an absolute path, the memory budget): an error of
+    /// the whole file, as for buffers and MTL maps, not a texture dropped with a note.
+    refused: Option<Error>,
 }
 
 impl Loader<'_> {
@@ -1122,6 +1129,10 @@ impl Loader<'_> {
                     self.desc.images.push(desc);
                     self.images.insert(image.index(), self.desc.images.len() - 1);
                     self.desc.images.len() - 1
+                }
+                Err(e @ (Error::AbsolutePath { .. } | Error::OverBudget { .. })) => {
+                    self.refused.get_or_insert(e);
+                    return None;
                 }
                 Err(e) => {
                     self.warn(format!("{context}: texture {} not used: {e}", texture.index()));

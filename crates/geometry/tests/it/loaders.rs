@@ -886,6 +886,32 @@ fn devices_and_absolute_buffer_paths_are_refused() {
 }
 
 #[test]
+fn an_absolute_image_path_is_refused_in_gltf_as_in_mtl() {
+    // One rule for every file a scene names: a glTF image by absolute path was dropped with a note
+    // (the render went on without its texture) where an MTL map, a buffer or a mesh is an error.
+    let dir = temp_dir("absolute_image");
+    let image = dir.join("tex.png");
+    std::fs::write(&image, b"not decoded by the loader").unwrap();
+    let doc = material_triangle(json!({
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0}],
+        "images": [{"uri": image.display().to_string()}],
+    }));
+    let path = write_gltf(&dir, "abs.gltf", &doc);
+    let (e, msg) = error_message(&path);
+    assert!(matches!(e, Error::AbsolutePath { .. }), "{e:?}");
+    assert!(msg.contains("abs.gltf") && msg.contains("tex.png") && msg.contains("--allow-absolute-paths"), "{msg}");
+    let allow = LoadOptions { allow_absolute_paths: true, ..LoadOptions::default() };
+    let desc = load_scene_with(&path, &allow).unwrap();
+    assert_eq!(desc.images.len(), 1);
+    // The MTL side of the rule, as it was.
+    std::fs::write(dir.join("abs.mtl"), format!("newmtl m\nKd 1 1 1\nmap_Kd {}\n", image.display())).unwrap();
+    let obj = write(&dir, "abs.obj", b"mtllib abs.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n");
+    let e = load_scene(&obj).err().unwrap_or_else(|| panic!("loaded"));
+    assert!(matches!(e, Error::AbsolutePath { .. }) && e.to_string().contains("abs.mtl"), "{e:?}");
+}
+
+#[test]
 fn coordinates_beyond_1e18_are_refused_naming_file_and_object() {
     let dir = temp_dir("far");
     let far: Vec<f32> = vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1e25, 1.0, 0.0];
