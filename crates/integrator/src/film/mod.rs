@@ -253,6 +253,23 @@ impl Film {
                 expected: "a film of the same size and wavelengths",
             });
         }
+        // Films a render writes cannot overflow (a sample is below 2^42 with 64 fractional bits, at
+        // most 2^20 of them: under 2^126), but a file can say anything its checksums agree with:
+        // check every sum first, so a refused merge leaves this film as it was.
+        let fits = self.pixels.iter().zip(&other.pixels).all(|(a, b)| {
+            a.xyz.iter().zip(&b.xyz).all(|(x, y)| x.checked_add(*y).is_some())
+                && a.y2.checked_add(b.y2).is_some()
+                && a.count.checked_add(b.count).is_some()
+        }) && self.spectral.iter().zip(&other.spectral).all(|(a, b)| a.checked_add(*b).is_some())
+            && self.nonfinite.checked_add(other.nonfinite).is_some()
+            && self.clamped.checked_add(other.clamped).is_some();
+        if !fits {
+            return Err(Error::InvalidOption {
+                option: "film to merge",
+                value: "sums beyond the film's range".to_owned(),
+                expected: "sums a render can make (the file is damaged or was not written by a render)",
+            });
+        }
         for (a, b) in self.pixels.iter_mut().zip(&other.pixels) {
             for c in 0..3 {
                 a.xyz[c] += b.xyz[c];
@@ -504,6 +521,24 @@ impl WavelengthTable {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_merge_whose_sums_would_overflow_is_refused_and_changes_nothing() {
+        // A film file can hold any sums its checksums agree with; merging one with itself made
+        // `merge` overflow (found by the `film` fuzz target).
+        let mut a = Film::new(1, 1, Vec::new());
+        a.pixels[0].xyz[1] = i128::MAX / 2 + 1;
+        a.pixels[0].count = 1;
+        let before = a.clone();
+        let err = a.merge(&before).unwrap_err().to_string();
+        assert!(err.contains("beyond the film's range"), "{err}");
+        assert_eq!(a, before);
+        let mut b = Film::new(1, 1, Vec::new());
+        b.pixels[0].xyz[1] = 5;
+        b.pixels[0].count = 1;
+        a.merge(&b).unwrap();
+        assert_eq!((a.pixels[0].xyz[1], a.pixels[0].count), (i128::MAX / 2 + 6, 2));
+    }
 
     #[test]
     fn guided_wavelength_search_counts_what_the_full_search_counts() {
