@@ -161,15 +161,15 @@ pub(crate) fn check_options(options: &RenderOptions) -> Result<Range<u32>> {
 }
 
 /// Render `scene` with the spectral mode already resolved (never `auto`): the pixel loop over
-/// the samples the options ask for, on the render's own thread pool.
+/// `samples` (the range [`check_options`] returned), on the render's own thread pool.
 pub(crate) fn render_resolved(
     scene: &RenderScene,
     options: &RenderOptions,
     control: RenderControl<'_>,
     spectral: SpectralMode,
+    samples: Range<u32>,
 ) -> Result<(Film, RenderStats)> {
     let RenderControl { progress, cancel, resume, checkpoint, spectral: _ } = control;
-    let samples = check_options(options)?;
     if options.spectral_film && !matches!(spectral, SpectralMode::Bins(_)) {
         return Err(Error::InvalidOption {
             option: "spectral mode for a spectral image",

@@ -48,12 +48,12 @@ pub fn render_film_with(
     options: &RenderOptions,
     control: RenderControl<'_>,
 ) -> Result<(Film, RenderStats)> {
-    check_options(options)?;
+    let samples = check_options(options)?;
     let spectral = match control.spectral {
         Some(s) => s,
         None => resolved_spectral(scene, options)?,
     };
-    render_resolved(scene, options, control, spectral)
+    render_resolved(scene, options, control, spectral, samples)
 }
 
 /// The spectral mode a render of `scene` with `options` uses: `auto` resolved, hero refused
