@@ -181,8 +181,11 @@ fn film_bytes(data: &[u8]) {
     if let Ok(film) = file.resumable(&header, width, height, path) {
         let plan = integrator::OutputPlan::new(None, integrator::Display::Srgb, None, None, view)
             .expect("a plan without files");
-        let (image, v) = plan.develop(&film);
+        let (image, v) = plan.develop(&film, header.samples.start);
         assert!(v.ev.is_finite(), "view {v:?}");
+        if let Some(e) = film.error_estimate(f64::from(v.ev).exp2(), header.samples.start) {
+            assert!(e.pixels.iter().chain(&e.tiles).all(|x| !x.is_nan()), "a NaN error estimate");
+        }
         for c in image.to_linear_rgb(integrator::Display::Srgb) {
             assert!(c.iter().all(|x| x.is_finite()), "non-finite pixel {c:?}");
         }

@@ -20,8 +20,8 @@ pub(crate) struct InfoArgs {
     width: Option<u32>,
     #[arg(long)]
     height: Option<u32>,
-    #[arg(long, default_value_t = 1)]
-    spp: u32,
+    #[command(flatten)]
+    sampling: crate::render::SamplingArgs,
     #[command(flatten)]
     load: crate::render::LoadArgs,
     #[command(flatten)]
@@ -83,11 +83,37 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
             integrator::IntegratorKind::WhittedHall => integrator::Integrator::default(),
             integrator::IntegratorKind::Path => integrator::Integrator::Path(integrator::PathOptions::default()),
         };
-        let options = integrator::RenderOptions { width, height, integrator, spp: args.spp, ..Default::default() };
+        let sampling = args.sampling.plan(kind)?;
+        let options = integrator::RenderOptions {
+            width,
+            height,
+            integrator,
+            spp: sampling.spp,
+            time_limit: sampling.time_limit,
+            target_error: sampling.target.map(|delta_e| integrator::TargetError { delta_e, exposure_ev: None }),
+            ..Default::default()
+        };
         options.check_limits()?;
-        anyhow::ensure!((1..=1 << 20).contains(&args.spp), "--spp {} is outside 1..=1048576", args.spp);
         let auto = integrator::auto_decision(&scene, &options)?;
         object.insert("spectral_auto".to_owned(), serde_json::Value::String(auto.spectral.to_string()));
+        // What a render would stop at, and (when the pilot ran) the samples it predicts for it.
+        let chosen = auto.candidates.iter().find(|c| c.spectral == auto.spectral);
+        object.insert(
+            "samples".to_owned(),
+            serde_json::json!({
+                "stop": sampling.why,
+                "spp": sampling.spp,
+                "target_delta_e00": sampling.target,
+                "time_limit_s": sampling.time_limit.map(|t| t.as_secs_f64()),
+                // The pilot judges colours at EV 0 (white = 1 in the scene's units): only then is it
+                // the render's measure.
+                "pilot_spp_to_target": match (chosen, sampling.target, plan.exposure) {
+                    (Some(c), Some(t), integrator::Exposure::Fixed(0.0)) =>
+                        serde_json::json!(c.spp_for(f64::from(t)).round()),
+                    _ => serde_json::Value::Null,
+                },
+            }),
+        );
         // What the pilot measured, per candidate: modelled cost per sample, the predicted mean
         // ΔE00 of a 1-spp image and the spp and cost to mean ΔE00 1.
         let candidates: Vec<_> = auto

@@ -23,6 +23,10 @@ pub(crate) struct MergeArgs {
     /// (`Y.variance`), relative error √variance / Y (`Y.relativeError`) and samples (`spp`).
     #[arg(long, value_name = "FILE.exr")]
     variance: Option<PathBuf>,
+    /// Also write each pixel's estimated colour error (the parts need half-film sums: rendered
+    /// with --error-map): ΔE00 per pixel and per 8×8 tile, and the samples.
+    #[arg(long, value_name = "FILE.exr")]
+    error_map: Option<PathBuf>,
     /// Write the merged film too (it merges further: a tree of merges for many parts).
     #[arg(long, value_name = "FILE.film")]
     film: Option<PathBuf>,
@@ -42,8 +46,8 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
     if args.output.is_none() && args.film.is_none() {
         anyhow::bail!("nothing to write: give -o OUT.exr and/or --film OUT.film");
     }
-    if (args.spectral_exr.is_some() || args.variance.is_some()) && args.output.is_none() {
-        anyhow::bail!("--spectral-exr and --variance go with -o OUT.exr");
+    if (args.spectral_exr.is_some() || args.variance.is_some() || args.error_map.is_some()) && args.output.is_none() {
+        anyhow::bail!("--spectral-exr, --variance and --error-map go with -o OUT.exr");
     }
     // The same plan as the render's: its view comes from the parts' headers, below.
     let mut plan = OutputPlan::new(
@@ -53,6 +57,9 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
         args.variance.as_deref(),
         integrator::ViewPlan::default(),
     )?;
+    if let Some(path) = &args.error_map {
+        plan.add_error_map(path)?;
+    }
     if let Some(film) = &args.film {
         crate::render::check_film_extension("--film", film)?;
     }
@@ -104,7 +111,12 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<()> {
     if !plan.outputs.is_empty() {
         plan.view =
             file.header.view.parse().with_context(|| format!("{}: the film's view", args.parts[0].display()))?;
-        let (image, _) = plan.develop(&file.film);
+        if args.error_map.is_some() && !file.film.has_halves() {
+            anyhow::bail!(
+                "--error-map: the films have no half-film sums (render the parts with --error-map, or to a target error)"
+            );
+        }
+        let (image, _) = plan.develop(&file.film, file.header.samples.start);
         plan.write(&image).context("writing the outputs (none was written)")?;
     }
     let write = start.elapsed().saturating_sub(read + merge);

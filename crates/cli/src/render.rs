@@ -37,16 +37,8 @@ pub(crate) struct RenderArgs {
     /// the scene's spectra).
     #[arg(help_heading = "Sampling", long, default_value = "auto")]
     spectral: SpectralMode,
-    /// Samples per pixel (whitted-hall: deterministic sub-pixel positions; path: jittered).
-    #[arg(help_heading = "Sampling", long, default_value_t = 1)]
-    spp: u32,
-    /// Seed of the path tracer's random numbers (same seed: same image, any thread count).
-    #[arg(help_heading = "Sampling", long, default_value_t = 0)]
-    seed: u64,
-    /// Stop after this many seconds: samples are then taken one per pixel per pass, and rows not
-    /// started when time is up are skipped (every pixel gets at least one sample).
-    #[arg(help_heading = "Sampling", long, value_parser = parse_seconds)]
-    time_limit: Option<std::time::Duration>,
+    #[command(flatten)]
+    sampling: SamplingArgs,
     /// Path tracer with `hero:K`: wavelength density, `illuminant` (follows the lights'
     /// spectra) or `visible` (pbrt-v4's).
     #[arg(help_heading = "Sampling", long, default_value = "illuminant")]
@@ -84,6 +76,10 @@ pub(crate) struct RenderArgs {
     /// where it chooses bins.
     #[arg(help_heading = "Output", long, value_name = "FILE.exr")]
     spectral_exr: Option<PathBuf>,
+    /// Also write each pixel's estimated colour error as an OpenEXR: ΔE00 per pixel (`deltaE00`)
+    /// and per 8×8 tile (`deltaE00.tile`), and the samples taken (`spp`).
+    #[arg(help_heading = "Output", long, value_name = "FILE.exr")]
+    error_map: Option<PathBuf>,
     /// No progress bar or notes on stderr.
     #[arg(help_heading = "Output", short, long)]
     quiet: bool,
@@ -97,6 +93,125 @@ pub(crate) struct RenderArgs {
     env: crate::view::EnvArgs,
     #[command(flatten)]
     exposure: crate::view::ExposureArgs,
+}
+
+/// How many samples a render takes: exactly `--spp`, or until a target error (docs/defaults.md,
+/// "Samples"). Shared by `render` and `info`, which says what a render would stop at.
+#[derive(Debug, Clone, clap::Args)]
+#[command(next_help_heading = "Sampling")]
+pub(crate) struct SamplingArgs {
+    /// Samples per pixel, exactly (whitted-hall: deterministic sub-pixel positions; path:
+    /// jittered) [default: the path tracer renders to --target-error; whitted-hall takes 1].
+    #[arg(long, conflicts_with_all = ["target_error", "max_spp"])]
+    spp: Option<u32>,
+    /// Path tracer: take samples until every 8×8-pixel tile's estimated mean colour error
+    /// (CIEDE2000 against the converged image, as the PNG shows it) is at most this [default: 1,
+    /// when --spp is not given].
+    #[arg(long, value_name = "DELTA_E00")]
+    target_error: Option<f32>,
+    /// Most samples per pixel a render to --target-error takes [default: 4096].
+    #[arg(long)]
+    max_spp: Option<u32>,
+    /// Stop after this many seconds (0: no limit). Samples are then taken one per pixel per pass,
+    /// and rows not started when time is up are skipped (every pixel gets at least one sample)
+    /// [default: 300 for a render to --target-error, else none].
+    #[arg(long, value_parser = parse_time_limit)]
+    time_limit: Option<std::time::Duration>,
+    /// Seed of the path tracer's random numbers (same seed: same image, any thread count).
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+/// Error a path-traced render takes samples to when neither `--spp` nor `--target-error` is given:
+/// ΔE00 1 is about the smallest colour difference seen between two patches side by side, so the
+/// noise left is at the edge of visibility.
+pub(crate) const DEFAULT_TARGET_ERROR: f32 = 1.0;
+/// Most samples per pixel of a render to a target error when `--max-spp` is not given (Cycles'
+/// default maximum).
+pub(crate) const DEFAULT_MAX_SPP: u32 = 4096;
+/// Time limit of a render to a target error when `--time-limit` is not given: a first image is
+/// answered within minutes, however hard the scene.
+pub(crate) const DEFAULT_TIME_LIMIT: std::time::Duration = std::time::Duration::from_secs(300);
+
+/// What a render will take: its samples per pixel (a bound with a target), the target, the time
+/// limit, and how that was decided (one line for notes and `info`).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct SamplingPlan {
+    pub(crate) spp: u32,
+    pub(crate) target: Option<f32>,
+    pub(crate) time_limit: Option<std::time::Duration>,
+    pub(crate) seed: u64,
+    pub(crate) why: String,
+}
+
+impl SamplingArgs {
+    /// Decide the samples for the integrator `kind`: `--spp N` is exactly N; without it the path
+    /// tracer renders to a target error and the paper's model (deterministic) takes 1 sample.
+    pub(crate) fn plan(&self, kind: IntegratorKind) -> anyhow::Result<SamplingPlan> {
+        let limit = |default: Option<std::time::Duration>| match self.time_limit {
+            Some(d) if d.is_zero() => None,
+            Some(d) => Some(d),
+            None => default,
+        };
+        let check_spp = |what: &str, spp: u32| -> anyhow::Result<()> {
+            anyhow::ensure!((1..=1 << 20).contains(&spp), "{what} {spp} is outside 1..=1048576");
+            Ok(())
+        };
+        if let Some(spp) = self.spp {
+            check_spp("--spp", spp)?;
+            return Ok(SamplingPlan {
+                spp,
+                target: None,
+                time_limit: limit(None),
+                seed: self.seed,
+                why: format!("{spp} spp (--spp)"),
+            });
+        }
+        if kind == IntegratorKind::WhittedHall {
+            if self.target_error.is_some() || self.max_spp.is_some() {
+                anyhow::bail!(
+                    "--target-error and --max-spp need the path tracer: whitted-hall is deterministic (give --spp N, or --integrator path)"
+                );
+            }
+            return Ok(SamplingPlan {
+                spp: 1,
+                target: None,
+                time_limit: limit(None),
+                seed: self.seed,
+                why: "1 spp (whitted-hall is deterministic; --spp N for anti-aliasing)".to_owned(),
+            });
+        }
+        let target = self.target_error.unwrap_or(DEFAULT_TARGET_ERROR);
+        anyhow::ensure!(
+            target.is_finite() && target > 0.0,
+            "--target-error {target} must be a positive ΔE00 (e.g. 1, or 0.5 for a cleaner image)"
+        );
+        let spp = self.max_spp.unwrap_or(DEFAULT_MAX_SPP);
+        check_spp("--max-spp", spp)?;
+        let time_limit = limit(Some(DEFAULT_TIME_LIMIT));
+        let given = if self.target_error.is_some() { "--target-error" } else { "the default" };
+        let cap = match time_limit {
+            Some(t) => format!("at most {spp} spp or {} s", t.as_secs_f64()),
+            None => format!("at most {spp} spp"),
+        };
+        Ok(SamplingPlan {
+            spp,
+            target: Some(target),
+            time_limit,
+            seed: self.seed,
+            why: format!(
+                "to a mean ΔE00 of {target} in every {tile}×{tile} tile ({given}), {cap}",
+                tile = integrator::TILE
+            ),
+        })
+    }
+}
+
+fn parse_time_limit(s: &str) -> Result<std::time::Duration, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..1e9).contains(&v) => Ok(std::time::Duration::from_secs_f64(v)),
+        _ => Err(format!("expected a number of seconds >= 0 (0: no limit), got `{s}`")),
+    }
 }
 
 /// Rendering a part of a render, checkpoints and resuming (docs/film-format.md).
@@ -229,12 +344,6 @@ fn parse_bytes(s: &str) -> Result<u64, String> {
     }
 }
 
-fn parse_seconds(s: &str) -> Result<std::time::Duration, String> {
-    match s.parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 && v < 1e9 => Ok(std::time::Duration::from_secs_f64(v)),
-        _ => Err(format!("expected a positive number of seconds, got `{s}`")),
-    }
-}
 fn parse_on_off(s: &str) -> Result<bool, String> {
     match s {
         "on" | "true" | "yes" => Ok(true),
@@ -298,22 +407,31 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         (None, None) => Some(PathBuf::from("render.exr")),
         (None, Some(_)) => None,
     };
-    let samples = match (parts.part, &parts.samples) {
-        (Some((k, m)), _) => Some(integrator::part_samples(k, m, args.spp).context("--part")?),
-        (None, Some(range)) => Some(range.clone()),
-        (None, None) => None,
+    // A part is a range of a fixed number of samples: an adaptive render decides from the whole
+    // film, so it is not split.
+    let part_spp = match (parts.part.is_some() || parts.samples.is_some(), args.sampling.spp) {
+        (false, _) => None,
+        (true, Some(spp)) => Some(spp),
+        (true, None) => anyhow::bail!(
+            "--part/--samples need --spp N: a render to a target error decides which pixels go on from the whole film, so it is not split into parts"
+        ),
     };
-    if let Some(range) = &samples {
+    let samples = match (parts.part, &parts.samples, part_spp) {
+        (Some((k, m)), _, Some(spp)) => Some(integrator::part_samples(k, m, spp).context("--part")?),
+        (None, Some(range), _) => Some(range.clone()),
+        _ => None,
+    };
+    if let (Some(range), Some(spp)) = (&samples, part_spp) {
         if parts.film.is_none() {
             anyhow::bail!(
                 "--part/--samples render only samples {}..{} of {}: give --film PART.film and merge the parts with `spectrace merge`",
                 range.start,
                 range.end,
-                args.spp
+                spp
             );
         }
-        if range.end > args.spp {
-            anyhow::bail!("--samples {}..{} is beyond --spp {}", range.start, range.end, args.spp);
+        if range.end > spp {
+            anyhow::bail!("--samples {}..{} is beyond --spp {}", range.start, range.end, spp);
         }
     }
     if args.spectral_exr.is_some() && image_path.is_none() {
@@ -344,6 +462,12 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         integrator::ViewPlan::default(),
     )
     .map_err(explain)?;
+    if let Some(path) = &args.error_map {
+        if image_path.is_none() {
+            anyhow::bail!("--error-map goes with an image (-o); the film keeps what it needs when rendered with it");
+        }
+        plan.add_error_map(path).map_err(explain)?;
+    }
     let mut paths: Vec<&Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(parts.film.as_deref());
     if parts.checkpoint != parts.film {
@@ -387,6 +511,10 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         // Its sub-pixel positions are deterministic and it draws no other numbers.
         eprintln!("spectrace: warning: --sampler is ignored by whitted-hall (it draws no random numbers)");
     }
+    let sampling = args.sampling.plan(integrator_kind)?;
+    if !args.quiet && args.sampling.spp.is_none() {
+        eprintln!("spectrace: note: samples: {}", sampling.why);
+    }
     let integrator = match integrator_kind {
         IntegratorKind::WhittedHall => Integrator::WhittedHall(WhittedOptions {
             max_depth: args.max_depth,
@@ -406,11 +534,19 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         height,
         integrator,
         spectral: args.spectral,
-        spp: args.spp,
+        spp: sampling.spp,
         samples,
-        seed: args.seed,
-        time_limit: args.time_limit,
+        seed: sampling.seed,
+        time_limit: sampling.time_limit,
         threads: args.threads,
+        target_error: sampling.target.map(|delta_e| integrator::TargetError {
+            delta_e,
+            exposure_ev: match view_plan.exposure {
+                integrator::Exposure::Fixed(ev) => Some(ev),
+                integrator::Exposure::Auto => None,
+            },
+        }),
+        error_estimate: args.error_map.is_some(),
         spectral_film: args.spectral_exr.is_some() || parts.spectral_film,
     };
     check_limits(&options, args)?;
@@ -459,15 +595,38 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(u64::from(options.height)) };
     bar.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} rows  {msg}")
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let report = |p: integrator::Progress| {
-        // With --time-limit, passes of one sample make more rows than the image has.
-        bar.set_length(p.rows_total);
-        bar.set_position(p.rows_done);
         let secs = p.elapsed.as_secs_f64().max(1e-9);
-        bar.set_message(format!("{:.2} Mrays/s", p.rays as f64 / secs / 1e6));
+        let speed = format!("{:.2} Mrays/s", p.rays as f64 / secs / 1e6);
+        match p.error {
+            // A render to a target error: the bar counts tiles done.
+            Some(e) => {
+                bar.set_length(1000);
+                bar.set_position((e.tiles_done * 1000.0).round() as u64);
+                let left = match e.remaining {
+                    Some(t) => format!(", ~{} left", human_duration(t)),
+                    None => String::new(),
+                };
+                bar.set_message(format!(
+                    "‰ tiles at ΔE00 ≤ {}; mean ΔE00 {:.2}, worst tile {:.2}{left}; {speed}",
+                    e.target, e.mean, e.worst_tile
+                ));
+            }
+            None if options.target_error.is_some() => {
+                bar.set_length(p.rows_total.max(1));
+                bar.set_position(p.rows_done);
+                bar.set_message(format!("rows of the first {} spp; {speed}", integrator::FIRST_STAGE_SPP));
+            }
+            None => {
+                // With --time-limit, passes of one sample make more rows than the image has.
+                bar.set_length(p.rows_total);
+                bar.set_position(p.rows_done);
+                bar.set_message(format!("rows; {speed}"));
+            }
+        }
     };
     let write_checkpoint = |film: &integrator::Film| -> integrator::Result<()> {
         match &parts.checkpoint {
@@ -498,7 +657,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     for path in [&parts.film, &parts.checkpoint].into_iter().flatten() {
         header.write_film(&film, path).context("writing the film")?;
     }
-    let (image, view) = plan.develop(&film);
+    let (image, view) = plan.develop(&film, header.samples.start);
     if !args.quiet && !view.is_identity() {
         let how =
             if view_plan.exposure == integrator::Exposure::Auto { "auto: log-average luminance to 0.18; " } else { "" };
@@ -524,7 +683,11 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         written.dedup();
         let written = written.join(", ");
         let range = header.samples.clone();
-        let spp = if range.len() as u32 == options.spp {
+        let spp = if stats.spp != stats.max_spp {
+            // Adaptive, or stopped by the time limit part way through a pass.
+            let pixels = f64::from(options.width) * f64::from(options.height);
+            format!("{}..{} spp (mean {:.0})", stats.spp, stats.max_spp, stats.samples as f64 / pixels)
+        } else if range.len() as u32 == options.spp {
             format!("{} spp", stats.spp)
         } else {
             format!("{} spp (samples {}..{} of {})", stats.spp, range.start, range.end, options.spp)
@@ -540,6 +703,21 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             stats.rays as f64 / secs.max(1e-9) / 1e6,
             stats.nonfinite_samples,
         );
+        if let Some(e) = stats.error {
+            let stop = match e.target {
+                Some(target) if e.tiles_done >= 1.0 => format!("every tile reached the target ΔE00 {target}"),
+                Some(target) => format!(
+                    "{:.1} % of the tiles reached the target ΔE00 {target} (stopped by {})",
+                    100.0 * e.tiles_done,
+                    if stats.max_spp >= options.spp { "--max-spp" } else { "the time limit" }
+                ),
+                None => "no target".to_owned(),
+            };
+            eprintln!(
+                "spectrace: estimated error: mean ΔE00 {:.2}, worst 8×8 tile {:.2}; {stop}",
+                e.mean, e.worst_tile
+            );
+        }
         if stats.clamped_samples > 0 {
             eprintln!(
                 "spectrace: warning: {} samples were brighter than the film holds (2^42 in film units) and were clamped",
@@ -548,6 +726,16 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// `t` as `42 s`, `3 min 20 s` or `2 h 05 min`.
+fn human_duration(t: std::time::Duration) -> String {
+    let s = t.as_secs();
+    match s {
+        0..60 => format!("{s} s"),
+        60..3600 => format!("{} min {:02} s", s / 60, s % 60),
+        _ => format!("{} h {:02} min", s / 3600, s % 3600 / 60),
+    }
 }
 
 /// A render stopped by SIGINT or SIGTERM: nothing written, exit 130.

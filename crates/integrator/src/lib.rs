@@ -59,10 +59,11 @@ pub use error::{Error, Result};
 pub use limits::{MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES, MAX_THREADS};
 pub use options::{
     Ambient, DEFAULT_K_A, DEFAULT_RESOLUTION, Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind,
-    WavelengthPdf, WhittedOptions, part_samples,
+    TargetError, WavelengthPdf, WhittedOptions, part_samples,
 };
 pub use render::{
-    Checkpoint, MAX_NONFINITE_SHARE, NonfiniteVerdict, Progress, RenderControl, RenderStats, nonfinite_verdict,
+    Checkpoint, ErrorProgress, ErrorReached, FIRST_STAGE_SPP, MAX_NONFINITE_SHARE, NonfiniteVerdict, Progress,
+    RenderControl, RenderStats, nonfinite_verdict, stage_ends,
 };
 pub use spectral::{MAX_BINS, SpectralMode};
 
@@ -73,6 +74,7 @@ pub use scene::{
 };
 
 // Films (parts of a render) and their files.
+pub use film::estimate::{ErrorEstimate, TILE};
 pub use film::file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Merger, merge_parts};
 pub use film::{Film, ObjectId};
 

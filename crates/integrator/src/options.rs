@@ -218,6 +218,30 @@ impl Default for Integrator {
     }
 }
 
+/// What an adaptive render stops at (`--target-error`): every tile of [`TILE`] × [`TILE`] pixels
+/// takes samples until the mean of its pixels' estimated CIEDE2000 errors, as the PNG shows them,
+/// is at most `delta_e` (`film/estimate.rs`; `docs/defaults.md`, "Samples").
+///
+/// [`TILE`]: crate::TILE
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TargetError {
+    /// The mean ΔE00 per tile to reach (> 0).
+    pub delta_e: f32,
+    /// The exposure the colours are judged at, in stops (the PNG's): `None` for auto-exposure,
+    /// re-measured on the image as it converges.
+    pub exposure_ev: Option<f32>,
+}
+
+impl std::fmt::Display for TargetError {
+    /// `1` or `1@+2.5EV` or `1@auto`: the film key's text.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.exposure_ev {
+            Some(ev) => write!(f, "{:?}@{ev:+}EV", self.delta_e),
+            None => write!(f, "{:?}@auto", self.delta_e),
+        }
+    }
+}
+
 /// Everything that controls a render besides the scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderOptions {
@@ -244,6 +268,12 @@ pub struct RenderOptions {
     pub time_limit: Option<Duration>,
     /// Worker threads (`None`: all cores).
     pub threads: Option<usize>,
+    /// Sample adaptively to a target error ([`TargetError`]): `spp` is then the most samples a
+    /// pixel may take, and each tile of the image stops when its estimated error is reached.
+    pub target_error: Option<TargetError>,
+    /// Keep the half-film sums that estimate each pixel's error (`--error-map`) without a
+    /// target; implied by `target_error`.
+    pub error_estimate: bool,
     /// Keep each pixel's radiance at the wavelengths rendered ([`Image::spectral`], written by
     /// [`Image::write_spectral_exr`]); needs fixed wavelengths (`bins:N`, or `auto` choosing
     /// bins).
@@ -262,6 +292,8 @@ impl Default for RenderOptions {
             seed: 0,
             time_limit: None,
             threads: None,
+            target_error: None,
+            error_estimate: false,
             spectral_film: false,
         }
     }
@@ -339,7 +371,20 @@ impl RenderOptions {
                 )
             }
         };
-        format!("{integrator} spectral={} spp={} spectral_film={}", self.spectral, self.spp, self.spectral_film)
+        let mut key =
+            format!("{integrator} spectral={} spp={} spectral_film={}", self.spectral, self.spp, self.spectral_film);
+        // Only when set, so the keys (and film files) of fixed-spp renders stay as they were.
+        if let Some(t) = self.target_error {
+            key.push_str(&format!(" target_error={t}"));
+        } else if self.error_estimate {
+            key.push_str(" halves=true");
+        }
+        key
+    }
+
+    /// Whether the film keeps the half-film sums that estimate the error.
+    pub fn keeps_halves(&self) -> bool {
+        self.target_error.is_some() || self.error_estimate
     }
 }
 

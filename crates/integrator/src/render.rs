@@ -8,6 +8,7 @@
 //! (`integrators/whitted.rs` or `integrators/path.rs`), and adds the result to the film's row.
 
 use std::ops::Range;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -16,9 +17,11 @@ use geometry::{Camera, Ray};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::film::estimate::{TILE, tile_grid};
 use crate::film::{Film, MAX_SPP, Sensor};
 use crate::integrators::{Kernel, PathTracer, Radiance, RayCount, Whitted};
 use crate::options::{Integrator, PathOptions, RenderOptions, SamplerKind};
+use crate::output::auto_exposure_ev;
 use crate::sampling::{Rng, Sampler, SobolSample};
 use crate::scene::{RenderScene, scene_white};
 use crate::spectral::{LaneJob, Lanes, SpectralMode, lane_count, with_lanes};
@@ -32,8 +35,46 @@ pub struct Progress {
     pub rows_total: u64,
     /// Rays traced so far (camera, secondary and shadow rays).
     pub rays: u64,
+    /// Samples taken so far by this render (a resumed film's not counted).
+    pub samples: u64,
     /// Time since the render started.
     pub elapsed: Duration,
+    /// With a target error: the estimate after the last finished stage.
+    pub error: Option<ErrorProgress>,
+}
+
+/// Where an adaptive render stands after a stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorProgress {
+    /// Mean of the pixels' estimated ΔE00.
+    pub mean: f64,
+    /// The largest tile's estimated ΔE00.
+    pub worst_tile: f64,
+    /// The target per tile.
+    pub target: f64,
+    /// Share of the tiles that reached it.
+    pub tiles_done: f64,
+    /// Time the other tiles are expected to need (error ∝ 1/√spp, at the rate so far).
+    pub remaining: Option<Duration>,
+}
+
+/// The error a render reached (estimated from its half-films; [`crate::ErrorEstimate`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorReached {
+    /// Mean of the pixels' estimated ΔE00.
+    pub mean: f64,
+    /// The largest tile's estimated ΔE00.
+    pub worst_tile: f64,
+    /// The target per tile, if the render had one.
+    pub target: Option<f64>,
+    /// Share of the tiles at or below the target (1 without a target).
+    pub tiles_done: f64,
+}
+
+impl ErrorReached {
+    fn from_progress(p: ErrorProgress) -> Self {
+        Self { mean: p.mean, worst_tile: p.worst_tile, target: Some(p.target), tiles_done: p.tiles_done }
+    }
 }
 
 /// Figures about a finished render.
@@ -55,6 +96,11 @@ pub struct RenderStats {
     pub samples: u64,
     /// Fewest samples any pixel got (fewer than asked if a time limit stopped the render).
     pub spp: u32,
+    /// Most samples any pixel got (an adaptive render's busiest tile).
+    pub max_spp: u32,
+    /// The estimated error reached, where the film kept half-film sums (a target error, an
+    /// error map).
+    pub error: Option<ErrorReached>,
     /// Samples whose value was beyond the film's range (2⁴²) and was clamped (should be 0).
     pub clamped_samples: u64,
 }
@@ -152,6 +198,18 @@ pub(crate) fn check_options(options: &RenderOptions) -> Result<Range<u32>> {
             expected: "a non-empty range within 0..spp",
         });
     }
+    if let Some(t) = options.target_error {
+        if !(t.delta_e.is_finite() && t.delta_e > 0.0) {
+            return Err(Error::OutOfRange { what: "target error", value: t.delta_e.into(), range: "> 0 (a ΔE00)" });
+        }
+        if options.samples.is_some() {
+            return Err(Error::InvalidOption {
+                option: "sample range",
+                value: format!("{}..{} with a target error", samples.start, samples.end),
+                expected: "all samples: an adaptive render decides from the whole film, so it is not split into parts (give a fixed spp)",
+            });
+        }
+    }
     if let Integrator::WhittedHall(w) = &options.integrator
         && !(w.min_weight.is_finite() && w.min_weight >= 0.0)
     {
@@ -221,10 +279,15 @@ impl LaneJob for RenderJob<'_> {
     }
 }
 
-/// The pixel loop: samples `job.samples` of every pixel, in passes over the image (one pass
-/// without a time limit), rows in parallel. The random numbers of sample i of pixel p depend
-/// only on (seed, p, i) and the film's sums are exact, so the image is the same for any thread
-/// count, pass size or split into sample ranges.
+/// The pixel loop: samples `job.samples` of every pixel, in passes over the image, rows in
+/// parallel. The random numbers of sample i of pixel p depend only on (seed, p, i) and the
+/// film's sums are exact, so the image is the same for any thread count, pass size or split
+/// into sample ranges.
+///
+/// With a target error the samples are taken in stages ([`stage_ends`]); after each, the tiles
+/// whose estimated error reached the target stop. Which tiles go on is decided from the film
+/// alone (its sums and counts), so a resumed render decides as the uninterrupted one did: a
+/// tile is still sampling when it holds more samples than the last finished stage's end.
 fn render_pixels<const N: usize, K: Kernel<N>>(
     kernel: &K,
     sensor: &Sensor<N>,
@@ -236,11 +299,14 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     let wavelengths = if options.spectral_film { sensor.film_wavelengths().unwrap_or_default() } else { Vec::new() };
     let mut film = match resume {
         Some(film) => {
-            if (film.width, film.height) != (width, height) || film.wavelengths != wavelengths {
+            if (film.width, film.height) != (width, height)
+                || film.wavelengths != wavelengths
+                || film.has_halves() != options.keeps_halves()
+            {
                 return Err(Error::InvalidOption {
                     option: "film to resume",
                     value: format!("{}x{} with {} wavelengths", film.width, film.height, film.wavelengths.len()),
-                    expected: "a film of the same size and wavelengths as the render",
+                    expected: "a film of the same size, wavelengths and error estimate as the render",
                 });
             }
             if film.max_sample_count() > samples.len() as u32 {
@@ -252,86 +318,204 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
             }
             film
         }
+        None if options.keeps_halves() => Film::new(width, height, wavelengths).with_halves(),
         None => Film::new(width, height, wavelengths),
     };
     let sampler = PixelSampler::new(kernel, sensor, camera, options);
+    let range = samples.len() as u32;
+    let stages = stage_ends(range, options.target_error.is_some());
+    let (tiles_x, tiles_y) = tile_grid(width, height);
+    let tile_of = |x: usize, y: usize| (y as u32 / TILE) as usize * tiles_x as usize + (x as u32 / TILE) as usize;
+    // Where the film stands: the first stage not finished by every sampling tile, and which tiles
+    // are sampling (all, in the first stage; a fresh film is there).
+    let most = film.max_sample_count();
+    let mut stage = stages.partition_point(|&end| end < most).min(stages.len() - 1);
+    let mut active = vec![true; tiles_x as usize * tiles_y as usize];
+    if stage > 0 {
+        let done = stages[stage - 1];
+        let mut tile_most = vec![0u32; active.len()];
+        for (i, p) in film.pixels.iter().enumerate() {
+            let t = tile_of(i % width as usize, i / width as usize);
+            tile_most[t] = tile_most[t].max(p.count);
+        }
+        for (a, m) in active.iter_mut().zip(tile_most) {
+            *a = m > done;
+        }
+    }
     // With a time limit, passes of one sample each spread the samples taken evenly over the
     // image when it stops, and every row of a pass is short whatever the spp. The first pass
     // ignores the limit, so every pixel gets at least one sample. Checkpoints are taken
     // between passes, so they also want short passes.
     let short_passes = options.time_limit.is_some() || checkpoint.is_some();
-    let pass_size = if short_passes { 1 } else { samples.len() as u32 };
-    let passes = (samples.len() as u32).div_ceil(pass_size);
-    // A resumed film: skip the passes every pixel has done. Each pixel holds the first
-    // `count` samples of the range and continues after them (rows a time limit skipped hold
-    // one fewer than the others).
-    let first_pass = film.min_sample_count() / pass_size;
-    let rows_total = u64::from(height) * u64::from(passes - first_pass);
     let mut last_checkpoint = Instant::now();
     let start = Instant::now();
     let out_of_time = || options.time_limit.is_some_and(|limit| start.elapsed() >= limit);
     let rays = AtomicU64::new(0);
     let shadow_rays = AtomicU64::new(0);
     let rows_done = AtomicU64::new(0);
-    for pass in first_pass..passes {
-        let first_sample = samples.start + pass * pass_size;
-        let last_sample = (first_sample + pass_size).min(samples.end);
-        let counts: Vec<(u64, u64)> = film
-            .rows_mut()
+    let taken = AtomicU64::new(0);
+    let estimate = Mutex::new(None::<ErrorProgress>);
+    let mut first_pass = true;
+    let mut reached = None;
+    'stages: loop {
+        let (lo, hi) = (if stage == 0 { 0 } else { stages[stage - 1] }, stages[stage]);
+        let pass_size = if short_passes { 1 } else { hi - lo };
+        let passes = (hi - lo).div_ceil(pass_size);
+        // Skip the passes every sampling pixel has done (a resumed film).
+        let fewest = film
+            .pixels
+            .iter()
             .enumerate()
-            .map(|(y, mut row)| -> Result<(u64, u64)> {
-                if cancel.load(Ordering::Relaxed) {
-                    return Err(Error::Cancelled);
-                }
-                if pass > 0 && out_of_time() {
-                    return Ok((0, 0));
-                }
-                let mut count = RayCount::default();
-                let mut fixed = Sampler::Independent(Rng::new(0, 0, 0));
-                for x in 0..width as usize {
-                    let pixel = y as u64 * u64::from(width) + x as u64;
-                    let rotation = sampler.rotation(pixel);
-                    let next = samples.start + row.count(x);
-                    for i in first_sample.max(next)..last_sample {
-                        // Within the pixel too: a row of 64 pixels at 2²⁰ spp is minutes of work.
-                        // A relaxed load every CANCEL_EVERY samples costs nothing next to them,
-                        // and a cancelled render's film is dropped, so a pixel left half done is
-                        // never seen.
-                        if i % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
-                            return Err(Error::Cancelled);
-                        }
-                        let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed, &mut count);
-                        if i == 0 {
-                            row.set_first_hit(x, r.first);
-                        }
-                        let (xyz, values) = sensor.to_xyz(&r.l, &lambda, r.lane);
-                        row.add_sample(x, xyz, &values);
+            .filter(|(i, _)| active[tile_of(i % width as usize, i / width as usize)])
+            .map(|(_, p)| p.count)
+            .min()
+            .unwrap_or(hi);
+        let skip = (fewest.saturating_sub(lo) / pass_size).min(passes);
+        let active_rows = (0..height as usize)
+            .filter(|&y| (0..tiles_x as usize).any(|tx| active[(y as u32 / TILE) as usize * tiles_x as usize + tx]))
+            .count() as u64;
+        let rows_total = rows_done.load(Ordering::Relaxed) + active_rows * u64::from(passes - skip);
+        for pass in skip..passes {
+            let end = samples.start + (lo + (pass + 1) * pass_size).min(hi);
+            let counts: Vec<(u64, u64)> = film
+                .rows_mut()
+                .enumerate()
+                .map(|(y, mut row)| -> Result<(u64, u64)> {
+                    if cancel.load(Ordering::Relaxed) {
+                        return Err(Error::Cancelled);
                     }
-                }
-                let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
-                shadow_rays.fetch_add(count.shadow, Ordering::Relaxed);
-                let rows = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(Progress { rows_done: rows, rows_total, rays: rays_now, elapsed: start.elapsed() });
-                Ok((row.nonfinite, row.clamped))
-            })
-            .collect::<Result<_>>()?;
-        for (nonfinite, clamped) in counts {
-            film.add_counts(nonfinite, clamped);
+                    let row_tiles = (y as u32 / TILE) as usize * tiles_x as usize;
+                    if !active[row_tiles..row_tiles + tiles_x as usize].iter().any(|&a| a) {
+                        return Ok((0, 0));
+                    }
+                    if !first_pass && out_of_time() {
+                        return Ok((0, 0));
+                    }
+                    let mut count = RayCount::default();
+                    let mut fixed = Sampler::Independent(Rng::new(0, 0, 0));
+                    let mut row_samples = 0u64;
+                    for x in 0..width as usize {
+                        if !active[row_tiles + x / TILE as usize] {
+                            continue;
+                        }
+                        let pixel = y as u64 * u64::from(width) + x as u64;
+                        let rotation = sampler.rotation(pixel);
+                        // Each pixel continues after the samples it holds (a pixel a time limit
+                        // left behind catches up), so it always holds a prefix of the range.
+                        let next = samples.start + row.count(x);
+                        for i in next..end {
+                            // Within the pixel too: a row of 64 pixels at 2²⁰ spp is minutes of work.
+                            // A relaxed load every CANCEL_EVERY samples costs nothing next to them,
+                            // and a cancelled render's film is dropped, so a pixel left half done is
+                            // never seen.
+                            if i % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
+                                return Err(Error::Cancelled);
+                            }
+                            let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed, &mut count);
+                            if i == 0 {
+                                row.set_first_hit(x, r.first);
+                            }
+                            let (xyz, values) = sensor.to_xyz(&r.l, &lambda, r.lane);
+                            row.add_sample(x, i, xyz, &values);
+                        }
+                        row_samples += u64::from(end.saturating_sub(next));
+                    }
+                    let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
+                    shadow_rays.fetch_add(count.shadow, Ordering::Relaxed);
+                    let samples_now = taken.fetch_add(row_samples, Ordering::Relaxed) + row_samples;
+                    let rows = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
+                    let error = *estimate.lock().unwrap_or_else(|e| e.into_inner());
+                    progress(Progress {
+                        rows_done: rows,
+                        rows_total,
+                        rays: rays_now,
+                        samples: samples_now,
+                        elapsed: start.elapsed(),
+                        error,
+                    });
+                    Ok((row.nonfinite, row.clamped))
+                })
+                .collect::<Result<_>>()?;
+            for (nonfinite, clamped) in counts {
+                film.add_counts(nonfinite, clamped);
+            }
+            if samples.start == 0 && lo + pass * pass_size == 0 {
+                film.set_has_first_sample();
+            }
+            first_pass = false;
+            if out_of_time() {
+                break 'stages;
+            }
+            let last = stage + 1 == stages.len() && pass + 1 == passes;
+            if let Some(c) = &checkpoint
+                && !last
+                && last_checkpoint.elapsed() >= c.every
+            {
+                (c.write)(&film)?;
+                last_checkpoint = Instant::now();
+            }
         }
-        if first_sample == 0 {
-            film.set_has_first_sample();
+        let Some(target) = options.target_error else { break };
+        // The stage is done: the tiles that reached the target stop.
+        let scale = display_scale(&film, target.exposure_ev);
+        let Some(e) = film.error_estimate(scale, samples.start) else { break };
+        let goal = f64::from(target.delta_e);
+        let mut remaining = 0.0f64;
+        for (t, a) in active.iter_mut().enumerate() {
+            let error = f64::from(e.tiles[t]);
+            if *a && error > goal {
+                // Error ∝ 1/√spp: the samples this tile still needs, at most the range.
+                let needed = (f64::from(hi) * (error / goal).powi(2)).min(f64::from(range));
+                remaining += (needed - f64::from(hi)).max(0.0) * tile_pixels(t, tiles_x, width, height);
+            } else {
+                *a = false;
+            }
         }
-        if out_of_time() {
+        let done = active.iter().filter(|&&a| !a).count();
+        let rate = taken.load(Ordering::Relaxed) as f64 / start.elapsed().as_secs_f64().max(1e-6);
+        let now = ErrorProgress {
+            mean: e.mean(),
+            worst_tile: e.worst_tile(),
+            target: goal,
+            tiles_done: done as f64 / active.len() as f64,
+            remaining: (rate > 0.0).then(|| Duration::from_secs_f64((remaining / rate).min(1e9))),
+        };
+        *estimate.lock().unwrap_or_else(|e| e.into_inner()) = Some(now);
+        reached = Some(now);
+        progress(Progress {
+            rows_done: rows_done.load(Ordering::Relaxed),
+            rows_total: rows_done.load(Ordering::Relaxed),
+            rays: rays.load(Ordering::Relaxed),
+            samples: taken.load(Ordering::Relaxed),
+            elapsed: start.elapsed(),
+            error: Some(now),
+        });
+        stage += 1;
+        if done == active.len() || stage == stages.len() {
             break;
         }
         if let Some(c) = &checkpoint
-            && pass + 1 < passes
             && last_checkpoint.elapsed() >= c.every
         {
             (c.write)(&film)?;
             last_checkpoint = Instant::now();
         }
     }
+    let error = match (reached, options.target_error) {
+        // Stopped by the time limit, or a film kept its halves for an error map: measure now.
+        (Some(r), _) if !out_of_time() => Some(ErrorReached::from_progress(r)),
+        (_, target) => film
+            .error_estimate(display_scale(&film, target.and_then(|t| t.exposure_ev)), samples.start)
+            .map(|e| ErrorReached {
+                mean: e.mean(),
+                worst_tile: e.worst_tile(),
+                target: target.map(|t| f64::from(t.delta_e)),
+                tiles_done: target.map_or(1.0, |t| {
+                    e.tiles.iter().filter(|&&v| f64::from(v) <= f64::from(t.delta_e)).count() as f64
+                        / e.tiles.len() as f64
+                }),
+            }),
+    };
     let stats = RenderStats {
         spectral,
         rays: rays.into_inner(),
@@ -340,9 +524,51 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
         nonfinite_samples: film.nonfinite_samples(),
         samples: film.sample_counts().iter().map(|&c| u64::from(c)).sum(),
         spp: film.min_sample_count(),
+        max_spp: film.max_sample_count(),
         clamped_samples: film.clamped_samples(),
+        error,
     };
     Ok((film, stats))
+}
+
+/// Pixels in tile `t` (edge tiles are cut by the image's border).
+fn tile_pixels(t: usize, tiles_x: u32, width: u32, height: u32) -> f64 {
+    let (tx, ty) = (t as u32 % tiles_x, t as u32 / tiles_x);
+    let w = (width - tx * TILE).min(TILE);
+    let h = (height - ty * TILE).min(TILE);
+    f64::from(w * h)
+}
+
+/// The display's scale (2^EV) the error is judged at: the fixed exposure, or the auto-exposure of
+/// the film as it stands (as the PNG will be exposed).
+fn display_scale(film: &Film, exposure_ev: Option<f32>) -> f64 {
+    let ev = exposure_ev.unwrap_or_else(|| auto_exposure_ev(&film.to_image()).unwrap_or(0.0));
+    f64::from(ev).exp2()
+}
+
+/// Samples per pixel of an adaptive render's first stage: every pixel takes them before any tile
+/// is judged. Each half-film then holds 8, so a tile's estimate is its pixels' mean over 64 draws.
+pub const FIRST_STAGE_SPP: u32 = 16;
+
+/// Where the stages of a render of `range` samples per pixel end (counts from the range's start):
+/// one stage without a target; with one, 16, 24, 32, 48, 64, 96, … (each power of two and 1.5
+/// times it: at most 1.5× the samples a tile needs), up to `range`.
+pub fn stage_ends(range: u32, adaptive: bool) -> Vec<u32> {
+    if !adaptive {
+        return vec![range];
+    }
+    let mut ends = Vec::new();
+    let mut power = FIRST_STAGE_SPP;
+    while power < range {
+        ends.push(power);
+        let half_step = power + power / 2;
+        if half_step < range {
+            ends.push(half_step);
+        }
+        power = power.saturating_mul(2);
+    }
+    ends.push(range);
+    ends
 }
 
 /// Samples between two looks at the cancel flag in the pixel loop: a sample takes from about a

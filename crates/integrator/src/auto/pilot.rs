@@ -146,8 +146,9 @@ pub fn auto_decision(scene: &RenderScene, options: &RenderOptions) -> Result<Aut
         Some(format!("{first} has no colour noise and costs no more per ray than hero:4"))
     } else if options.spectral_film && bins {
         Some("a spectral image needs fixed wavelengths".to_owned())
-    } else if options.time_limit.is_some() {
-        // Its spp says nothing of its length, and its limit is not to be spent on a pilot.
+    } else if options.time_limit.is_some() && options.target_error.is_none() {
+        // Its spp says nothing of its length, and its limit is not to be spent on a pilot. (An
+        // adaptive render's limit is a cap, and its spp a bound, so it is piloted.)
         Some("a time-limited render is not piloted".to_owned())
     } else if render_samples < PILOT_SHARE * pilot_samples * strategies.len() as u64 {
         Some("a render too small to pilot".to_owned())

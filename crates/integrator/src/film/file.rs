@@ -14,8 +14,15 @@ use crate::spectral::{MAX_BINS, SpectralMode};
 
 /// The first 8 bytes of every film file.
 pub const FILM_MAGIC: [u8; 8] = *b"SPTRFILM";
-/// The layout version this build writes and reads.
-pub const FILM_VERSION: u32 = 2;
+/// The layout version this build writes. It reads this one and version 2, the same layout
+/// without the half-film sums (flag bit 1).
+pub const FILM_VERSION: u32 = 3;
+/// The oldest layout version this build reads.
+const OLDEST_READ_VERSION: u32 = 2;
+/// Header flag: pixel sample 0's hits are recorded.
+const FLAG_FIRST_SAMPLE: u32 = 1;
+/// Header flag: the film keeps half-film sums (three i128 per pixel after the spectral sums).
+const FLAG_HALVES: u32 = 2;
 /// Bytes per pixel of the sums: a u32 count and four i128 (Σ X, Σ Y, Σ Z, Σ Y²).
 const PIXEL_BYTES: usize = 4 + 4 * 16;
 /// Fixed part of the header after the length field (see `docs/film-format.md`).
@@ -135,6 +142,7 @@ struct Parsed {
     height: u32,
     lanes: usize,
     has_first_sample: bool,
+    halves: bool,
     nonfinite: u64,
     clamped: u64,
     wavelengths: Vec<f32>,
@@ -144,7 +152,7 @@ impl Parsed {
     /// Bytes of the payload the header announces (`None` if beyond any real film).
     fn payload_bytes(&self) -> Option<usize> {
         let pixels = (self.width as usize).checked_mul(self.height as usize)?;
-        let per_pixel = PIXEL_BYTES + 4 + 16 * self.lanes;
+        let per_pixel = PIXEL_BYTES + 4 + 16 * self.lanes + if self.halves { 3 * 16 } else { 0 };
         pixels.checked_mul(per_pixel)
     }
 }
@@ -174,7 +182,20 @@ fn parse_header(r: &mut Reader<'_>) -> Option<Parsed> {
         .collect::<Option<_>>()?;
     let header =
         FilmHeader { scene_hash, options, options_hash, seed, spp, samples: start..end, spectral, writer, view };
-    Some(Parsed { header, width, height, lanes, has_first_sample: flags & 1 == 1, nonfinite, clamped, wavelengths })
+    if flags & !(FLAG_FIRST_SAMPLE | FLAG_HALVES) != 0 {
+        return None;
+    }
+    Some(Parsed {
+        header,
+        width,
+        height,
+        lanes,
+        has_first_sample: flags & FLAG_FIRST_SAMPLE != 0,
+        halves: flags & FLAG_HALVES != 0,
+        nonfinite,
+        clamped,
+        wavelengths,
+    })
 }
 
 /// The header of a film file of `file_len` bytes from its first bytes (`bytes`: the whole file,
@@ -188,9 +209,9 @@ fn read_header(bytes: &[u8], file_len: u64, path: &Path) -> Result<(Parsed, usiz
     }
     let mut r = Reader { bytes, at: 8 };
     let version = r.u32().ok_or_else(|| bad(format!("truncated: {file_len} bytes, ends in the header")))?;
-    if version != FILM_VERSION {
+    if !(OLDEST_READ_VERSION..=FILM_VERSION).contains(&version) {
         return Err(bad(format!(
-            "film format version {version}, but this build reads version {FILM_VERSION} only (merge with the spectrace that rendered it)"
+            "film format version {version}, but this build reads versions {OLDEST_READ_VERSION} to {FILM_VERSION} only (merge with the spectrace that rendered it)"
         )));
     }
     let header_len = r.u32().ok_or_else(|| bad(format!("truncated: {file_len} bytes, ends in the header")))? as usize;
@@ -229,7 +250,8 @@ const MAX_PREFIX_BYTES: u64 = (16 + FIXED_HEADER_BYTES + 4 * (4 + MAX_TEXT) + 4 
 
 /// Largest film file a valid header can announce: [`MAX_PIXELS`] pixels of sums, material ids and
 /// [`MAX_BINS`] per-wavelength sums, after the longest header, and the checksum (≈ 216 GB).
-pub(crate) const MAX_FILM_BYTES: u64 = MAX_PREFIX_BYTES + MAX_PIXELS * (PIXEL_BYTES + 4 + 16 * MAX_BINS) as u64 + 8;
+pub(crate) const MAX_FILM_BYTES: u64 =
+    MAX_PREFIX_BYTES + MAX_PIXELS * (PIXEL_BYTES + 4 + 16 * MAX_BINS + 48) as u64 + 8;
 
 impl FilmHeader {
     /// Write `film` with this header to `path` atomically (a temporary beside it, fsynced,
@@ -245,7 +267,7 @@ fn encode(h: &FilmHeader, f: &Film) -> Vec<u8> {
     for v in [h.scene_hash, h.options_hash, h.seed] {
         header.extend_from_slice(&v.to_le_bytes());
     }
-    let flags = u32::from(f.has_first_sample);
+    let flags = if f.has_first_sample { FLAG_FIRST_SAMPLE } else { 0 } | if f.has_halves() { FLAG_HALVES } else { 0 };
     let lanes = f.wavelengths.len() as u32;
     for v in [h.spp, h.samples.start, h.samples.end, f.width, f.height, lanes, flags] {
         header.extend_from_slice(&v.to_le_bytes());
@@ -279,6 +301,11 @@ fn encode(h: &FilmHeader, f: &Film) -> Vec<u8> {
     }
     for s in &f.spectral {
         out.extend_from_slice(&s.to_le_bytes());
+    }
+    for h in &f.halves {
+        for s in h {
+            out.extend_from_slice(&s.to_le_bytes());
+        }
     }
     let checksum = geometry::xxh64(&out, 0);
     out.extend_from_slice(&checksum.to_le_bytes());
@@ -341,7 +368,16 @@ impl FilmFile {
         let spectral = r.take(16 * n * p.lanes).ok_or_else(truncated)?;
         let spectral =
             spectral.chunks_exact(16).map(|b| i128::from_le_bytes(b.try_into().unwrap_or_default())).collect();
+        let halves = if p.halves {
+            let bytes = r.take(3 * 16 * n).ok_or_else(truncated)?;
+            let sums: Vec<i128> =
+                bytes.chunks_exact(16).map(|b| i128::from_le_bytes(b.try_into().unwrap_or_default())).collect();
+            sums.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+        } else {
+            Vec::new()
+        };
         let film = Film {
+            halves,
             width: p.width,
             height: p.height,
             pixels: sums,
@@ -608,10 +644,12 @@ mod tests {
     use rayon::prelude::*;
 
     fn sample_file() -> FilmFile {
-        let mut film = Film::new(3, 2, vec![450.0, 550.0]);
+        let mut film = Film::new(3, 2, vec![450.0, 550.0]).with_halves();
         {
             let mut rows = film.rows_mut().collect::<Vec<_>>();
-            rows[0].add_sample::<4>(1, [0.25, 1.5, -3.0e-9], &[0.5, 2.0, 0.0, 0.0]);
+            rows[0].add_sample::<4>(1, 0, [0.25, 1.5, -3.0e-9], &[0.5, 2.0, 0.0, 0.0]);
+            // Index 1 is in the second half-film.
+            rows[1].add_sample::<4>(1, 1, [0.5, 0.75, 0.125], &[1.0, 0.0, 0.0, 0.0]);
             rows[1].set_first_hit(2, ObjectId::Material(Some(7)));
             rows[1].set_first_hit(0, ObjectId::Material(None));
         }
@@ -639,6 +677,27 @@ mod tests {
         let back = FilmFile::from_bytes(&bytes, Path::new("a.film")).unwrap();
         assert_eq!(back, file);
         assert_eq!(back.film.nonfinite_samples(), 2);
+    }
+
+    #[test]
+    fn version_2_files_read_as_films_without_halves() {
+        // Version 2 is version 3's layout without the half-film sums (flag bit 1 never set).
+        let mut file = sample_file();
+        file.film.halves.clear();
+        let mut bytes = file.to_bytes();
+        bytes[8..12].copy_from_slice(&2u32.to_le_bytes());
+        let header_end = 16 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let header_checksum = geometry::xxh64(&bytes[..header_end], 0);
+        bytes[header_end..header_end + 8].copy_from_slice(&header_checksum.to_le_bytes());
+        let body = bytes.len() - 8;
+        let checksum = geometry::xxh64(&bytes[..body], 0);
+        bytes[body..].copy_from_slice(&checksum.to_le_bytes());
+        let back = FilmFile::from_bytes(&bytes, Path::new("v2.film")).unwrap();
+        assert_eq!(back, file);
+        assert!(!back.film.has_halves());
+        // The halves' flag set in a file without their bytes: an announced length it lacks.
+        let with = sample_file().to_bytes();
+        assert_ne!(with.len(), bytes.len());
     }
 
     #[test]

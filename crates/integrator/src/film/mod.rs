@@ -19,6 +19,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::spectral::Lanes;
 
+pub(crate) mod estimate;
 pub(crate) mod file;
 
 /// What a pixel's first camera ray hit: a material (by index; `None` = the default material)
@@ -131,6 +132,10 @@ pub struct Film {
     pub(crate) wavelengths: Vec<f32>,
     /// Σ lane radiance per pixel and wavelength, pixel-major.
     pub(crate) spectral: Vec<i128>,
+    /// Σ X, Σ Y, Σ Z per pixel of the samples in the second half ([`second_half`]), or empty:
+    /// with the whole sums they make two half-films, whose difference estimates each pixel's
+    /// error ([`estimate`]). Kept only when asked for ([`Film::with_halves`]).
+    pub(crate) halves: Vec<[i128; 3]>,
     /// What each pixel's sample 0 hit (valid where `has_first_sample`).
     pub(crate) ids: Vec<ObjectId>,
     pub(crate) has_first_sample: bool,
@@ -140,9 +145,29 @@ pub struct Film {
     pub(crate) clamped: u64,
 }
 
+/// Whether sample `index` of a pixel belongs to the second of the two half-films: when the
+/// number of 1 bits of its index is odd (the Thue–Morse sequence). Splitting by parity would not
+/// do: the path tracer's Sobol' points put every even index in one half of each dimension's
+/// range (the lowest index bit is the coordinate's highest), so the two halves would differ by
+/// construction. Split by bit parity, the two indices of every aligned pair 2k, 2k + 1 fall in
+/// different halves (so each half of an even count is exactly half), and each half of the first
+/// 2^m points keeps one point in each of the 2^(m−1) strata of every dimension.
+#[inline]
+pub(crate) fn second_half(index: u32) -> bool {
+    index.count_ones() % 2 == 1
+}
+
+/// How many of the sample indices `range` fall in the second half ([`second_half`]).
+pub(crate) fn second_half_count(range: std::ops::Range<u32>) -> u32 {
+    // Below n: ⌊n/2⌋ whole pairs, one each, and for odd n the last index alone.
+    let below = |n: u32| n / 2 + (n % 2 == 1 && second_half(n - 1)) as u32;
+    below(range.end) - below(range.start)
+}
+
 /// One row of a film, lent to a worker thread.
 pub(crate) struct FilmRow<'a> {
     pixels: &'a mut [PixelSums],
+    halves: &'a mut [[i128; 3]],
     spectral: &'a mut [i128],
     ids: &'a mut [ObjectId],
     lanes: usize,
@@ -159,12 +184,25 @@ impl Film {
             height,
             pixels: vec![PixelSums::default(); n],
             spectral: vec![0; n * wavelengths.len()],
+            halves: Vec::new(),
             wavelengths,
             ids: vec![ObjectId::Background; n],
             has_first_sample: false,
             nonfinite: 0,
             clamped: 0,
         }
+    }
+
+    /// This film keeping the sums of the second half-film too ([`second_half`]), so that each
+    /// pixel's error can be estimated ([`Film::error_estimate`]).
+    pub(crate) fn with_halves(mut self) -> Self {
+        self.halves = vec![[0; 3]; self.pixels.len()];
+        self
+    }
+
+    /// Whether the film keeps the half-film sums that estimate its error.
+    pub fn has_halves(&self) -> bool {
+        !self.halves.is_empty()
     }
 
     /// Width in pixels.
@@ -226,11 +264,22 @@ impl Film {
         } else {
             rayon::iter::Either::Right(self.spectral.par_chunks_mut(spectral_row))
         };
-        self.pixels
-            .par_chunks_mut(width)
-            .zip(self.ids.par_chunks_mut(width))
-            .zip(spectral)
-            .map(move |((pixels, ids), spectral)| FilmRow { pixels, spectral, ids, lanes, nonfinite: 0, clamped: 0 })
+        let halves = if self.halves.is_empty() {
+            rayon::iter::Either::Left((0..height).into_par_iter().map(|_| -> &mut [[i128; 3]] { &mut [] }))
+        } else {
+            rayon::iter::Either::Right(self.halves.par_chunks_mut(width))
+        };
+        self.pixels.par_chunks_mut(width).zip(self.ids.par_chunks_mut(width)).zip(spectral).zip(halves).map(
+            move |(((pixels, ids), spectral), halves)| FilmRow {
+                pixels,
+                halves,
+                spectral,
+                ids,
+                lanes,
+                nonfinite: 0,
+                clamped: 0,
+            },
+        )
     }
 
     /// Add the counters of finished rows.
@@ -246,11 +295,20 @@ impl Film {
     /// Add `other`, the film of a disjoint range of samples of the same render: the result is
     /// bit for bit the film of both ranges rendered at once.
     pub fn merge(&mut self, other: &Film) -> Result<()> {
-        if (self.width, self.height) != (other.width, other.height) || self.wavelengths != other.wavelengths {
+        if (self.width, self.height) != (other.width, other.height)
+            || self.wavelengths != other.wavelengths
+            || self.has_halves() != other.has_halves()
+        {
             return Err(Error::InvalidOption {
                 option: "film to merge",
-                value: format!("{}x{} with {} wavelengths", other.width, other.height, other.wavelengths.len()),
-                expected: "a film of the same size and wavelengths",
+                value: format!(
+                    "{}x{} with {} wavelengths{}",
+                    other.width,
+                    other.height,
+                    other.wavelengths.len(),
+                    if other.has_halves() { " and half-film sums" } else { "" }
+                ),
+                expected: "a film of the same size and wavelengths, keeping half-film sums alike",
             });
         }
         // Films a render writes cannot overflow (a sample is below 2^42 with 64 fractional bits, at
@@ -261,6 +319,11 @@ impl Film {
                 && a.y2.checked_add(b.y2).is_some()
                 && a.count.checked_add(b.count).is_some()
         }) && self.spectral.iter().zip(&other.spectral).all(|(a, b)| a.checked_add(*b).is_some())
+            && self
+                .halves
+                .iter()
+                .zip(&other.halves)
+                .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.checked_add(*y).is_some()))
             && self.nonfinite.checked_add(other.nonfinite).is_some()
             && self.clamped.checked_add(other.clamped).is_some();
         if !fits {
@@ -279,6 +342,11 @@ impl Film {
         }
         for (a, b) in self.spectral.iter_mut().zip(&other.spectral) {
             *a += b;
+        }
+        for (a, b) in self.halves.iter_mut().zip(&other.halves) {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += y;
+            }
         }
         if other.has_first_sample {
             self.ids.copy_from_slice(&other.ids);
@@ -310,10 +378,10 @@ impl Film {
 }
 
 impl FilmRow<'_> {
-    /// Add one sample to pixel `x` of this row: its XYZ and, with a spectral film, its lane
+    /// Add sample `index` to pixel `x` of this row: its XYZ and, with a spectral film, its lane
     /// values (the first `lanes` of them). A non-finite sample counts as black.
     #[inline]
-    pub(crate) fn add_sample<const N: usize>(&mut self, x: usize, xyz: [f32; 3], values: &[f32; N]) {
+    pub(crate) fn add_sample<const N: usize>(&mut self, x: usize, index: u32, xyz: [f32; 3], values: &[f32; N]) {
         let finite = xyz.iter().all(|v| v.is_finite()) && values.iter().take(self.lanes).all(|v| v.is_finite());
         let pixel = &mut self.pixels[x];
         pixel.count += 1;
@@ -332,9 +400,15 @@ impl FilmRow<'_> {
             }
         };
         let [x_, y, z] = xyz.map(&mut clamp);
-        pixel.xyz[0] += to_fixed_f32(x_);
-        pixel.xyz[1] += to_fixed_f32(y);
-        pixel.xyz[2] += to_fixed_f32(z);
+        let fixed = [to_fixed_f32(x_), to_fixed_f32(y), to_fixed_f32(z)];
+        for (sum, v) in pixel.xyz.iter_mut().zip(fixed) {
+            *sum += v;
+        }
+        if !self.halves.is_empty() && second_half(index) {
+            for (sum, v) in self.halves[x].iter_mut().zip(fixed) {
+                *sum += v;
+            }
+        }
         // Y² of an f32 is exact in f64 (48 significant bits).
         let y_for_square = f64::from(y).clamp(-MAX_SQUARED_LUMINANCE, MAX_SQUARED_LUMINANCE);
         pixel.y2 += to_fixed(y_for_square * y_for_square, SQUARE_FRACTION_BITS);
@@ -628,9 +702,9 @@ mod tests {
         let mut film = Film::new(2, 1, Vec::new());
         let (nonfinite, clamped) = {
             let mut row = film.rows_mut().collect::<Vec<_>>().pop().unwrap();
-            row.add_sample::<4>(0, [f32::NAN, 1.0, 1.0], &[0.0; 4]);
-            row.add_sample::<4>(0, [1.0, 1.0, 1.0], &[0.0; 4]);
-            row.add_sample::<4>(1, [1e20, 1e20, 1e20], &[0.0; 4]);
+            row.add_sample::<4>(0, 0, [f32::NAN, 1.0, 1.0], &[0.0; 4]);
+            row.add_sample::<4>(0, 0, [1.0, 1.0, 1.0], &[0.0; 4]);
+            row.add_sample::<4>(1, 0, [1e20, 1e20, 1e20], &[0.0; 4]);
             (row.nonfinite, row.clamped)
         };
         film.add_counts(nonfinite, clamped);
@@ -650,7 +724,7 @@ mod tests {
         {
             let mut row = film.rows_mut().collect::<Vec<_>>().pop().unwrap();
             for _ in 0..4096 {
-                row.add_sample::<4>(0, [1e20, 1e20, 1e20], &[0.0; 4]);
+                row.add_sample::<4>(0, 0, [1e20, 1e20, 1e20], &[0.0; 4]);
             }
         }
         let variance = film.luminance_variance()[0];

@@ -4,6 +4,7 @@
 use colorimetry::{RgbColorSpace, Xyz};
 
 use crate::error::{Error, Result};
+use crate::film::estimate::ErrorEstimate;
 use crate::film::{FRACTION_BITS, Film, ObjectId, from_fixed};
 use crate::output::view::{Exposure, MIDDLE_GREY, View, ViewPlan};
 
@@ -84,6 +85,8 @@ pub struct Image {
     pub(crate) spectral: Option<SpectralFilm>,
     /// Per-pixel variance of the mean luminance and sample counts, for a variance image.
     pub(crate) sample_stats: Option<SampleStats>,
+    /// Each pixel's estimated error and its samples, for an error map.
+    pub(crate) error: Option<(ErrorEstimate, Vec<u32>)>,
     /// How the PNG shows it (exposure, tone curve); recorded in the EXR's header when not the identity.
     pub(crate) view: View,
 }
@@ -115,6 +118,7 @@ impl Image {
             nonfinite: 0,
             spectral: None,
             sample_stats: None,
+            error: None,
             view: View::default(),
         }
     }
@@ -135,6 +139,12 @@ impl Image {
     /// resolved from), for an [`crate::OutputKind::Variance`] image.
     pub fn set_sample_statistics(&mut self, film: &Film) {
         self.sample_stats = Some(SampleStats { variance: film.luminance_variance(), counts: film.sample_counts() });
+    }
+
+    /// Keep `film`'s error estimate at the display scale `scale` (its samples starting at index
+    /// `first`), for an [`crate::OutputKind::ErrorMap`] image; nothing without half-film sums.
+    pub fn set_error_estimate(&mut self, film: &Film, scale: f64, first: u32) {
+        self.error = film.error_estimate(scale, first).map(|e| (e, film.sample_counts()));
     }
 
     /// Width in pixels.

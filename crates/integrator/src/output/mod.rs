@@ -27,6 +27,9 @@ pub enum OutputKind {
     /// Per-pixel sample statistics as an OpenEXR: the variance of the mean luminance, the
     /// relative error √variance / Y and the samples taken ([`Image::set_sample_statistics`]).
     Variance,
+    /// Each pixel's estimated error as an OpenEXR: ΔE00 per pixel (`deltaE00`), per tile
+    /// (`deltaE00.tile`) and the samples taken (`spp`) ([`Image::set_error_estimate`]).
+    ErrorMap,
 }
 
 /// One file to write: where, and what.
@@ -49,6 +52,8 @@ pub struct OutputPlan {
     pub view: ViewPlan,
     /// Whether the image keeps the film's sample statistics (an [`OutputKind::Variance`] output).
     variance: bool,
+    /// Whether the image keeps the film's error estimate (an [`OutputKind::ErrorMap`] output).
+    error_map: bool,
 }
 
 impl OutputPlan {
@@ -84,18 +89,34 @@ impl OutputPlan {
         }
         let paths: Vec<&Path> = outputs.iter().map(|o| o.path.as_path()).collect();
         check_distinct_outputs(&paths)?;
-        Ok(Self { outputs, view, variance: variance.is_some() })
+        Ok(Self { outputs, view, variance: variance.is_some(), error_map: false })
     }
 
-    /// The image of `film` as these outputs show it, and the view its PNG takes (auto-exposure
-    /// resolved on this image).
-    pub fn develop(&self, film: &Film) -> (Image, View) {
+    /// Also write the film's error estimate to `path` (`--error-map`), checked like the others.
+    pub fn add_error_map(&mut self, path: &Path) -> Result<()> {
+        if !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+            return Err(Error::Write { path: path.to_owned(), message: "the error map must end in .exr".to_owned() });
+        }
+        self.outputs.push(OutputFile { path: path.to_owned(), kind: OutputKind::ErrorMap });
+        let paths: Vec<&Path> = self.outputs.iter().map(|o| o.path.as_path()).collect();
+        check_distinct_outputs(&paths)?;
+        self.error_map = true;
+        Ok(())
+    }
+
+    /// The image of `film` (its pixels holding samples from index `first` on) as these outputs
+    /// show it, and the view its PNG takes (auto-exposure resolved on this image).
+    pub fn develop(&self, film: &Film, first: u32) -> (Image, View) {
         let mut image = film.to_image();
         if self.variance {
             image.set_sample_statistics(film);
         }
         let view = self.view.view_for(&image);
         image.set_view(view);
+        if self.error_map {
+            // Judged as the PNG shows it: at the view's exposure.
+            image.set_error_estimate(film, f64::from(view.ev).exp2(), first);
+        }
         (image, view)
     }
 
@@ -157,7 +178,36 @@ impl Image {
             OutputKind::Png(display) => self.encode_png(display, w),
             OutputKind::SpectralExr => self.encode_spectral_exr(w),
             OutputKind::Variance => self.encode_variance_exr(w),
+            OutputKind::ErrorMap => self.encode_error_exr(w),
         }
+    }
+
+    fn encode_error_exr<W: Write + Seek>(&self, w: &mut W) -> std::result::Result<(), String> {
+        use exr::prelude::*;
+        let Some((estimate, counts)) = &self.error else {
+            return Err(
+                "no error estimate: the film kept no half-film sums (render with --error-map or a target error)"
+                    .to_owned(),
+            );
+        };
+        let (width, height) = (self.width as usize, self.height as usize);
+        let tile: Vec<f32> = (0..width * height)
+            .map(|i| estimate.tiles[estimate.tile_of((i % width) as u32, (i / width) as u32)])
+            .collect();
+        let spp: Vec<f32> = counts.iter().map(|&c| c as f32).collect();
+        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
+            [("deltaE00", estimate.pixels.clone()), ("deltaE00.tile", tile), ("spp", spp)]
+                .into_iter()
+                .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
+                .collect();
+        let attributes = ImageAttributes::new(IntegerBounds::from_dimensions((width, height)));
+        let layer = Layer::new(
+            (width, height),
+            LayerAttributes::named("error"),
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(channels),
+        );
+        Image { attributes, layer_data: layer }.write().to_buffered(w).map_err(|e| e.to_string())
     }
 
     fn encode_variance_exr<W: Write + Seek>(&self, w: &mut W) -> std::result::Result<(), String> {

@@ -158,3 +158,103 @@ fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
     let file = FilmFile::from_bytes(&saved[0], std::path::Path::new("c.film")).unwrap();
     assert!(file.resumable(&other, 10, 8, std::path::Path::new("c.film")).is_err());
 }
+
+/// A render to a target error: its tiles stop at different stages; the film is the same at any
+/// thread count, and resumed from any of its checkpoints it is the uninterrupted one, bit for bit.
+#[test]
+fn an_adaptive_render_is_deterministic_and_resumes_exactly() {
+    use integrator::{Checkpoint, FilmFile, FilmHeader, RenderControl, TargetError};
+    use std::sync::Mutex;
+    let scene = reference("cornell_box.json");
+    let options = RenderOptions {
+        width: 24,
+        height: 16,
+        integrator: Integrator::Path(PathOptions::default()),
+        spectral: SpectralMode::Bins(8),
+        spp: 96,
+        seed: 11,
+        threads: Some(2),
+        target_error: Some(TargetError { delta_e: 4.0, exposure_ev: Some(0.0) }),
+        ..RenderOptions::default()
+    };
+    let (whole, stats) = integrator::render_film(&scene, &options, &|_| {}, &AtomicBool::new(false)).unwrap();
+    // Tiles stopped at different stages: the background and quiet walls early, the rest later.
+    let counts = whole.sample_counts();
+    let (fewest, most) = (whole.min_sample_count(), whole.max_sample_count());
+    assert!(fewest >= integrator::FIRST_STAGE_SPP && fewest < most, "{fewest}..{most}");
+    assert!(integrator::stage_ends(96, true).contains(&fewest));
+    assert!(counts.iter().all(|c| integrator::stage_ends(96, true).contains(c)), "{counts:?}");
+    let error = stats.error.expect("an adaptive render reports its error");
+    assert!(error.tiles_done > 0.0 && error.mean > 0.0);
+    // Every tile that stopped before the last stage was at or below the target then; its film
+    // has not changed since, so its estimate now is the one it stopped at.
+    let estimate = whole.error_estimate(1.0, 0).unwrap();
+    for y in 0..16 {
+        for x in 0..24 {
+            if whole.sample_count(x, y) < most {
+                assert!(estimate.tiles[estimate.tile_of(x, y)] <= 4.0);
+            }
+        }
+    }
+    let one_thread = film(&scene, &RenderOptions { threads: Some(1), ..options.clone() });
+    assert!(one_thread == whole, "the thread count changed the film");
+
+    let header = FilmHeader::new(scene.source_hash(), &options, SpectralMode::Bins(8), ViewPlan::default().to_string());
+    let saved: Mutex<Vec<Vec<u8>>> = Mutex::new(Vec::new());
+    let write = |f: &Film| {
+        saved.lock().unwrap().push(FilmFile { header: header.clone(), film: f.clone() }.to_bytes());
+        Ok(())
+    };
+    let cancel = AtomicBool::new(false);
+    let control = RenderControl {
+        progress: &|_| {},
+        cancel: &cancel,
+        resume: None,
+        checkpoint: Some(Checkpoint { every: std::time::Duration::ZERO, write: &write }),
+        spectral: None,
+    };
+    let (checkpointed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
+    assert!(checkpointed == whole, "passes of one sample change no decision");
+    let saved = saved.into_inner().unwrap();
+    assert!(saved.len() > 20, "{} checkpoints", saved.len());
+    for (k, bytes) in saved.iter().enumerate() {
+        let file = FilmFile::from_bytes(bytes, std::path::Path::new("c.film")).unwrap();
+        assert!(file.film.has_halves());
+        let resume = file.resumable(&header, 24, 16, std::path::Path::new("c.film")).unwrap();
+        let control = RenderControl {
+            progress: &|_| {},
+            cancel: &cancel,
+            resume: Some(resume),
+            checkpoint: None,
+            spectral: None,
+        };
+        let (resumed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
+        assert!(resumed == whole, "resumed from checkpoint {}", k + 1);
+    }
+    // A target error decides from the whole film: it does not render a sample range.
+    let part = RenderOptions { samples: Some(0..48), ..options.clone() };
+    assert!(integrator::render_film(&scene, &part, &|_| {}, &AtomicBool::new(false)).is_err());
+}
+
+/// Keeping the half-film sums for an error map changes no pixel of a fixed-spp render.
+#[test]
+fn an_error_estimate_changes_no_pixel() {
+    let scene = reference("cornell_box.json");
+    let options = RenderOptions {
+        width: 12,
+        height: 9,
+        integrator: Integrator::Path(PathOptions::default()),
+        spectral: SpectralMode::Bins(8),
+        spp: 8,
+        seed: 2,
+        ..RenderOptions::default()
+    };
+    let plain = film(&scene, &options);
+    let with = film(&scene, &RenderOptions { error_estimate: true, ..options.clone() });
+    assert!(!plain.has_halves() && with.has_halves());
+    assert_eq!(plain.to_image().pixels(), with.to_image().pixels());
+    assert_eq!(plain.sample_counts(), with.sample_counts());
+    let estimate = with.error_estimate(1.0, 0).unwrap();
+    assert!(estimate.mean() > 0.0 && estimate.pixels.iter().all(|e| e.is_finite()));
+    assert!(plain.error_estimate(1.0, 0).is_none());
+}
