@@ -13,6 +13,7 @@ mod absorbing;
 mod analytic;
 mod auto_time;
 mod colorimetry;
+mod estimate;
 mod hard;
 mod refs;
 mod sampler;
@@ -51,7 +52,7 @@ pub(crate) struct ValidateArgs {
     #[arg(long)]
     regen: bool,
     /// Run only these parts (comma-separated): colorimetry, analytic, hard, speed, absorbing,
-    /// auto, paper, scaling. The report then holds only their checks.
+    /// auto, sampler, estimate, paper, scaling. The report then holds only their checks.
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
 }
@@ -89,8 +90,8 @@ impl Report {
 }
 
 /// The parts `--only` may name, in the order they run.
-const PARTS: [&str; 9] =
-    ["colorimetry", "analytic", "hard", "speed", "absorbing", "auto", "sampler", "paper", "scaling"];
+const PARTS: [&str; 10] =
+    ["colorimetry", "analytic", "hard", "speed", "absorbing", "auto", "sampler", "estimate", "paper", "scaling"];
 
 pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     let root = crate::project_root();
@@ -138,6 +139,10 @@ pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     if wanted("sampler") {
         sampler::checks(&mut report, &root, &refs, args.quick)?;
         step("Sobol' points against independent numbers", &mut since);
+    }
+    if wanted("estimate") {
+        estimate::checks(&mut report, &root, &refs, args.quick)?;
+        step("the error estimate against the true error", &mut since);
     }
     if wanted("paper") {
         paper(&mut report, &out, args.quick);

@@ -74,7 +74,7 @@ pub use scene::{
 };
 
 // Films (parts of a render) and their files.
-pub use film::estimate::{ErrorEstimate, TILE};
+pub use film::estimate::{ErrorEstimate, TILE, displayed_delta_e};
 pub use film::file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Merger, merge_parts};
 pub use film::{Film, ObjectId};
 

@@ -592,6 +592,9 @@ pub(crate) struct PixelSampler<'a, const N: usize, K> {
     /// Only hero sensors place wavelengths per sample; fixed lanes are the same for all.
     hero: bool,
     sobol: bool,
+    /// Sobol' points in two independent randomisations, one per half-film (a film that keeps
+    /// half-film sums: [`SobolSample::of_half`]).
+    halves: bool,
     fixed_lambda: SampledWavelengths<N>,
 }
 
@@ -608,6 +611,7 @@ impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
             offsets: if K::RANDOM { Vec::new() } else { pixel_offsets(options.spp) },
             hero: !matches!(sensor, Sensor::Fixed(_)),
             sobol: matches!(options.integrator, Integrator::Path(PathOptions { sampler: SamplerKind::Sobol, .. })),
+            halves: options.keeps_halves(),
             fixed_lambda: sensor.sample_wavelengths(0.0),
         }
     }
@@ -640,7 +644,11 @@ impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
             // The camera's numbers (block 0 of Sobol' points): first the hero wavelengths, then
             // the position in the pixel; both are drawn for fixed lanes too.
             let u = if self.sobol {
-                own = Sampler::Sobol(SobolSample::new(self.seed, pixel, i));
+                own = Sampler::Sobol(if self.halves {
+                    SobolSample::of_half(self.seed, pixel, i)
+                } else {
+                    SobolSample::new(self.seed, pixel, i)
+                });
                 own.uniform()
             } else {
                 own = Sampler::Independent(Rng::new(self.seed, pixel, u64::from(i)));

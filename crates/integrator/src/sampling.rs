@@ -183,6 +183,16 @@ pub(crate) struct SobolSample {
 }
 
 impl SobolSample {
+    /// Sample `index` of a render whose samples alternate between two independent randomisations
+    /// of the points (`--target-error`, `--error-map`): even indices are sample `index / 2` of one,
+    /// odd ones of the other. Each half is then a whole stratified sequence, and the two halves'
+    /// means are independent, so half their difference has the distribution of the whole mean's
+    /// error (`film/estimate.rs`): the split that makes the error estimate honest for Sobol' points.
+    pub(crate) fn of_half(seed: u64, pixel: u64, index: u32) -> Self {
+        const HALF_SEED: [u64; 2] = [0x6a09_e667_f3bc_c908, 0xbb67_ae85_84ca_a73b];
+        Self::new(splitmix64(seed ^ HALF_SEED[(index & 1) as usize]), pixel, index >> 1)
+    }
+
     /// Sample `index` of pixel `pixel`, at block 0.
     pub(crate) fn new(seed: u64, pixel: u64, index: u32) -> Self {
         let stream = pixel_stream(seed, pixel);

@@ -145,23 +145,17 @@ pub struct Film {
     pub(crate) clamped: u64,
 }
 
-/// Whether sample `index` of a pixel belongs to the second of the two half-films: when the
-/// number of 1 bits of its index is odd (the Thue–Morse sequence). Splitting by parity would not
-/// do: the path tracer's Sobol' points put every even index in one half of each dimension's
-/// range (the lowest index bit is the coordinate's highest), so the two halves would differ by
-/// construction. Split by bit parity, the two indices of every aligned pair 2k, 2k + 1 fall in
-/// different halves (so each half of an even count is exactly half), and each half of the first
-/// 2^m points keeps one point in each of the 2^(m−1) strata of every dimension.
+/// Whether sample `index` of a pixel belongs to the second of the two half-films: the odd
+/// indices. With Sobol' points the two halves are two independent randomisations of the points
+/// (`SobolSample::of_half`); with independent numbers any split is independent.
 #[inline]
 pub(crate) fn second_half(index: u32) -> bool {
-    index.count_ones() % 2 == 1
+    index % 2 == 1
 }
 
 /// How many of the sample indices `range` fall in the second half ([`second_half`]).
 pub(crate) fn second_half_count(range: std::ops::Range<u32>) -> u32 {
-    // Below n: ⌊n/2⌋ whole pairs, one each, and for odd n the last index alone.
-    let below = |n: u32| n / 2 + (n % 2 == 1 && second_half(n - 1)) as u32;
-    below(range.end) - below(range.start)
+    range.end / 2 - range.start / 2
 }
 
 /// One row of a film, lent to a worker thread.
