@@ -6,6 +6,11 @@
 //! (`gallery.html`, the PNGs with their rows). The project's own glTF scenes (`scenes/`) are
 //! rendered too. Skips the third-party part with a message when the folder is absent.
 //! `robustness/` (malformed files for the loaders) is left out.
+//!
+//! With `--seeds`, each file is rendered again with `--seed 1`, and the table adds what a render
+//! to a target error reports (spp, the estimated mean ΔE00 and worst tile) beside the measured
+//! mean ΔE00 between the two renders over √2 (each one's error, if the estimate is honest), at
+//! the PNG's exposure, clipped at white, as the estimate judges (`docs/defaults.md`, "Samples").
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -25,9 +30,18 @@ pub(crate) struct GalleryArgs {
     /// Image width (height is 3/4 of it).
     #[arg(long, default_value_t = 96)]
     width: u32,
+    /// Image height [default: 3/4 of the width].
+    #[arg(long)]
+    height: Option<u32>,
     /// Output folder for the renders and the table.
     #[arg(long, default_value = "target/gallery")]
     out: PathBuf,
+    /// Render each file a second time with `--seed 1` and compare the two (see the module docs).
+    #[arg(long)]
+    seeds: bool,
+    /// More arguments for every render (e.g. `--extra=--time-limit --extra=30`), said in the table.
+    #[arg(long, allow_hyphen_values = true)]
+    extra: Vec<String>,
 }
 
 /// Rec. 709 luma weights (ITU-R BT.709-6, item 3.2), applied to the PNG's display values.
@@ -53,9 +67,16 @@ pub(crate) fn run(args: &GalleryArgs) -> anyhow::Result<()> {
     anyhow::ensure!(spectrace.is_file(), "{}: build it first (cargo build --release -p cli)", spectrace.display());
     let out = root.join(&args.out);
     std::fs::create_dir_all(&out).with_context(|| out.display().to_string())?;
-    let mut table = String::from(
-        "| asset | integrator | camera | EV | mean | clipped % | time s | warnings | non-finite |\n|---|---|---|---|---|---|---|---|---|\n",
-    );
+    let mut table = if args.extra.is_empty() {
+        String::new()
+    } else {
+        format!("Every render with `{}`.\n\n", args.extra.join(" "))
+    };
+    table.push_str(if args.seeds {
+        "| asset | integrator | camera | lights | EV | mean | clipped % | time s | spp | estimated ΔE00 (worst tile) | seeds' ΔE00 / √2 | warnings | non-finite |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+    } else {
+        "| asset | integrator | camera | EV | mean | clipped % | time s | warnings | non-finite |\n|---|---|---|---|---|---|---|---|---|\n"
+    });
     let mut html = String::from(
         "<!doctype html><meta charset=utf-8><title>spectrace gallery</title>\n<style>figure{display:inline-block;margin:4px;font:11px sans-serif;width:260px;vertical-align:top}img{width:256px;image-rendering:pixelated}</style>\n",
     );
@@ -66,10 +87,12 @@ pub(crate) fn run(args: &GalleryArgs) -> anyhow::Result<()> {
         let tag = name.replace(['/', '.', ' '], "_");
         let exr = out.join(format!("{tag}.exr"));
         let width = args.width.to_string();
-        let height = (args.width * 3 / 4).max(1).to_string();
+        let height = args.height.unwrap_or((args.width * 3 / 4).max(1)).to_string();
         let started = Instant::now();
         let output = Command::new(&spectrace)
-            .args(["render", "--width", &width, "--height", &height, "-o"])
+            .args(["render", "--width", &width, "--height", &height])
+            .args(&args.extra)
+            .arg("-o")
             .arg(&exr)
             .arg(file)
             .output()
@@ -112,13 +135,59 @@ pub(crate) fn run(args: &GalleryArgs) -> anyhow::Result<()> {
             .nth(2)
             .map_or("?", |s| s.trim().trim_start_matches("integrator "))
             .to_owned();
-        let camera = if note("three-quarter view").is_empty() { "file" } else { "3/4 default" };
+        let camera_note = note("note: camera: ");
+        let camera = if camera_note.is_empty() {
+            "file".to_owned()
+        } else {
+            camera_note.split("note: camera: ").nth(1).unwrap_or("?").replace('|', "/")
+        };
         // "spectrace: note: PNG exposure +1.23 EV (…)"
         let ev = note("PNG exposure ").split_whitespace().nth(4).unwrap_or("0").to_owned();
-        table.push_str(&format!(
-            "| {name} | {integrator} | {camera} | {ev} | {mean:.1} % | {clipped_pct:.2} | {seconds:.2} | {} | {nonfinite} |\n",
-            warnings.len()
-        ));
+        if args.seeds {
+            let lights = note("note: lights").split("note: ").nth(1).unwrap_or("the file's").replace('|', "/");
+            // "… bins:24 16..4096 spp (mean 2078) in …" or "… 1 spp in …"
+            let summary = note(" spp");
+            let spp = summary
+                .split(" in ")
+                .next()
+                .and_then(|s| s.split_once(' ').map(|(_, rest)| rest))
+                .and_then(|s| s.split_once(' ').map(|(_, rest)| rest))
+                .and_then(|s| s.split_once(' ').map(|(_, rest)| rest))
+                .unwrap_or("?")
+                .to_owned();
+            let estimated = note("estimated error:")
+                .split("mean ΔE00 ")
+                .nth(1)
+                .map(|s| {
+                    let mean = s.split(',').next().unwrap_or("?");
+                    let worst = s.split("tile ").nth(1).and_then(|t| t.split(';').next()).unwrap_or("?");
+                    format!("{mean} ({worst})")
+                })
+                .unwrap_or_else(|| "–".to_owned());
+            let second = out.join(format!("{tag}_seed1.exr"));
+            let again = Command::new(&spectrace)
+                .args(["render", "--quiet", "--seed", "1", "--width", &width, "--height", &height])
+                .args(&args.extra)
+                .arg("-o")
+                .arg(&second)
+                .arg(file)
+                .output()?;
+            let seeds = if again.status.success() {
+                let scale = f64::from(ev.parse::<f32>().unwrap_or(0.0)).exp2();
+                format!("{:.2}", seeds_error(&exr, &second, scale)? / std::f64::consts::SQRT_2)
+            } else {
+                "failed".to_owned()
+            };
+            table.push_str(&format!(
+                "| {name} | {integrator} | {camera} | {lights} | {ev} | {mean:.1} % | {clipped_pct:.2} | {seconds:.2} | {spp} | {estimated} | {seeds} | {} | {nonfinite} |\n",
+                warnings.len()
+            ));
+        } else {
+            table.push_str(&format!(
+                "| {name} | {integrator} | {camera} | {ev} | {mean:.1} % | {clipped_pct:.2} | {seconds:.2} | {} | {nonfinite} |\n",
+                warnings.len()
+            ));
+        }
         let notes: String =
             warnings.iter().map(|w| format!("<br>{}", escape(w.trim_start_matches("spectrace: note: ")))).collect();
         html.push_str(&format!(
@@ -133,6 +202,36 @@ pub(crate) fn run(args: &GalleryArgs) -> anyhow::Result<()> {
     std::fs::write(out.join("gallery.html"), &html)?;
     print!("{table}");
     Ok(())
+}
+
+/// Mean ΔE00 between two renders' EXRs (linear sRGB) as their PNG shows them at `scale`.
+fn seeds_error(a: &Path, b: &Path, scale: f64) -> anyhow::Result<f64> {
+    let srgb = colorimetry::RgbColorSpace::srgb();
+    let (pa, pb) = (rgb_pixels(a)?, rgb_pixels(b)?);
+    anyhow::ensure!(pa.len() == pb.len(), "{} and {}: sizes differ", a.display(), b.display());
+    let xyz = |c: [f32; 3]| {
+        let x = srgb.rgb_to_xyz(colorimetry::Rgb { r: c[0].into(), g: c[1].into(), b: c[2].into() });
+        [x.x, x.y, x.z]
+    };
+    let sum: f64 = pa.iter().zip(&pb).map(|(p, q)| integrator::displayed_delta_e(xyz(*p), xyz(*q), scale)).sum();
+    Ok(sum / pa.len().max(1) as f64)
+}
+
+/// An EXR's R, G, B channels, pixel by pixel.
+fn rgb_pixels(path: &Path) -> anyhow::Result<Vec<[f32; 3]>> {
+    let image = exr::prelude::read_all_flat_layers_from_file(path).with_context(|| path.display().to_string())?;
+    let layer = image.layer_data.first().context("no layer")?;
+    let channel = |name: &str| -> anyhow::Result<Vec<f32>> {
+        let c = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name.to_string() == name)
+            .with_context(|| format!("{}: no channel {name}", path.display()))?;
+        Ok(c.sample_data.values_as_f32().collect())
+    };
+    let (r, g, b) = (channel("R")?, channel("G")?, channel("B")?);
+    Ok(r.iter().zip(&g).zip(&b).map(|((r, g), b)| [*r, *g, *b]).collect())
 }
 
 /// `text` safe inside HTML.
