@@ -595,7 +595,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(u64::from(options.height)) };
     bar.set_style(
-        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} {msg}")
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let report = |p: integrator::Progress| {
@@ -611,20 +611,28 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
                     None => String::new(),
                 };
                 bar.set_message(format!(
-                    "‰ tiles at ΔE00 ≤ {}; mean ΔE00 {:.2}, worst tile {:.2}{left}; {speed}",
-                    e.target, e.mean, e.worst_tile
+                    "{:.0} % of tiles at ΔE00 ≤ {}; mean ΔE00 {:.2}, worst tile {:.2}{left}; {speed}",
+                    100.0 * e.tiles_done,
+                    e.target,
+                    e.mean,
+                    e.worst_tile
                 ));
             }
             None if options.target_error.is_some() => {
                 bar.set_length(p.rows_total.max(1));
                 bar.set_position(p.rows_done);
-                bar.set_message(format!("rows of the first {} spp; {speed}", integrator::FIRST_STAGE_SPP));
+                bar.set_message(format!(
+                    "{}/{} rows of the first {} spp; {speed}",
+                    p.rows_done,
+                    p.rows_total,
+                    integrator::FIRST_STAGE_SPP
+                ));
             }
             None => {
                 // With --time-limit, passes of one sample make more rows than the image has.
                 bar.set_length(p.rows_total);
                 bar.set_position(p.rows_done);
-                bar.set_message(format!("rows; {speed}"));
+                bar.set_message(format!("{}/{} rows; {speed}", p.rows_done, p.rows_total));
             }
         }
     };
