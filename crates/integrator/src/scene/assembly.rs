@@ -185,6 +185,7 @@ impl RenderScene {
             mut cameras,
             background,
             settings,
+            generator: _,
             mut warnings,
             mut source_hash,
             mut source_files,

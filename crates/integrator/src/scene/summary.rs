@@ -18,7 +18,8 @@ use crate::scene::assembly::RenderScene;
 /// `KHR_materials_sheen`, `KHR_materials_anisotropy`, `KHR_materials_specular` other than its defaults), and its
 /// spectra), `lights`, `camera`, `bounds` (`min`, `max`),
 /// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `memory` (`charged_bytes`, `budget_bytes`:
-/// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `warnings`, and `needs`:
+/// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `generator` (glTF `asset.generator`),
+/// `warnings`, and `needs`:
 /// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
 /// the names or files of the non-RGB spectra used (for the layers above to check for spikes).
 pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
@@ -100,6 +101,7 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
         },
         "memory": {"charged_bytes": render_scene.memory.used, "budget_bytes": render_scene.memory.limit},
         "settings": desc.settings,
+        "generator": desc.generator,
         "warnings": render_scene.warnings,
         "needs": {
             "dispersion": used_assembled().any(Material::is_dispersive),
