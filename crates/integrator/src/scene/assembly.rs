@@ -99,7 +99,7 @@ pub struct RenderScene {
     pub(crate) vertex_colors: Vec<Option<VertexColors>>,
     /// Whether some material has a cut-out or blended alpha: shadow rays then look through it.
     pub(crate) alpha_cutouts: bool,
-    /// Material of primitives that name none: a mid-grey Lambertian.
+    /// Material of primitives that name none: a grey Lambertian ([`default_material`]).
     pub(crate) default_material: Material,
     pub(crate) lights: Vec<Light>,
     /// Every light, including emissive primitives and the environment, behind one interface.
@@ -276,7 +276,7 @@ impl RenderScene {
             textures,
             vertex_colors,
             alpha_cutouts,
-            default_material: Material::diffuse("default grey", DenselySampledSpectrum::constant(0.5)),
+            default_material: default_material(format),
             lights,
             emitters: Emitters::default(),
             camera,
@@ -966,6 +966,18 @@ fn add_default_lights(
     }
     Ok(())
 }
+
+/// The material of primitives that name none: a Lambertian grey of 0.8 for an OBJ file (what Blender gives
+/// an OBJ without materials or MTL: its default material's base colour), 0.5 for glTF and manifests (glTF
+/// primitives without a material get glTF's default material instead; the paper's scenes name theirs).
+fn default_material(format: SceneFormat) -> Material {
+    let grey = if format == SceneFormat::Obj { OBJ_DEFAULT_GREY } else { 0.5 };
+    Material::diffuse("default grey", DenselySampledSpectrum::constant(grey))
+}
+
+/// Blender's default material's base colour (0.8, 0.8, 0.8), which its OBJ importer gives faces without a
+/// material.
+const OBJ_DEFAULT_GREY: f64 = 0.8;
 
 /// A mesh's vertex colours unless every one is opaque white: exporters write those (Blender's for
 /// any mesh with a colour attribute), and multiplying by 1 changes nothing, so such meshes render
