@@ -40,7 +40,8 @@ impl IntegratorChoice {
     }
 }
 
-/// Camera choice and overrides.
+/// Camera choice and overrides, and how glass without a volume is read (both shape what a file
+/// renders as with no flags).
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Camera")]
 pub(crate) struct CameraArgs {
@@ -60,6 +61,10 @@ pub(crate) struct CameraArgs {
     /// Vertical field of view in degrees, overriding the camera's.
     #[arg(long, value_name = "DEG")]
     fov: Option<f32>,
+    /// Read glTF transmission without KHR_materials_volume as thin walls everywhere, as the
+    /// specification does [default: solid glass on closed meshes, thin walls on open ones].
+    #[arg(long, help_heading = "Materials")]
+    thin_glass: bool,
 }
 
 impl CameraArgs {
@@ -84,6 +89,7 @@ impl CameraArgs {
             environment: None,
             default_lights: DefaultLights::default(),
             sky: None,
+            thin_glass: self.thin_glass,
         }
     }
 }

@@ -16,7 +16,9 @@ use materials::{Material, MaterialModel};
 use crate::error::{Error, Result};
 use crate::lights::envmap::EnvironmentMap;
 use crate::lights::{Emitters, Light, LightKind};
-use crate::material_desc::{emission_spectrum, emission_spectrum_scaled, hall_params, material_from_desc};
+use crate::material_desc::{
+    emission_spectrum, emission_spectrum_scaled, hall_params, material_from_desc, solid_glass_model,
+};
 use crate::options::{DEFAULT_RESOLUTION, IntegratorKind};
 use crate::output::{Exposure, Tonemap, ViewPlan};
 use crate::scene::camera::{CameraOptions, choose_camera};
@@ -35,6 +37,9 @@ pub struct AssemblyOptions {
     /// The analytic daylight sky (`--light-env sky`): it replaces the file's environment and background
     /// like `environment` (which must then be `None`).
     pub sky: Option<SkyOption>,
+    /// Read glTF transmission without `KHR_materials_volume` as thin walls everywhere, as the specification
+    /// does (`--thin-glass`); by default such a material on a closed mesh is solid glass.
+    pub thin_glass: bool,
 }
 
 /// `--light-env sky`: a Preetham et al. 1999 sky (and sun), in nits and lux (`docs/defaults.md`).
@@ -192,6 +197,13 @@ impl RenderScene {
             mut memory,
         } = desc;
         let started = std::time::Instant::now();
+        let solid = crate::scene::solids::solid_glass(
+            &mut meshes,
+            &mut instances,
+            &mut material_descs,
+            options.thin_glass,
+            &mut warnings,
+        );
         let vertex_colored = vertex_colored_materials(&mut meshes, &mut instances, &mut material_descs, &mut warnings);
         let (mut textures, decoded) =
             load_material_textures(&images, &mut material_descs, &vertex_colored, &mut memory, &mut warnings)?;
@@ -209,7 +221,10 @@ impl RenderScene {
         drop(images);
         let alpha_cutouts = textures.iter().flatten().any(MaterialTextures::has_alpha);
         let mut background = background;
-        let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
+        let mut materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
+        for (i, m) in materials.iter_mut().enumerate().filter(|(i, _)| solid.get(*i).copied().unwrap_or(false)) {
+            m.model = solid_glass_model(&material_descs[i], m.model);
+        }
         warn_unused_keys(&material_descs, &mut warnings);
         warn_isotropic_parts(&material_descs, &materials, &mut warnings);
         add_mikktspace_tangents(

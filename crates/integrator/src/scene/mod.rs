@@ -2,10 +2,12 @@
 //! materials, lights, textures and a camera, decided once before any ray is traced.
 //!
 //! `assembly` runs the steps (materials, textures, lights, camera); `camera` frames files that
-//! have none; `tangents` supplies glTF's MikkTSpace tangents; `summary` reports what was built.
+//! have none; `solids` reads glTF glass on closed meshes as solid; `tangents` supplies glTF's
+//! MikkTSpace tangents; `summary` reports what was built.
 
 pub(crate) mod assembly;
 pub(crate) mod camera;
+pub(crate) mod solids;
 pub(crate) mod summary;
 pub(crate) mod tangents;
 

@@ -253,3 +253,128 @@ fn instanced_meshes_render_like_their_world_space_copies() {
     assert!(lit > 1200, "{lit} pixels see a box");
     assert!(differ * 100 <= a.pixels().len(), "{differ} pixels differ");
 }
+
+/// A scratch folder for one test's files.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("spectrace-defaults-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A mesh for [`write_gltf`]: positions, triangles and the index of its material.
+type TestMesh = (Vec<Vec3>, Vec<[u32; 3]>, usize);
+
+/// A glTF file `name`.gltf (and .bin) in `dir`: one mesh node per `(positions, triangles, material)`, the
+/// `materials` (JSON objects), `nodes` further nodes (JSON, e.g. lights and cameras), `root` further members
+/// of the root object (JSON, with a leading comma) and the asset's `generator`.
+fn write_gltf(
+    dir: &Path,
+    name: &str,
+    generator: &str,
+    meshes: &[TestMesh],
+    materials: &[String],
+    nodes: &[String],
+    root: &str,
+) -> std::path::PathBuf {
+    let (mut bin, mut views, mut accessors, mut gltf_meshes, mut node_list) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (k, (positions, triangles, material)) in meshes.iter().enumerate() {
+        let offset = bin.len();
+        for p in positions {
+            for v in p.to_array() {
+                bin.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        views.push(format!(r#"{{"buffer": 0, "byteOffset": {offset}, "byteLength": {}}}"#, bin.len() - offset));
+        accessors.push(format!(
+            r#"{{"bufferView": {}, "componentType": 5126, "count": {}, "type": "VEC3"}}"#,
+            views.len() - 1,
+            positions.len()
+        ));
+        let offset = bin.len();
+        for i in triangles.iter().flatten() {
+            bin.extend_from_slice(&i.to_le_bytes());
+        }
+        views.push(format!(r#"{{"buffer": 0, "byteOffset": {offset}, "byteLength": {}}}"#, bin.len() - offset));
+        accessors.push(format!(
+            r#"{{"bufferView": {}, "componentType": 5125, "count": {}, "type": "SCALAR"}}"#,
+            views.len() - 1,
+            3 * triangles.len()
+        ));
+        gltf_meshes.push(format!(
+            r#"{{"primitives": [{{"attributes": {{"POSITION": {}}}, "indices": {}, "material": {material}}}]}}"#,
+            accessors.len() - 2,
+            accessors.len() - 1
+        ));
+        node_list.push(format!(r#"{{"mesh": {k}}}"#));
+    }
+    node_list.extend(nodes.iter().cloned());
+    std::fs::write(dir.join(format!("{name}.bin")), &bin).unwrap();
+    let gltf = format!(
+        r#"{{"asset": {{"version": "2.0", "generator": "{generator}"}}, "scene": 0,
+        "scenes": [{{"nodes": [{}]}}], "nodes": [{}], "meshes": [{}], "materials": [{}],
+        "accessors": [{}], "bufferViews": [{}], "buffers": [{{"uri": "{name}.bin", "byteLength": {}}}]{root}}}"#,
+        (0..node_list.len()).map(|i| i.to_string()).collect::<Vec<_>>().join(", "),
+        node_list.join(", "),
+        gltf_meshes.join(", "),
+        materials.join(", "),
+        accessors.join(", "),
+        views.join(", "),
+        bin.len()
+    );
+    let path = dir.join(format!("{name}.gltf"));
+    std::fs::write(&path, gltf).unwrap();
+    path
+}
+
+/// A unit cube's 8 corners and 12 triangles wound outwards, offset by `at`; with `open`, its +y face left
+/// out.
+fn cube_mesh(at: Vec3, open: bool) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let corners =
+        (0..8).map(|i| at + Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32)).collect();
+    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
+    let triangles = quads
+        .iter()
+        .enumerate()
+        .filter(|(k, _)| !(open && *k == 3))
+        .flat_map(|(_, q)| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+        .collect();
+    (corners, triangles)
+}
+
+/// `KHR_materials_transmission` without `KHR_materials_volume`: solid glass on a closed mesh (its index
+/// from `KHR_materials_ior`), a thin wall on an open one, thin everywhere with `--thin-glass`.
+#[test]
+fn glass_without_a_volume_is_solid_on_closed_meshes_and_thin_on_open_ones() {
+    let dir = scratch("glass");
+    let glass = |name: &str| {
+        format!(
+            r#"{{"name": "{name}", "pbrMetallicRoughness": {{"metallicFactor": 0, "roughnessFactor": 0}},
+            "extensions": {{"KHR_materials_transmission": {{"transmissionFactor": 1}}, "KHR_materials_ior": {{"ior": 1.33}}}}}}"#
+        )
+    };
+    let (closed, closed_triangles) = cube_mesh(Vec3::ZERO, false);
+    let (open, open_triangles) = cube_mesh(Vec3::new(2.0, 0.0, 0.0), true);
+    let path = write_gltf(
+        &dir,
+        "glass",
+        "spectrace test",
+        &[(closed, closed_triangles, 0), (open, open_triangles, 1)],
+        &[glass("closed"), glass("open")],
+        &[],
+        r#", "extensionsUsed": ["KHR_materials_transmission", "KHR_materials_ior"]"#,
+    );
+    let model = |scene: &RenderScene, name: &str| {
+        scene.materials().iter().find(|m| m.name == name).map(|m| m.model).unwrap_or_else(|| panic!("{name}"))
+    };
+    let scene = RenderScene::load(&path).unwrap();
+    assert_eq!(model(&scene, "closed"), materials::MaterialModel::Dielectric { roughness: 0.0 });
+    assert_eq!(model(&scene, "open"), materials::MaterialModel::ThinDielectric);
+    let closed = scene.materials().iter().find(|m| m.name == "closed").unwrap();
+    assert!((closed.ior.eval(materials::LAMBDA_D) - 1.33).abs() < 1e-6);
+    assert!(scene.warnings.iter().any(|w| w.contains("'closed'") && w.contains("solid glass")), "{:?}", scene.warnings);
+    let thin = AssemblyOptions { thin_glass: true, ..Default::default() };
+    let scene = RenderScene::load_with_options(&path, &geometry::LoadOptions::default(), &thin).unwrap();
+    assert_eq!(model(&scene, "closed"), materials::MaterialModel::ThinDielectric);
+    let _ = std::fs::remove_dir_all(&dir);
+}
