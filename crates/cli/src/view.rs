@@ -40,7 +40,8 @@ impl IntegratorChoice {
     }
 }
 
-/// Camera choice and overrides.
+/// Camera choice and overrides, and how glass without a volume is read (both shape what a file
+/// renders as with no flags).
 #[derive(Debug, Clone, clap::Args)]
 #[command(next_help_heading = "Camera")]
 pub(crate) struct CameraArgs {
@@ -60,6 +61,10 @@ pub(crate) struct CameraArgs {
     /// Vertical field of view in degrees, overriding the camera's.
     #[arg(long, value_name = "DEG")]
     fov: Option<f32>,
+    /// Read glTF transmission without KHR_materials_volume as thin walls everywhere, as the
+    /// specification does [default: solid glass on closed meshes, thin walls on open ones].
+    #[arg(long, help_heading = "Materials")]
+    thin_glass: bool,
 }
 
 impl CameraArgs {
@@ -84,6 +89,7 @@ impl CameraArgs {
             environment: None,
             default_lights: DefaultLights::default(),
             sky: None,
+            thin_glass: self.thin_glass,
         }
     }
 }
@@ -106,10 +112,12 @@ pub(crate) struct EnvArgs {
     /// above [default: 0]; the sky is turned with --sun-azimuth.
     #[arg(long, value_name = "DEG", requires = "env_source", allow_hyphen_values = true)]
     env_rotation: Option<f32>,
-    /// The environment of the default lights a glTF/OBJ file without lights gets: `uniform` (a D65
-    /// environment with the key light, the default), `none` (the key light over black), `sky` (a
-    /// Preetham 1999 daylight sky and sun, absolute: nits and lux; docs/defaults.md), or an .hdr/.exr
-    /// map (as --env FILE).
+    /// The environment of the default lights: by default a glTF/OBJ file without lights (or with only
+    /// emitters too weak to read by) gets a D65 environment and a key light, and a file's own lights
+    /// or bright emitters nothing (docs/defaults.md); `uniform` adds the environment and key light to
+    /// any file without lights, and a world around a file's lamps; `none` the key light alone over
+    /// black where the default adds it; `sky` a Preetham 1999 daylight sky and sun (absolute: nits and
+    /// lux); or an .hdr/.exr map (as --env FILE).
     #[arg(long, value_name = "none|uniform|sky|FILE", conflicts_with = "env")]
     light_env: Option<String>,
     /// Sky: turbidity of the atmosphere, 2 (very clear) to 10 (hazy) [default: 3].
@@ -137,7 +145,8 @@ impl EnvArgs {
         Ok(match (self.no_default_lights, self.light_env.as_deref()) {
             (true, _) => DefaultLights::None,
             (false, Some("none")) => DefaultLights::KeyOnly,
-            _ => DefaultLights::EnvironmentAndKey,
+            (false, Some("uniform")) => DefaultLights::EnvironmentAndKey,
+            _ => DefaultLights::Auto,
         })
     }
 

@@ -728,6 +728,9 @@ pub struct SceneDescription {
     pub background: Option<(SpectrumDesc, f32)>,
     /// The manifest's render settings, each key checked when the file is read (none for glTF and OBJ).
     pub settings: Settings,
+    /// The program that wrote the file, as the file names it (glTF `asset.generator`); `None` where the
+    /// file does not say (and for OBJ and manifests). The layers above read exporters' known habits from it.
+    pub generator: Option<String>,
     /// Things the user should know: skipped primitives, ignored textures, defaults added.
     pub warnings: Vec<String>,
     /// Digest (XXH64) of the bytes of every file read to build the description, the scene file
@@ -760,6 +763,7 @@ impl SceneDescription {
             cameras: Vec::new(),
             background: None,
             settings: Settings::default(),
+            generator: None,
             warnings: Vec::new(),
             source_hash: 0,
             source_files: Vec::new(),

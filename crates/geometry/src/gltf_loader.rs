@@ -174,6 +174,7 @@ pub(crate) fn load_gltf_slice(
         })
         .map(|(k, _)| k)
         .collect();
+    let generator = root.asset.generator.clone();
     let document = guard_panic(path, "gltf", || gltf::Document::from_json(root).map_err(gltf_err))?;
 
     check_views(&document, path)?;
@@ -189,6 +190,7 @@ pub(crate) fn load_gltf_slice(
         default_material: None,
         refused: None,
     };
+    loader.desc.generator = generator;
     for note in notes {
         loader.warn(note);
     }
@@ -1749,6 +1751,19 @@ mod tests {
         assert_eq!((sg.roughness, sg.metallic, sg.alpha), (Some(0.25), Some(0.0), Some(0.9)));
         assert_eq!(sg.textures.base_color.as_ref().map(|t| t.image), Some(0));
         assert!(d.warnings.iter().any(|w| w.contains("material 'sg': KHR_materials_pbrSpecularGlossiness converted")));
+    }
+
+    /// The writer's name is transcribed for the layers above (Blender's exporter has unit habits of its own);
+    /// a file that names none has none.
+    #[test]
+    fn the_generator_is_transcribed() {
+        let budget = Budget::new(crate::LoadOptions::default());
+        let named = br#"{"asset": {"version": "2.0", "generator": "Khronos glTF Blender I/O v4.0.44"}}"#;
+        let d = load_gltf_slice(named, None, Path::new("t.gltf"), &budget).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.generator.as_deref(), Some("Khronos glTF Blender I/O v4.0.44"));
+        let anonymous = br#"{"asset": {"version": "2.0"}}"#;
+        let d = load_gltf_slice(anonymous, None, Path::new("t.gltf"), &budget).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.generator, None);
     }
 
     #[test]

@@ -216,6 +216,19 @@ pub(crate) fn material_model(
     })
 }
 
+/// The solid reading of a glTF material's transmission ([`material_model`] reads one without
+/// `KHR_materials_volume` as a thin wall): the same glass refracting into the mesh it encloses, of the
+/// material's roughness. Other models are returned unchanged.
+pub(crate) fn solid_glass_model(desc: &MaterialDesc, model: MaterialModel) -> MaterialModel {
+    match model {
+        MaterialModel::ThinDielectric => MaterialModel::Dielectric { roughness: hall_params(desc).roughness },
+        MaterialModel::GltfTransmission { metallic, roughness, transmission, .. } => {
+            MaterialModel::GltfTransmission { metallic, roughness, transmission, thin: false }
+        }
+        other => other,
+    }
+}
+
 /// `KHR_materials_specular` on a glTF dielectric layer of index `ior` (at n_d): F0(λ) = min(F0_ior ·
 /// colour(λ), 1) with F0_ior = ((n − 1)/(n + 1))² (1 in `KHR_materials_ior`'s mode 0). The colour may exceed 1:
 /// it is upsampled as a reflectance at its largest component's scale. `None` for the extension's defaults

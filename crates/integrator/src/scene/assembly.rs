@@ -16,10 +16,13 @@ use materials::{Material, MaterialModel};
 use crate::error::{Error, Result};
 use crate::lights::envmap::EnvironmentMap;
 use crate::lights::{Emitters, Light, LightKind};
-use crate::material_desc::{emission_spectrum, emission_spectrum_scaled, hall_params, material_from_desc};
+use crate::material_desc::{
+    emission_spectrum, emission_spectrum_scaled, hall_params, material_from_desc, solid_glass_model,
+};
 use crate::options::{DEFAULT_RESOLUTION, IntegratorKind};
 use crate::output::{Exposure, Tonemap, ViewPlan};
 use crate::scene::camera::{CameraOptions, choose_camera};
+use crate::scene::survey::{EmitterLight, Survey};
 use crate::texture::{MaterialTextures, VertexColors, load_material_textures, texture_bytes, vertex_color_bytes};
 
 /// What the user asks of the assembly, beyond the file (the command line's scene options).
@@ -35,6 +38,9 @@ pub struct AssemblyOptions {
     /// The analytic daylight sky (`--light-env sky`): it replaces the file's environment and background
     /// like `environment` (which must then be `None`).
     pub sky: Option<SkyOption>,
+    /// Read glTF transmission without `KHR_materials_volume` as thin walls everywhere, as the specification
+    /// does (`--thin-glass`); by default such a material on a closed mesh is solid glass.
+    pub thin_glass: bool,
 }
 
 /// `--light-env sky`: a Preetham et al. 1999 sky (and sun), in nits and lux (`docs/defaults.md`).
@@ -60,16 +66,25 @@ impl Default for SkyOption {
     }
 }
 
-/// The lights assembly adds to a scene that has none of its own.
+/// The lights assembly may add to a scene's own (`docs/defaults.md`, "Lights"; decided in
+/// `decide_lights`).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum DefaultLights {
-    /// A glTF or OBJ file: a uniform D65 environment and a key light (with emitters, only a dim
-    /// environment, Blender's default world; with lights of its own but no environment, that world
-    /// too); a manifest: a D65 point light (none with emitters). `--light-env uniform`.
+    /// By rule: a glTF or OBJ file without lights, or lit only by emitters too weak to read what the
+    /// camera sees, gets a uniform D65 environment and a key light; emitters that light it readably,
+    /// and photometric lights (`KHR_lights_punctual`) of a file not written by Blender's exporter, get
+    /// nothing; a Blender file's lamps get Blender's default world around them. A manifest without any
+    /// light gets a D65 point light. The default.
     #[default]
+    Auto,
+    /// `--light-env uniform` said: a glTF or OBJ file without lights or lit by emitters gets the
+    /// environment and the key light however bright its emitters; one with lights of its own gets the
+    /// world around them (Blender's default world, at most a fill three stops below the brightest); a
+    /// manifest as [`DefaultLights::Auto`].
     EnvironmentAndKey,
-    /// A glTF or OBJ file: the key light alone, over black (with emitters: nothing); a manifest as
-    /// [`DefaultLights::EnvironmentAndKey`]. `--light-env none`.
+    /// A glTF or OBJ file: what [`DefaultLights::Auto`] adds without the environment: the key light
+    /// alone over black where it adds the key light, else nothing; a manifest as
+    /// [`DefaultLights::Auto`]. `--light-env none`.
     KeyOnly,
     /// Nothing: a scene with no light, emitter or background is an error. `--no-default-lights`.
     None,
@@ -99,7 +114,7 @@ pub struct RenderScene {
     pub(crate) vertex_colors: Vec<Option<VertexColors>>,
     /// Whether some material has a cut-out or blended alpha: shadow rays then look through it.
     pub(crate) alpha_cutouts: bool,
-    /// Material of primitives that name none: a mid-grey Lambertian.
+    /// Material of primitives that name none: a grey Lambertian ([`default_material`]).
     pub(crate) default_material: Material,
     pub(crate) lights: Vec<Light>,
     /// Every light, including emissive primitives and the environment, behind one interface.
@@ -121,6 +136,8 @@ pub struct RenderScene {
     pub(crate) settings: Settings,
     /// The lights as descriptions, including a default light assembly added (for `spectrace info`).
     pub(crate) light_descs: Vec<LightDesc>,
+    /// What assembly added to the file's lights and why, in one line (for `spectrace info`).
+    pub(crate) lights_why: String,
     /// Notes for the user (defaults that were filled in), printed by the CLI.
     pub warnings: Vec<String>,
     /// Digest of the scene's files ([`SceneDescription::source_hash`]).
@@ -173,6 +190,8 @@ impl RenderScene {
         // The one place defaults are decided: a camera framing the bounds of the description and a D65
         // light when the file has none (computed before the BVH takes the meshes).
         let bounds = desc.bounds();
+        let up_axis = options.camera.up.unwrap_or_default();
+        let (framing, framing_note) = crate::scene::camera::framing_bounds(&desc, up_axis);
         let SceneDescription {
             format,
             spheres,
@@ -185,12 +204,24 @@ impl RenderScene {
             mut cameras,
             background,
             settings,
+            generator,
             mut warnings,
             mut source_hash,
             mut source_files,
             mut memory,
         } = desc;
         let started = std::time::Instant::now();
+        let blender = format == SceneFormat::Gltf && generator.as_deref().is_some_and(written_by_blender);
+        if let Some(generator) = generator.as_deref().filter(|_| blender) {
+            blender_emission_units(generator, &mut light_descs, &mut material_descs, &mut warnings);
+        }
+        let solid = crate::scene::solids::solid_glass(
+            &mut meshes,
+            &mut instances,
+            &mut material_descs,
+            options.thin_glass,
+            &mut warnings,
+        );
         let vertex_colored = vertex_colored_materials(&mut meshes, &mut instances, &mut material_descs, &mut warnings);
         let (mut textures, decoded) =
             load_material_textures(&images, &mut material_descs, &vertex_colored, &mut memory, &mut warnings)?;
@@ -208,7 +239,10 @@ impl RenderScene {
         drop(images);
         let alpha_cutouts = textures.iter().flatten().any(MaterialTextures::has_alpha);
         let mut background = background;
-        let materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
+        let mut materials = material_descs.iter().map(material_from_desc).collect::<Result<Vec<_>>>()?;
+        for (i, m) in materials.iter_mut().enumerate().filter(|(i, _)| solid.get(*i).copied().unwrap_or(false)) {
+            m.model = solid_glass_model(&material_descs[i], m.model);
+        }
         warn_unused_keys(&material_descs, &mut warnings);
         warn_isotropic_parts(&material_descs, &materials, &mut warnings);
         add_mikktspace_tangents(
@@ -234,14 +268,22 @@ impl RenderScene {
         } else {
             Vec::new()
         };
-        let (center, radius) = framing(bounds);
+        let (center, radius) = framing_sphere(framing.or(bounds));
         // A description built by hand may set `camera` without `cameras`.
         if let (Some(c), true) = (camera, cameras.is_empty()) {
             cameras.push(("camera".to_owned(), c));
         }
-        let chosen = choose_camera(format, &cameras, bounds, &options.camera, &mut warnings)?;
+        // The cheap pass over the built BVH: which default view shows most, and what the emitters light.
+        let double_sided: Vec<bool> =
+            material_descs.iter().map(|d| d.format == MaterialFormat::Gltf && d.double_sided == Some(true)).collect();
+        let framed = framing.or(bounds).unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        let survey = Survey::new(&geometry, &materials, double_sided, &light_descs, framed);
+        let chosen = choose_camera(format, &cameras, bounds, framing, &options.camera, Some(&survey), &mut warnings)?;
         if cameras.is_empty() || chosen.source.contains("command line") {
             warnings.push(format!("camera: {}", chosen.source));
+            if let Some(note) = framing_note.filter(|_| cameras.is_empty()) {
+                warnings.push(format!("camera: {note}"));
+            }
         }
         let (camera, camera_source) = (chosen.desc, chosen.source);
         let auto_integrator = auto_integrator(&settings)?;
@@ -258,8 +300,30 @@ impl RenderScene {
             light_descs.extend(descs);
         }
         let emissive = materials.iter().any(Material::emits);
-        let world = World { format, camera: &camera, center, radius, emissive, has_background: background.is_some() };
-        add_default_lights(options.default_lights, &world, &mut lights, &mut light_descs, &mut warnings)?;
+        // How brightly the emitters alone light what the camera sees, where the rule asks.
+        let emitter_light = (emissive
+            && lights.is_empty()
+            && background.is_none()
+            && matches!(format, SceneFormat::Gltf | SceneFormat::Obj)
+            && survey.has_emitters())
+        .then(|| {
+            let aspect = options.camera.aspect.unwrap_or(resolution.0 as f32 / resolution.1 as f32);
+            survey.emitter_light(&camera, aspect)
+        })
+        .flatten();
+        drop(survey);
+        let world = World {
+            format,
+            camera: &camera,
+            center,
+            radius,
+            emissive,
+            has_background: background.is_some(),
+            blender,
+            emitter_light,
+        };
+        let lights_why =
+            add_default_lights(options.default_lights, &world, &mut lights, &mut light_descs, &mut warnings)?;
 
         let background = match background {
             Some((spectrum, intensity)) => Some(
@@ -275,7 +339,7 @@ impl RenderScene {
             textures,
             vertex_colors,
             alpha_cutouts,
-            default_material: Material::diffuse("default grey", DenselySampledSpectrum::constant(0.5)),
+            default_material: default_material(format),
             lights,
             emitters: Emitters::default(),
             camera,
@@ -287,6 +351,7 @@ impl RenderScene {
             background,
             settings,
             light_descs,
+            lights_why,
             warnings,
             source_hash,
             source_files,
@@ -353,6 +418,12 @@ impl RenderScene {
     /// The camera a render uses, and where it comes from (the file's, the default view, overrides).
     pub fn camera_desc(&self) -> (&CameraDesc, &str) {
         (&self.camera, &self.camera_source)
+    }
+
+    /// The scene's lights as descriptions: the file's, and what assembly added (default lights, a world, the
+    /// sky), in order. Emissive surfaces are not among them (see [`RenderScene::materials`]).
+    pub fn light_descs(&self) -> &[LightDesc] {
+        &self.light_descs
     }
 
     /// What `--integrator auto` renders this scene with, and why (one line for the user).
@@ -423,7 +494,7 @@ fn image_size(camera: &CameraDesc, width: Option<u32>, height: Option<u32>) -> (
 
 /// Centre and radius of the bounding sphere of the bounds' box; a unit box at the origin when the scene has
 /// no geometry, and at least a tiny positive radius so a single point works.
-fn framing(bounds: Option<(Vec3, Vec3)>) -> (Vec3, f32) {
+fn framing_sphere(bounds: Option<(Vec3, Vec3)>) -> (Vec3, f32) {
     let (lo, hi) = bounds.unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
     (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-3))
 }
@@ -464,15 +535,12 @@ fn default_light(center: Vec3, radius: f32) -> LightDesc {
 const ENVIRONMENT_NITS: f32 = 0.3;
 /// Luminance the default key light adds to a white Lambertian surface facing the camera.
 const KEY_NITS: f32 = 0.5;
-/// The environment of a glTF or OBJ file lit only by its own emitters: Blender's default world colour
-/// (0.050876, the sRGB grey 0.25 linearised), so they still dominate but what they leave unlit is not
-/// pure black.
-const DIM_ENVIRONMENT_NITS: f32 = 0.050_876;
-/// Blender's default world around a file's lamps: [`DIM_ENVIRONMENT_NITS`] in the units its lamps are
+/// Blender's default world colour (0.050876, the sRGB grey 0.25 linearised), in W/(m² sr).
+const BLENDER_WORLD: f32 = 0.050_876;
+/// Blender's default world around a file's lamps: [`BLENDER_WORLD`] in the units its lamps are
 /// exported in. Blender's exporter writes a lamp of P watts as P · 683 / 4π cd (a 1,500 W lamp is
-/// 81,527 cd): watts at K_m = 683 lm/W, so its world of 0.050876 W/(m² sr) is 34.7 nits beside them
-/// (emission strengths it writes unscaled, hence the unscaled world beside emitters).
-const LAMP_WORLD_NITS: f32 = DIM_ENVIRONMENT_NITS * colorimetry::K_M as f32;
+/// 81,527 cd): watts at K_m = 683 lm/W, so its world of 0.050876 W/(m² sr) is 34.7 nits beside them.
+const LAMP_WORLD_NITS: f32 = BLENDER_WORLD * colorimetry::K_M as f32;
 /// The world around a file's own lamps: [`LAMP_WORLD_NITS`], but never more than a fill three stops below the
 /// brightest lamp's illuminance E at the scene's centre (a white surface it lights head-on reads E/π, the
 /// world E/8π), so that a scene lit by weak lamps keeps its pools of light instead of drowning in the
@@ -515,14 +583,10 @@ fn towards_key_light(camera: &CameraDesc) -> Vec3 {
     (-forward * b + up * u + right * r).normalize()
 }
 
-/// The lights of a glTF or OBJ file that has none: a uniform D65 environment and a D65 key light placed
-/// relative to the camera, so a white Lambertian surface facing the camera has luminance 0.8 (0.3 + 0.5);
-/// a file with emitters gets only a dim environment (its emitters are its lights).
-/// Without `environment` (`--light-env none`) only the key light (nothing for a file with emitters).
-fn default_lights(camera: &CameraDesc, emissive: bool, environment: bool) -> Vec<LightDesc> {
-    if emissive {
-        return if environment { vec![default_world()] } else { Vec::new() };
-    }
+/// The default lights of a glTF or OBJ file ([`decide_lights`]): a uniform D65 environment and a D65 key light
+/// placed relative to the camera, so a white Lambertian surface facing the camera has luminance 0.8
+/// (0.3 + 0.5); without `environment` (`--light-env none`) only the key light.
+fn default_lights(camera: &CameraDesc, environment: bool) -> Vec<LightDesc> {
     let key = LightDesc::Directional {
         direction: -towards_key_light(camera),
         spectrum: SpectrumDesc::Named("D65".into()),
@@ -540,12 +604,6 @@ fn uniform_environment(nits: f32) -> LightDesc {
     }
 }
 
-/// Blender's default world ([`DIM_ENVIRONMENT_NITS`]): what a glTF or OBJ file lit only by its own emitters
-/// (no lights, no environment) is lit by besides them; beside lamps it is [`lamp_world_nits`].
-fn default_world() -> LightDesc {
-    uniform_environment(DIM_ENVIRONMENT_NITS)
-}
-
 /// The lights of `--light-env sky`: the baked sky map, and the sun as a directional light (or, without the
 /// sun, the key light of [`default_lights`] scaled so that it is to the sky what it is to the uniform
 /// default environment; none when the file is `lit` by lights or emitters of its own); their
@@ -555,7 +613,7 @@ fn sky_lights(sky: &SkyOption, camera: &CameraDesc, lit: bool) -> Result<(Vec<Li
     if !(sky.intensity.is_finite() && sky.intensity >= 0.0) {
         return Err(fail(format!("intensity {} must be finite and ≥ 0", sky.intensity)));
     }
-    let key = default_lights(camera, false, false);
+    let key = default_lights(camera, false);
     // The key light's azimuth in the maps' φ (towards the light: d = (sin φ, ·, −cos φ)).
     let towards_key = towards_key_light(camera);
     let azimuth = sky.sun_azimuth_deg.unwrap_or_else(|| towards_key.x.atan2(-towards_key.z).to_degrees());
@@ -884,86 +942,262 @@ struct World<'a> {
     radius: f32,
     emissive: bool,
     has_background: bool,
+    /// Written by Blender's glTF exporter ([`written_by_blender`]).
+    blender: bool,
+    /// How the emitters alone light what the camera sees (`survey.rs`); measured only for a glTF or OBJ
+    /// file lit by nothing else.
+    emitter_light: Option<EmitterLight>,
 }
 
-/// Light a scene that has too little light as a viewer would (`docs/defaults.md`): glTF and OBJ files
-/// without lights get an environment and a key light (or the emitters alone), files with lamps and no
-/// world a dim world, and a manifest without any light a point light; `DefaultLights::None` makes an
-/// unlit scene an error instead.
+/// Emitters light what the camera sees readably when they reach at least [`READABLE_LIT_FRACTION`] of the
+/// surfaces it sees and the median of those lit surfaces, were it white, gets at least this luminance from
+/// them directly (nits): a tenth of what the default key light gives a white surface facing the camera
+/// ([`KEY_NITS`]), 3.3 stops below it. At the default exposure of relative units (EV 0) such a surface shows
+/// at 8-bit sRGB 63 or more for white before the light it bounces (a grey card of 0.18 at 29): dim but
+/// legible, as a room lit by its ceiling lamp is.
+pub(crate) const READABLE_EMITTER_NITS: f64 = KEY_NITS as f64 / 10.0;
+/// See [`READABLE_EMITTER_NITS`]: emitters that reach less than a quarter of what the camera sees leave most
+/// of the image black, however bright the pool of light around them.
+pub(crate) const READABLE_LIT_FRACTION: f64 = 0.25;
+
+/// What assembly adds to the file's lights: decided in one place ([`decide_lights`]), done by
+/// [`add_default_lights`].
+#[derive(Debug, Clone, PartialEq)]
+enum Addition {
+    /// Nothing, and why (for `info`); `note`: also a note on stderr, where the user could have expected
+    /// something.
+    Nothing { why: String, note: bool },
+    /// The uniform D65 environment (unless `environment` is false) and the key light; `why` opens the note.
+    EnvironmentAndKey { environment: bool, why: Option<String> },
+    /// A uniform D65 world of this many nits around the file's own lamps.
+    World(f32),
+    /// A manifest without light: a D65 point light.
+    PointLight,
+}
+
+/// Blender's glTF exporter names itself so in `asset.generator` ("Khronos glTF Blender I/O v4.0.44"; before
+/// its version 0.9, "Khronos Blender glTF 2.0 I/O").
+fn written_by_blender(generator: &str) -> bool {
+    generator.starts_with("Khronos glTF Blender I/O") || generator.starts_with("Khronos Blender glTF 2.0 I/O")
+}
+
+/// Blender's glTF exporter (since its version 3.4, glTF-Blender-IO PR #1760) writes its lamps in
+/// photometric units at K_m = 683 lm/W (a lamp of P W as P · 683 / 4π cd; a sun of S W/m² as 683 S lux) but
+/// its emission strengths as Blender's own W/(m² sr), unconverted (KhronosGroup/glTF-Blender-IO issue
+/// #1766): beside its lamps its emitters are this many times too dim. Measured with Blender 3.4.1 and Cycles
+/// over a white Lambertian floor (`docs/defaults.md`, "Blender's units"): an emission strength S is radiance
+/// S W/(m² sr) in the units in which a P W point lamp has intensity P/4π W/sr, so 683 puts both on the
+/// exporter's photometric scale (not the 683/2π the issue proposes); spectrace then renders an exported test
+/// scene's emitter-to-lamp-lit-floor ratio within 0.2 % of Cycles'.
+pub(crate) const BLENDER_EMISSION_FACTOR: f32 = 683.0;
+
+/// The exporter's version (major, minor) from its `asset.generator` ("Khronos glTF Blender I/O v4.0.44");
+/// `None` where it writes none (its name before version 0.9).
+fn blender_exporter_version(generator: &str) -> Option<(u32, u32)> {
+    let version = generator.split_once(" v")?.1;
+    let mut parts = version.split('.').map(|p| p.trim().parse::<u32>().ok());
+    Some((parts.next()??, parts.next()??))
+}
+
+/// The first exporter version that writes lamps in candela and lux (Blender 3.4, glTF-Blender-IO PR #1760);
+/// before it lamps were written in Blender's watts, P for a point or spot lamp and S for a sun.
+const BLENDER_PHOTOMETRIC_LAMPS: (u32, u32) = (3, 4);
+
+/// In a file written by Blender's glTF exporter with lamps, the lamps and the emitters are brought to one
+/// photometric scale, 683 × Cycles' values ([`BLENDER_EMISSION_FACTOR`]): emission strengths × 683, and the
+/// lamps of exporters before version 3.4, written in watts, × 683 / 4π (point, spot) and × 683 (sun); with a
+/// note. Without lamps there is nothing to match (the emitters keep Blender's units, Cycles' own values).
+fn blender_emission_units(
+    generator: &str,
+    lights: &mut [LightDesc],
+    descs: &mut [MaterialDesc],
+    warnings: &mut Vec<String>,
+) {
+    if !lights.iter().any(|l| !matches!(l, LightDesc::Environment { .. })) {
+        return;
+    }
+    let factor = BLENDER_EMISSION_FACTOR;
+    let mut scaled = Vec::new();
+    for d in descs.iter_mut().filter(|d| d.emission.is_some()) {
+        d.emission_strength = Some(d.emission_strength.unwrap_or(1.0) * factor);
+        scaled.push(format!("'{}'", d.name));
+    }
+    if !scaled.is_empty() {
+        warnings.push(format!(
+            "written by Blender's glTF exporter, which converts lamps to candela and lux but writes emission strengths unconverted (glTF-Blender-IO issue #1766): the emission of material(s) {} × {factor} to match its lamps",
+            scaled.join(", ")
+        ));
+    }
+    let version = blender_exporter_version(generator);
+    if version.is_none_or(|v| v < BLENDER_PHOTOMETRIC_LAMPS) {
+        for l in lights.iter_mut() {
+            match l {
+                LightDesc::Point { intensity, .. } | LightDesc::Spot { intensity, .. } => {
+                    intensity.value *= factor / (4.0 * std::f32::consts::PI);
+                }
+                LightDesc::Directional { intensity, .. } => intensity.value *= factor,
+                LightDesc::Environment { .. } => {}
+            }
+        }
+        warnings.push(format!(
+            "written by Blender's glTF exporter {}, before version 3.4, which wrote lamps in Blender's watts (glTF-Blender-IO PR #1760): point and spot lamps × {factor}/4π (to candela), suns × {factor} (to lux)",
+            version.map_or_else(|| "(no version)".to_owned(), |(major, minor)| format!("v{major}.{minor}"))
+        ));
+    }
+}
+
+/// The material of primitives that name none: a Lambertian grey of 0.8 for an OBJ file (what Blender gives
+/// an OBJ without materials or MTL: its default material's base colour), 0.5 for glTF and manifests (glTF
+/// primitives without a material get glTF's default material instead; the paper's scenes name theirs).
+fn default_material(format: SceneFormat) -> Material {
+    let grey = if format == SceneFormat::Obj { OBJ_DEFAULT_GREY } else { 0.5 };
+    Material::diffuse("default grey", DenselySampledSpectrum::constant(grey))
+}
+
+/// Blender's default material's base colour (0.8, 0.8, 0.8), which its OBJ importer gives faces without a
+/// material.
+const OBJ_DEFAULT_GREY: f64 = 0.8;
+
+/// What to add to a scene's own lights (`docs/defaults.md`, "Lights"): the one place the rules are.
+/// `lights`: the scene's lights so far (the file's, `--env`'s map, the sky); `descs` their descriptions.
+fn decide_lights(default: DefaultLights, world: &World<'_>, lights: &[Light], descs: &[LightDesc]) -> Result<Addition> {
+    let own_lights = !lights.is_empty();
+    let nothing = |why: &str| Ok(Addition::Nothing { why: why.to_owned(), note: false });
+    if default == DefaultLights::None {
+        return if !own_lights && !world.has_background && !world.emissive {
+            Err(Error::NoLight)
+        } else {
+            nothing("--no-default-lights: nothing added")
+        };
+    }
+    if world.format == SceneFormat::Manifest {
+        return if !own_lights && !world.emissive {
+            Ok(Addition::PointLight)
+        } else {
+            nothing("the scene's own lights and emitters: nothing added")
+        };
+    }
+    // A glTF or OBJ file has no way to say "lit by the world": light it as a viewer would, unless what it
+    // has lights it.
+    if world.has_background || descs.iter().any(|l| matches!(l, LightDesc::Environment { .. })) {
+        return nothing("an environment (the file's, --env's map or --light-env sky) lights it: nothing added");
+    }
+    let environment = default != DefaultLights::KeyOnly;
+    if own_lights {
+        return Ok(match default {
+            // The file's own lights, but no world: glTF cannot carry one, and a Blender scene exported with
+            // its lamps lost the world it was lit in.
+            DefaultLights::EnvironmentAndKey => Addition::World(lamp_world_nits(descs, world.center)),
+            _ if !environment => Addition::Nothing {
+                why: "--light-env none: nothing added to the file's lights".to_owned(),
+                note: false,
+            },
+            _ if world.blender => Addition::World(lamp_world_nits(descs, world.center)),
+            _ => Addition::Nothing {
+                why: "the file's lights are photometric (KHR_lights_punctual, candela and lux) and it was not written by Blender's exporter: nothing added, its image is its lights' alone (--light-env uniform adds a world around them)".to_owned(),
+                note: true,
+            },
+        });
+    }
+    if !world.emissive {
+        return Ok(Addition::EnvironmentAndKey { environment, why: None });
+    }
+    if default == DefaultLights::EnvironmentAndKey {
+        return Ok(Addition::EnvironmentAndKey {
+            environment,
+            why: Some("--light-env uniform adds the default lights".to_owned()),
+        });
+    }
+    let (threshold, fraction) = (READABLE_EMITTER_NITS, READABLE_LIT_FRACTION);
+    let measured = |e: &EmitterLight| {
+        format!(
+            "they reach {:.0} % of the surfaces the camera sees, where a white surface would read {:.3} nits at the median",
+            100.0 * e.lit_fraction,
+            e.median_lit_nits
+        )
+    };
+    Ok(match &world.emitter_light {
+        Some(e) if e.lit_fraction >= fraction && e.median_lit_nits >= threshold => Addition::Nothing {
+            why: format!(
+                "no light in the file but its emitters, which light what the camera sees readably ({}; readable: ≥ {:.0} % and ≥ {threshold} nits): nothing added (--light-env uniform adds the default lights)",
+                measured(e),
+                100.0 * fraction
+            ),
+            note: true,
+        },
+        Some(e) => Addition::EnvironmentAndKey {
+            environment,
+            why: Some(format!(
+                "they light what the camera sees too little to read by ({}; readable: ≥ {:.0} % and ≥ {threshold} nits)",
+                measured(e),
+                100.0 * fraction
+            )),
+        },
+        None => Addition::EnvironmentAndKey { environment, why: Some("they light nothing the camera sees".to_owned()) },
+    })
+}
+
+/// Light a scene that has too little light as a viewer would ([`decide_lights`] decides what), and say so;
+/// returns the decision in one line (`info`'s `lights_why`).
 fn add_default_lights(
     default: DefaultLights,
     world: &World<'_>,
     lights: &mut Vec<Light>,
     light_descs: &mut Vec<LightDesc>,
     warnings: &mut Vec<String>,
-) -> Result<()> {
-    let unlit = lights.is_empty() && !world.has_background;
-    if default == DefaultLights::None {
-        if unlit && !world.emissive {
-            return Err(Error::NoLight);
+) -> Result<String> {
+    let added = match decide_lights(default, world, lights, light_descs)? {
+        Addition::Nothing { why, note } => {
+            if note {
+                warnings.push(why.clone());
+            }
+            return Ok(why);
         }
-    } else if unlit && matches!(world.format, SceneFormat::Gltf | SceneFormat::Obj) {
-        // A glTF or OBJ file has no way to say "lit by the world": light it as a viewer would.
-        let environment = default == DefaultLights::EnvironmentAndKey;
-        let added = default_lights(world.camera, world.emissive, environment);
-        for light in &added {
-            lights.push(light_from_desc(light).map_err(|source| Error::Spectrum {
-                what: "the default lights (added because the file has none)",
-                source,
-            })?);
+        Addition::EnvironmentAndKey { environment, why } => {
+            let added = default_lights(world.camera, environment);
+            let opening = match why {
+                Some(why) => format!("no light in the file but its emitters: {why}"),
+                None => "no light in the file".to_owned(),
+            };
+            warnings.push(if environment {
+                format!(
+                    "{opening}: added a uniform D65 environment of {ENVIRONMENT_NITS} nits and a D65 key light of {:.3} lux from above and to the right of the camera (a white surface facing the camera reads {:.1})",
+                    key_illuminance(),
+                    ENVIRONMENT_NITS + KEY_NITS
+                )
+            } else {
+                format!(
+                    "{opening}: added a D65 key light of {:.3} lux from above and to the right of the camera over a black background (--light-env none; a white surface facing the camera reads {KEY_NITS:.1})",
+                    key_illuminance()
+                )
+            });
+            added
         }
-        warnings.push(if world.emissive && !environment {
-            "no light in the file: its emitters light it alone (--light-env none)".to_owned()
-        } else if world.emissive {
-            format!(
-                "no light in the file: added a uniform D65 environment of {DIM_ENVIRONMENT_NITS} nits (Blender's default world) to its emitters"
-            )
-        } else if !environment {
-            format!(
-                "no light in the file: added a D65 key light of {:.3} lux from above and to the right of the camera over a black background (--light-env none; a white surface facing the camera reads {KEY_NITS:.1})",
-                key_illuminance()
-            )
-        } else {
-            format!(
-                "no light in the file: added a uniform D65 environment of {ENVIRONMENT_NITS} nits and a D65 key light of {:.3} lux from above and to the right of the camera (a white surface facing the camera reads {:.1})",
-                key_illuminance(),
-                ENVIRONMENT_NITS + KEY_NITS
-            )
-        });
-        light_descs.extend(added);
-    } else if default == DefaultLights::EnvironmentAndKey
-        && matches!(world.format, SceneFormat::Gltf | SceneFormat::Obj)
-        && !world.has_background
-        && !light_descs.iter().any(|l| matches!(l, LightDesc::Environment { .. }))
-    {
-        // The file's own lights, but no world: glTF cannot carry one, and a Blender scene exported
-        // with its lamps lost the world it was lit in. Put it back (Blender's default world in its
-        // lamps' units, capped below weak lamps), so what the lamps leave unlit is dim, not black.
-        let nits = lamp_world_nits(light_descs, world.center);
-        let world = uniform_environment(nits);
-        lights.push(light_from_desc(&world).map_err(|source| Error::Spectrum {
-            what: "the default world (added because the file has no environment)",
-            source,
-        })?);
-        warnings.push(format!(
-            "the file's lights have no world around them: added a uniform D65 environment of {nits:.4} nits (Blender's default world in its lamps' units, {LAMP_WORLD_NITS:.1}, at most a fill 3 stops below the brightest lamp; --light-env none: none)"
-        ));
-        light_descs.push(world);
-    } else if lights.is_empty() && !world.emissive {
-        let light = default_light(world.center, world.radius);
-        lights.push(light_from_desc(&light).map_err(|source| Error::Spectrum {
-            what: "the default light (added because the scene has none)",
-            source,
-        })?);
-        if let LightDesc::Point { position, intensity, .. } = &light {
+        Addition::World(nits) => {
             warnings.push(format!(
-                "no light in the scene: added a D65 point light at ({:.3}, {:.3}, {:.3}) with intensity {:.4} cd (illuminance 1 lux at the centre)",
-                position.x, position.y, position.z, intensity.value
+                "the file's lights have no world around them: added a uniform D65 environment of {nits:.4} nits (Blender's default world in its lamps' units, {LAMP_WORLD_NITS:.1}, at most a fill 3 stops below the brightest lamp; --light-env none: none)"
             ));
+            vec![uniform_environment(nits)]
         }
-        light_descs.push(light);
+        Addition::PointLight => {
+            let light = default_light(world.center, world.radius);
+            if let LightDesc::Point { position, intensity, .. } = &light {
+                warnings.push(format!(
+                    "no light in the scene: added a D65 point light at ({:.3}, {:.3}, {:.3}) with intensity {:.4} cd (illuminance 1 lux at the centre)",
+                    position.x, position.y, position.z, intensity.value
+                ));
+            }
+            vec![light]
+        }
+    };
+    for light in &added {
+        lights.push(light_from_desc(light).map_err(|source| Error::Spectrum {
+            what: "the default lights (added because the file has too little light)",
+            source,
+        })?);
     }
-    Ok(())
+    light_descs.extend(added);
+    Ok(warnings.last().cloned().unwrap_or_default())
 }
 
 /// A mesh's vertex colours unless every one is opaque white: exporters write those (Blender's for
@@ -1188,10 +1422,13 @@ mod tests {
         // Lamps that give no illuminance there leave Blender's world.
         assert_eq!(lamp_world_nits(&[point(0.0, Vec3::Y)], Vec3::ZERO), LAMP_WORLD_NITS);
 
-        // A glTF quad around the origin under that weak lamp gets the fill as one more light; with
-        // `--light-env none`, or as a manifest, it gets nothing.
-        let scene = |format, default_lights| {
+        // A glTF quad around the origin under that weak lamp, written by Blender's exporter, gets the fill as
+        // one more light, as any glTF file does with `--light-env uniform`; with `--light-env none`, as a
+        // manifest, or by default from another exporter (photometric lights are the scene's answer), it gets
+        // nothing.
+        let scene = |format, default_lights, generator: Option<&str>| {
             let mut d = SceneDescription::empty(format);
+            d.generator = generator.map(str::to_owned);
             let quad = [
                 Vec3::new(-1.0, 0.0, -1.0),
                 Vec3::new(1.0, 0.0, -1.0),
@@ -1203,12 +1440,74 @@ mod tests {
             let options = AssemblyOptions { default_lights, ..Default::default() };
             RenderScene::from_description_with(d, &options).unwrap().light_descs
         };
-        let lit = scene(SceneFormat::Gltf, DefaultLights::EnvironmentAndKey);
-        assert_eq!(lit.len(), 2, "{lit:?}");
-        let LightDesc::Environment { intensity, map: None, .. } = &lit[1] else { panic!("{lit:?}") };
-        assert!((intensity.value - 0.039_789).abs() < 1e-6 && intensity.unit == LightUnit::Nit, "{intensity:?}");
-        assert_eq!(scene(SceneFormat::Gltf, DefaultLights::KeyOnly).len(), 1);
-        assert_eq!(scene(SceneFormat::Manifest, DefaultLights::EnvironmentAndKey).len(), 1);
+        let blender = Some("Khronos glTF Blender I/O v4.0.44");
+        for lit in [
+            scene(SceneFormat::Gltf, DefaultLights::Auto, blender),
+            scene(SceneFormat::Gltf, DefaultLights::EnvironmentAndKey, Some("UnityGLTF")),
+        ] {
+            assert_eq!(lit.len(), 2, "{lit:?}");
+            let LightDesc::Environment { intensity, map: None, .. } = &lit[1] else { panic!("{lit:?}") };
+            assert!((intensity.value - 0.039_789).abs() < 1e-6 && intensity.unit == LightUnit::Nit, "{intensity:?}");
+        }
+        assert_eq!(scene(SceneFormat::Gltf, DefaultLights::Auto, Some("UnityGLTF")).len(), 1);
+        assert_eq!(scene(SceneFormat::Gltf, DefaultLights::Auto, None).len(), 1);
+        assert_eq!(scene(SceneFormat::Gltf, DefaultLights::KeyOnly, blender).len(), 1);
+        assert_eq!(scene(SceneFormat::Manifest, DefaultLights::EnvironmentAndKey, None).len(), 1);
+    }
+
+    /// Blender's glTF exporter writes lamps in candela and lux but emission strengths unconverted: with lamps,
+    /// its emitters are scaled by [`BLENDER_EMISSION_FACTOR`]; another exporter's, or a Blender file without
+    /// lamps, keep theirs.
+    #[test]
+    fn blender_emission_strengths_are_brought_to_its_lamps_units() {
+        let emission = |generator: &str, lamp: bool| {
+            let mut d = SceneDescription::empty(SceneFormat::Gltf);
+            d.generator = Some(generator.to_owned());
+            let mut glow = MaterialDesc::new("glow", MaterialFormat::Gltf);
+            glow.emission = Some(SpectrumDesc::Rgb([1.0; 3]));
+            glow.emission_strength = Some(2.0);
+            d.materials.push(glow);
+            let quad = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+            d.meshes.push(geometry::Mesh::new(quad.to_vec(), None, None, vec![[0, 1, 2]], Some(0)).unwrap());
+            if lamp {
+                d.lights.push(LightDesc::Point {
+                    position: Vec3::new(0.0, 0.0, 3.0),
+                    spectrum: SpectrumDesc::Named("D65".into()),
+                    intensity: LightAmount { value: 100.0, unit: LightUnit::Candela },
+                });
+            }
+            let scene = RenderScene::from_description(d).unwrap();
+            let y = colorimetry::relative_luminance(scene.materials[0].emission.as_ref().unwrap());
+            let noted = scene.warnings.iter().any(|w| w.contains("#1766"));
+            (y, noted)
+        };
+        let (plain, noted) = emission("UnityGLTF", true);
+        assert!((plain - 2.0).abs() < 1e-6 && !noted, "{plain}");
+        let (blender, noted) = emission("Khronos glTF Blender I/O v3.6.27", true);
+        assert!((blender / plain - f64::from(BLENDER_EMISSION_FACTOR)).abs() < 1e-3 && noted, "{blender}");
+        let (alone, noted) = emission("Khronos glTF Blender I/O v3.6.27", false);
+        assert!((alone - 2.0).abs() < 1e-6 && !noted, "{alone}");
+        // Before version 3.4 the lamps were watts too: 100 W becomes 100 · 683/4π = 5435.14 cd.
+        let lamp = |generator: &str| {
+            let mut d = SceneDescription::empty(SceneFormat::Gltf);
+            d.generator = Some(generator.to_owned());
+            let quad = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+            d.meshes.push(geometry::Mesh::new(quad.to_vec(), None, None, vec![[0, 1, 2]], None).unwrap());
+            d.lights.push(LightDesc::Point {
+                position: Vec3::new(0.0, 0.0, 3.0),
+                spectrum: SpectrumDesc::Named("D65".into()),
+                intensity: LightAmount { value: 100.0, unit: LightUnit::Candela },
+            });
+            let scene = RenderScene::from_description(d).unwrap();
+            let LightDesc::Point { intensity, .. } = &scene.light_descs[0] else { panic!() };
+            intensity.value
+        };
+        assert_eq!(blender_exporter_version("Khronos glTF Blender I/O v3.3.17"), Some((3, 3)));
+        assert_eq!(blender_exporter_version("Khronos Blender glTF 2.0 I/O"), None);
+        assert!((lamp("Khronos glTF Blender I/O v3.3.17") - 5435.141).abs() < 0.01);
+        assert!((lamp("Khronos Blender glTF 2.0 I/O") - 5435.141).abs() < 0.01);
+        assert_eq!(lamp("Khronos glTF Blender I/O v3.4.50"), 100.0);
+        assert_eq!(lamp("UnityGLTF"), 100.0);
     }
 
     /// Issue 16: every light or emission spectrum was rescaled to luminance 1, so a measured

@@ -1,6 +1,8 @@
 //! The one place a render's camera is decided: the file's camera (or the one
-//! `--camera N|NAME` names), else a default three-quarter view that frames the scene's bounds;
-//! then the command line's `--look-from`, `--look-at` and `--fov`, which work for every format.
+//! `--camera N|NAME` names), else a default view chosen by the cheap pass (`survey.rs`) among framed
+//! candidates — the three-quarter view unless another shows clearly more front-facing, lit surface
+//! (the inside of a room through its open side, or from within a closed one); then the command line's
+//! `--look-from`, `--look-at` and `--fov`, which work for every format.
 
 use std::str::FromStr;
 
@@ -8,6 +10,7 @@ use geometry::{CameraDesc, Projection, SceneFormat};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
+use crate::scene::survey::{GRID, Survey, ViewScore};
 
 /// The world axis that points up, for the default camera.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -78,16 +81,21 @@ pub(crate) struct ChosenCamera {
 }
 
 /// Decide the camera: see the module docs. `cameras` are the file's, named, the first being its default;
-/// `bounds` the scene's (`None` without geometry). Notes for the user go to `warnings`.
+/// `bounds` the scene's (`None` without geometry) and `framing` the part of them the default view frames
+/// ([`framing_bounds`]); `survey` scores the default view's candidates (without one, the three-quarter
+/// view). Notes for the user go to `warnings`.
 pub(crate) fn choose_camera(
     format: SceneFormat,
     cameras: &[(String, CameraDesc)],
     bounds: Option<(Vec3, Vec3)>,
+    framing: Option<(Vec3, Vec3)>,
     options: &CameraOptions,
+    survey: Option<&Survey<'_>>,
     warnings: &mut Vec<String>,
 ) -> Result<ChosenCamera> {
     let (lo, hi) = bounds.unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
-    let center = 0.5 * (lo + hi);
+    let (frame_lo, frame_hi) = framing.or(bounds).unwrap_or((lo, hi));
+    let center = 0.5 * (frame_lo + frame_hi);
     let up_axis = options.up.unwrap_or_default();
     let chosen = match &options.camera {
         Some(wanted) => {
@@ -128,20 +136,300 @@ pub(crate) fn choose_camera(
                     crate::options::DEFAULT_RESOLUTION.0 as f32 / crate::options::DEFAULT_RESOLUTION.1 as f32,
                 );
                 let vfov = options.vfov_deg.unwrap_or(DEFAULT_VFOV_DEG);
-                let desc = default_camera(lo, hi, up_axis, vfov, aspect);
-                let up = if up_axis == UpAxis::Z { "Z" } else { "Y" };
-                ChosenCamera {
-                    source: format!(
-                        "no camera in the file: a three-quarter view ({VIEW_AZIMUTH_DEG}° to the side, {VIEW_ELEVATION_DEG}° above, {up}-up) framing the bounds, looking at ({:.3}, {:.3}, {:.3}), vfov {}°",
-                        center.x, center.y, center.z, desc.vfov_deg
-                    ),
-                    desc,
-                }
+                // With --look-from the eye is the user's: no view to choose.
+                let survey = survey.filter(|_| options.look_from.is_none() && bounds.is_some());
+                default_view(frame_lo, frame_hi, up_axis, vfov, aspect, survey)
             }
         },
     };
     apply_overrides(chosen, center, up_axis, options)
 }
+
+/// The default view of the box `lo`–`hi`: the three-quarter view ([`default_camera`]) unless `survey`
+/// finds a candidate view that shows clearly more ([`choose_view`]).
+fn default_view(
+    lo: Vec3,
+    hi: Vec3,
+    up_axis: UpAxis,
+    vfov: f32,
+    aspect: f32,
+    survey: Option<&Survey<'_>>,
+) -> ChosenCamera {
+    let center = 0.5 * (lo + hi);
+    let up_name = if up_axis == UpAxis::Z { "Z" } else { "Y" };
+    let three_quarter = default_camera(lo, hi, up_axis, vfov, aspect);
+    let plain = |desc: CameraDesc, detail: String| ChosenCamera {
+        source: format!(
+            "no camera in the file: a three-quarter view ({VIEW_AZIMUTH_DEG}° to the side, {VIEW_ELEVATION_DEG}° above, {up_name}-up) framing the bounds, looking at ({:.3}, {:.3}, {:.3}), vfov {}°{detail}",
+            center.x, center.y, center.z, desc.vfov_deg
+        ),
+        desc,
+    };
+    let Some(survey) = survey else { return plain(three_quarter, String::new()) };
+    let started = std::time::Instant::now();
+    let choice = choose_view(lo, hi, up_axis, vfov, aspect, survey);
+    let ms = started.elapsed().as_secs_f64() * 1e3;
+    let kept = choice.candidates[0].1;
+    if choice.index == 0 {
+        return plain(
+            three_quarter,
+            format!(
+                " (score {:.2}; no other of {} views scores clearly more; {ms:.0} ms)",
+                kept.score,
+                choice.candidates.len()
+            ),
+        );
+    }
+    let (view, score) = &choice.candidates[choice.index];
+    // Where the three-quarter view met back faces (a fifth of what it met or more), the chosen one sees what
+    // they hide: the inside of a room when they lie on the bounds of a box that is not flat, else the side
+    // the surfaces face.
+    let extent = hi - lo;
+    let room = 2 * kept.back_on_bounds >= kept.back && extent.min_element() >= 0.1 * extent.max_element();
+    let through = match (view.inside, 5 * kept.back >= kept.front + kept.back, room) {
+        (true, ..) | (false, false, _) => "",
+        (false, true, true) => ", looking in through the open side",
+        (false, true, false) => ", the side its surfaces face",
+    };
+    let place = if view.inside { "" } else { ", framing the bounds" };
+    ChosenCamera {
+        source: format!(
+            "no camera in the file: default view from {}{place}{through} ({up_name}-up), looking at ({:.3}, {:.3}, {:.3}), vfov {}°; score {:.2} against {:.2} for the three-quarter view, which meets {} back and {} front faces of {} rays (best of {} views, {ms:.0} ms)",
+            view.label,
+            view.desc.look_at.x,
+            view.desc.look_at.y,
+            view.desc.look_at.z,
+            view.desc.vfov_deg,
+            score.score,
+            kept.score,
+            kept.back,
+            kept.front,
+            GRID.0 * GRID.1,
+            choice.candidates.len()
+        ),
+        desc: view.desc.clone(),
+    }
+}
+
+/// A candidate view: where it looks from (for the note), the camera, and whether it stands inside the
+/// bounds (a room's interior).
+#[derive(Debug, Clone)]
+pub(crate) struct View {
+    pub(crate) label: String,
+    pub(crate) desc: CameraDesc,
+    pub(crate) inside: bool,
+}
+
+/// The candidate views and their scores, and the index of the one chosen (0: the three-quarter view).
+#[derive(Debug)]
+pub(crate) struct ViewChoice {
+    pub(crate) candidates: Vec<(View, ViewScore)>,
+    pub(crate) index: usize,
+}
+
+/// A candidate replaces the three-quarter view only when it scores more by [`TIE_MARGIN`] and by
+/// [`TIE_RATIO`] of the three-quarter view's score (a score is the mean over the surfaces a view meets,
+/// in [−1, 1]: 1 for front faces only, lit where the file has lights), and meets at least half as many
+/// surfaces. An object seen from outside scores about 1 from every side, so it keeps the three-quarter
+/// view; a view of walls from outside (back faces, or unlit outer sides of double-sided walls around a
+/// lamp) scores 0.5 or less, and a view into the room beats it.
+const TIE_MARGIN: f32 = 0.1;
+/// See [`TIE_MARGIN`].
+const TIE_RATIO: f32 = 0.5;
+
+/// Vertical field of view of a view from inside a room, degrees: a wide interior lens (24 mm on full
+/// frame is 53°), so that a wall and some floor and ceiling show.
+const INSIDE_VFOV_DEG: f32 = 55.0;
+
+/// Score the candidate views of the box `lo`–`hi` and choose one: the three-quarter view, the seven other
+/// diagonal three-quarter views (front or back, left or right, above or below) and the six axis views, each
+/// framed as the three-quarter view is; when every one of those sees more back faces than front and the
+/// back faces lie on the bounds (a closed room seen from outside), also four views from inside, one towards
+/// each horizontal side. Ties go to the earlier candidate; the three-quarter view is kept unless beaten by
+/// the margins ([`TIE_MARGIN`]).
+pub(crate) fn choose_view(
+    lo: Vec3,
+    hi: Vec3,
+    up_axis: UpAxis,
+    vfov: f32,
+    aspect: f32,
+    survey: &Survey<'_>,
+) -> ViewChoice {
+    let (front, right, up) = match up_axis {
+        UpAxis::Y => (Vec3::Z, Vec3::X, Vec3::Y),
+        UpAxis::Z => (Vec3::NEG_Y, Vec3::X, Vec3::Z),
+    };
+    let axis_name = |v: Vec3| {
+        let (i, sign) = if v.x.abs() > 0.5 {
+            (0, v.x)
+        } else if v.y.abs() > 0.5 {
+            (1, v.y)
+        } else {
+            (2, v.z)
+        };
+        format!("{}{}", if sign > 0.0 { "+" } else { "−" }, ["X", "Y", "Z"][i])
+    };
+    let (az, el) = (VIEW_AZIMUTH_DEG.to_radians(), VIEW_ELEVATION_DEG.to_radians());
+    let diagonal = |side: f32, ahead: f32, above: f32| {
+        (right * (side * az.sin() * el.cos()) + front * (ahead * az.cos() * el.cos()) + up * (above * el.sin()))
+            .normalize()
+    };
+    let outside = |label: String, back: Vec3| {
+        // A view along the up axis keeps the front at the bottom of the image.
+        let cam_up = if back.dot(up).abs() > 0.99 { -front * back.dot(up).signum() } else { up };
+        View { label, desc: framed_camera(lo, hi, back, cam_up, vfov, aspect), inside: false }
+    };
+    let word = |sign: f32, yes: &'static str, no: &'static str| if sign > 0.0 { yes } else { no };
+    let mut views = Vec::new();
+    // The default three-quarter view first (front, right, above), then in order of preference on ties.
+    for (ahead, side, above) in [
+        (1.0, 1.0, 1.0),
+        (1.0, -1.0, 1.0),
+        (-1.0, 1.0, 1.0),
+        (-1.0, -1.0, 1.0),
+        (1.0, 1.0, -1.0),
+        (1.0, -1.0, -1.0),
+        (-1.0, 1.0, -1.0),
+        (-1.0, -1.0, -1.0),
+    ] {
+        let label = format!(
+            "the {}-{}, {} (three-quarter)",
+            word(ahead, "front", "back"),
+            word(side, "right", "left"),
+            word(above, "above", "below")
+        );
+        views.push(outside(label, diagonal(side, ahead, above)));
+        if views.len() == 1 {
+            // The axis views that show the front and the sides come right after the default view.
+            for (name, back) in [("front", front), ("right", right), ("left", -right), ("top", up)] {
+                views.push(outside(format!("{}, the {name} (axis-aligned)", axis_name(back)), back));
+            }
+        }
+    }
+    for (name, back) in [("back", -front), ("bottom", -up)] {
+        views.push(outside(format!("{}, the {name} (axis-aligned)", axis_name(back)), back));
+    }
+    let mut candidates: Vec<(View, ViewScore)> = views
+        .into_iter()
+        .map(|v| {
+            let score = survey.score(&v.desc, aspect);
+            (v, score)
+        })
+        .collect();
+    // A closed room: every outside view sees mostly back faces, and the default view's lie on the bounds.
+    let kept = candidates[0].1;
+    let room = candidates.iter().all(|(_, s)| s.back > s.front) && 2 * kept.back_on_bounds >= kept.back;
+    if room {
+        for towards in [-front, front, right, -right] {
+            let view = inside_camera(lo, hi, towards, up);
+            let score = survey.score(&view, aspect);
+            let label = format!(
+                "inside the room, near its {} wall looking towards {}",
+                axis_name(-towards),
+                axis_name(towards)
+            );
+            candidates.push((View { label, desc: view, inside: true }, score));
+        }
+    }
+    // Views that meet fewer than half as many surfaces as the three-quarter view do not compete: a sliver
+    // of front faces seen edge-on is no better view for being clean.
+    let kept_hits = kept.front + kept.back;
+    let mut index = 0;
+    for (i, (_, s)) in candidates.iter().enumerate() {
+        if 2 * (s.front + s.back) >= kept_hits && s.score > candidates[index].1.score {
+            index = i;
+        }
+    }
+    let best = candidates[index].1.score;
+    if index != 0 && best - kept.score <= TIE_MARGIN.max(TIE_RATIO * kept.score) {
+        index = 0;
+    }
+    ViewChoice { candidates, index }
+}
+
+/// A camera inside the box `lo`–`hi` (a room), near the wall opposite `towards`, a tenth of the height
+/// above the centre, looking at the far wall a tenth below the centre, with [`INSIDE_VFOV_DEG`].
+fn inside_camera(lo: Vec3, hi: Vec3, towards: Vec3, up: Vec3) -> CameraDesc {
+    let center = 0.5 * (lo + hi);
+    let extent = hi - lo;
+    let depth = extent.dot(towards.abs());
+    let height = extent.dot(up);
+    CameraDesc {
+        position: center - towards * (0.4 * depth) + up * (0.1 * height),
+        look_at: center + towards * (0.5 * depth) - up * (0.1 * height),
+        up,
+        vfov_deg: INSIDE_VFOV_DEG,
+        projection: Projection::Perspective,
+        aspect_ratio: None,
+        width: None,
+        height: None,
+    }
+}
+
+/// What the default view frames: the bounds of everything but ground planes much larger than the rest
+/// ([`GROUND_RATIO`]), so that an object on a large floor fills the image instead of the floor; and a note
+/// naming what was left out. `None` without geometry.
+pub(crate) fn framing_bounds(
+    desc: &geometry::SceneDescription,
+    up_axis: UpAxis,
+) -> (Option<(Vec3, Vec3)>, Option<String>) {
+    let bounds = desc.bounds();
+    let box_of = |points: &mut dyn Iterator<Item = Vec3>| {
+        points.fold(None, |acc: Option<(Vec3, Vec3)>, p| Some(acc.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p)))))
+    };
+    let mut items: Vec<(Vec3, Vec3, bool)> = Vec::new();
+    for s in &desc.spheres {
+        items.push((s.center() - Vec3::splat(s.radius()), s.center() + Vec3::splat(s.radius()), false));
+    }
+    for m in &desc.meshes {
+        if let Some((lo, hi)) = box_of(&mut m.positions().iter().copied()) {
+            items.push((lo, hi, true));
+        }
+    }
+    for i in &desc.instances {
+        if let Some((lo, hi)) = i.bounds() {
+            items.push((lo, hi, false));
+        }
+    }
+    let up = if up_axis == UpAxis::Z { 2 } else { 1 };
+    // A mesh flat along the up axis (thinner than 1 % of its width) is a candidate ground plane.
+    let flat = |(lo, hi, mesh): &(Vec3, Vec3, bool)| {
+        let e = *hi - *lo;
+        *mesh && e[up] <= 0.01 * e.max_element() && e.max_element() > 0.0
+    };
+    let Some((rest_lo, rest_hi)) =
+        items.iter().filter(|i| !flat(i)).fold(None, |acc: Option<(Vec3, Vec3)>, (lo, hi, _)| {
+            Some(acc.map_or((*lo, *hi), |(a, b)| (a.min(*lo), b.max(*hi))))
+        })
+    else {
+        return (bounds, None);
+    };
+    let rest_size = (rest_hi - rest_lo).length();
+    let mut framed = (rest_lo, rest_hi);
+    let mut dropped = 0;
+    for item in items.iter().filter(|i| flat(i)) {
+        let (lo, hi, _) = *item;
+        // Huge, and at or below the bottom of the rest: a ground plane.
+        let ground = (hi - lo).max_element() > GROUND_RATIO * rest_size && hi[up] <= rest_lo[up] + 0.05 * rest_size;
+        if ground {
+            dropped += 1;
+        } else {
+            framed = (framed.0.min(lo), framed.1.max(hi));
+        }
+    }
+    if dropped == 0 {
+        return (bounds, None);
+    }
+    let note = format!(
+        "{dropped} ground plane(s) more than {GROUND_RATIO}× the size of the rest of the scene left out of the default view's framing"
+    );
+    (Some(framed), Some(note))
+}
+
+/// A flat mesh at the bottom of the scene is a ground plane left out of the framing when it is wider than
+/// this many times the diagonal of everything else (a studio floor under a product: the floor would
+/// otherwise set the distance and leave the object a few pixels wide).
+const GROUND_RATIO: f32 = 4.0;
 
 /// `--look-from`, `--look-at`, `--fov` on top of the chosen camera, validated.
 fn apply_overrides(
@@ -198,13 +486,20 @@ fn apply_overrides(
 /// [`VIEW_ELEVATION_DEG`]) looking at the centre of the box `lo`–`hi`, at the nearest distance where all
 /// eight corners lie within [`FRAME_FILL`] of the half field of view, vertically and horizontally.
 pub(crate) fn default_camera(lo: Vec3, hi: Vec3, up_axis: UpAxis, vfov_deg: f32, aspect: f32) -> CameraDesc {
-    let center = 0.5 * (lo + hi);
     let (az, el) = (VIEW_AZIMUTH_DEG.to_radians(), VIEW_ELEVATION_DEG.to_radians());
     // `back`: from the centre towards the eye. Y-up fronts face +Z; Z-up fronts face −Y.
     let (back, up) = match up_axis {
         UpAxis::Y => (Vec3::new(az.sin() * el.cos(), el.sin(), az.cos() * el.cos()), Vec3::Y),
         UpAxis::Z => (Vec3::new(az.sin() * el.cos(), -az.cos() * el.cos(), el.sin()), Vec3::Z),
     };
+    framed_camera(lo, hi, back, up, vfov_deg, aspect)
+}
+
+/// A camera on the unit direction `back` from the centre of the box `lo`–`hi`, looking at the centre with
+/// `up` (not parallel to `back`), at the nearest distance where all eight corners lie within
+/// [`FRAME_FILL`] of the half field of view, vertically and horizontally.
+pub(crate) fn framed_camera(lo: Vec3, hi: Vec3, back: Vec3, up: Vec3, vfov_deg: f32, aspect: f32) -> CameraDesc {
+    let center = 0.5 * (lo + hi);
     let right = up.cross(back).normalize();
     let cam_up = back.cross(right);
     let tan_v = FRAME_FILL * (0.5 * vfov_deg.to_radians()).tan();
@@ -290,7 +585,7 @@ mod tests {
             ..CameraOptions::default()
         };
         let mut warnings = Vec::new();
-        let chosen = choose_camera(SceneFormat::Obj, &[], None, &options, &mut warnings).unwrap();
+        let chosen = choose_camera(SceneFormat::Obj, &[], None, None, &options, None, &mut warnings).unwrap();
         let c = &chosen.desc;
         assert_eq!((c.position, c.look_at, c.vfov_deg), (Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 30.0));
         let camera = Camera::look_at(c.position, c.look_at, c.up, c.vfov_deg, 1.0).unwrap();
@@ -307,13 +602,13 @@ mod tests {
             look_at: Some(Vec3::ZERO),
             ..CameraOptions::default()
         };
-        let c = choose_camera(SceneFormat::Gltf, &[], None, &down, &mut warnings).unwrap().desc;
+        let c = choose_camera(SceneFormat::Gltf, &[], None, None, &down, None, &mut warnings).unwrap().desc;
         assert!(Camera::look_at(c.position, c.look_at, c.up, c.vfov_deg, 1.0).is_ok());
         // The same point twice, or a bad fov: errors that say so.
         let same = CameraOptions { look_from: Some(Vec3::ONE), look_at: Some(Vec3::ONE), ..CameraOptions::default() };
-        assert!(choose_camera(SceneFormat::Obj, &[], None, &same, &mut warnings).is_err());
+        assert!(choose_camera(SceneFormat::Obj, &[], None, None, &same, None, &mut warnings).is_err());
         let fov = CameraOptions { vfov_deg: Some(180.0), ..CameraOptions::default() };
-        assert!(choose_camera(SceneFormat::Obj, &[], None, &fov, &mut warnings).is_err());
+        assert!(choose_camera(SceneFormat::Obj, &[], None, None, &fov, None, &mut warnings).is_err());
     }
 
     #[test]
@@ -332,7 +627,7 @@ mod tests {
         let mut w = Vec::new();
         let pick = |sel: Option<&str>, w: &mut Vec<String>| {
             let options = CameraOptions { camera: sel.map(str::to_owned), ..CameraOptions::default() };
-            choose_camera(SceneFormat::Gltf, &cameras, None, &options, w)
+            choose_camera(SceneFormat::Gltf, &cameras, None, None, &options, None, w)
         };
         assert_eq!(pick(None, &mut w).unwrap().desc, cam(0.0));
         assert_eq!(pick(Some("side"), &mut w).unwrap().desc, cam(4.0));
@@ -348,18 +643,57 @@ mod tests {
         let flat = Some((Vec3::new(-1.0, -0.1, -2.0), Vec3::new(1.0, 0.1, 2.0)));
         // A ground plane as long in x as in z is not taken for Z-up.
         let ground = Some((Vec3::new(-4.0, -0.1, -4.0), Vec3::new(4.0, 1.0, 4.0)));
-        choose_camera(SceneFormat::Obj, &[], flat, &CameraOptions::default(), &mut w).unwrap();
+        choose_camera(SceneFormat::Obj, &[], flat, None, &CameraOptions::default(), None, &mut w).unwrap();
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(w[0].contains("--up z"));
         let mut w = Vec::new();
         let z_up = CameraOptions { up: Some(UpAxis::Z), ..CameraOptions::default() };
-        let c = choose_camera(SceneFormat::Obj, &[], flat, &z_up, &mut w).unwrap().desc;
+        let c = choose_camera(SceneFormat::Obj, &[], flat, None, &z_up, None, &mut w).unwrap().desc;
         assert!(w.is_empty() && c.up == Vec3::Z && c.position.z > 0.0 && c.position.y < 0.0);
         let mut w = Vec::new();
-        choose_camera(SceneFormat::Obj, &[], ground, &CameraOptions::default(), &mut w).unwrap();
+        choose_camera(SceneFormat::Obj, &[], ground, None, &CameraOptions::default(), None, &mut w).unwrap();
         assert!(w.is_empty(), "{w:?}");
         let cube = Some((Vec3::splat(-1.0), Vec3::splat(1.0)));
-        choose_camera(SceneFormat::Obj, &[], cube, &CameraOptions::default(), &mut w).unwrap();
+        choose_camera(SceneFormat::Obj, &[], cube, None, &CameraOptions::default(), None, &mut w).unwrap();
         assert!(w.is_empty());
+    }
+
+    /// A flat mesh at the bottom, over four times the size of the rest, is a ground plane; one above the rest
+    /// (a ceiling), or of comparable size, is framed.
+    #[test]
+    fn ground_planes_are_left_out_of_the_framing_and_nothing_else() {
+        let cube = || {
+            let p: Vec<Vec3> =
+                (0..8).map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32)).collect();
+            geometry::Mesh::new(p, None, None, vec![[0, 1, 2], [1, 3, 2], [4, 6, 5], [5, 6, 7]], None).unwrap()
+        };
+        let plane = |half: f32, y: f32| {
+            let p = vec![
+                Vec3::new(-half, y, -half),
+                Vec3::new(half, y, -half),
+                Vec3::new(half, y, half),
+                Vec3::new(-half, y, half),
+            ];
+            geometry::Mesh::new(p, None, None, vec![[0, 2, 1], [0, 3, 2]], None).unwrap()
+        };
+        let framing = |planes: Vec<geometry::Mesh>, up| {
+            let mut d = geometry::SceneDescription::empty(SceneFormat::Obj);
+            d.meshes.push(cube());
+            d.meshes.extend(planes);
+            framing_bounds(&d, up)
+        };
+        let unit = Some((Vec3::ZERO, Vec3::ONE));
+        let (framed, note) = framing(vec![plane(50.0, 0.0)], UpAxis::Y);
+        assert_eq!(framed, unit);
+        assert!(note.unwrap().contains("1 ground plane"));
+        // A ceiling, a floor of the cube's own size, and a floor under Z-up (the plane is then a wall) are framed.
+        for (planes, up) in [
+            (vec![plane(50.0, 1.0)], UpAxis::Y),
+            (vec![plane(1.0, 0.0)], UpAxis::Y),
+            (vec![plane(50.0, 0.0)], UpAxis::Z),
+        ] {
+            let (framed, note) = framing(planes, up);
+            assert!(note.is_none() && framed.is_some_and(|(lo, hi)| hi.x - lo.x > 1.5), "{framed:?}");
+        }
     }
 }

@@ -2,11 +2,15 @@
 //! materials, lights, textures and a camera, decided once before any ray is traced.
 //!
 //! `assembly` runs the steps (materials, textures, lights, camera); `camera` frames files that
-//! have none; `tangents` supplies glTF's MikkTSpace tangents; `summary` reports what was built.
+//! have none, choosing among candidate views by `survey`'s cheap pass (which also measures how brightly
+//! emitters light what the camera sees); `solids` reads glTF glass on closed meshes as solid; `tangents`
+//! supplies glTF's MikkTSpace tangents; `summary` reports what was built.
 
 pub(crate) mod assembly;
 pub(crate) mod camera;
+pub(crate) mod solids;
 pub(crate) mod summary;
+pub(crate) mod survey;
 pub(crate) mod tangents;
 
 pub use assembly::{AssemblyOptions, DefaultLights, EnvironmentOption, RenderScene, SkyOption};

@@ -16,9 +16,11 @@ use crate::scene::assembly::RenderScene;
 /// `absorption`, `dispersion`, `emission`, `vertex_colors` (a mesh's vertex colours multiply its base
 /// colour), `clearcoat`, `sheen`, `anisotropy` and `specular_layer` (glTF `KHR_materials_clearcoat`,
 /// `KHR_materials_sheen`, `KHR_materials_anisotropy`, `KHR_materials_specular` other than its defaults), and its
-/// spectra), `lights`, `camera`, `bounds` (`min`, `max`),
+/// spectra), `lights` (the file's and what assembly added), `lights_why` (what was added and why), `camera`
+/// (with `source`: which camera or default view, and why), `bounds` (`min`, `max`),
 /// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `memory` (`charged_bytes`, `budget_bytes`:
-/// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `warnings`, and `needs`:
+/// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `generator` (glTF `asset.generator`),
+/// `warnings`, and `needs`:
 /// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
 /// the names or files of the non-RGB spectra used (for the layers above to check for spikes).
 pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
@@ -89,6 +91,7 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
         },
         "materials": materials,
         "lights": render_scene.light_descs.iter().map(light_json).collect::<Vec<_>>(),
+        "lights_why": render_scene.lights_why,
         "camera": camera_json(&render_scene.camera, &render_scene.camera_source, &desc.cameras),
         "background": desc.background.as_ref().map(|(s, i)| json!({"spectrum": s.label(), "intensity": i})),
         "bounds": {"min": lo.to_array(), "max": hi.to_array()},
@@ -100,6 +103,7 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
         },
         "memory": {"charged_bytes": render_scene.memory.used, "budget_bytes": render_scene.memory.limit},
         "settings": desc.settings,
+        "generator": desc.generator,
         "warnings": render_scene.warnings,
         "needs": {
             "dispersion": used_assembled().any(Material::is_dispersive),

@@ -94,20 +94,30 @@ fn a_unit_that_does_not_fit_the_light_is_refused_with_its_place() {
     assert!(e.contains("lights[0].unit") && e.contains("\"lux\""), "{e}");
 }
 
-/// An OBJ file's white quad (z = 0, facing +z), assembled with a camera 1 m in front of it.
-fn obj_plane(extra: &str) -> integrator::RenderScene {
-    obj_plane_with(extra, integrator::DefaultLights::default()).unwrap()
+/// An OBJ file's quad (z = 0, facing +z), assembled with a camera 1 m in front of it; `mtl`: the text of an
+/// MTL file whose first material the quad uses, else no material.
+fn obj_plane(mtl: Option<&str>) -> integrator::RenderScene {
+    obj_plane_with(mtl, integrator::DefaultLights::default()).unwrap()
 }
 
 /// [`obj_plane`], with the given default lights.
 fn obj_plane_with(
-    extra: &str,
+    mtl: Option<&str>,
     default_lights: integrator::DefaultLights,
 ) -> integrator::Result<integrator::RenderScene> {
-    let dir = std::env::temp_dir().join(format!("spectrace-units-{}-{}", std::process::id(), extra.len()));
+    let tag = mtl.map_or(0, str::len);
+    let dir = std::env::temp_dir().join(format!("spectrace-units-{}-{tag}-{default_lights:?}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let obj = dir.join("plane.obj");
-    std::fs::write(&obj, format!("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n{extra}")).unwrap();
+    let material = match mtl {
+        Some(text) => {
+            std::fs::write(dir.join("plane.mtl"), text).unwrap();
+            let name = text.lines().find_map(|l| l.strip_prefix("newmtl ")).expect("a newmtl line");
+            format!("mtllib plane.mtl\nusemtl {name}\n")
+        }
+        None => String::new(),
+    };
+    std::fs::write(&obj, format!("{material}v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n")).unwrap();
     let mut desc = geometry::load_scene(&obj).unwrap();
     desc.camera = Some(geometry::CameraDesc {
         position: glam::Vec3::new(0.0, 0.0, 1.0),
@@ -127,28 +137,35 @@ fn obj_plane_with(
 #[test]
 fn a_file_without_lights_reads_as_light_grey() {
     // Default lighting: environment 0.3 nits + key light 0.5 nits on a white surface facing the camera.
-    // A face without material gets the assembled default grey, reflectance 0.5: Y = 0.4.
-    let s = obj_plane("");
+    // A face without material gets an OBJ's default grey, Blender's 0.8 (it was 0.5, a mid grey no OBJ
+    // viewer uses): Y = 0.64.
+    let s = obj_plane(None);
     let opts = integrator::RenderOptions { spectral: SpectralMode::Bins(16), spp: 4096, ..options(1, 1) }.path(|_| {});
     let (image, stats) = render_with(&s, &opts);
     assert_all_finite(&image, &stats);
     let y = f64::from(image.xyz(0, 0)[1]);
-    assert!((y / 0.4 - 1.0).abs() < 0.03, "Y = {y}, expected 0.8 × 0.5");
+    assert!((y / 0.64 - 1.0).abs() < 0.03, "Y = {y}, expected 0.8 × 0.8");
+    // A material its MTL names keeps its colour: Kd 0.25 under the same lights, Y = 0.2.
+    let s = obj_plane(Some("newmtl grey\nKd 0.25 0.25 0.25\n"));
+    let (image, _) = render_with(&s, &opts);
+    let y = f64::from(image.xyz(0, 0)[1]);
+    assert!((y / 0.2 - 1.0).abs() < 0.03, "Y = {y}, expected 0.8 × 0.25");
 }
 
 #[test]
 fn light_env_none_keeps_only_the_key_light_and_no_default_lights_adds_nothing() {
-    // `--light-env none`: the key light's 0.5 nits on a white surface alone, over black: Y = 0.5 × 0.5.
-    let s = obj_plane_with("", integrator::DefaultLights::KeyOnly).unwrap();
+    // `--light-env none`: the key light's 0.5 nits on a white surface alone, over black, on the OBJ's default
+    // grey: Y = 0.5 × 0.8.
+    let s = obj_plane_with(None, integrator::DefaultLights::KeyOnly).unwrap();
     assert!(s.warnings.iter().any(|w| w.contains("key light") && w.contains("black")), "{:?}", s.warnings);
     let opts = integrator::RenderOptions { spectral: SpectralMode::Bins(16), spp: 256, ..options(1, 1) }.path(|_| {});
     let (image, stats) = render_with(&s, &opts);
     assert_all_finite(&image, &stats);
     let y = f64::from(image.xyz(0, 0)[1]);
     // One delta light on a plane facing the camera: every sample is the same, up to rounding.
-    assert!((y / 0.25 - 1.0).abs() < 1e-3, "Y = {y}, expected 0.5 × 0.5");
+    assert!((y / 0.4 - 1.0).abs() < 1e-3, "Y = {y}, expected 0.5 × 0.8");
     // `--no-default-lights`: a file with no light, emitter or background is refused.
-    let err = obj_plane_with("", integrator::DefaultLights::None).err().map(|e| e.to_string()).unwrap_or_default();
+    let err = obj_plane_with(None, integrator::DefaultLights::None).err().map(|e| e.to_string()).unwrap_or_default();
     assert!(err.contains("no light"), "{err}");
 }
 
