@@ -112,9 +112,10 @@ pub(crate) struct SamplingArgs {
     /// Most samples per pixel a render to --target-error takes [default: 4096].
     #[arg(long)]
     max_spp: Option<u32>,
-    /// Stop after this many seconds (0: no limit). Samples are then taken one per pixel per pass,
-    /// and rows not started when time is up are skipped (every pixel gets at least one sample)
-    /// [default: 300 for a render to --target-error, else none].
+    /// Stop after this many seconds (0: no limit). Samples are then taken one per pixel per pass
+    /// (one stage per pass with a target error), and rows not started when time is up are skipped
+    /// (every pixel gets at least one sample) [default: 300 for a render to --target-error, else
+    /// none].
     #[arg(long, value_parser = parse_time_limit)]
     time_limit: Option<std::time::Duration>,
     /// Seed of the path tracer's random numbers (same seed: same image, any thread count).

@@ -262,9 +262,9 @@ pub struct RenderOptions {
     /// and the sample index, so images do not depend on the thread count).
     pub seed: u64,
     /// Stop once this much time has passed: samples are then taken in passes of one per
-    /// pixel, and rows not yet started are skipped once the time is up, so the limit is kept
-    /// to within about one row's time after the first pass (each pixel averages the samples it
-    /// got; [`RenderStats::spp`] says the fewest).
+    /// pixel (of one stage with a target error), and rows not yet started are skipped once the
+    /// time is up, so the limit is kept to within about one row's time after the first pass
+    /// (each pixel averages the samples it got; [`RenderStats::spp`] says the fewest).
     pub time_limit: Option<Duration>,
     /// Worker threads (`None`: all cores).
     pub threads: Option<usize>,

@@ -345,8 +345,10 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     // With a time limit, passes of one sample each spread the samples taken evenly over the
     // image when it stops, and every row of a pass is short whatever the spp. The first pass
     // ignores the limit, so every pixel gets at least one sample. Checkpoints are taken
-    // between passes, so they also want short passes.
-    let short_passes = options.time_limit.is_some() || checkpoint.is_some();
+    // between passes, so they also want short passes. A render to a target error keeps a pass
+    // per stage under its time limit: a stage is at most half the samples taken before it, and
+    // passes of one sample over the few tiles still sampling left a core idle (1.5 of 2 busy).
+    let short_passes = checkpoint.is_some() || (options.time_limit.is_some() && options.target_error.is_none());
     let mut last_checkpoint = Instant::now();
     let start = Instant::now();
     let out_of_time = || options.time_limit.is_some_and(|limit| start.elapsed() >= limit);

@@ -109,8 +109,9 @@ fn percentile(v: &[f64], p: f64) -> f64 {
 pub(crate) fn checks(report: &mut Report, root: &Path, refs: &RefCache, quick: bool) -> anyhow::Result<()> {
     let mut md = String::from(
         "## The error estimate against the true error\n\n\
-         Each render keeps its two half-films (samples whose index has an odd or an even number of 1 \
-         bits); the estimate of a pixel's error is ΔE00 between them over 2 (`crates/integrator/src/film/estimate.rs`). \
+         Each render keeps its two half-films (its odd and even samples, two independent randomisations of \
+         the Sobol' points); the estimate of a pixel's error is ΔE00 between its mean M and M ± ½ (A − B), the \
+         larger (`crates/integrator/src/film/estimate.rs`). \
          Predicted: the mean of the pixels' estimates. Measured: the mean ΔE00 of the render from a converged \
          reference (16384 spp; 2048 with `--quick`), both as the PNG shows them (EV 0, or the reference's \
          auto-exposure for photometric lights; clipped at white; D65 white at Y = 1). Seeds: seed 2 against \
@@ -177,7 +178,9 @@ fn time_to_error(report: &mut Report, root: &Path, refs: &RefCache, md: &mut Str
         "### Time to an error: adaptive against fixed spp (Cornell box)\n\n\
          128×96, bins:24, seed 2; true error per 8×8 tile against the 16384-spp reference. \
          Fixed spp needed for the adaptive render's 95th-percentile tile error: interpolated on the \
-         ladder (log error against log spp), its time from the ladder's time per sample.\n\n\
+         ladder (log error against log spp; extrapolated from its last two renders beyond it), its time \
+         at the ladder's fastest time per sample (the machine is shared: the least disturbed run). \
+         The paired timing with medians is in the closing note of issue 41.\n\n\
          | render | mean spp | time (s) | mean ΔE00 | p95 tile ΔE00 | worst tile ΔE00 |\n| --- | --- | --- | --- | --- | --- |\n",
     );
     let mut ladder = Vec::new();
@@ -211,11 +214,12 @@ fn time_to_error(report: &mut Report, root: &Path, refs: &RefCache, md: &mut Str
             mean_error(image.pixels(), &reference.pixels, scale),
             percentile(&tiles, 1.0)
         )?;
-        // The fixed spp with the same p95 tile error, on the ladder.
-        let fixed = ladder.windows(2).find(|w| w[1].1 <= p95_tile).map(|w| {
+        // The fixed spp with the same p95 tile error, on the ladder (or beyond its end).
+        let per_sample = ladder.iter().map(|l| l.2 / l.0).fold(f64::INFINITY, f64::min);
+        let window = ladder.windows(2).find(|w| w[1].1 <= p95_tile).or_else(|| ladder.windows(2).last());
+        let fixed = window.map(|w| {
             let slope = (w[1].1 / w[0].1).ln() / (w[1].0 / w[0].0).ln();
             let spp = w[0].0 * (p95_tile / w[0].1).powf(1.0 / slope);
-            let per_sample = w[1].2 / w[1].0;
             (spp, spp * per_sample)
         });
         match fixed {
