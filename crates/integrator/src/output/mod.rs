@@ -183,7 +183,6 @@ impl Image {
     }
 
     fn encode_error_exr<W: Write + Seek>(&self, w: &mut W) -> std::result::Result<(), String> {
-        use exr::prelude::*;
         let Some((estimate, counts)) = &self.error else {
             return Err(
                 "no error estimate: the film kept no half-film sums (render with --error-map or a target error)"
@@ -195,15 +194,28 @@ impl Image {
             .map(|i| estimate.tiles[estimate.tile_of((i % width) as u32, (i / width) as u32)])
             .collect();
         let spp: Vec<f32> = counts.iter().map(|&c| c as f32).collect();
+        self.encode_channels_exr(
+            "error",
+            [("deltaE00", estimate.pixels.clone()), ("deltaE00.tile", tile), ("spp", spp)],
+            w,
+        )
+    }
+
+    /// A layer of named f32 channels, one value per pixel, as a lossless OpenEXR.
+    fn encode_channels_exr<W: Write + Seek>(
+        &self,
+        layer_name: &str,
+        channels: [(&str, Vec<f32>); 3],
+        w: &mut W,
+    ) -> std::result::Result<(), String> {
+        use exr::prelude::*;
         let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
-            [("deltaE00", estimate.pixels.clone()), ("deltaE00.tile", tile), ("spp", spp)]
-                .into_iter()
-                .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
-                .collect();
+            channels.into_iter().map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values))).collect();
+        let (width, height) = (self.width as usize, self.height as usize);
         let attributes = ImageAttributes::new(IntegerBounds::from_dimensions((width, height)));
         let layer = Layer::new(
             (width, height),
-            LayerAttributes::named("error"),
+            LayerAttributes::named(layer_name),
             Encoding::SMALL_LOSSLESS,
             AnyChannels::sort(channels),
         );
@@ -211,7 +223,6 @@ impl Image {
     }
 
     fn encode_variance_exr<W: Write + Seek>(&self, w: &mut W) -> std::result::Result<(), String> {
-        use exr::prelude::*;
         let Some(stats) = &self.sample_stats else {
             return Err("no sample statistics (they come from a film: spectrace merge)".to_owned());
         };
@@ -222,20 +233,11 @@ impl Image {
             .map(|(v, xyz)| if xyz[1] > 0.0 { v.sqrt() / xyz[1] } else { 0.0 })
             .collect();
         let spp: Vec<f32> = stats.counts.iter().map(|&c| c as f32).collect();
-        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> =
-            [("Y.variance", stats.variance.clone()), ("Y.relativeError", relative), ("spp", spp)]
-                .into_iter()
-                .map(|(name, values)| AnyChannel::new(name, FlatSamples::F32(values)))
-                .collect();
-        let (width, height) = (self.width as usize, self.height as usize);
-        let attributes = ImageAttributes::new(IntegerBounds::from_dimensions((width, height)));
-        let layer = Layer::new(
-            (width, height),
-            LayerAttributes::named("statistics"),
-            Encoding::SMALL_LOSSLESS,
-            AnyChannels::sort(channels),
-        );
-        Image { attributes, layer_data: layer }.write().to_buffered(w).map_err(|e| e.to_string())
+        self.encode_channels_exr(
+            "statistics",
+            [("Y.variance", stats.variance.clone()), ("Y.relativeError", relative), ("spp", spp)],
+            w,
+        )
     }
 
     fn encode_exr<W: Write + Seek>(&self, display: Display, w: &mut W) -> std::result::Result<(), String> {

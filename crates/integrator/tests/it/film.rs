@@ -98,12 +98,44 @@ fn luminance_variance_is_the_variance_of_the_mean() {
     assert!((2.5..6.5).contains(&ratio), "variance ratio {ratio}");
 }
 
+/// The render of `options` with a checkpoint after every pass: its film, and each checkpoint's
+/// file bytes (with `header`).
+fn checkpointed(scene: &RenderScene, options: &RenderOptions, header: &integrator::FilmHeader) -> (Film, Vec<Vec<u8>>) {
+    use integrator::{Checkpoint, FilmFile, RenderControl};
+    let saved = std::sync::Mutex::new(Vec::new());
+    let write = |f: &Film| {
+        saved.lock().unwrap().push(FilmFile { header: header.clone(), film: f.clone() }.to_bytes());
+        Ok(())
+    };
+    let cancel = AtomicBool::new(false);
+    let control = RenderControl {
+        progress: &|_| {},
+        cancel: &cancel,
+        resume: None,
+        checkpoint: Some(Checkpoint { every: std::time::Duration::ZERO, write: &write }),
+        spectral: None,
+    };
+    let (film, _) = integrator::render_film_with(scene, options, control).unwrap();
+    (film, saved.into_inner().unwrap())
+}
+
+/// The film of `options` resumed from a checkpoint file's `bytes`.
+fn resumed(scene: &RenderScene, options: &RenderOptions, header: &integrator::FilmHeader, bytes: &[u8]) -> Film {
+    use integrator::{FilmFile, RenderControl};
+    let path = std::path::Path::new("c.film");
+    let file = FilmFile::from_bytes(bytes, path).unwrap();
+    let resume = file.resumable(header, options.width, options.height, path).unwrap();
+    let cancel = AtomicBool::new(false);
+    let control =
+        RenderControl { progress: &|_| {}, cancel: &cancel, resume: Some(resume), checkpoint: None, spectral: None };
+    integrator::render_film_with(scene, options, control).unwrap().0
+}
+
 /// A checkpoint taken between passes, read back from its bytes and resumed, gives exactly the
 /// uninterrupted film (uneven counts, as a time limit leaves them, are `tests/e2e/farm.rs`).
 #[test]
 fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
-    use integrator::{Checkpoint, FilmFile, FilmHeader, RenderControl};
-    use std::sync::Mutex;
+    use integrator::{FilmFile, FilmHeader};
     let scene = reference("cornell_box.json");
     let options = RenderOptions {
         width: 10,
@@ -118,37 +150,13 @@ fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
     };
     let whole = film(&scene, &options);
     let header = FilmHeader::new(scene.source_hash(), &options, SpectralMode::Bins(8), ViewPlan::default().to_string());
-    let saved: Mutex<Vec<Vec<u8>>> = Mutex::new(Vec::new());
-    let write = |f: &Film| {
-        let bytes = FilmFile { header: header.clone(), film: f.clone() }.to_bytes();
-        saved.lock().unwrap().push(bytes);
-        Ok(())
-    };
-    let cancel = AtomicBool::new(false);
-    let control = RenderControl {
-        progress: &|_| {},
-        cancel: &cancel,
-        resume: None,
-        checkpoint: Some(Checkpoint { every: std::time::Duration::ZERO, write: &write }),
-        spectral: None,
-    };
-    let (checkpointed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
+    let (checkpointed, saved) = checkpointed(&scene, &options, &header);
     assert!(checkpointed == whole, "short passes change no sum");
-    let saved = saved.into_inner().unwrap();
     assert_eq!(saved.len(), 5, "one checkpoint between each of the 6 passes");
     for (k, bytes) in saved.iter().enumerate() {
         let file = FilmFile::from_bytes(bytes, std::path::Path::new("c.film")).unwrap();
         assert_eq!(file.film.min_sample_count(), k as u32 + 1);
-        let resume = file.resumable(&header, 10, 8, std::path::Path::new("c.film")).unwrap();
-        let control = RenderControl {
-            progress: &|_| {},
-            cancel: &cancel,
-            resume: Some(resume),
-            checkpoint: None,
-            spectral: None,
-        };
-        let (resumed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
-        assert!(resumed == whole, "resumed after pass {}", k + 1);
+        assert!(resumed(&scene, &options, &header, bytes) == whole, "resumed after pass {}", k + 1);
     }
     // A film of another seed is refused.
     let other = FilmHeader::new(
@@ -165,8 +173,7 @@ fn a_resumed_checkpoint_equals_the_uninterrupted_render() {
 /// thread count, and resumed from any of its checkpoints it is the uninterrupted one, bit for bit.
 #[test]
 fn an_adaptive_render_is_deterministic_and_resumes_exactly() {
-    use integrator::{Checkpoint, FilmFile, FilmHeader, RenderControl, TargetError};
-    use std::sync::Mutex;
+    use integrator::{FilmFile, FilmHeader, TargetError};
     let scene = reference("cornell_box.json");
     let options = RenderOptions {
         width: 24,
@@ -202,36 +209,12 @@ fn an_adaptive_render_is_deterministic_and_resumes_exactly() {
     assert!(one_thread == whole, "the thread count changed the film");
 
     let header = FilmHeader::new(scene.source_hash(), &options, SpectralMode::Bins(8), ViewPlan::default().to_string());
-    let saved: Mutex<Vec<Vec<u8>>> = Mutex::new(Vec::new());
-    let write = |f: &Film| {
-        saved.lock().unwrap().push(FilmFile { header: header.clone(), film: f.clone() }.to_bytes());
-        Ok(())
-    };
-    let cancel = AtomicBool::new(false);
-    let control = RenderControl {
-        progress: &|_| {},
-        cancel: &cancel,
-        resume: None,
-        checkpoint: Some(Checkpoint { every: std::time::Duration::ZERO, write: &write }),
-        spectral: None,
-    };
-    let (checkpointed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
+    let (checkpointed, saved) = checkpointed(&scene, &options, &header);
     assert!(checkpointed == whole, "passes of one sample change no decision");
-    let saved = saved.into_inner().unwrap();
     assert!(saved.len() > 20, "{} checkpoints", saved.len());
     for (k, bytes) in saved.iter().enumerate() {
-        let file = FilmFile::from_bytes(bytes, std::path::Path::new("c.film")).unwrap();
-        assert!(file.film.has_halves());
-        let resume = file.resumable(&header, 24, 16, std::path::Path::new("c.film")).unwrap();
-        let control = RenderControl {
-            progress: &|_| {},
-            cancel: &cancel,
-            resume: Some(resume),
-            checkpoint: None,
-            spectral: None,
-        };
-        let (resumed, _) = integrator::render_film_with(&scene, &options, control).unwrap();
-        assert!(resumed == whole, "resumed from checkpoint {}", k + 1);
+        assert!(FilmFile::from_bytes(bytes, std::path::Path::new("c.film")).unwrap().film.has_halves());
+        assert!(resumed(&scene, &options, &header, bytes) == whole, "resumed from checkpoint {}", k + 1);
     }
     // A target error decides from the whole film: it does not render a sample range.
     let part = RenderOptions { samples: Some(0..48), ..options.clone() };
