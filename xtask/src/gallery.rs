@@ -144,14 +144,23 @@ pub(crate) fn run(args: &GalleryArgs) -> anyhow::Result<()> {
         // "spectrace: note: PNG exposure +1.23 EV (…)"
         let ev = note("PNG exposure ").split_whitespace().nth(4).unwrap_or("0").to_owned();
         if args.seeds {
-            let lights = note("note: lights").split("note: ").nth(1).unwrap_or("the file's").replace('|', "/");
-            // "… bins:24 16..4096 spp (mean 2078) in …" or "… 1 spp in …"
-            let summary = note(" spp");
+            // What the lights rule decided, in `info`'s words (the render's note varies by case).
+            let info = Command::new(&spectrace)
+                .args(["info", "--width", &width, "--height", &height])
+                .arg(file)
+                .output()
+                .with_context(|| spectrace.display().to_string())?;
+            let lights = serde_json::from_slice::<serde_json::Value>(&info.stdout)
+                .ok()
+                .and_then(|v| v["lights_why"].as_str().map(|s| s.replace('|', "/")))
+                .unwrap_or_else(|| "?".to_owned());
+            // The summary: "spectrace: 400x300 bins:24 16..4096 spp (mean 2078) in …" or "… 64 spp in …".
+            let size = format!("spectrace: {width}x{height} ");
+            let summary = stderr.lines().find(|l| l.starts_with(&size)).unwrap_or("");
             let spp = summary
                 .split(" in ")
                 .next()
-                .and_then(|s| s.split_once(' ').map(|(_, rest)| rest))
-                .and_then(|s| s.split_once(' ').map(|(_, rest)| rest))
+                .and_then(|s| s.strip_prefix(&size))
                 .and_then(|s| s.split_once(' ').map(|(_, rest)| rest))
                 .unwrap_or("?")
                 .to_owned();
