@@ -116,6 +116,5 @@ pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
         out.push_str(&json.to_string());
         out.push('\n');
     }
-    print!("{out}");
-    Ok(())
+    crate::write_stdout(&out)
 }

@@ -133,6 +133,5 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
         object.insert("spectral_auto_why".to_owned(), serde_json::json!({"reason": auto.reason, "pilot": candidates}));
         object.insert("spiky_spectra".to_owned(), serde_json::Value::Bool(integrator::scene_is_spiky(&scene)));
     }
-    println!("{}", serde_json::to_string_pretty(&summary)?);
-    Ok(())
+    crate::write_stdout(&format!("{}\n", serde_json::to_string_pretty(&summary)?))
 }

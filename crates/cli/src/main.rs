@@ -53,3 +53,13 @@ fn main() -> ExitCode {
         }
     }
 }
+
+/// Write `text` to standard output. A reader that stops early (`spectrace info … | head`) closes
+/// the pipe: that ends the output, it is not an error (`print!` would panic on it).
+pub(crate) fn write_stdout(text: &str) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => Ok(other?),
+    }
+}
