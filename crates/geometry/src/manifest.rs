@@ -921,41 +921,22 @@ mod tests {
         );
         assert_eq!(settings("{}").ok(), Some(Settings::default()));
         // A wrong type or a value out of range is an error naming its place, not clamped, saturated or ignored.
-        assert_eq!(
-            message(r#"{"max_depth":-3}"#),
-            "test.json: settings.max_depth: expected an integer in 0..=1024, got -3"
-        );
-        assert_eq!(
-            message(r#"{"max_depth":"20"}"#),
-            "test.json: settings.max_depth: expected an integer in 0..=1024, got \"20\""
-        );
-        assert_eq!(
-            message(r#"{"max_depth":1e30}"#),
-            "test.json: settings.max_depth: expected an integer in 0..=1024, got 1e+30"
-        );
-        assert_eq!(
-            message(r#"{"rr_depth":-1}"#),
-            "test.json: settings.rr_depth: expected an integer in 0..=1024, got -1"
-        );
-        assert_eq!(
-            message(r#"{"max_depth":2.5}"#),
-            "test.json: settings.max_depth: expected an integer in 0..=1024, got 2.5"
-        );
-        assert_eq!(
-            message(r#"{"max_depth":1025}"#),
-            "test.json: settings.max_depth: expected an integer in 0..=1024, got 1025"
-        );
-        assert_eq!(
-            message(r#"{"max_dpeth":8}"#),
-            "test.json: settings.max_dpeth: unknown key; did you mean `max_depth`? (known keys: integrator, max_depth, rr_depth)"
-        );
-        assert_eq!(
-            message(r#"{"ambient":0.1}"#),
-            "test.json: settings.ambient: unknown key (known keys: integrator, max_depth, rr_depth)"
-        );
-        assert_eq!(
-            message(r#"{"integrator":3}"#),
-            "test.json: settings.integrator: expected a string (\"whitted-hall\" or \"path\"), got 3"
-        );
+        let refused = [
+            (r#"{"max_depth":-3}"#, "settings.max_depth: expected an integer in 0..=1024, got -3"),
+            (r#"{"max_depth":"20"}"#, "settings.max_depth: expected an integer in 0..=1024, got \"20\""),
+            (r#"{"max_depth":1e30}"#, "settings.max_depth: expected an integer in 0..=1024, got 1e+30"),
+            (r#"{"rr_depth":-1}"#, "settings.rr_depth: expected an integer in 0..=1024, got -1"),
+            (r#"{"max_depth":2.5}"#, "settings.max_depth: expected an integer in 0..=1024, got 2.5"),
+            (r#"{"max_depth":1025}"#, "settings.max_depth: expected an integer in 0..=1024, got 1025"),
+            (
+                r#"{"max_dpeth":8}"#,
+                "settings.max_dpeth: unknown key; did you mean `max_depth`? (known keys: integrator, max_depth, rr_depth)",
+            ),
+            (r#"{"ambient":0.1}"#, "settings.ambient: unknown key (known keys: integrator, max_depth, rr_depth)"),
+            (r#"{"integrator":3}"#, "settings.integrator: expected a string (\"whitted-hall\" or \"path\"), got 3"),
+        ];
+        for (json, expected) in refused {
+            assert_eq!(message(json), format!("test.json: {expected}"), "{json}");
+        }
     }
 }

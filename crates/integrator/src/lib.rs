@@ -82,5 +82,5 @@ pub use film::{Film, ObjectId};
 pub use files::{check_distinct_outputs, check_outputs_spare_inputs, remove_pending_outputs};
 pub use output::{
     Display, EXR_VIEW_ATTRIBUTE, Exposure, Image, MIDDLE_GREY, OutputFile, OutputKind, OutputPlan, Tonemap, View,
-    ViewPlan, auto_exposure_ev, pbr_neutral,
+    ViewPlan, auto_exposure_ev, auto_exposure_ev_of, pbr_neutral,
 };

@@ -8,7 +8,6 @@
 //! (`integrators/whitted.rs` or `integrators/path.rs`), and adds the result to the film's row.
 
 use std::ops::Range;
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -17,11 +16,11 @@ use geometry::{Camera, Ray};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::film::estimate::{TILE, tile_grid};
+use crate::film::estimate::{ErrorEstimate, TILE, tile_grid, tile_index};
 use crate::film::{Film, MAX_SPP, Sensor};
 use crate::integrators::{Kernel, PathTracer, Radiance, RayCount, Whitted};
 use crate::options::{Integrator, PathOptions, RenderOptions, SamplerKind};
-use crate::output::auto_exposure_ev;
+use crate::output::auto_exposure_ev_of;
 use crate::sampling::{Rng, Sampler, SobolSample};
 use crate::scene::{RenderScene, scene_white};
 use crate::spectral::{LaneJob, Lanes, SpectralMode, lane_count, with_lanes};
@@ -71,9 +70,15 @@ pub struct ErrorReached {
     pub tiles_done: f64,
 }
 
-impl ErrorReached {
-    fn from_progress(p: ErrorProgress) -> Self {
-        Self { mean: p.mean, worst_tile: p.worst_tile, target: Some(p.target), tiles_done: p.tiles_done }
+/// What an estimate says a render reached, against `target` (the share of tiles at or below it;
+/// 1 without one).
+fn error_reached(e: &ErrorEstimate, target: Option<f64>) -> ErrorReached {
+    ErrorReached {
+        mean: e.mean(),
+        worst_tile: e.worst_tile(),
+        target,
+        tiles_done: target
+            .map_or(1.0, |t| e.tiles.iter().filter(|&&v| f64::from(v) <= t).count() as f64 / e.tiles.len() as f64),
     }
 }
 
@@ -325,7 +330,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     let range = samples.len() as u32;
     let stages = stage_ends(range, options.target_error.is_some());
     let (tiles_x, tiles_y) = tile_grid(width, height);
-    let tile_of = |x: usize, y: usize| (y as u32 / TILE) as usize * tiles_x as usize + (x as u32 / TILE) as usize;
+    let tile_of = |i: usize| tile_index((i % width as usize) as u32, (i / width as usize) as u32, tiles_x);
     // Where the film stands: the first stage not finished by every sampling tile, and which tiles
     // are sampling (all, in the first stage; a fresh film is there).
     let most = film.max_sample_count();
@@ -335,7 +340,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
         let done = stages[stage - 1];
         let mut tile_most = vec![0u32; active.len()];
         for (i, p) in film.pixels.iter().enumerate() {
-            let t = tile_of(i % width as usize, i / width as usize);
+            let t = tile_of(i);
             tile_most[t] = tile_most[t].max(p.count);
         }
         for (a, m) in active.iter_mut().zip(tile_most) {
@@ -356,9 +361,11 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
     let shadow_rays = AtomicU64::new(0);
     let rows_done = AtomicU64::new(0);
     let taken = AtomicU64::new(0);
-    let estimate = Mutex::new(None::<ErrorProgress>);
+    // The estimate after the last finished stage, shown with every row of the next.
+    let mut shown = None::<ErrorProgress>;
     let mut first_pass = true;
     let mut reached = None;
+    let mut stopped_by_time = false;
     'stages: loop {
         let (lo, hi) = (if stage == 0 { 0 } else { stages[stage - 1] }, stages[stage]);
         let pass_size = if short_passes { 1 } else { hi - lo };
@@ -368,13 +375,13 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
             .pixels
             .iter()
             .enumerate()
-            .filter(|(i, _)| active[tile_of(i % width as usize, i / width as usize)])
+            .filter(|(i, _)| active[tile_of(*i)])
             .map(|(_, p)| p.count)
             .min()
             .unwrap_or(hi);
         let skip = (fewest.saturating_sub(lo) / pass_size).min(passes);
         let active_rows = (0..height as usize)
-            .filter(|&y| (0..tiles_x as usize).any(|tx| active[(y as u32 / TILE) as usize * tiles_x as usize + tx]))
+            .filter(|&y| (0..tiles_x as usize).any(|tx| active[tile_index(0, y as u32, tiles_x) + tx]))
             .count() as u64;
         let rows_total = rows_done.load(Ordering::Relaxed) + active_rows * u64::from(passes - skip);
         for pass in skip..passes {
@@ -390,7 +397,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     if cancel.load(Ordering::Relaxed) {
                         return Err(Error::Cancelled);
                     }
-                    let row_tiles = (y as u32 / TILE) as usize * tiles_x as usize;
+                    let row_tiles = tile_index(0, y as u32, tiles_x);
                     if !active[row_tiles..row_tiles + tiles_x as usize].iter().any(|&a| a) {
                         return Ok((0, 0));
                     }
@@ -430,14 +437,13 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     shadow_rays.fetch_add(count.shadow, Ordering::Relaxed);
                     let samples_now = taken.fetch_add(row_samples, Ordering::Relaxed) + row_samples;
                     let rows = rows_done.fetch_add(1, Ordering::Relaxed) + 1;
-                    let error = *estimate.lock().unwrap_or_else(|e| e.into_inner());
                     progress(Progress {
                         rows_done: rows,
                         rows_total,
                         rays: rays_now,
                         samples: samples_now,
                         elapsed: start.elapsed(),
-                        error,
+                        error: shown,
                     });
                     Ok((row.nonfinite, row.clamped))
                 })
@@ -450,6 +456,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
             }
             first_pass = false;
             if out_of_time() {
+                stopped_by_time = true;
                 break 'stages;
             }
             let last = stage + 1 == stages.len() && pass + 1 == passes;
@@ -477,17 +484,20 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                 *a = false;
             }
         }
-        let done = active.iter().filter(|&&a| !a).count();
+        // Done are the tiles that stopped: with auto-exposure a tile stopped at an earlier stage
+        // may now read a little above the target, but it has stopped all the same.
+        let done = active.iter().filter(|&&a| !a).count() as f64 / active.len() as f64;
+        let summary = ErrorReached { tiles_done: done, ..error_reached(&e, Some(goal)) };
         let rate = taken.load(Ordering::Relaxed) as f64 / start.elapsed().as_secs_f64().max(1e-6);
         let now = ErrorProgress {
-            mean: e.mean(),
-            worst_tile: e.worst_tile(),
+            mean: summary.mean,
+            worst_tile: summary.worst_tile,
             target: goal,
-            tiles_done: done as f64 / active.len() as f64,
+            tiles_done: summary.tiles_done,
             remaining: (rate > 0.0).then(|| Duration::from_secs_f64((remaining / rate).min(1e9))),
         };
-        *estimate.lock().unwrap_or_else(|e| e.into_inner()) = Some(now);
-        reached = Some(now);
+        shown = Some(now);
+        reached = Some(summary);
         progress(Progress {
             rows_done: rows_done.load(Ordering::Relaxed),
             rows_total: rows_done.load(Ordering::Relaxed),
@@ -497,7 +507,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
             error: Some(now),
         });
         stage += 1;
-        if done == active.len() || stage == stages.len() {
+        if !active.contains(&true) || stage == stages.len() {
             break;
         }
         if let Some(c) = &checkpoint
@@ -507,20 +517,15 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
             last_checkpoint = Instant::now();
         }
     }
-    let error = match (reached, options.target_error) {
+    let error = match reached {
+        // The last stage's estimate, unless the time limit stopped a stage part way.
+        Some(r) if !stopped_by_time => Some(r),
         // Stopped by the time limit, or a film kept its halves for an error map: measure now.
-        (Some(r), _) if !out_of_time() => Some(ErrorReached::from_progress(r)),
-        (_, target) => film
-            .error_estimate(display_scale(&film, target.and_then(|t| t.exposure_ev)), samples.start)
-            .map(|e| ErrorReached {
-                mean: e.mean(),
-                worst_tile: e.worst_tile(),
-                target: target.map(|t| f64::from(t.delta_e)),
-                tiles_done: target.map_or(1.0, |t| {
-                    e.tiles.iter().filter(|&&v| f64::from(v) <= f64::from(t.delta_e)).count() as f64
-                        / e.tiles.len() as f64
-                }),
-            }),
+        _ => {
+            let target = options.target_error;
+            film.error_estimate(display_scale(&film, target.and_then(|t| t.exposure_ev)), samples.start)
+                .map(|e| error_reached(&e, target.map(|t| f64::from(t.delta_e))))
+        }
     };
     let stats = RenderStats {
         spectral,
@@ -548,7 +553,7 @@ fn tile_pixels(t: usize, tiles_x: u32, width: u32, height: u32) -> f64 {
 /// The display's scale (2^EV) the error is judged at: the fixed exposure, or the auto-exposure of
 /// the film as it stands (as the PNG will be exposed).
 fn display_scale(film: &Film, exposure_ev: Option<f32>) -> f64 {
-    let ev = exposure_ev.unwrap_or_else(|| auto_exposure_ev(&film.to_image()).unwrap_or(0.0));
+    let ev = exposure_ev.unwrap_or_else(|| auto_exposure_ev_of(film.mean_luminances()).unwrap_or(0.0));
     f64::from(ev).exp2()
 }
 

@@ -13,6 +13,9 @@ use rayon::prelude::*;
 
 use crate::error::Result;
 use crate::film::Sensor;
+// CIELAB's reference white, D65 at Y = 1, as `cargo xtask validate` and the Mitsuba comparison
+// score images.
+use crate::film::estimate::WHITE;
 use crate::integrators::{PathTracer, RayCount};
 use crate::options::{Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind};
 use crate::render::{PixelSampler, thread_pool};
@@ -65,10 +68,6 @@ const PILOT_SHARE: u64 = 32;
 /// Step of the numerical derivative of ΔE00 along a pixel's noise (relative: the two Lab
 /// colours compared are ε·d apart, so ΔE00/ε is the local, linear error).
 const EPSILON: f64 = 1e-4;
-
-/// CIELAB's reference white: D65 at Y = 1, as `cargo xtask validate` and the Mitsuba
-/// comparison score images.
-const WHITE: Xyz = Xyz { x: 0.95047, y: 1.0, z: 1.08883 };
 
 /// What `--spectral auto` decided for a render, and why.
 #[derive(Debug, Clone, PartialEq)]

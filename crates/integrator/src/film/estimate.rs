@@ -37,8 +37,9 @@ use crate::film::{FRACTION_BITS, Film, from_fixed, second_half_count};
 /// 0.76/√64), while a small bright object still fills a good part of a tile.
 pub const TILE: u32 = 8;
 
-/// The display's white, in the display's linear units: D65 at Y = 1.
-const WHITE: Xyz = Xyz { x: 0.95047, y: 1.0, z: 1.08883 };
+/// The display's white, in the display's linear units: D65 at Y = 1 (CIELAB's reference white
+/// for every ΔE00 the renderer computes: this estimate and `auto`'s pilot).
+pub(crate) const WHITE: Xyz = Xyz { x: 0.95047, y: 1.0, z: 1.08883 };
 
 /// The estimated error of every pixel and tile of a film.
 #[derive(Debug, Clone, PartialEq)]
@@ -71,8 +72,14 @@ impl ErrorEstimate {
 
     /// The tile holding pixel (`x`, `y`).
     pub fn tile_of(&self, x: u32, y: u32) -> usize {
-        (y / TILE) as usize * self.tiles_x as usize + (x / TILE) as usize
+        tile_index(x, y, self.tiles_x)
     }
+}
+
+/// The tile holding pixel (`x`, `y`) of an image `tiles_x` tiles wide, counted row by row.
+#[inline]
+pub(crate) fn tile_index(x: u32, y: u32, tiles_x: u32) -> usize {
+    (y / TILE) as usize * tiles_x as usize + (x / TILE) as usize
 }
 
 /// Tiles per row and per column of a `width` × `height` image.
@@ -143,8 +150,7 @@ impl Film {
         let (tiles_x, tiles_y) = tile_grid(self.width, self.height);
         let mut sums = vec![(0.0f64, 0u32); tiles_x as usize * tiles_y as usize];
         for (i, &e) in pixels.iter().enumerate() {
-            let (x, y) = ((i % width) as u32, (i / width) as u32);
-            let tile = &mut sums[(y / TILE) as usize * tiles_x as usize + (x / TILE) as usize];
+            let tile = &mut sums[tile_index((i % width) as u32, (i / width) as u32, tiles_x)];
             tile.0 += f64::from(e);
             tile.1 += 1;
         }

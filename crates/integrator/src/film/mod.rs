@@ -113,6 +113,12 @@ pub(crate) fn from_fixed(sum: i128, bits: i32) -> f64 {
     value * inverse_power_of_two(bits)
 }
 
+/// The mean of a first-moment `sum` over `count` samples (0 for none), as images show it.
+#[inline]
+pub(crate) fn pixel_mean(sum: i128, count: u32) -> f32 {
+    (from_fixed(sum, FRACTION_BITS) * (1.0 / f64::from(count.max(1)))) as f32
+}
+
 /// One pixel's sums: Σ X, Σ Y, Σ Z, Σ Y² (fixed point) and the number of samples.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(crate) struct PixelSums {
@@ -232,6 +238,11 @@ impl Film {
     /// Wavelengths (nm) of the spectral sums (empty without a spectral film).
     pub fn wavelengths(&self) -> &[f32] {
         &self.wavelengths
+    }
+
+    /// Each pixel's mean luminance Y, as its image shows it, row by row.
+    pub(crate) fn mean_luminances(&self) -> impl Iterator<Item = f32> + '_ {
+        self.pixels.iter().map(|p| pixel_mean(p.xyz[1], p.count))
     }
 
     /// Samples that were NaN or infinite (added as black).

@@ -5,7 +5,7 @@ use colorimetry::{RgbColorSpace, Xyz};
 
 use crate::error::{Error, Result};
 use crate::film::estimate::ErrorEstimate;
-use crate::film::{FRACTION_BITS, Film, ObjectId, from_fixed};
+use crate::film::{Film, ObjectId, pixel_mean};
 use crate::output::view::{Exposure, MIDDLE_GREY, View, ViewPlan};
 
 /// Which display the output RGB is for.
@@ -44,10 +44,8 @@ impl Film {
     /// The image: each pixel's mean XYZ (and spectral radiance) over its samples.
     pub fn to_image(&self) -> Image {
         let mut image = Image::new(self.width, self.height);
-        let mean = |sum: i128, inv: f64| (from_fixed(sum, FRACTION_BITS) * inv) as f32;
         for (out, p) in image.xyz.iter_mut().zip(&self.pixels) {
-            let inv = 1.0 / f64::from(p.count.max(1));
-            *out = p.xyz.map(|s| mean(s, inv));
+            *out = p.xyz.map(|s| pixel_mean(s, p.count));
         }
         image.ids.copy_from_slice(&self.ids);
         image.nonfinite = self.nonfinite;
@@ -57,10 +55,7 @@ impl Film {
                 .spectral
                 .chunks(lanes)
                 .zip(&self.pixels)
-                .flat_map(|(sums, p)| {
-                    let inv = 1.0 / f64::from(p.count.max(1));
-                    sums.iter().map(move |&s| mean(s, inv))
-                })
+                .flat_map(|(sums, p)| sums.iter().map(move |&s| pixel_mean(s, p.count)))
                 .collect();
             image.spectral = Some(SpectralFilm { wavelengths: self.wavelengths.clone(), values });
         }
@@ -224,9 +219,13 @@ impl Image {
 /// without their δ: black pixels, such as an empty background, are left out rather than floored so that
 /// an object on black is exposed for itself). `None` when no pixel has light.
 pub fn auto_exposure_ev(image: &Image) -> Option<f32> {
+    auto_exposure_ev_of(image.pixels().iter().map(|p| p[1]))
+}
+
+/// [`auto_exposure_ev`] of the luminances `ys` (a film's pixel means, a reference's pixels).
+pub fn auto_exposure_ev_of(ys: impl Iterator<Item = f32>) -> Option<f32> {
     let (mut sum, mut count) = (0.0f64, 0u64);
-    for p in image.pixels() {
-        let y = p[1];
+    for y in ys {
         if y.is_finite() && y > 0.0 {
             sum += f64::from(y).ln();
             count += 1;

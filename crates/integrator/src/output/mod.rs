@@ -12,7 +12,7 @@ use crate::film::Film;
 pub(crate) mod developed;
 pub(crate) mod view;
 
-pub use developed::{Display, Image, auto_exposure_ev};
+pub use developed::{Display, Image, auto_exposure_ev, auto_exposure_ev_of};
 pub use view::{EXR_VIEW_ATTRIBUTE, Exposure, MIDDLE_GREY, Tonemap, View, ViewPlan, pbr_neutral};
 
 /// What one output file holds.

@@ -22,6 +22,7 @@ use crate::material_desc::{
 use crate::options::{DEFAULT_RESOLUTION, IntegratorKind};
 use crate::output::{Exposure, Tonemap, ViewPlan};
 use crate::scene::camera::{CameraOptions, choose_camera};
+use crate::scene::solids::placed_meshes;
 use crate::scene::survey::{EmitterLight, Survey};
 use crate::texture::{MaterialTextures, VertexColors, load_material_textures, texture_bytes, vertex_color_bytes};
 
@@ -523,12 +524,19 @@ fn auto_integrator(settings: &Settings) -> Result<(IntegratorKind, String)> {
 /// (as the paper's light), intensity d² so the irradiance at the centre is 1. Coordinates are bounded by
 /// `geometry::MAX_COORDINATE` (1e18), so d² ≤ (10 · √3 · 1e18)² = 3e38 stays finite in f32.
 fn default_light(center: Vec3, radius: f32) -> LightDesc {
-    let distance = 10.0 * radius;
+    let (position, candela) = default_point_light(center, radius);
     LightDesc::Point {
-        position: center + distance * Vec3::new(-1.0, 1.0, 1.0).normalize(),
+        position,
         spectrum: SpectrumDesc::Named("D65".into()),
-        intensity: LightAmount { value: distance * distance, unit: LightUnit::Candela },
+        intensity: LightAmount { value: candela, unit: LightUnit::Candela },
     }
+}
+
+/// Where [`default_light`] stands and its intensity in candela: 10 radii out, above, left and in
+/// front, giving 1 lux at the centre.
+fn default_point_light(center: Vec3, radius: f32) -> (Vec3, f32) {
+    let distance = 10.0 * radius;
+    (center + distance * Vec3::new(-1.0, 1.0, 1.0).normalize(), distance * distance)
 }
 
 /// Luminance the default environment gives a white Lambertian surface (it sees the whole hemisphere).
@@ -1146,7 +1154,7 @@ fn add_default_lights(
     light_descs: &mut Vec<LightDesc>,
     warnings: &mut Vec<String>,
 ) -> Result<String> {
-    let added = match decide_lights(default, world, lights, light_descs)? {
+    let (added, why) = match decide_lights(default, world, lights, light_descs)? {
         Addition::Nothing { why, note } => {
             if note {
                 warnings.push(why.clone());
@@ -1159,7 +1167,7 @@ fn add_default_lights(
                 Some(why) => format!("no light in the file but its emitters: {why}"),
                 None => "no light in the file".to_owned(),
             };
-            warnings.push(if environment {
+            let why = if environment {
                 format!(
                     "{opening}: added a uniform D65 environment of {ENVIRONMENT_NITS} nits and a D65 key light of {:.3} lux from above and to the right of the camera (a white surface facing the camera reads {:.1})",
                     key_illuminance(),
@@ -1170,26 +1178,25 @@ fn add_default_lights(
                     "{opening}: added a D65 key light of {:.3} lux from above and to the right of the camera over a black background (--light-env none; a white surface facing the camera reads {KEY_NITS:.1})",
                     key_illuminance()
                 )
-            });
-            added
+            };
+            (added, why)
         }
-        Addition::World(nits) => {
-            warnings.push(format!(
+        Addition::World(nits) => (
+            vec![uniform_environment(nits)],
+            format!(
                 "the file's lights have no world around them: added a uniform D65 environment of {nits:.4} nits (Blender's default world in its lamps' units, {LAMP_WORLD_NITS:.1}, at most a fill 3 stops below the brightest lamp; --light-env none: none)"
-            ));
-            vec![uniform_environment(nits)]
-        }
+            ),
+        ),
         Addition::PointLight => {
-            let light = default_light(world.center, world.radius);
-            if let LightDesc::Point { position, intensity, .. } = &light {
-                warnings.push(format!(
-                    "no light in the scene: added a D65 point light at ({:.3}, {:.3}, {:.3}) with intensity {:.4} cd (illuminance 1 lux at the centre)",
-                    position.x, position.y, position.z, intensity.value
-                ));
-            }
-            vec![light]
+            let (position, candela) = default_point_light(world.center, world.radius);
+            let why = format!(
+                "no light in the scene: added a D65 point light at ({:.3}, {:.3}, {:.3}) with intensity {candela:.4} cd (illuminance 1 lux at the centre)",
+                position.x, position.y, position.z
+            );
+            (vec![default_light(world.center, world.radius)], why)
         }
     };
+    warnings.push(why.clone());
     for light in &added {
         lights.push(light_from_desc(light).map_err(|source| Error::Spectrum {
             what: "the default lights (added because the file has too little light)",
@@ -1197,7 +1204,7 @@ fn add_default_lights(
         })?);
     }
     light_descs.extend(added);
-    Ok(warnings.last().cloned().unwrap_or_default())
+    Ok(why)
 }
 
 /// A mesh's vertex colours unless every one is opaque white: exporters write those (Blender's for
@@ -1243,11 +1250,6 @@ fn fit_vertex_colors(
         out.push(Some(fitted));
     }
     Ok(out)
-}
-
-/// The object-space meshes of every placed object.
-fn placed_meshes(instances: &mut [geometry::Instances]) -> impl Iterator<Item = &mut geometry::Mesh> {
-    instances.iter_mut().flat_map(|i| i.meshes_mut().iter_mut())
 }
 
 /// One warning for the keys a scene writes that the renderer reads but does not honour yet.

@@ -106,7 +106,7 @@ pub(crate) fn solid_glass(
         }
     }
     if !copies.is_empty() {
-        let meshes = meshes.iter_mut().chain(instances.iter_mut().flat_map(|i| i.meshes_mut().iter_mut()));
+        let meshes = meshes.iter_mut().chain(placed_meshes(instances));
         for (mesh, &c) in meshes.zip(&closed) {
             if let Some(&(_, copy)) = copies.iter().find(|(i, _)| c && mesh.material() == Some(*i as u32)) {
                 mesh.set_material(Some(copy));
@@ -127,6 +127,11 @@ pub(crate) fn solid_glass(
         });
     }
     solid
+}
+
+/// The object-space meshes of every placed object.
+pub(crate) fn placed_meshes(instances: &mut [Instances]) -> impl Iterator<Item = &mut Mesh> {
+    instances.iter_mut().flat_map(|i| i.meshes_mut().iter_mut())
 }
 
 #[cfg(test)]

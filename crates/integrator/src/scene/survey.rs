@@ -10,7 +10,7 @@
 //! [`MAX_LIGHTS`]) and one towards a point on the emitters.
 
 use geometry::{Camera, CameraDesc, Hit, LightDesc, Projection, Scene};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use materials::Material;
 
 use crate::sampling::{Rng, uniform_triangle};
@@ -289,7 +289,7 @@ impl<'a> Survey<'a> {
             }
             EmitterShape::Sphere { index } => {
                 let s = &self.geometry.spheres()[index as usize];
-                let d = uniform_sphere(rng.uniform2());
+                let d = materials::sampling::uniform_sphere(rng.uniform2());
                 (s.center() + s.radius() * d, d)
             }
         };
@@ -348,13 +348,6 @@ fn crosses_box(ray: &geometry::Ray, lo: Vec3, hi: Vec3) -> bool {
 }
 
 /// A direction uniformly distributed on the unit sphere.
-fn uniform_sphere(u: Vec2) -> Vec3 {
-    let z = 1.0 - 2.0 * u.x;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * std::f32::consts::PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
-}
-
 #[cfg(test)]
 mod tests {
     use geometry::{Mesh, SpectrumDesc};
