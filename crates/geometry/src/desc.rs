@@ -372,11 +372,20 @@ pub struct MaterialDesc {
     pub name: String,
     /// The format whose meaning the fields carry.
     pub format: MaterialFormat,
-    /// The manifest's explicit `model` key: `"hall"`, `"diffuse"`, `"dielectric"`, `"conductor"`, `"mirror"`.
+    /// The manifest's explicit `model` key: `"hall"`, `"diffuse"`, `"dielectric"`, `"conductor"`, `"mirror"`,
+    /// `"plastic"`.
     /// Only a manifest writes it; nothing is guessed.
     pub model: Option<String>,
     /// Manifest `metal`: a chemical symbol naming measured optical constants (`"Au"`), for `"model": "conductor"`.
     pub metal: Option<String>,
+    /// Manifest `eta` and `k`: a conductor's measured complex index η(λ) + iκ(λ), for `"model": "conductor"`
+    /// (both or neither, never with `metal`).
+    pub eta: Option<SpectrumDesc>,
+    /// See [`MaterialDesc::eta`].
+    pub k: Option<SpectrumDesc>,
+    /// Manifest `nonlinear`, for `"model": "plastic"`: whether the base's colour is saturated by the light
+    /// reflected back and forth under the coat (Mitsuba 3's `nonlinear`).
+    pub nonlinear: Option<bool>,
     /// Diffuse colour: manifest `base_color`, glTF `baseColorFactor` (RGB part), MTL `Kd`.
     pub base_color: Option<SpectrumDesc>,
     /// Manifest `diffuse` (k_d of Hall's model).
@@ -443,6 +452,9 @@ impl MaterialDesc {
             format,
             model: None,
             metal: None,
+            eta: None,
+            k: None,
+            nonlinear: None,
             base_color: None,
             diffuse: None,
             specular: None,

@@ -178,6 +178,9 @@ enum ScaleJson {
 struct MaterialJson {
     model: Option<String>,
     metal: Option<String>,
+    eta: Option<Value>,
+    k: Option<Value>,
+    nonlinear: Option<bool>,
     base_color: Option<Value>,
     diffuse: Option<f32>,
     specular: Option<Value>,
@@ -203,6 +206,9 @@ struct MaterialJson {
 const MATERIAL_KEYS: &[&str] = &[
     "model",
     "metal",
+    "eta",
+    "k",
+    "nonlinear",
     "base_color",
     "diffuse",
     "specular",
@@ -227,7 +233,7 @@ const MATERIAL_KEYS: &[&str] = &[
 const SETTINGS_KEYS: &[&str] = &["integrator", "max_depth", "rr_depth"];
 
 /// Model hints the layers above understand (see [`MaterialDesc::model`]).
-const KNOWN_MODELS: &[&str] = &["hall", "diffuse", "dielectric", "conductor", "mirror"];
+const KNOWN_MODELS: &[&str] = &["hall", "diffuse", "dielectric", "conductor", "mirror", "plastic"];
 
 /// A mesh file an object of the manifest refers to, loaded by the `load` module (the manifest does not
 /// depend on the other loaders).
@@ -601,6 +607,37 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value) -> Result<MaterialDesc> {
     if m.metal.is_some() && m.model.as_deref() != Some("conductor") {
         return Err(ctx.err(format!("{context}.metal"), "`metal` needs `\"model\": \"conductor\"`"));
     }
+    let conductor_key =
+        |key: &str| ctx.err(format!("{context}.{key}"), format!("`{key}` needs `\"model\": \"conductor\"`"));
+    if m.model.as_deref() != Some("conductor") {
+        if m.eta.is_some() {
+            return Err(conductor_key("eta"));
+        }
+        if m.k.is_some() {
+            return Err(conductor_key("k"));
+        }
+    }
+    match (&m.metal, m.eta.is_some(), m.k.is_some()) {
+        (Some(_), true, _) | (Some(_), _, true) => {
+            return Err(ctx.err(
+                format!("{context}.metal"),
+                "a conductor is either a named `metal` or measured `eta` and `k`, not both",
+            ));
+        }
+        (None, true, false) => {
+            return Err(ctx.err(format!("{context}.eta"), "`eta` needs `k` (the extinction coefficient) beside it"));
+        }
+        (None, false, true) => {
+            return Err(ctx.err(format!("{context}.k"), "`k` needs `eta` (the real index) beside it"));
+        }
+        _ => {}
+    }
+    if m.nonlinear.is_some() && m.model.as_deref() != Some("plastic") {
+        return Err(ctx.err(format!("{context}.nonlinear"), "`nonlinear` needs `\"model\": \"plastic\"`"));
+    }
+    out.eta = spectrum_of("eta", &m.eta)?;
+    out.k = spectrum_of("k", &m.k)?;
+    out.nonlinear = m.nonlinear;
     out.model = m.model;
     out.metal = m.metal;
     out.base_color = spectrum_of("base_color", &m.base_color)?;
@@ -695,6 +732,29 @@ mod tests {
 
     fn ctx<'a>(base_dir: &'a Path, budget: &'a Budget) -> Ctx<'a> {
         Ctx { origin: "t", base_dir, budget }
+    }
+
+    /// `eta`/`k` and `nonlinear` belong to their models, `eta` and `k` come together and never with `metal`;
+    /// each refusal names the key.
+    #[test]
+    fn conductor_and_plastic_keys_are_checked() {
+        let material = |m: &str| parse_text(&format!(r#"{{"materials":{{"m":{m}}}}}"#));
+        let d = material(r#"{"model":"conductor","eta":1.2,"k":{"samples":[[360,3],[830,4]]}}"#)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(d.materials[0].eta, Some(SpectrumDesc::Constant(1.2)));
+        assert!(matches!(d.materials[0].k, Some(SpectrumDesc::Samples { .. })));
+        let d = material(r#"{"model":"plastic","nonlinear":true,"roughness":0.3}"#).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((d.materials[0].model.as_deref(), d.materials[0].nonlinear), (Some("plastic"), Some(true)));
+        for (m, key, says) in [
+            (r#"{"model":"diffuse","eta":1.2,"k":3}"#, "materials.m.eta", "needs"),
+            (r#"{"model":"conductor","eta":1.2}"#, "materials.m.eta", "`k`"),
+            (r#"{"model":"conductor","k":3}"#, "materials.m.k", "`eta`"),
+            (r#"{"model":"conductor","metal":"Au","eta":1.2,"k":3}"#, "materials.m.metal", "not both"),
+            (r#"{"model":"conductor","nonlinear":true}"#, "materials.m.nonlinear", "plastic"),
+        ] {
+            let e = material(m).err().map(|e| e.to_string()).unwrap_or_else(|| panic!("{m} loaded"));
+            assert!(e.contains(key) && e.contains(says), "{m}: {e}");
+        }
     }
 
     #[test]

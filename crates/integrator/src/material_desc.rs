@@ -6,7 +6,7 @@
 use colorimetry::DenselySampledSpectrum;
 use geometry::{AbsorptionDesc, IorDesc, MaterialDesc, MaterialFormat, SpectrumDesc};
 use materials::bsdf::Metal;
-use materials::{Absorption, Coat, DielectricSpecular, Ior, Material, MaterialModel};
+use materials::{Absorption, Coat, ConductorIndex, DielectricSpecular, Ior, Material, MaterialModel};
 
 use crate::error::{Error, Result};
 
@@ -34,6 +34,10 @@ pub(crate) const DEFAULT_ROUGHNESS: f32 = 0.5;
 /// glTF's default index of refraction (KHR_materials_ior), also the manifest's and MTL's.
 pub(crate) const DEFAULT_IOR: f32 = 1.5;
 
+/// Hall's k_s of a manifest plastic without `ks`: ((1.5 − 1)/(1.5 + 1))², its coat's reflectance at normal
+/// incidence.
+const PLASTIC_KS: f32 = 0.04;
+
 /// Hall's model's coefficients as a file format means them (`docs/scene-format.md`, "glTF", "OBJ/MTL").
 #[derive(Debug, PartialEq)]
 pub(crate) struct HallParams {
@@ -56,12 +60,20 @@ pub(crate) fn hall_params(d: &MaterialDesc) -> HallParams {
     match d.format {
         MaterialFormat::Manifest => {
             let roughness = d.roughness.unwrap_or(DEFAULT_ROUGHNESS);
-            // A mirror or conductor is all specular unless the file adds a diffuse part.
+            // A mirror or conductor is all specular unless the file adds a diffuse part; a plastic's coat
+            // reflects F0 of index 1.5 at normal incidence (what Hall's k_s gives it in the paper's model).
             let specular_model = matches!(d.model.as_deref(), Some("mirror" | "conductor"));
+            let plastic = d.model.as_deref() == Some("plastic");
             HallParams {
                 base_color: d.base_color.clone().unwrap_or(SpectrumDesc::Constant(0.5)),
                 kd: d.diffuse.unwrap_or(if specular_model { 0.0 } else { 1.0 }),
-                ks: d.ks.unwrap_or(if specular_model { 1.0 } else { 0.0 }),
+                ks: d.ks.unwrap_or(if specular_model {
+                    1.0
+                } else if plastic {
+                    PLASTIC_KS
+                } else {
+                    0.0
+                }),
                 specular: d.specular.clone(),
                 shininess: d.shininess.unwrap_or_else(|| shininess_from_roughness(roughness)),
                 roughness,
@@ -160,6 +172,9 @@ pub(crate) fn material_model(
             Some("diffuse") => MaterialModel::Diffuse,
             Some("dielectric") => MaterialModel::Dielectric { roughness: roughness() },
             Some("mirror") => MaterialModel::Mirror,
+            Some("plastic") => {
+                MaterialModel::Plastic { roughness: roughness(), nonlinear: d.nonlinear.unwrap_or(false) }
+            }
             Some("conductor") => MaterialModel::Conductor {
                 metal: d.metal.as_deref().map(str::parse::<Metal>).transpose()?,
                 roughness: roughness(),
@@ -306,6 +321,18 @@ pub(crate) fn transmittance_spectrum(
     })
 }
 
+/// A manifest conductor's measured `eta` and `k` ([`ConductorIndex`]: covering 360–830 nm, read linearly).
+/// They are optical constants, not colours: an RGB triple is refused rather than upsampled.
+fn conductor_index(desc: &MaterialDesc) -> materials::Result<Option<ConductorIndex>> {
+    let (Some(eta), Some(k)) = (&desc.eta, &desc.k) else { return Ok(None) };
+    let constants = |what: &'static str, s: &SpectrumDesc| match s {
+        SpectrumDesc::Rgb(_) => Err(materials::Error::NotAColour { what }),
+        SpectrumDesc::Constant(v) => Ok(DenselySampledSpectrum::constant(f64::from(*v))),
+        other => reflectance_spectrum(other),
+    };
+    Ok(Some(ConductorIndex::new(constants("eta", eta)?, constants("k", k)?)?))
+}
+
 /// The model [`material_from_desc`] decides for `desc`, for what must agree with it before the material is
 /// built (an MTL `map_Ks` needs a specular layer before assembly; its textures are loaded first).
 pub(crate) fn model_of(desc: &MaterialDesc) -> materials::Result<MaterialModel> {
@@ -320,12 +347,14 @@ pub(crate) fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
     let p = hall_params(desc);
     let diffuse = reflectance_spectrum(&p.base_color).map_err(wrap)?;
     let metal = desc.metal.as_deref().map(str::parse::<Metal>).transpose().map_err(wrap)?;
-    // A named metal's specular colour is its normal-incidence reflectance (what Hall's model and RGB
-    // rendering see of it).
-    let specular = match (&p.specular, metal) {
-        (Some(s), _) => reflectance_spectrum(s).map_err(wrap)?,
-        (None, Some(metal)) => metal.normal_reflectance(),
-        (None, None) => DenselySampledSpectrum::constant(1.0),
+    let conductor_index = conductor_index(desc).map_err(wrap)?;
+    // A named or measured metal's specular colour is its normal-incidence reflectance (what Hall's model
+    // and RGB rendering see of it).
+    let specular = match (&p.specular, metal, &conductor_index) {
+        (Some(s), ..) => reflectance_spectrum(s).map_err(wrap)?,
+        (None, Some(metal), _) => metal.normal_reflectance(),
+        (None, None, Some(index)) => index.normal_reflectance(),
+        (None, None, None) => DenselySampledSpectrum::constant(1.0),
     };
     // glTF tints transmitted light by the base colour; a manifest without `transmittance` is clear glass (as
     // documented, and as pbrt-v4 and Mitsuba 3 default: it was tinted by the diffuse colour, 0.5 unless
@@ -393,6 +422,7 @@ pub(crate) fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
             roughness: s.roughness,
         }),
         anisotropy: desc.anisotropy.map(|a| materials::Anisotropy { strength: a.strength, rotation: a.rotation }),
+        conductor_index,
     };
     material.validate().map_err(wrap)?;
     Ok(material)

@@ -41,6 +41,25 @@ pub enum Error {
         /// The valid range, in words.
         range: &'static str,
     },
+    /// Measured data that does not cover the wavelengths the renderer samples (nothing is extrapolated).
+    #[error(
+        "{what} covers {from}–{to} nm, but the renderer samples 360–830 nm: give data over that whole range \
+         (values are interpolated, never extrapolated)"
+    )]
+    Uncovered {
+        /// Which quantity.
+        what: &'static str,
+        /// The data's first wavelength (nm).
+        from: f64,
+        /// The data's last wavelength (nm).
+        to: f64,
+    },
+    /// An optical constant given as an RGB colour.
+    #[error("{what} is an optical constant, not a colour: give it as a number, a named or CSV spectrum, or samples")]
+    NotAColour {
+        /// Which quantity.
+        what: &'static str,
+    },
     /// An error from the colorimetry crate (a CSV file, an illuminant).
     #[error(transparent)]
     Colorimetry(#[from] colorimetry::Error),

@@ -38,7 +38,7 @@ mod spectra;
 pub use absorption::{Absorption, beer_transmittance};
 pub use error::{Error, Result};
 pub use ior::{Ior, LAMBDA_D};
-pub use material::{Anisotropy, Coat, DielectricSpecular, Material, MaterialModel, Sheen};
+pub use material::{Anisotropy, Coat, ConductorIndex, DielectricSpecular, Material, MaterialModel, Sheen};
 pub use spectra::{
     KNOWN_SPECTRUM_NAMES, REC709_LUMINANCE, csv_spectrum, illuminant_from_rgb, is_flat, luminance_normalized,
     named_spectrum, reflectance_from_rgb, spikiness,

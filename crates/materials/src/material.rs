@@ -65,6 +65,72 @@ pub struct Material {
     pub sheen: Option<Sheen>,
     /// glTF `KHR_materials_anisotropy` on the glTF models' specular lobes and rough glass; `None`: isotropic.
     pub anisotropy: Option<Anisotropy>,
+    /// A conductor's measured complex index (manifest `eta` and `k`), read by [`MaterialModel::Conductor`]
+    /// without a named `metal`; `None`: the metal's tables, or the specular colour's index.
+    pub conductor_index: Option<ConductorIndex>,
+}
+
+/// A conductor's complex index of refraction η(λ) + iκ(λ) relative to the outside medium, as measured:
+/// read by linear interpolation in wavelength between the data's samples. The data must cover the
+/// wavelengths the renderer samples ([`colorimetry::LAMBDA_MIN`]–[`colorimetry::LAMBDA_MAX`]): nothing is
+/// extrapolated ([`ConductorIndex::new`] refuses shorter data).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConductorIndex {
+    eta: DenselySampledSpectrum,
+    k: DenselySampledSpectrum,
+}
+
+impl ConductorIndex {
+    /// η and κ, each covering 360–830 nm, η > 0 and κ ≥ 0 throughout.
+    pub fn new(eta: DenselySampledSpectrum, k: DenselySampledSpectrum) -> Result<Self> {
+        let (lo, hi) = (f64::from(colorimetry::LAMBDA_MIN), f64::from(colorimetry::LAMBDA_MAX));
+        for (what, s) in [("eta", &eta), ("k", &k)] {
+            if s.lambda_min() > lo || s.lambda_max() < hi {
+                return Err(Error::Uncovered { what, from: s.lambda_min(), to: s.lambda_max() });
+            }
+        }
+        // The grid points within the sampled range (and the one beyond each end, which interpolation reads).
+        fn inside(s: &DenselySampledSpectrum, lo: f64, hi: f64) -> impl Iterator<Item = f64> + '_ {
+            let (first, step) = (s.lambda_min(), s.step());
+            s.values()
+                .iter()
+                .enumerate()
+                .filter(move |(i, _)| (lo - step..=hi + step).contains(&(first + step * *i as f64)))
+                .map(|(_, v)| *v)
+        }
+        if let Some(v) = inside(&eta, lo, hi).find(|v| !(*v > 0.0)) {
+            return Err(Error::OutOfRange { what: "eta", value: v, range: "> 0" });
+        }
+        if let Some(v) = inside(&k, lo, hi).find(|v| !(*v >= 0.0)) {
+            return Err(Error::OutOfRange { what: "k", value: v, range: ">= 0" });
+        }
+        Ok(Self { eta, k })
+    }
+
+    /// η(λ).
+    pub fn eta(&self) -> &DenselySampledSpectrum {
+        &self.eta
+    }
+
+    /// κ(λ).
+    pub fn k(&self) -> &DenselySampledSpectrum {
+        &self.k
+    }
+
+    /// Reflectance at normal incidence, ((η − 1)² + κ²) / ((η + 1)² + κ²), at every nanometre of 360–830 nm:
+    /// the metal's colour, for RGB rendering and Hall's specular colour F_s.
+    pub fn normal_reflectance(&self) -> DenselySampledSpectrum {
+        let lambda: Vec<f64> = (0..=470).map(|i| f64::from(colorimetry::LAMBDA_MIN) + f64::from(i)).collect();
+        let r: Vec<f64> = lambda
+            .iter()
+            .map(|&l| {
+                let (n, k) = (self.eta.eval(l), self.k.eval(l));
+                ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k)
+            })
+            .collect();
+        DenselySampledSpectrum::from_samples(&lambda, &r)
+            .expect("a 1 nm grid with finite reflectances in [0, 1] is a valid spectrum")
+    }
 }
 
 /// `KHR_materials_anisotropy`: the GGX α along a direction in the tangent plane raised to
@@ -148,6 +214,14 @@ pub enum MaterialModel {
         /// Perceptual roughness r (α = r²).
         roughness: f32,
     },
+    /// A dielectric coat of index `ior` (at n_d) over a Lambertian base k_d F_d(λ), with the light between
+    /// them summed (Mitsuba 3's `plastic` at roughness 0, `roughplastic` otherwise; `bsdf::PlasticBxdf`).
+    Plastic {
+        /// Perceptual roughness r of the coat (α = r²).
+        roughness: f32,
+        /// Whether the base's colour applies at every bounce under the coat (Mitsuba's `nonlinear`).
+        nonlinear: bool,
+    },
     /// The glTF 2.0 metallic–roughness BRDF (Appendix B) with base colour F_d(λ) and the
     /// dielectric index `ior` at n_d, its diffuse layer coupled by albedo scaling
     /// ([`crate::bsdf::GltfMetalRoughBxdf::energy_conserving`]).
@@ -177,7 +251,7 @@ pub enum MaterialModel {
 }
 
 impl MaterialModel {
-    /// The name `spectrace info` reports (for the first five, the manifest `model` value).
+    /// The name `spectrace info` reports (for the first six, the manifest `model` value).
     pub fn name(&self) -> &'static str {
         match self {
             Self::Diffuse => "diffuse",
@@ -185,6 +259,7 @@ impl MaterialModel {
             Self::Dielectric { .. } => "dielectric",
             Self::ThinDielectric => "thin_dielectric",
             Self::Conductor { .. } => "conductor",
+            Self::Plastic { .. } => "plastic",
             Self::GltfMetalRough { .. } => "gltf_metal_rough",
             Self::GltfTransmission { .. } => "gltf_transmission",
         }
@@ -193,7 +268,9 @@ impl MaterialModel {
     /// The parameters in [0, 1] the model carries: (what, value).
     fn unit_parameters(&self) -> Vec<(&'static str, f32)> {
         match *self {
-            Self::Dielectric { roughness } | Self::Conductor { roughness, .. } => vec![("roughness", roughness)],
+            Self::Dielectric { roughness } | Self::Conductor { roughness, .. } | Self::Plastic { roughness, .. } => {
+                vec![("roughness", roughness)]
+            }
             Self::GltfMetalRough { metallic, roughness } => vec![("metallic", metallic), ("roughness", roughness)],
             Self::GltfTransmission { metallic, roughness, transmission, .. } => {
                 vec![("metallic", metallic), ("roughness", roughness), ("transmission", transmission)]
@@ -235,6 +312,7 @@ impl Material {
             coat: None,
             sheen: None,
             anisotropy: None,
+            conductor_index: None,
             two_sided: true,
         }
     }

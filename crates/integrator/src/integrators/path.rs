@@ -15,8 +15,8 @@ use colorimetry::{DenselySampledSpectrum, SampledSpectrum, SampledWavelengths};
 use geometry::{Hit, Primitive, Ray, ShadowRay, spawn_ray, spawn_shadow_ray};
 use glam::{Vec2, Vec3};
 use materials::bsdf::{
-    Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, SheenBxdf, ThinDielectricBxdf,
-    TrowbridgeReitz, sheen_albedo,
+    Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, PlasticBxdf, PlasticTable, RoughDielectricBxdf, SheenBxdf,
+    ThinDielectricBxdf, TrowbridgeReitz, plastic_table, sheen_albedo,
 };
 use materials::{Anisotropy, Coat, Ior, LAMBDA_D, MaterialModel};
 
@@ -101,9 +101,11 @@ enum PathScattering {
     RoughDielectric { tint: SpecId, alpha: f32, compensate: bool },
     /// Thin-walled dielectric, transmission filter k_t T_s clamped to 1, index at n_d.
     ThinDielectric { tint: SpecId, eta: f32 },
-    /// GGX conductor: a measured metal, or the reflectance `r` = k_s F_s clamped to 1 (also the
-    /// metal's colour in RGB, where the lanes are not wavelengths).
-    Conductor { metal: Option<Metal>, r: SpecId, alpha: f32, compensate: bool },
+    /// GGX conductor: a named metal, a measured index `index` (η, κ), or the reflectance `r` = k_s F_s
+    /// clamped to 1 (also the metal's colour in RGB, where the lanes are not wavelengths).
+    Conductor { metal: Option<Metal>, index: Option<(SpecId, SpecId)>, r: SpecId, alpha: f32, compensate: bool },
+    /// A dielectric coat over a Lambertian base k_d F_d clamped to 1, index at n_d, with its table.
+    Plastic { base: SpecId, alpha: f32, eta: f32, nonlinear: bool, table: &'static PlasticTable },
     /// The glTF metallic–roughness BRDF: base colour k_d F_d clamped to 1, index at n_d.
     GltfMetalRough { base: SpecId, metallic: f32, roughness: f32, ior: f32, specular: Option<SpecularLayer> },
     /// [`MaterialModel::GltfTransmission`]: per hit, the glass part (tinted by the base colour F_d
@@ -264,10 +266,28 @@ fn path_material(table: &mut SpectrumTable, m: &materials::Material) -> PathMate
         },
         MaterialModel::Conductor { metal, roughness } => PathScattering::Conductor {
             metal,
+            // η and κ are read at the lanes' wavelengths like a reflectance (fixed lanes point-sample
+            // them); RGB lanes never read them (the reflectance `r` stands in there).
+            index: m.conductor_index.as_ref().map(|c| {
+                (
+                    table.add(c.eta().clone(), SpectrumKind::Reflectance),
+                    table.add(c.k().clone(), SpectrumKind::Reflectance),
+                )
+            }),
             r: table.add(clamp01(&m.specular, m.ks), SpectrumKind::Reflectance),
             alpha: roughness * roughness,
             compensate: m.multiple_scattering,
         },
+        MaterialModel::Plastic { roughness, nonlinear } => {
+            let (alpha, eta) = (roughness * roughness, m.ior.eval(LAMBDA_D));
+            PathScattering::Plastic {
+                base: table.add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance),
+                alpha,
+                eta,
+                nonlinear,
+                table: plastic_table(alpha, eta, m.multiple_scattering),
+            }
+        }
         MaterialModel::GltfMetalRough { metallic, roughness } => PathScattering::GltfMetalRough {
             base: table.add(clamp01(&m.diffuse, m.kd), SpectrumKind::Reflectance),
             metallic,
@@ -766,15 +786,20 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 PathScattering::ThinDielectric { tint, eta } => {
                     Bsdf::ThinDielectric(ThinDielectricBxdf::new(eta, self.spectra.eval_memo(tint, lambda, last)))
                 }
-                PathScattering::Conductor { metal, r, alpha, compensate } => {
+                PathScattering::Conductor { metal, index, r, alpha, compensate } => {
                     // An MTL `map_Ns` varies the roughness per texel (α = roughness²).
                     let alpha = textures.and_then(|t| t.roughness_map(uv)).map_or(alpha, |r| r * r);
                     let distrib = TrowbridgeReitz::isotropic(alpha);
-                    Bsdf::Conductor(match metal {
-                        // RGB lanes are not wavelengths: there the metal is its reflectance colour.
-                        Some(metal) if !matches!(sensor, Sensor::Fixed(lanes) if lanes.rgb) => {
-                            ConductorBxdf::metal(metal, lambda, distrib, compensate)
-                        }
+                    // RGB lanes are not wavelengths: there the metal is its reflectance colour.
+                    let spectral = !matches!(sensor, Sensor::Fixed(lanes) if lanes.rgb);
+                    Bsdf::Conductor(match (metal, index) {
+                        (Some(metal), _) if spectral => ConductorBxdf::metal(metal, lambda, distrib, compensate),
+                        (_, Some((eta, k))) if spectral => ConductorBxdf::new(
+                            distrib,
+                            self.spectra.eval(eta, lambda),
+                            self.spectra.eval(k, lambda),
+                            compensate,
+                        ),
                         _ => ConductorBxdf::from_reflectance(
                             self.spectra.eval_memo(r, lambda, last),
                             distrib,
@@ -782,6 +807,13 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         ),
                     })
                 }
+                PathScattering::Plastic { base: id, alpha, eta, nonlinear, table } => Bsdf::Plastic(PlasticBxdf::new(
+                    base(id, lambda, last),
+                    TrowbridgeReitz::isotropic(alpha),
+                    eta,
+                    nonlinear,
+                    table,
+                )),
                 PathScattering::GltfMetalRough { base: id, metallic, roughness, ior, specular } => {
                     let (metallic, roughness) =
                         textures.map_or((metallic, roughness), |t| t.metallic_roughness(uv, metallic, roughness));

@@ -15,7 +15,9 @@
 //!   `DielectricBxDF` rough branch), with optional energy compensation (Turquin 2019);
 //! - [`Bsdf::ThinDielectric`]: a thin slab with inter-reflection summed in closed form (pbrt-v4
 //!   `ThinDielectricBxDF`), for glTF transmission without volume;
-//! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B).
+//! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B);
+//! - [`Bsdf::Plastic`]: a smooth or rough dielectric coat over a Lambertian base (Mitsuba 3's
+//!   `plastic` and `roughplastic`).
 //!
 //! The first three are what the path tracer has always used; their arithmetic is unchanged
 //! (`xtask/compare/same_renders.sh OLD NEW` renders every scene with two binaries and
@@ -28,12 +30,15 @@ mod conductor;
 mod dielectric;
 mod gltf;
 mod microfacet;
+mod plastic;
 mod sheen;
 mod spectral_ior;
 #[cfg(test)]
 pub(crate) mod test_support;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_plastic;
 
 use std::f32::consts::FRAC_1_PI;
 use std::ops::BitOr;
@@ -46,6 +51,7 @@ pub use dielectric::{RoughDielectricBxdf, ThinDielectricBxdf};
 pub use gltf::GltfMetalRoughBxdf;
 pub(crate) use gltf::schlick;
 pub use microfacet::TrowbridgeReitz;
+pub use plastic::{PlasticBxdf, PlasticTable, plastic_table};
 pub use sheen::{MIN_SHEEN_ROUGHNESS, SheenBxdf, sheen_albedo};
 pub use spectral_ior::{KNOWN_METALS, Metal};
 
@@ -200,6 +206,8 @@ pub enum Bsdf<const N: usize> {
     GltfMetalRough(GltfMetalRoughBxdf<N>),
     /// `KHR_materials_sheen`'s lobe, picked in place of the material it layers (see `sheen.rs`).
     Sheen(SheenBxdf<N>),
+    /// A dielectric coat over a Lambertian base (see `plastic.rs`).
+    Plastic(PlasticBxdf<N>),
 }
 
 /// Local shading coordinates: `z` along `n`, `x`, `y` along [`basis`]`(n)`.
@@ -296,6 +304,7 @@ impl<const N: usize> Bsdf<N> {
             Self::ThinDielectric(d) => d.flags(),
             Self::GltfMetalRough(g) => g.flags(),
             Self::Sheen(s) => s.flags(),
+            Self::Plastic(p) => p.flags(),
         }
     }
 
@@ -351,6 +360,7 @@ impl<const N: usize> Bsdf<N> {
             Self::RoughDielectric(d) => d.pdf(wo_l, wi_l),
             Self::GltfMetalRough(g) => g.pdf(wo_l, wi_l),
             Self::Sheen(s) => s.pdf(wo_l, wi_l),
+            Self::Plastic(p) => p.pdf(wo_l, wi_l),
             _ => 0.0,
         }
     }
@@ -365,6 +375,7 @@ impl<const N: usize> Bsdf<N> {
             Self::RoughDielectric(d) => d.f(wo_l, wi_l),
             Self::GltfMetalRough(g) => g.f(wo_l, wi_l),
             Self::Sheen(s) => s.f(wo_l, wi_l),
+            Self::Plastic(p) => p.f(wo_l, wi_l),
             _ => return None,
         };
         Some((f, wi_l.z.abs()))
@@ -381,7 +392,7 @@ impl<const N: usize> Bsdf<N> {
         match self {
             // Reflection only: wi must be on wo's side of the shading surface, and of the
             // geometric one for a sample.
-            Self::Conductor(_) | Self::GltfMetalRough(_) | Self::Sheen(_) => {
+            Self::Conductor(_) | Self::GltfMetalRough(_) | Self::Sheen(_) | Self::Plastic(_) => {
                 let (ng, ns) = frame.facing(wo);
                 if ns.dot(wi) <= 0.0 || (sampled && ng.dot(wi) <= 0.0) {
                     return None;
@@ -481,6 +492,10 @@ impl<const N: usize> Bsdf<N> {
             Self::Sheen(s) => {
                 let l = Local::new(ns);
                 reflection_sample(s.sample_f(l.local(wo), u)?, &l, wo, ns, ng)
+            }
+            Self::Plastic(p) => {
+                let l = Local::new(ns);
+                reflection_sample(p.sample_f(l.local(wo), uc, u)?, &l, wo, ns, ng)
             }
         }
     }

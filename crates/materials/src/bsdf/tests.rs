@@ -10,15 +10,15 @@ use super::compensation::{conductor_table, dielectric_albedo, dielectric_table, 
 use super::test_support::{Chi2Config, Chi2Result, TestRng, chi2_test, mean_and_standard_error, sidak};
 use super::*;
 
-const FRAME: Frame = Frame { n: Vec3::Z, ns: Vec3::Z };
+pub(super) const FRAME: Frame = Frame { n: Vec3::Z, ns: Vec3::Z };
 
 /// The roughness grid and incident angles (degrees from the normal) the BSDFs are tested at.
-const ALPHAS: [f32; 4] = [0.05, 0.2, 0.5, 1.0];
-const ANGLES: [f32; 4] = [0.0, 30.0, 60.0, 85.0];
+pub(super) const ALPHAS: [f32; 4] = [0.05, 0.2, 0.5, 1.0];
+pub(super) const ANGLES: [f32; 4] = [0.0, 30.0, 60.0, 85.0];
 
 /// A direction θ degrees from +z (−z when `below`), azimuth 0.3 rad so anisotropic lobes
 /// are not seen along an axis.
-fn incident(theta_deg: f32, below: bool) -> Vec3 {
+pub(super) fn incident(theta_deg: f32, below: bool) -> Vec3 {
     let t = theta_deg.to_radians();
     let phi = 0.3f32;
     let z = if below { -t.cos() } else { t.cos() };
@@ -41,7 +41,7 @@ fn hemisphere_quadrature(n: usize, f: impl Fn(Vec3) -> f32) -> f64 {
 }
 
 /// f(ωo, ωi) = f(ωi, ωo) to 1e-4 relative (plus 1e-7) over `count` random pairs above the surface.
-fn assert_reciprocal<const N: usize>(bsdf: &Bsdf<N>, count: usize, rng: &mut TestRng) {
+pub(super) fn assert_reciprocal<const N: usize>(bsdf: &Bsdf<N>, count: usize, rng: &mut TestRng) {
     for _ in 0..count {
         let (a, b) = (rng.sphere(), rng.sphere());
         let (wo, wi) = (Vec3::new(a.x, a.y, a.z.abs()), Vec3::new(b.x, b.y, b.z.abs()));
@@ -52,14 +52,14 @@ fn assert_reciprocal<const N: usize>(bsdf: &Bsdf<N>, count: usize, rng: &mut Tes
 
 /// χ² of a BSDF's sampling against its pdf, seen from `wo`; a finer first integration grid
 /// for sharp lobes.
-fn chi2_bsdf<const N: usize>(bsdf: &Bsdf<N>, wo: Vec3, alpha: f32, seed: u64) -> Chi2Result {
+pub(super) fn chi2_bsdf<const N: usize>(bsdf: &Bsdf<N>, wo: Vec3, alpha: f32, seed: u64) -> Chi2Result {
     let sub = if alpha < 0.1 { 8 } else { 4 };
     let cfg = Chi2Config { sub, seed, ..Chi2Config::default() };
     chi2_test(cfg, |uc, u| bsdf.sample_f(&FRAME, wo, uc, u).map(|s| s.wi), |wi| bsdf.pdf(&FRAME, wo, wi))
 }
 
 /// Run a family of χ² tests, each at Šidák's corrected level, and report all failures at once.
-fn chi2_family<const N: usize>(cases: &[(String, Bsdf<N>, Vec3, f32)]) {
+pub(super) fn chi2_family<const N: usize>(cases: &[(String, Bsdf<N>, Vec3, f32)]) {
     let level = sidak(cases.len());
     let mut failures = Vec::new();
     let mut smallest = (f64::INFINITY, "");
@@ -290,7 +290,7 @@ fn smooth_conductor_falls_back_to_the_geometric_mirror_like_mirror() {
 
 /// Directional albedo ∫ f |cos| dω_i with refraction's radiance scaling undone (it moves
 /// radiance between media; it creates no energy): mean and standard error of the weights.
-fn albedo<const N: usize>(bsdf: &Bsdf<N>, wo: Vec3, count: usize, rng: &mut TestRng) -> (f64, f64) {
+pub(super) fn albedo<const N: usize>(bsdf: &Bsdf<N>, wo: Vec3, count: usize, rng: &mut TestRng) -> (f64, f64) {
     mean_and_standard_error(count, || match bsdf.sample_f(&FRAME, wo, rng.uniform(), rng.uniform2()) {
         Some(s) => {
             assert!(s.weight.is_finite() && s.wi.is_finite(), "{bsdf:?} at {wo}: {s:?}");
@@ -484,7 +484,7 @@ fn reflection_lobes_are_reciprocal() {
 // Hard cases: no NaN or Inf anywhere.
 
 /// Evaluate and sample `bsdf` from `wo` with many random numbers; everything must be finite.
-fn assert_all_finite<const N: usize>(bsdf: &Bsdf<N>, wo: Vec3, rng: &mut TestRng) {
+pub(super) fn assert_all_finite<const N: usize>(bsdf: &Bsdf<N>, wo: Vec3, rng: &mut TestRng) {
     for _ in 0..500 {
         let wi = rng.sphere();
         let (f, p) = (bsdf.f_cos(&FRAME, wo, wi), bsdf.pdf(&FRAME, wo, wi));
