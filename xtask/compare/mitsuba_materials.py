@@ -20,6 +20,12 @@ Rows (spectrace manifest material ↔ Mitsuba BSDF), GGX α = r² with r spectra
   spectrace's default (Kulla–Conty compensation on: not the same model);
 - dielectric IOR 1.5, α 0.1, 0.3, "transmittance": 1 (clear, as the default now is; binaries before
   the fix tinted it by the base colour, 0.5), the same way ↔ roughdielectric;
+- conductor Au (α 0.1, 0.4) and Cu (α 0.25) given as a user would, `"eta"`/`"k"` columns of a CSV in nm
+  written from the same tables ↔ roughconductor with those tables (the same model);
+- plastic, grey 0.5 and red (ColorChecker 15, the same spectrum both sides), α 0 (↔ `plastic`), 0.2, 0.4
+  (↔ `roughplastic` ggx), linear and `nonlinear`, `"multiple_scattering": false` (the same model up to the
+  masking term, see crates/materials/src/bsdf/plastic.rs) and spectrace's default (compensated: not the
+  same model);
 - glossy plastic: spectrace's gltf_metal_rough (glTF Appendix B, metallic 0, base colour 0.5,
   ior 1.5; a UV-sphere mesh written as glTF, and the same mesh as PLY for Mitsuba) ↔ principled
   (metallic 0, specular 0.5, i.e. F0 0.04) and ↔ roughplastic (int_ior 1.5, diffuse 0.5). Not the
@@ -58,7 +64,7 @@ import numpy as np
 import OpenEXR
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mitsuba_common import ROOT, delta_e00, illuminant, read_spectrace_exr, spectrum  # noqa: E402
+from mitsuba_common import GRID, ROOT, delta_e00, held, illuminant, read_csv, read_spectrace_exr, spectrum  # noqa: E402
 
 mi.set_variant("scalar_spectral")
 
@@ -83,8 +89,24 @@ def metal_ior(metal):
     return irregular(table[:, 1]), irregular(table[:, 2])
 
 
-def rows(plastic_alphas):
+def write_index_csv(out, metal):
+    """data/metals/'s table of `metal` as the CSV a user would write (nm, n, k), in OUT; its file name."""
+    table = np.loadtxt(ROOT / "data/metals" / METAL_FILES[metal], delimiter=",", skiprows=1)
+    name = f"{metal}_index.csv"
+    lines = ["wavelength_nm,n,k"] + [f"{l * 1000.0:.6g},{n:.6g},{k:.6g}" for l, n, k in table]
+    (out / name).write_text("\n".join(lines) + "\n")
+    return name
+
+
+def colorchecker(patch):
+    """ColorChecker patch `patch` (1-based) of data/, held to 360–830 nm as spectrace holds it."""
+    _, table = read_csv("colorchecker_reflectance.csv")
+    return held(table[:, 0], table[:, patch], GRID)
+
+
+def rows(plastic_alphas, out):
     """(name, α, same model?, spectrace material or "gltf", Mitsuba BSDF dict), row 0 first."""
+    out_dir = out
     out = [("diffuse", None, "yes", {"model": "diffuse", "base_color": 0.8}, {"type": "diffuse", "reflectance": 0.8})]
     for compensated in (False, True):
         same = "no: compensation on" if compensated else "yes"
@@ -128,6 +150,47 @@ def rows(plastic_alphas):
         same = "no: glTF App. B vs "
         out.append(("gltf_metal_rough vs principled", alpha, same + "Disney", "gltf", principled))
         out.append(("gltf_metal_rough vs roughplastic", alpha, same + "roughplastic", "gltf", plastic))
+    # Conductors from a user's η/k file (the same data as the named metals, written as CSV in nm).
+    for metal, alphas in (("Au", (0.1, 0.4)), ("Cu", (0.25,))):
+        csv = write_index_csv(out_dir, metal)
+        eta, k = metal_ior(metal)
+        for alpha in alphas:
+            mat = {
+                "model": "conductor",
+                "eta": {"csv": csv, "column": "n"},
+                "k": {"csv": csv, "column": "k"},
+                "roughness": float(np.sqrt(alpha)),
+                "multiple_scattering": False,
+            }
+            bsdf = {"type": "roughconductor", "distribution": "ggx", "alpha": alpha, "eta": eta, "k": k}
+            out.append((f"conductor {metal} eta/k file", alpha, "yes", mat, bsdf))
+    # spectrace's plastic against roughplastic (and plastic at α 0): grey and red (ColorChecker 15) bases.
+    red = colorchecker(15)
+    for base_name, spectrace_base, mitsuba_base in (
+        ("grey 0.5", 0.5, 0.5),
+        ("red", "colorchecker:15", spectrum(red)),
+    ):
+        for alpha in (0.0, 0.2, 0.4):
+            for nonlinear in (False, True):
+                for compensated in (False, True):
+                    if compensated and (alpha == 0.0 or nonlinear):
+                        continue
+                    mat = {"model": "plastic", "base_color": spectrace_base, "ior": 1.5, "roughness": float(np.sqrt(alpha))}
+                    if nonlinear:
+                        mat["nonlinear"] = True
+                    if not compensated:
+                        mat["multiple_scattering"] = False
+                    bsdf = {
+                        "type": "plastic" if alpha == 0.0 else "roughplastic",
+                        "int_ior": 1.5,
+                        "ext_ior": 1.0,
+                        "diffuse_reflectance": mitsuba_base,
+                        "nonlinear": nonlinear,
+                    }
+                    if alpha > 0.0:
+                        bsdf.update({"distribution": "ggx", "alpha": alpha})
+                    name = f"plastic {base_name}{' nonlinear' if nonlinear else ''}{' (compensated)' if compensated else ''}"
+                    out.append((name, alpha, "no: compensation on" if compensated else "yes", mat, bsdf))
     return out
 
 
@@ -331,12 +394,12 @@ def main():
     ]
     print("\n".join(table), flush=True)
     mitsuba_cache = {}
-    for i, (name, alpha, same, material, bsdf) in enumerate(rows(args.plastic_alpha)):
+    for i, (name, alpha, same, material, bsdf) in enumerate(rows(args.plastic_alpha, args.out)):
         if args.only is not None and not any(o in name for o in args.only):
             continue
         if args.alpha is not None and alpha not in args.alpha:
             continue
-        tag = f"{i:02}_{name.split(' (')[0].replace(' ', '_')}_{alpha}_{args.lights}"
+        tag = f"{i:02}_{name.split(' (')[0].replace(' ', '_').replace('/', '-')}_{alpha}_{args.lights}"
         gltf_path = ply_path = None
         if material == "gltf":
             gltf_path, ply_path = write_meshes(args.out, alpha, args.mesh_segments)
