@@ -15,7 +15,8 @@
 //!   `DielectricBxDF` rough branch), with optional energy compensation (Turquin 2019);
 //! - [`Bsdf::ThinDielectric`]: a thin slab with inter-reflection summed in closed form (pbrt-v4
 //!   `ThinDielectricBxDF`), for glTF transmission without volume;
-//! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B).
+//! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B), with optional
+//!   multiple-scattering compensation of its microfacet layers (Kulla & Conty 2017).
 //!
 //! The first three are what the path tracer has always used; their arithmetic is unchanged
 //! (`xtask/compare/same_renders.sh OLD NEW` renders every scene with two binaries and
