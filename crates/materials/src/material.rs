@@ -51,10 +51,11 @@ pub struct Material {
     /// reflectance F and 1 − F (glTF transmission, whose k_s = k_t = 1 assume it), rather than
     /// constants as the paper writes them. Read by the paper's model only.
     pub fresnel_weighted: bool,
-    /// Whether the rough conductor and dielectric models add the energy of multiple scattering between
-    /// microfacets (Kulla–Conty; Turquin), which single-scattering GGX loses (up to ~40 % at α = 1).
-    /// Default yes; the manifest's `"multiple_scattering": false` gives the uncompensated lobes of pbrt-v4
-    /// and Mitsuba 3, for comparisons.
+    /// Whether the rough conductor, dielectric and glTF metallic–roughness models (with its clear coat) add
+    /// the energy of multiple scattering between microfacets (Kulla–Conty; Turquin), which single-scattering
+    /// GGX loses (up to 69 % of a white metal's at α = 1). Default yes; `false` (the manifest's
+    /// `"multiple_scattering": false`) gives the uncompensated lobes of pbrt-v4 and Mitsuba 3 and the glTF
+    /// specification's single-scattering layers, for comparisons.
     pub multiple_scattering: bool,
     /// glTF `KHR_materials_specular` on the dielectric specular layer of the glTF models; `None`: the
     /// plain layer (weight 1, F0 from `ior`).
@@ -224,7 +225,8 @@ pub enum MaterialModel {
     },
     /// The glTF 2.0 metallic–roughness BRDF (Appendix B) with base colour F_d(λ) and the
     /// dielectric index `ior` at n_d, its diffuse layer coupled by albedo scaling
-    /// ([`crate::bsdf::GltfMetalRoughBxdf::energy_conserving`]).
+    /// ([`crate::bsdf::GltfMetalRoughBxdf::conserving`]), and with [`Material::multiple_scattering`] the
+    /// multiple scattering of its microfacet layers put back ([`crate::bsdf::GltfMetalRoughBxdf::compensated`]).
     GltfMetalRough {
         /// glTF `metallicFactor` in [0, 1].
         metallic: f32,

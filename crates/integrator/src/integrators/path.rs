@@ -157,6 +157,9 @@ struct PathMaterial {
     /// `KHR_materials_anisotropy` of the glTF models' lobes and rough glass, oriented per hit by
     /// [`PathTracer::anisotropy_at`].
     anisotropy: Option<Anisotropy>,
+    /// [`materials::Material::multiple_scattering`] of the glTF metallic–roughness lobes and the clear coat
+    /// (the conductor and rough dielectric carry theirs in their variants).
+    multiple_scattering: bool,
 }
 
 /// [`materials::Sheen`] with its colour in the spectra table.
@@ -326,6 +329,7 @@ fn path_material(table: &mut SpectrumTable, m: &materials::Material) -> PathMate
             roughness: s.roughness,
         }),
         anisotropy: m.anisotropy,
+        multiple_scattering: m.multiple_scattering,
     }
 }
 
@@ -755,7 +759,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 })
             };
             let bsdf = match m.scattering {
-                _ if let Some((c, _)) = coated => Bsdf::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(c.roughness)),
+                _ if let Some((c, _)) = coated => {
+                    let coat = GltfMetalRoughBxdf::clearcoat(c.roughness);
+                    Bsdf::GltfMetalRough(if m.multiple_scattering { coat.compensated() } else { coat })
+                }
                 _ if let Some(s) = sheen => Bsdf::Sheen(s),
                 PathScattering::Diffuse { r } => Bsdf::Lambertian {
                     r: match colors {
@@ -823,7 +830,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     };
                     let specular = hit_specular(specular);
                     let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, at_uv, &tangent, ns));
-                    Bsdf::GltfMetalRough(self.metal_rough(base, metallic, roughness, ior, specular, anisotropy))
+                    let g = self.metal_rough(base, metallic, roughness, ior, specular, anisotropy);
+                    Bsdf::GltfMetalRough(if m.multiple_scattering { g.compensated() } else { g.conserving() })
                 }
                 PathScattering::GltfTransmission {
                     base: id,
@@ -865,7 +873,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         let specular = hit_specular(specular);
                         let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, at_uv, &tangent, ns));
                         let metal = metal.min(1.0);
-                        Bsdf::GltfMetalRough(self.metal_rough(colour, metal, roughness, ior, specular, anisotropy))
+                        let g = self.metal_rough(colour, metal, roughness, ior, specular, anisotropy);
+                        Bsdf::GltfMetalRough(if m.multiple_scattering { g.compensated() } else { g.conserving() })
                     }
                 }
             };
@@ -947,7 +956,8 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     }
 
     /// The glTF metallic–roughness BRDF of a hit, with `KHR_materials_specular` and `KHR_materials_anisotropy`
-    /// (its strength and world direction, [`Self::anisotropy_at`]) where the material has them.
+    /// (its strength and world direction, [`Self::anisotropy_at`]) where the material has them, before its
+    /// diffuse coupling ([`GltfMetalRoughBxdf::conserving`] or [`GltfMetalRoughBxdf::compensated`]).
     fn metal_rough(
         &self,
         base: SampledSpectrum<N>,
@@ -966,7 +976,6 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             None => g,
             Some((strength, direction)) => g.with_anisotropy(strength, direction),
         }
-        .conserving()
     }
 
     /// A rough dielectric of roughness α stretched by `KHR_materials_anisotropy` along its direction at the

@@ -15,7 +15,8 @@
 //!   `DielectricBxDF` rough branch), with optional energy compensation (Turquin 2019);
 //! - [`Bsdf::ThinDielectric`]: a thin slab with inter-reflection summed in closed form (pbrt-v4
 //!   `ThinDielectricBxDF`), for glTF transmission without volume;
-//! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B);
+//! - [`Bsdf::GltfMetalRough`]: the glTF 2.0 metallic–roughness BRDF (spec Appendix B), with optional
+//!   multiple-scattering compensation of its microfacet layers (Kulla & Conty 2017);
 //! - [`Bsdf::Plastic`]: a smooth or rough dielectric coat over a Lambertian base (Mitsuba 3's
 //!   `plastic` and `roughplastic`).
 //!

@@ -323,6 +323,9 @@ fn every_bsdf_reflects_no_more_than_it_receives() {
         (gltf_anisotropic(1.0, 0.0, 0.2, 1.0), 0.0),
         (gltf_anisotropic(1.0, 1.0, 0.0, 1.0), 0.0),
         (Bsdf::Sheen(SheenBxdf::new(white, 1.0)), 0.0),
+        (Bsdf::GltfMetalRough(GltfMetalRoughBxdf::new(white, 1.0, 0.6, 1.5).compensated()), 0.01),
+        (Bsdf::GltfMetalRough(GltfMetalRoughBxdf::new(white, 0.4, 0.9, 1.5).compensated()), 0.01),
+        (gltf_compensated_anisotropic(1.0, 0.5, 0.5, 0.8), 0.01),
     ];
     for (bsdf, slack) in &models {
         for _ in 0..60 {
@@ -368,6 +371,8 @@ fn rough_lobes_sample_weights_equal_f_cos_over_pdf() {
         Bsdf::RoughDielectric(RoughDielectricBxdf::new(TrowbridgeReitz::new(0.3, 0.5), 1.5, white, true)),
         Bsdf::Sheen(SheenBxdf::new(white, 0.3)),
         gltf_anisotropic(0.8, 0.3, 0.4, 0.9),
+        gltf_compensated_anisotropic(0.8, 0.3, 0.6, 0.9),
+        Bsdf::GltfMetalRough(gltf_specular(0.8, 0.7, 0.6, [0.1; 4], 0.3).compensated()),
     ];
     for bsdf in &lobes {
         let mut checked = 0;
@@ -463,7 +468,8 @@ fn reflection_lobes_are_reciprocal() {
     // f(ωo, ωi) = f(ωi, ωo) for every reflection lobe that should be: Lambertian, the rough
     // conductor with and without the Kulla–Conty lobe (reciprocal by construction) and the
     // uncompensated rough dielectric's reflection. (Turquin's 1/E(μo) scaling of the
-    // compensated dielectric is not reciprocal, a known property of that method.)
+    // compensated dielectric is not reciprocal, a known property of that method.) The glTF model's
+    // multiple-scattering lobe and its diffuse coupling are products of one factor per direction.
     let mut rng = TestRng::new(11);
     let lobes = [
         Bsdf::Lambertian { r: SampledSpectrum([0.7]) },
@@ -474,6 +480,11 @@ fn reflection_lobes_are_reciprocal() {
         Bsdf::Sheen(SheenBxdf::new(SampledSpectrum([0.7]), 0.4)),
         gltf_anisotropic(0.7, 0.5, 0.3, 0.7),
         oriented_glass(0.5, 0.15),
+        gltf_compensated(0.7, 1.0, 0.8),
+        gltf_compensated(0.7, 0.5, 0.4),
+        gltf_compensated_anisotropic(0.7, 0.3, 0.5, 0.7),
+        Bsdf::GltfMetalRough(gltf_specular(0.6, 0.5, 0.6, [0.1], 0.3).compensated()),
+        Bsdf::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(0.6).compensated()),
     ];
     for bsdf in &lobes {
         assert_reciprocal(bsdf, 2000, &mut rng);
@@ -639,6 +650,17 @@ fn gltf(base: f32, metallic: f32, roughness: f32) -> Bsdf<1> {
 fn gltf_anisotropic<const N: usize>(base: f32, metallic: f32, roughness: f32, strength: f32) -> Bsdf<N> {
     let g = GltfMetalRoughBxdf::new(SampledSpectrum([base; N]), metallic, roughness, 1.5);
     Bsdf::GltfMetalRough(g.with_anisotropy(strength, anisotropy_direction()).conserving())
+}
+
+/// The compensated glTF model (what the path tracer builds by default).
+fn gltf_compensated(base: f32, metallic: f32, roughness: f32) -> Bsdf<1> {
+    Bsdf::GltfMetalRough(GltfMetalRoughBxdf::new(SampledSpectrum([base]), metallic, roughness, 1.5).compensated())
+}
+
+/// [`gltf_anisotropic`] compensated.
+fn gltf_compensated_anisotropic<const N: usize>(base: f32, metallic: f32, roughness: f32, strength: f32) -> Bsdf<N> {
+    let g = GltfMetalRoughBxdf::new(SampledSpectrum([base; N]), metallic, roughness, 1.5);
+    Bsdf::GltfMetalRough(g.with_anisotropy(strength, anisotropy_direction()).compensated())
 }
 
 fn anisotropy_direction() -> Vec3 {
@@ -880,6 +902,229 @@ fn gltf_energy_conserving_variant_keeps_a_white_dielectric_white() {
     }
 }
 
+/// Angles of the glTF furnace tests (degrees from the normal), up to 80°.
+const FURNACE_ANGLES: [f32; 5] = [0.0, 30.0, 50.0, 70.0, 80.0];
+
+#[test]
+fn gltf_default_material_is_white_in_a_furnace_compensated_and_one_minus_ln_two_without() {
+    // glTF's default material (§3.9.6: base colour white, metallic 1, roughness 1, so α = 1) is a white
+    // GGX mirror. Single scattering (`conserving`, the path tracer with `multiple_scattering` off) reflects
+    // the tables' E(μ, 1): 1 − ln 2 = 0.307 at normal view (`white_ggx_albedo_at_alpha_one_is_one_minus_ln_two`);
+    // compensated, 1 up to the tables' interpolation (1.5 %) at every angle. Likewise a white metal at
+    // roughness 0.5 (α = 0.25), which loses 5–15 % in single scattering.
+    let mut rng = TestRng::new(67);
+    let white = SampledSpectrum([1.0]);
+    for roughness in [1.0f32, 0.5] {
+        let alpha = roughness * roughness;
+        let off = Bsdf::GltfMetalRough(GltfMetalRoughBxdf::new(white, 1.0, roughness, 1.5).conserving());
+        let on = gltf_compensated(1.0, 1.0, roughness);
+        for t in FURNACE_ANGLES {
+            let wo = incident(t, false);
+            let (e_on, se_on) = albedo(&on, wo, 40_000, &mut rng);
+            assert!((e_on - 1.0).abs() < 0.015 + 4.0 * se_on, "roughness {roughness} θ {t}: {e_on} ± {se_on}");
+            let (e_off, se_off) = albedo(&off, wo, 40_000, &mut rng);
+            let table = f64::from(conductor_table().e(wo.z, alpha));
+            assert!((e_off - table).abs() < 0.01 + 4.0 * se_off, "off, θ {t}: {e_off} ± {se_off} vs E = {table}");
+            if roughness == 1.0 && t == 0.0 {
+                let exact = 1.0 - std::f64::consts::LN_2;
+                assert!((e_off - exact).abs() < 0.005 + 4.0 * se_off, "off at normal view: {e_off} vs 1 − ln 2");
+            }
+            if roughness == 0.5 {
+                assert!(e_off < 0.96 && e_off > 0.84, "off, roughness 0.5, θ {t}: {e_off}");
+            }
+        }
+    }
+}
+
+#[test]
+fn gltf_compensated_white_dielectric_and_mixes_stay_white_and_never_exceed_one() {
+    // metallic 0 and 0.5, white: the compensated specular layer takes from the diffuse one exactly what
+    // it adds, so the model reflects 1 (tables: 1.5 %) and never more, at every roughness and angle; also
+    // under `KHR_materials_specular` (its strongest wavelength white) and stretched by
+    // `KHR_materials_anisotropy` (≤ 1: the tables at the smaller α lose a little there).
+    let mut rng = TestRng::new(68);
+    for roughness in [0.0f32, 0.2, 0.5, 0.8, 1.0] {
+        for m in [0.0f32, 0.5] {
+            let b = gltf_compensated(1.0, m, roughness);
+            for t in FURNACE_ANGLES.into_iter().chain([85.0]) {
+                let (e, se) = albedo(&b, incident(t, false), 20_000, &mut rng);
+                assert!((e - 1.0).abs() < 0.015 + 4.0 * se, "roughness {roughness} metallic {m} θ {t}: {e} ± {se}");
+                assert_all_finite(&b, incident(t, false), &mut rng);
+            }
+        }
+        let specular = Bsdf::GltfMetalRough(gltf_specular(1.0, roughness, 0.7, [0.3], 0.3).compensated());
+        let stretched: Bsdf<1> = gltf_compensated_anisotropic(1.0, 0.3, roughness, 0.9);
+        let single: Bsdf<1> = gltf_anisotropic(1.0, 0.3, roughness, 0.9);
+        for t in FURNACE_ANGLES {
+            let (e, se) = albedo(&specular, incident(t, false), 20_000, &mut rng);
+            assert!((e - 1.0).abs() < 0.015 + 4.0 * se, "specular, roughness {roughness} θ {t}: {e} ± {se}");
+            let (e, se) = albedo(&stretched, incident(t, false), 20_000, &mut rng);
+            let (e_single, se_single) = albedo(&single, incident(t, false), 20_000, &mut rng);
+            eprintln!("anisotropic roughness {roughness} θ {t}: {e:.4} compensated, {e_single:.4} single");
+            assert!(e < 1.01 + 4.0 * se, "anisotropic, roughness {roughness} θ {t}: {e} ± {se}");
+            assert!(e > e_single - 4.0 * (se + se_single), "roughness {roughness} θ {t}: {e} vs {e_single}");
+        }
+    }
+}
+
+/// Per-lane albedo of `bsdf` from `wo`: the mean of `sample_f`'s weights, lane by lane.
+fn lane_albedos<const N: usize>(bsdf: &Bsdf<N>, wo: Vec3, count: usize, rng: &mut TestRng) -> [f64; N] {
+    let mut sum = [0.0f64; N];
+    for _ in 0..count {
+        if let Some(s) = bsdf.sample_f(&FRAME, wo, rng.uniform(), rng.uniform2()) {
+            for (sum, w) in sum.iter_mut().zip(s.weight.0) {
+                *sum += f64::from(w);
+            }
+        }
+    }
+    sum.map(|s| s / count as f64)
+}
+
+#[test]
+fn gltf_compensated_coloured_metals_reflect_no_more_than_their_colour_allows() {
+    // A metal of colour b (lanes 0.2, 0.5, 0.8) with Schlick's Fresnel reflects F_avg(b) = b + (1 − b)/21
+    // of white light averaged over the hemisphere (2 ∫ F μ dμ): Kulla–Conty's lobe brings the
+    // cosine-weighted average of its albedo up to F_avg E_avg + F_ms (1 − E_avg) ≤ F_avg (equal iff
+    // F_avg = 1), never above. Per view angle the albedo is at most b at normal view (microfacets seen
+    // head-on), but exceeds b towards grazing (Schlick's F → 1 there, even for the smooth metal: 0.84 for
+    // b = 0.8, α 0.05 at 75°, 0.82 uncompensated); per angle it stays below the white metal's 1 and above
+    // the uncompensated albedo (the lobe only adds).
+    let colours = [0.2f32, 0.5, 0.8];
+    let mut rng = TestRng::new(69);
+    // 8-point Gauss–Legendre on μ ∈ [0, 1] (Abramowitz & Stegun table 25.4): (μ, weight).
+    let gauss = [
+        (0.019_855_072f32, 0.050_614_27f64),
+        (0.101_666_76, 0.111_190_52),
+        (0.237_233_8, 0.156_853_32),
+        (0.408_282_68, 0.181_341_89),
+        (0.591_717_3, 0.181_341_89),
+        (0.762_766_2, 0.156_853_32),
+        (0.898_333_24, 0.111_190_52),
+        (0.980_144_9, 0.050_614_27),
+    ];
+    for roughness in [0.2f32, 0.5, 1.0] {
+        let g = GltfMetalRoughBxdf::new(SampledSpectrum(colours), 1.0, roughness, 1.5);
+        let (on, off) = (Bsdf::GltfMetalRough(g.compensated()), Bsdf::GltfMetalRough(g.conserving()));
+        let mut average = [0.0f64; 3];
+        for &(mu, w) in &gauss {
+            let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+            let (a_on, a_off) = (lane_albedos(&on, wo, 20_000, &mut rng), lane_albedos(&off, wo, 20_000, &mut rng));
+            for l in 0..3 {
+                average[l] += 2.0 * f64::from(mu) * w * a_on[l];
+                // Statistical slack: a weight is at most ~2 here, so 20 000 samples give σ < 0.01.
+                assert!(a_on[l] <= 1.0 + 0.01, "roughness {roughness} μ {mu} lane {l}: {}", a_on[l]);
+                assert!(a_on[l] >= a_off[l] - 0.02, "roughness {roughness} μ {mu} lane {l}: {a_on:?} vs {a_off:?}");
+            }
+        }
+        let normal = lane_albedos(&on, Vec3::Z, 40_000, &mut rng);
+        let t = conductor_table();
+        let alpha = roughness * roughness;
+        let (e_avg, e2_avg) = (f64::from(t.e_avg(alpha)), f64::from(t.e_schlick_avg(alpha)));
+        for (l, &b) in colours.iter().enumerate() {
+            let b = f64::from(b);
+            let f_avg = b + (1.0 - b) / 21.0;
+            // Kulla–Conty's value: single scattering's b E_avg + (1 − b) E₂,avg, plus F_ms (1 − E_avg).
+            let f_ms = f_avg * f_avg * e_avg / (1.0 - f_avg * (1.0 - e_avg));
+            let expected = b * e_avg + (1.0 - b) * e2_avg + f_ms * (1.0 - e_avg);
+            eprintln!(
+                "roughness {roughness} colour {b}: average {:.4}, expected {expected:.4}, F_avg {f_avg:.4}",
+                average[l]
+            );
+            assert!(
+                (average[l] - expected).abs() < 0.01,
+                "roughness {roughness} lane {l}: {} vs {expected}",
+                average[l]
+            );
+            assert!(
+                average[l] <= f_avg + 0.005,
+                "roughness {roughness} lane {l}: average {} > F_avg {f_avg}",
+                average[l]
+            );
+            assert!(normal[l] <= b + 0.01, "roughness {roughness} lane {l} at normal view: {}", normal[l]);
+        }
+    }
+}
+
+#[test]
+fn chi2_gltf_compensated() {
+    // The cosine lobe samples the multiple-scattering lobe too (for a pure metal it is the only one it
+    // samples): the pdf must include it. Roughness 0.2, 0.5, 1 (α 0.04, 0.25, 1) × metallic 0, 0.5, 1 ×
+    // `ANGLES`, and the extensions' forms.
+    let mut cases = Vec::new();
+    for roughness in [0.2f32, 0.5, 1.0] {
+        let alpha = roughness * roughness;
+        for m in [0.0, 0.5, 1.0] {
+            for &t in &ANGLES {
+                let name = format!("glTF compensated metallic {m} roughness {roughness} θ {t}");
+                cases.push((name, gltf_compensated(0.8, m, roughness), incident(t, false), alpha));
+            }
+        }
+        for &t in &[0.0f32, 60.0] {
+            let (specular, stretched) = (
+                Bsdf::GltfMetalRough(gltf_specular(0.8, roughness, 0.6, [0.1], 0.3).compensated()),
+                gltf_compensated_anisotropic(0.8, 0.5, roughness, 0.8),
+            );
+            cases.push((
+                format!("glTF specular compensated roughness {roughness} θ {t}"),
+                specular,
+                incident(t, false),
+                alpha,
+            ));
+            cases.push((
+                format!("glTF anisotropic compensated roughness {roughness} θ {t}"),
+                stretched,
+                incident(t, false),
+                alpha,
+            ));
+            let coat = Bsdf::GltfMetalRough(GltfMetalRoughBxdf::clearcoat(roughness).compensated());
+            cases.push((
+                format!("clear coat compensated roughness {roughness} θ {t}"),
+                coat,
+                incident(t, false),
+                alpha,
+            ));
+        }
+    }
+    chi2_family(&cases);
+}
+
+#[test]
+fn gltf_compensation_leaves_smooth_models_and_the_uncompensated_lobe_alone() {
+    // `compensated` of a smooth model is `conserving` (no microfacet layer to compensate); and `conserving`
+    // (the path tracer with `multiple_scattering` off) is the model as it was before compensation existed:
+    // the spec's layers with the albedo-scaled diffuse coupling, checked against that formula.
+    let mut rng = TestRng::new(70);
+    let base = SampledSpectrum([0.6]);
+    for m in [0.0f32, 0.5, 1.0] {
+        let (on, off) = (
+            GltfMetalRoughBxdf::new(base, m, 0.0, 1.5).compensated(),
+            GltfMetalRoughBxdf::new(base, m, 0.0, 1.5).conserving(),
+        );
+        for _ in 0..200 {
+            let (a, b) = (rng.sphere(), rng.sphere());
+            let (wo, wi) = (Vec3::new(a.x, a.y, a.z.abs()), Vec3::new(b.x, b.y, b.z.abs()));
+            assert_eq!(on.f(wo, wi).0, off.f(wo, wi).0);
+            assert_eq!(on.pdf(wo, wi), off.pdf(wo, wi));
+        }
+    }
+    let (alpha, m, b) = (0.25f32, 0.3f32, 0.6f32);
+    let off = GltfMetalRoughBxdf::new(SampledSpectrum([b]), m, alpha.sqrt(), 1.5).conserving();
+    let t = conductor_table();
+    let e_s = |mu: f32| 0.04 * t.e(mu, alpha) + 0.96 * t.e_schlick(mu, alpha);
+    let e_s_avg = 0.04 * t.e_avg(alpha) + 0.96 * t.e_schlick_avg(alpha);
+    for _ in 0..200 {
+        let (a, c) = (rng.sphere(), rng.sphere());
+        let (wo, wi) = (Vec3::new(a.x, a.y, a.z.abs()), Vec3::new(c.x, c.y, c.z.abs()));
+        let (spec, vh) = appendix_b_specular(wo, wi, alpha);
+        let fr = 0.04 + 0.96 * (1.0 - vh).powi(5);
+        let metal = b + (1.0 - b) * (1.0 - vh).powi(5);
+        let diffuse = (1.0 - e_s(wo.z)) * (1.0 - e_s(wi.z)) / (1.0 - e_s_avg) * b / PI;
+        let expected = (1.0 - m) * (diffuse + fr * spec) + m * metal * spec;
+        let f = off.f(wo, wi).0[0];
+        assert!((f - expected).abs() <= 1e-5 * expected.max(1e-3), "{wo} {wi}: {f} vs {expected}");
+    }
+}
+
 /// The glTF model with `KHR_materials_specular`: F0 per lane `f0`, its largest over the spectrum `f0_max`.
 fn gltf_specular<const N: usize>(
     base: f32,
@@ -984,7 +1229,7 @@ fn chi2_gltf_specular_extension() {
 }
 
 #[test]
-fn clearcoat_weight_is_schlick_of_index_1_5_and_its_lobe_the_uncompensated_white_ggx() {
+fn clearcoat_weight_is_schlick_of_index_1_5_and_its_lobe_the_white_ggx() {
     let coat = crate::Coat { weight: 0.8, roughness: 0.3 };
     assert!((coat.probability(1.0) - 0.8 * 0.04).abs() < 1e-7);
     assert!((coat.probability(-1.0) - 0.8 * 0.04).abs() < 1e-7, "seen from either side");
@@ -1000,6 +1245,10 @@ fn clearcoat_weight_is_schlick_of_index_1_5_and_its_lobe_the_uncompensated_white
             let (e, se) = albedo(&lobe, wo, 20_000, &mut rng);
             let table = f64::from(conductor_table().e(wo.z, roughness * roughness));
             assert!((e - table).abs() < 0.01 + 4.0 * se, "roughness {roughness} θ {t}: {e} ± {se} vs {table}");
+            // Compensated (F_ms = 1 for its white microfacets), the lobe reflects all it receives.
+            let compensated = Bsdf::GltfMetalRough(GltfMetalRoughBxdf::<1>::clearcoat(roughness).compensated());
+            let (e, se) = albedo(&compensated, wo, 20_000, &mut rng);
+            assert!((e - 1.0).abs() < 0.015 + 4.0 * se, "compensated, roughness {roughness} θ {t}: {e} ± {se}");
         }
     }
 }
