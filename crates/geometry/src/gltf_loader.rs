@@ -898,6 +898,9 @@ impl Loader<'_> {
             m.dispersion = Some(self.factor(value, "dispersion", 0.0, f32::INFINITY, &context)).filter(|&d| d > 0.0);
         }
         m.extras = extras_value(material.extras());
+        // `"extras": {"multiple_scattering": false}` selects the specification's uncompensated layers, as the
+        // manifest key of that name does (a glTF file has no other place for it).
+        m.multiple_scattering = m.extras.as_ref().and_then(|e| e.get("multiple_scattering")).and_then(|v| v.as_bool());
 
         m.textures.base_color = pbr
             .base_color_texture()

@@ -937,7 +937,10 @@ mod tests {
         };
         let m = message(r#"{"base_colour":"colorchecker:13"}"#);
         assert!(m.starts_with("test.json: materials.m.base_colour: unknown key; did you mean `base_color`?"), "{m}");
-        assert!(m.contains("known keys: model, metal, eta, k, nonlinear, base_color,") && m.ends_with("extras)"), "{m}");
+        assert!(
+            m.contains("known keys: model, metal, eta, k, nonlinear, base_color,") && m.ends_with("extras)"),
+            "{m}"
+        );
         // Far from every key: refused with the list only.
         let m = message(r#"{"fluorescense":0.5}"#);
         assert!(m.starts_with("test.json: materials.m.fluorescense: unknown key (known keys: model,"), "{m}");

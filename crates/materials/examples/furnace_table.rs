@@ -15,7 +15,8 @@ use colorimetry::{SampledSpectrum, SampledWavelengths};
 use glam::Vec3;
 use materials::Coat;
 use materials::bsdf::{
-    Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, RoughDielectricBxdf, ThinDielectricBxdf, TrowbridgeReitz,
+    Bsdf, ConductorBxdf, Frame, GltfMetalRoughBxdf, Metal, PlasticBxdf, RoughDielectricBxdf, ThinDielectricBxdf,
+    TrowbridgeReitz, plastic_table,
 };
 
 /// Lanes: four wavelengths across the visible (nm); they matter only for the measured metal.
@@ -113,7 +114,15 @@ const MODELS: &[Row] = &[
             Model::Coated { coat, lobe: Bsdf::GltfMetalRough(lobe), base: Bsdf::GltfMetalRough(gltf(1.0, 0.0, a, c)) }
         },
     },
+    Row { name: "plastic, white base, index 1.5", rough: true, model: |a, c| Model::Bsdf(plastic(1.0, a, c)) },
+    Row { name: "plastic, base 0.5, index 1.5", rough: true, model: |a, c| Model::Bsdf(plastic(0.5, a, c)) },
 ];
+
+/// The plastic model at α with index 1.5 over a grey base, compensated or as Mitsuba 3's `roughplastic`.
+fn plastic(base: f32, alpha: f32, compensate: bool) -> Bsdf<4> {
+    let table = plastic_table(alpha, 1.5, compensate);
+    Bsdf::Plastic(PlasticBxdf::new(SampledSpectrum([base; 4]), TrowbridgeReitz::isotropic(alpha), 1.5, false, table))
+}
 
 /// SplitMix64 (Steele, Lea & Flood 2014): uniform numbers in [0, 1), deterministic per seed.
 struct Rng(u64);

@@ -1456,3 +1456,34 @@ fn obj_vertex_colours_are_read_with_their_vertices() {
     let plain = load_scene(&write(&dir, "p.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")).unwrap();
     assert!(plain.meshes[0].colors().is_none());
 }
+
+/// A glTF material's `extras.multiple_scattering` is the manifest key of that name (a boolean; anything
+/// else leaves the default).
+#[test]
+fn gltf_material_extras_select_the_uncompensated_layers() {
+    let dir = std::env::temp_dir().join("spectrace-gltf-extras-ms");
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let positions: Vec<u8> =
+        [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0].iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(dir.join("t.bin"), &positions).unwrap_or_else(|e| panic!("{e}"));
+    let uri = "t.bin";
+    let file = |extras: serde_json::Value| {
+        let doc = json!({
+            "asset": {"version": "2.0"},
+            "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+            "materials": [{"name": "m", "extras": extras}],
+            "buffers": [{"byteLength": 36, "uri": uri}],
+            "bufferViews": [{"buffer": 0, "byteLength": 36}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                           "min": [0, 0, 0], "max": [1, 1, 0]}]
+        });
+        let path = dir.join("t.gltf");
+        std::fs::write(&path, doc.to_string()).unwrap_or_else(|e| panic!("{e}"));
+        load_scene(&path).unwrap_or_else(|e| panic!("{e}")).materials[0].multiple_scattering
+    };
+    assert_eq!(file(json!({"multiple_scattering": false})), Some(false));
+    assert_eq!(file(json!({"multiple_scattering": true})), Some(true));
+    assert_eq!(file(json!({"multiple_scattering": "no"})), None);
+    assert_eq!(file(json!({})), None);
+}
