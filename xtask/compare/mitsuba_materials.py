@@ -394,8 +394,9 @@ def main():
         f"Sphere = {int(mask.sum())} pixels.",
         "",
         "| # | material | α | same model? | ΔE00 sphere (cross) | self Mitsuba | self spectrace "
-        "| cross avg | cross avg 4×4 | self 4×4 M / s | ΔE00 image (cross) | Y ratio sphere | s Mitsuba | s spectrace |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| cross avg | cross avg 4×4 | self 4×4 M / s | ΔE00 image (cross) | Y ratio sphere | ΔE00 sphere mean "
+        "| s Mitsuba | s spectrace |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     print("\n".join(table), flush=True)
     mitsuba_cache = {}
@@ -424,11 +425,14 @@ def main():
         self_bm = delta_e00(b["m2"][0], b["m1"][0])[inside].mean()
         self_bs = delta_e00(b["s2"][0], b["s1"][0])[inside].mean()
         ratio = (s1 + s2)[mask][:, 1].mean() / (m1 + m2)[mask][:, 1].mean()
+        # The sphere's mean colour, both seeds each side: what "within ΔE00 x per sphere" compares.
+        mean_s, mean_m = (s1 + s2)[mask].mean(axis=0) / 2, (m1 + m2)[mask].mean(axis=0) / 2
+        sphere_de = float(delta_e00(mean_s[None, None, :], mean_m[None, None, :])[0, 0])
         line = (
             f"| {i} | {name} | {alpha if alpha is not None else '–'} | {same} | {cross[mask].mean():.3f} "
             f"| {delta_e00(m2, m1)[mask].mean():.3f} | {delta_e00(s2, s1)[mask].mean():.3f} "
             f"| {cross_avg[mask].mean():.3f} | {cross_b:.3f} | {self_bm:.3f} / {self_bs:.3f} "
-            f"| {cross.mean():.3f} | {ratio:.4f} | {tm:.1f} | {ts:.1f} |"
+            f"| {cross.mean():.3f} | {ratio:.4f} | {sphere_de:.3f} | {tm:.1f} | {ts:.1f} |"
         )
         print(line, flush=True)
         table.append(line)
