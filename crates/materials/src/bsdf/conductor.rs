@@ -19,7 +19,7 @@ const MAX_REFLECTANCE: f32 = 1.0 - 1e-5;
 
 /// 8-point Gauss–Legendre rule on [0, 1]: (node, weight) (Abramowitz & Stegun table 25.4,
 /// mapped from [−1, 1]).
-const GAUSS_LEGENDRE_8: [(f32, f32); 8] = [
+pub(crate) const GAUSS_LEGENDRE_8: [(f32, f32); 8] = [
     (0.019_855_072, 0.050_614_27),
     (0.101_666_76, 0.111_190_52),
     (0.237_233_8, 0.156_853_32),

@@ -51,7 +51,7 @@ use glam::{Vec2, Vec3};
 
 use super::compensation::conductor_table;
 use super::microfacet::TrowbridgeReitz;
-use super::{BxdfFlags, Direction, LocalSample};
+use super::{BxdfFlags, Direction, LocalSample, glossy_or_cosine_pdf};
 use crate::sampling::cosine_hemisphere;
 use crate::scattering::reflect;
 
@@ -424,13 +424,7 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let p = self.specular_probability(wo);
-        let mut pdf = (1.0 - p) * wi.z * FRAC_1_PI;
-        if !self.is_smooth() {
-            let wm = (wo + wi).normalize();
-            pdf += p * self.distrib.d_visible(wo, wm) / (4.0 * wo.dot(wm).abs());
-        }
-        pdf
+        glossy_or_cosine_pdf(&self.distrib, self.is_smooth(), self.specular_probability(wo), wo, wi)
     }
 
     /// Sample the specular layer with [`Self::specular_probability`], else the diffuse one.

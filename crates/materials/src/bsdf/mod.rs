@@ -502,6 +502,19 @@ impl<const N: usize> Bsdf<N> {
     }
 }
 
+/// Density of a two-lobe reflection model that picks, with probability `p_glossy`, a visible normal of
+/// `distrib` (unless the lobe is a delta, `smooth`) and otherwise a cosine-weighted direction, in the local
+/// frame with `wo` and `wi` above the surface (the glTF and plastic models).
+#[inline]
+fn glossy_or_cosine_pdf(distrib: &TrowbridgeReitz, smooth: bool, p_glossy: f32, wo: Vec3, wi: Vec3) -> f32 {
+    let mut pdf = (1.0 - p_glossy) * wi.z * FRAC_1_PI;
+    if !smooth {
+        let wm = (wo + wi).normalize();
+        pdf += p_glossy * distrib.d_visible(wo, wm) / (4.0 * wo.dot(wm).abs());
+    }
+    pdf
+}
+
 /// |cos θ_i| of a Lambertian lobe for a sampled direction (and its density): `wi` against the
 /// shading normal, or `None` unless both normals agree that `wi` is on `wo`'s side (a bounce ray
 /// below the geometric surface would start inside the object).

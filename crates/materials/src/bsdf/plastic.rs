@@ -47,7 +47,7 @@ use colorimetry::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
 use super::microfacet::TrowbridgeReitz;
-use super::{BxdfFlags, LocalSample};
+use super::{BxdfFlags, LocalSample, glossy_or_cosine_pdf};
 use crate::sampling::cosine_hemisphere;
 use crate::scattering::{fr_dielectric, reflect, refract};
 
@@ -271,13 +271,7 @@ impl<const N: usize> PlasticBxdf<N> {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let p = self.coat_probability(wo.z);
-        let mut pdf = (1.0 - p) * wi.z * FRAC_1_PI;
-        if !self.is_smooth() {
-            let wm = (wo + wi).normalize();
-            pdf += p * self.distrib.d_visible(wo, wm) / (4.0 * wo.dot(wm).abs());
-        }
-        pdf
+        glossy_or_cosine_pdf(&self.distrib, self.is_smooth(), self.coat_probability(wo.z), wo, wi)
     }
 
     /// The coat with [`Self::coat_probability`], else the base.

@@ -991,17 +991,8 @@ fn gltf_compensated_coloured_metals_reflect_no_more_than_their_colour_allows() {
     // the uncompensated albedo (the lobe only adds).
     let colours = [0.2f32, 0.5, 0.8];
     let mut rng = TestRng::new(69);
-    // 8-point Gauss–Legendre on μ ∈ [0, 1] (Abramowitz & Stegun table 25.4): (μ, weight).
-    let gauss = [
-        (0.019_855_072f32, 0.050_614_27f64),
-        (0.101_666_76, 0.111_190_52),
-        (0.237_233_8, 0.156_853_32),
-        (0.408_282_68, 0.181_341_89),
-        (0.591_717_3, 0.181_341_89),
-        (0.762_766_2, 0.156_853_32),
-        (0.898_333_24, 0.111_190_52),
-        (0.980_144_9, 0.050_614_27),
-    ];
+    // 8-point Gauss–Legendre on μ ∈ [0, 1]: (μ, weight).
+    let gauss = super::conductor::GAUSS_LEGENDRE_8.map(|(mu, w)| (mu, f64::from(w)));
     for roughness in [0.2f32, 0.5, 1.0] {
         let g = GltfMetalRoughBxdf::new(SampledSpectrum(colours), 1.0, roughness, 1.5);
         let (on, off) = (Bsdf::GltfMetalRough(g.compensated()), Bsdf::GltfMetalRough(g.conserving()));
