@@ -12,6 +12,7 @@
 mod absorbing;
 mod analytic;
 mod auto_time;
+mod cie171;
 mod colorimetry;
 mod estimate;
 mod hard;
@@ -52,7 +53,7 @@ pub(crate) struct ValidateArgs {
     #[arg(long)]
     regen: bool,
     /// Run only these parts (comma-separated): colorimetry, analytic, hard, speed, absorbing,
-    /// auto, sampler, estimate, paper, scaling. The report then holds only their checks.
+    /// auto, sampler, estimate, cie171, paper, scaling. The report then holds only their checks.
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
 }
@@ -90,8 +91,19 @@ impl Report {
 }
 
 /// The parts `--only` may name, in the order they run.
-const PARTS: [&str; 10] =
-    ["colorimetry", "analytic", "hard", "speed", "absorbing", "auto", "sampler", "estimate", "paper", "scaling"];
+const PARTS: [&str; 11] = [
+    "colorimetry",
+    "analytic",
+    "hard",
+    "speed",
+    "absorbing",
+    "auto",
+    "sampler",
+    "estimate",
+    "cie171",
+    "paper",
+    "scaling",
+];
 
 pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     let root = crate::project_root();
@@ -143,6 +155,10 @@ pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     if wanted("estimate") {
         estimate::checks(&mut report, &root, &refs, args.quick)?;
         step("the error estimate against the true error", &mut since);
+    }
+    if wanted("cie171") {
+        cie171::checks(&mut report, &root, args.quick)?;
+        step("CIE 171 analytic cases", &mut since);
     }
     if wanted("paper") {
         paper(&mut report, &out, args.quick);

@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 
 mod color;
 mod info;
+mod measure;
 mod merge;
 mod render;
 mod view;
@@ -35,6 +36,8 @@ enum Command {
     Info(info::InfoArgs),
     /// Compute XYZ, chromaticity and sRGB of spectra in a CSV file.
     Color(color::ColorArgs),
+    /// Measure the illuminance (lux) at sensor points of a scene, with its standard error.
+    Measure(measure::MeasureArgs),
 }
 
 fn main() -> ExitCode {
@@ -44,6 +47,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => merge::run(&args),
         Command::Info(args) => info::run(&args),
         Command::Color(args) => color::run(&args),
+        Command::Measure(args) => measure::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

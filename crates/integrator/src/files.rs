@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 pub(crate) type Encoder<'a> = Box<dyn Fn(&mut BufWriter<File>) -> std::result::Result<(), String> + 'a>;
 
 /// Write `bytes` to `path` atomically: a temporary beside it, checked, fsynced, renamed.
-pub(crate) fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
+pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     write_all_or_nothing(&[(path, Box::new(|w: &mut BufWriter<File>| w.write_all(bytes).map_err(|e| e.to_string())))])
 }
 

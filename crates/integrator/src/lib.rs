@@ -41,6 +41,7 @@ mod limits;
 mod material_desc;
 #[cfg(test)]
 mod material_tests;
+mod measure;
 mod options;
 mod output;
 mod render;
@@ -57,6 +58,7 @@ pub use auto::{
 };
 pub use error::{Error, Result};
 pub use limits::{MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES, MAX_THREADS};
+pub use measure::{MEASURE_MAX_DEPTH, MeasureOptions, Measurement, SensorPoint, measure};
 pub use options::{
     Ambient, DEFAULT_K_A, DEFAULT_RESOLUTION, Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind,
     TargetError, WavelengthPdf, WhittedOptions, part_samples,
@@ -79,7 +81,7 @@ pub use film::file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Mer
 pub use film::{Film, ObjectId};
 
 // Images and their files.
-pub use files::{check_distinct_outputs, check_outputs_spare_inputs, remove_pending_outputs};
+pub use files::{check_distinct_outputs, check_outputs_spare_inputs, remove_pending_outputs, write_bytes_atomically};
 pub use output::{
     Display, EXR_VIEW_ATTRIBUTE, Exposure, Image, MIDDLE_GREY, OutputFile, OutputKind, OutputPlan, Tonemap, View,
     ViewPlan, auto_exposure_ev, auto_exposure_ev_of, pbr_neutral,

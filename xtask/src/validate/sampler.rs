@@ -40,7 +40,10 @@ const CASES: &[Case] = &[
         max_ratio: (0.6, 0.7),
         in_quick: true,
     },
-    // Rough metals of the glTF grid: glossy lobes and their highlights.
+    // Rough metals of the glTF grid: glossy lobes and their highlights. Not in `--quick`: with the
+    // energy-compensated glTF lobes (light bounces between the spheres longer) one 32×32, 16 spp render's
+    // mean ΔE00 varies by 5.6 % (relative standard deviation over seeds 2–11), so two seeds differ by up
+    // to 10 %, more than the control's resolution.
     Case {
         file: "gltf/metal_rough_grid.gltf",
         size: (96, 96),
@@ -50,7 +53,7 @@ const CASES: &[Case] = &[
         reference: SpectralMode::Bins(16),
         reference_spp: (4096, 1024),
         max_ratio: (0.95, 1.05),
-        in_quick: true,
+        in_quick: false,
     },
     // Long diffuse paths and the glass sphere's caustics: little to stratify. The references
     // are the `auto` part's. Not in `--quick`: at 24×24 two seeds of the same sampler differ

@@ -618,9 +618,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// code is all this instantiation contains. `TEXTURED`: whether any material has textures;
     /// without, no texture or cut-out code is in the loop (measured: +2.6 % instructions on the
     /// Cornell box when it was a run-time check).
+    #[allow(clippy::too_many_arguments)]
     fn trace<const ROUGH: bool, const TEXTURED: bool>(
         &self,
         camera_ray: &Ray,
+        start: PathStart,
         lambda: &mut SampledWavelengths<N>,
         sensor: &Sensor<N>,
         lane: &mut Option<usize>,
@@ -631,10 +633,10 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         let mut beta = SampledSpectrum([1.0; N]);
         let mut eta_scale = 1.0f32;
         let mut ray = *camera_ray;
-        let mut specular_bounce = true;
+        let mut specular_bounce = start.specular;
         // The previous vertex's BSDF density and facing shading normal, for MIS at emitters.
-        let mut prev_pdf = 0.0f32;
-        let mut prev_ns = Vec3::Z;
+        let mut prev_pdf = start.pdf;
+        let mut prev_ns = start.ns;
         let mut first = ObjectId::Background;
         let mut depth = 0u32;
         // Distance travelled through cut-outs since the last vertex, and how many were passed.
@@ -1128,13 +1130,102 @@ impl<const N: usize> Kernel<N> for PathTracer<'_, N> {
         let mut lane = None;
         let textured = !self.scene.textures.is_empty();
         let (l, first) = match (self.rough, textured) {
-            (true, true) => self.trace::<true, true>(ray, lambda, sensor, &mut lane, sampler, count),
-            (true, false) => self.trace::<true, false>(ray, lambda, sensor, &mut lane, sampler, count),
-            (false, true) => self.trace::<false, true>(ray, lambda, sensor, &mut lane, sampler, count),
-            (false, false) => self.trace::<false, false>(ray, lambda, sensor, &mut lane, sampler, count),
+            (true, true) => self.trace::<true, true>(ray, PathStart::CAMERA, lambda, sensor, &mut lane, sampler, count),
+            (true, false) => {
+                self.trace::<true, false>(ray, PathStart::CAMERA, lambda, sensor, &mut lane, sampler, count)
+            }
+            (false, true) => {
+                self.trace::<false, true>(ray, PathStart::CAMERA, lambda, sensor, &mut lane, sampler, count)
+            }
+            (false, false) => {
+                self.trace::<false, false>(ray, PathStart::CAMERA, lambda, sensor, &mut lane, sampler, count)
+            }
         };
         debug_assert!(l.is_finite(), "non-finite radiance {l:?}");
         Radiance { l, first, lane }
+    }
+}
+
+/// Where a path starts, for MIS at the first emitter it meets: a camera ray (as a specular bounce: emitters
+/// seen directly count fully), or a direction sampled with density `pdf` about the normal `ns` of a point
+/// whose light was also sampled (an illuminance sensor).
+#[derive(Debug, Clone, Copy)]
+struct PathStart {
+    specular: bool,
+    pdf: f32,
+    ns: Vec3,
+}
+
+impl PathStart {
+    const CAMERA: Self = Self { specular: true, pdf: 0.0, ns: Vec3::Z };
+}
+
+/// What one sample of an illuminance sensor measured: the light sampled directly, at every wavelength of the
+/// sample, and π × the radiance along a cosine-sampled direction, which a dispersive path may have narrowed to
+/// `lane` and whose `lambda` it may have changed.
+pub(crate) struct IrradianceSample<const N: usize> {
+    pub(crate) direct: SampledSpectrum<N>,
+    pub(crate) lambda_direct: SampledWavelengths<N>,
+    pub(crate) indirect: Radiance<N>,
+    pub(crate) lambda_indirect: SampledWavelengths<N>,
+}
+
+impl<const N: usize> PathTracer<'_, N> {
+    /// One sample of the irradiance E = ∫ L cos θ dω over the hemisphere of the unit normal `n` at `p`, by
+    /// the path tracer's own estimator at a white Lambertian point (E = π L_o of a surface of albedo 1): next
+    /// event estimation and a cosine-sampled path, weighted by MIS, with Russian roulette ending paths. The
+    /// point may lie on a surface: its rays leave from `p` lifted along `n` by a relative 2⁻¹⁶ of its
+    /// coordinates, so the surface it lies on neither shadows it nor is seen by it.
+    pub(crate) fn irradiance(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        lambda: SampledWavelengths<N>,
+        sensor: &Sensor<N>,
+        sampler: &mut Sampler,
+        count: &mut RayCount,
+    ) -> IrradianceSample<N> {
+        let error = (p.abs() + Vec3::splat(1e-3)) * (1.0 / 65536.0);
+        let hit = Hit {
+            t: 0.0,
+            p,
+            p_error: error,
+            n,
+            ns: n,
+            uv: Vec2::ZERO,
+            primitive: u32::MAX,
+            placement: u32::MAX,
+            object_primitive: u32::MAX,
+            material: None,
+        };
+        let frame = Frame { n, ns: n };
+        let white = Bsdf::Lambertian { r: SampledSpectrum([1.0; N]) };
+        let pi = std::f32::consts::PI;
+        let mut direct = SampledSpectrum([0.0; N]);
+        if !self.scene.emitters.is_empty() {
+            sampler.start_block(1);
+            let mut last_light = LastSpectrum(None);
+            direct = self.sample_light(&hit, &frame, n, &white, &lambda, &mut last_light, sampler, count) * pi;
+        }
+        sampler.start_block(2);
+        let mut lambda_indirect = lambda;
+        let mut indirect = Radiance { l: SampledSpectrum([0.0; N]), first: ObjectId::Background, lane: None };
+        if let Some(s) = white.sample_f(&frame, n, sampler.uniform(), sampler.uniform2()) {
+            let ray = spawn_ray(&hit, s.wi);
+            let start = PathStart { specular: false, pdf: s.pdf, ns: n };
+            let mut lane = None;
+            let textured = !self.scene.textures.is_empty();
+            let li = &mut lambda_indirect;
+            let (l, first) = match (self.rough, textured) {
+                (true, true) => self.trace::<true, true>(&ray, start, li, sensor, &mut lane, sampler, count),
+                (true, false) => self.trace::<true, false>(&ray, start, li, sensor, &mut lane, sampler, count),
+                (false, true) => self.trace::<false, true>(&ray, start, li, sensor, &mut lane, sampler, count),
+                (false, false) => self.trace::<false, false>(&ray, start, li, sensor, &mut lane, sampler, count),
+            };
+            // The sample's weight f cos / pdf is 1 for a white Lambertian: E = π L.
+            indirect = Radiance { l: l * (pi * s.weight.0[0]), first, lane };
+        }
+        IrradianceSample { direct, lambda_direct: lambda, indirect, lambda_indirect }
     }
 }
 
