@@ -39,6 +39,7 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
     assembly.environment = args.env.option()?;
     assembly.default_lights = args.env.default_lights()?;
     assembly.sky = args.env.sky()?;
+    assembly.cie_sky = args.env.cie_sky()?;
     let (desc, scene) = match &args.scene {
         Some(path) => {
             // Loader errors name the file (and line) themselves.

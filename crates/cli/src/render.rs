@@ -480,6 +480,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     assembly.environment = args.env.option()?;
     assembly.default_lights = args.env.default_lights()?;
     assembly.sky = args.env.sky()?;
+    assembly.cie_sky = args.env.cie_sky()?;
     let scene = match &args.scene {
         // Scene errors name the file (and line) themselves.
         Some(path) => RenderScene::load_with_options(path, &args.load.options(), &assembly)?,

@@ -5,8 +5,8 @@ use std::str::FromStr;
 
 use glam::Vec3;
 use integrator::{
-    AssemblyOptions, CameraOptions, DefaultLights, EnvironmentOption, IntegratorKind, RenderScene, SkyOption, Tonemap,
-    UpAxis, ViewPlan,
+    AssemblyOptions, CIE_SKY_DEFAULT_LUX, CameraOptions, CieSkyOption, CieSkyScale, CieSunOption, DefaultLights,
+    EnvironmentOption, IntegratorKind, RenderScene, SkyOption, Tonemap, UpAxis, ViewPlan,
 };
 
 /// `--integrator`: a model, or `auto` (the scene's `settings.integrator`, else the path tracer).
@@ -89,10 +89,14 @@ impl CameraArgs {
             environment: None,
             default_lights: DefaultLights::default(),
             sky: None,
+            cie_sky: None,
             thin_glass: self.thin_glass,
         }
     }
 }
+
+/// The flags only `--light-env cie-sky:N` reads, for messages.
+const CIE_FLAGS: &str = "--sky-illuminance, --zenith-luminance, --sky-cct, --sun-illuminance, --sun-horizontal-illuminance and --sun-spectrum";
 
 /// Image-based lighting from the command line.
 #[derive(Debug, Clone, clap::Args)]
@@ -117,22 +121,44 @@ pub(crate) struct EnvArgs {
     /// or bright emitters nothing (docs/defaults.md); `uniform` adds the environment and key light to
     /// any file without lights, and a world around a file's lamps; `none` the key light alone over
     /// black where the default adds it; `sky` a Preetham 1999 daylight sky and sun (absolute: nits and
-    /// lux); or an .hdr/.exr map (as --env FILE).
-    #[arg(long, value_name = "none|uniform|sky|FILE", conflicts_with = "env")]
+    /// lux); `cie-sky:N` the CIE standard general sky of type N (ISO 15469 / CIE S 011: 1 overcast,
+    /// steep gradation … 5 uniform … 12 CIE clear sky … 15 turbid with a broad solar corona) in CIE
+    /// daylight, absolute, with a sun only if --sun-illuminance is given; or an .hdr/.exr map (as --env
+    /// FILE).
+    #[arg(long, value_name = "none|uniform|sky|cie-sky:N|FILE", conflicts_with = "env")]
     light_env: Option<String>,
     /// Sky: turbidity of the atmosphere, 2 (very clear) to 10 (hazy) [default: 3].
     #[arg(long, value_name = "T", requires = "light_env")]
     turbidity: Option<f32>,
-    /// Sky: the sun's elevation above the horizon in degrees, 0–90 [default: 45].
+    /// Sky (either): the sun's elevation above the horizon in degrees, 0–90 [default: 45].
     #[arg(long, value_name = "DEG", requires = "light_env", allow_hyphen_values = true)]
     sun_elevation: Option<f32>,
-    /// Sky: the sun's azimuth in degrees (the maps' φ: 0 towards −Z, 90 towards +X) [default: the key
-    /// light's, behind, above and right of the camera].
+    /// Sky (either): the sun's azimuth in degrees (the maps' φ: 0 towards −Z, 90 towards +X) [default:
+    /// the key light's, behind, above and right of the camera].
     #[arg(long, value_name = "DEG", requires = "light_env", allow_hyphen_values = true)]
     sun_azimuth: Option<f32>,
     /// Sky: no sun (the sky alone, with the key light scaled to it).
     #[arg(long, requires = "light_env")]
     no_sun: bool,
+    /// CIE sky: its diffuse illuminance on a horizontal plane, lux (the sun's excluded) [default: 10000].
+    #[arg(long, value_name = "LUX", requires = "light_env", conflicts_with = "zenith_luminance")]
+    sky_illuminance: Option<f32>,
+    /// CIE sky: its zenith luminance, cd/m², instead of --sky-illuminance.
+    #[arg(long, value_name = "NITS", requires = "light_env")]
+    zenith_luminance: Option<f32>,
+    /// CIE sky: the correlated colour temperature of its CIE daylight spectrum, K, 4000–25000
+    /// [default: 6500].
+    #[arg(long, value_name = "K", requires = "light_env")]
+    sky_cct: Option<f32>,
+    /// CIE sky: add the sun, a directional light of this illuminance at normal incidence, lux.
+    #[arg(long, value_name = "LUX", requires = "light_env", conflicts_with = "sun_horizontal_illuminance")]
+    sun_illuminance: Option<f32>,
+    /// CIE sky: add the sun, of this illuminance on a horizontal plane, lux.
+    #[arg(long, value_name = "LUX", requires = "light_env")]
+    sun_horizontal_illuminance: Option<f32>,
+    /// CIE sky: the sun's spectrum, an illuminant name (D55, D5800, bb5778, …) [default: D55].
+    #[arg(long, value_name = "NAME", requires = "light_env")]
+    sun_spectrum: Option<String>,
     /// Add no default lights: the file's own lights, emitters and background only (a scene with none
     /// is an error).
     #[arg(long, conflicts_with_all = ["env", "light_env"])]
@@ -166,11 +192,12 @@ impl EnvArgs {
             self.turbidity.is_some() || self.sun_elevation.is_some() || self.sun_azimuth.is_some() || self.no_sun;
         if !is_sky {
             anyhow::ensure!(
-                !sky_flags,
+                !sky_flags || self.cie_sky_type()?.is_some(),
                 "--turbidity, --sun-elevation, --sun-azimuth and --no-sun need --light-env sky"
             );
             return Ok(None);
         }
+        anyhow::ensure!(!self.cie_flags(), "{} need --light-env cie-sky:N", CIE_FLAGS);
         anyhow::ensure!(self.env_rotation.is_none(), "--env-rotation does not turn the sky: use --sun-azimuth DEG");
         let default = SkyOption::default();
         let turbidity = self.turbidity.unwrap_or(default.turbidity);
@@ -195,11 +222,96 @@ impl EnvArgs {
         }))
     }
 
+    /// The sky type N of `--light-env cie-sky:N`, if that was asked for.
+    fn cie_sky_type(&self) -> anyhow::Result<Option<u8>> {
+        let Some(n) = self.light_env.as_deref().and_then(|v| v.strip_prefix("cie-sky:")) else { return Ok(None) };
+        match n.parse::<u8>() {
+            Ok(n) if (1..=15).contains(&n) => Ok(Some(n)),
+            _ => anyhow::bail!("--light-env cie-sky:{n}: the CIE standard general sky has types 1–15"),
+        }
+    }
+
+    /// Whether a flag only the CIE sky reads was given.
+    fn cie_flags(&self) -> bool {
+        self.sky_illuminance.is_some()
+            || self.zenith_luminance.is_some()
+            || self.sky_cct.is_some()
+            || self.sun_illuminance.is_some()
+            || self.sun_horizontal_illuminance.is_some()
+            || self.sun_spectrum.is_some()
+    }
+
+    /// The CIE sky of `--light-env cie-sky:N`, if asked for; its options without it are refused.
+    pub(crate) fn cie_sky(&self) -> anyhow::Result<Option<CieSkyOption>> {
+        let Some(sky_type) = self.cie_sky_type()? else {
+            anyhow::ensure!(!self.cie_flags(), "{} need --light-env cie-sky:N", CIE_FLAGS);
+            return Ok(None);
+        };
+        anyhow::ensure!(
+            self.turbidity.is_none() && !self.no_sun,
+            "--turbidity and --no-sun are the Preetham sky's: the CIE sky has a sun only with --sun-illuminance"
+        );
+        anyhow::ensure!(
+            self.env_intensity.is_none() && self.env_rotation.is_none(),
+            "--env-intensity and --env-rotation do not apply to the CIE sky: use --sky-illuminance or \
+             --zenith-luminance, and --sun-azimuth"
+        );
+        let default = CieSkyOption::default();
+        let sun_elevation_deg = self.sun_elevation.unwrap_or(default.sun_elevation_deg);
+        anyhow::ensure!(
+            (0.0..=90.0).contains(&sun_elevation_deg),
+            "--sun-elevation {sun_elevation_deg}: expected degrees in 0–90"
+        );
+        if let Some(a) = self.sun_azimuth {
+            anyhow::ensure!(a.is_finite(), "--sun-azimuth {a}: must be finite");
+        }
+        let positive = |flag: &str, v: f32| {
+            anyhow::ensure!(v.is_finite() && v >= 0.0, "{flag} {v}: must be finite and ≥ 0");
+            Ok(v)
+        };
+        let scale = match (self.sky_illuminance, self.zenith_luminance) {
+            (_, Some(l)) => CieSkyScale::ZenithNits(positive("--zenith-luminance", l)?),
+            (e, None) => {
+                CieSkyScale::DiffuseHorizontalLux(positive("--sky-illuminance", e.unwrap_or(CIE_SKY_DEFAULT_LUX))?)
+            }
+        };
+        let cct = self.sky_cct.unwrap_or(default.cct);
+        anyhow::ensure!((4000.0..=25000.0).contains(&cct), "--sky-cct {cct}: CIE daylight is defined for 4000–25000 K");
+        let sun = match (self.sun_illuminance, self.sun_horizontal_illuminance) {
+            (Some(e), _) => Some((positive("--sun-illuminance", e)?, false)),
+            (None, Some(e)) => {
+                anyhow::ensure!(
+                    sun_elevation_deg > 0.0,
+                    "--sun-horizontal-illuminance needs the sun above the horizon (--sun-elevation > 0)"
+                );
+                Some((positive("--sun-horizontal-illuminance", e)?, true))
+            }
+            (None, None) => {
+                anyhow::ensure!(self.sun_spectrum.is_none(), "--sun-spectrum needs --sun-illuminance");
+                None
+            }
+        };
+        let spectrum = self.sun_spectrum.clone().unwrap_or_else(|| "D55".to_owned());
+        if sun.is_some() {
+            colorimetry::Illuminant::parse(&spectrum).map_err(|e| anyhow::anyhow!("--sun-spectrum {spectrum}: {e}"))?;
+        }
+        Ok(Some(CieSkyOption {
+            sky_type,
+            sun_elevation_deg,
+            sun_azimuth_deg: self.sun_azimuth,
+            scale,
+            cct,
+            sun: sun.map(|(illuminance_lux, horizontal)| CieSunOption { illuminance_lux, horizontal, spectrum }),
+        }))
+    }
+
     /// The assembly's environment option (`--env FILE`, or `--light-env FILE`).
     pub(crate) fn option(&self) -> anyhow::Result<Option<EnvironmentOption>> {
         let path = match (&self.env, self.light_env.as_deref()) {
             (Some(path), _) => path.clone(),
-            (None, Some(value)) if !matches!(value, "none" | "uniform" | "sky") => std::path::PathBuf::from(value),
+            (None, Some(value)) if !matches!(value, "none" | "uniform" | "sky") && !value.starts_with("cie-sky:") => {
+                std::path::PathBuf::from(value)
+            }
             (None, Some("none" | "uniform")) => {
                 anyhow::ensure!(
                     self.env_intensity.is_none() && self.env_rotation.is_none(),

@@ -70,9 +70,11 @@ pub use render::{
 pub use spectral::{MAX_BINS, SpectralMode};
 
 // Scenes.
+pub use lights::cie_sky::CieSkyScale;
 pub use scene::summary::summarize;
 pub use scene::{
-    AssemblyOptions, CameraOptions, DefaultLights, EnvironmentOption, RenderScene, SkyOption, UpAxis, scene_is_spiky,
+    AssemblyOptions, CIE_SKY_DEFAULT_LUX, CameraOptions, CieSkyOption, CieSunOption, DefaultLights, EnvironmentOption,
+    RenderScene, SkyOption, UpAxis, scene_is_spiky,
 };
 
 // Films (parts of a render) and their files.

@@ -9,7 +9,9 @@
 //! row −Y, and along the horizon's row the left edge (u = 0) looks towards −Z, u = ¼ towards +X,
 //! the centre (u = ½) towards +Z and u = ¾ towards −X. `rotation_deg` turns the map about +Y
 //! (counter-clockwise seen from above: +Z turns towards +X). Lookups are nearest-texel, so the
-//! radiance is exactly the piecewise-constant function the density is built from.
+//! radiance is exactly the piecewise-constant function the density is built from; an analytic map
+//! (`from_luminance`, the CIE sky) evaluates its radiance per direction and keeps the table for the
+//! density only.
 //!
 //! Texels are linear Rec. 709 / sRGB primaries (the files' usual space); their luminance
 //! Y = 0.2126 R + 0.7152 G + 0.0722 B, times the light's `intensity`, is in nits. Each becomes
@@ -52,10 +54,15 @@ struct DaylightTexel {
     luminance: f32,
 }
 
-/// A map's texels: RGB from a file, or daylight spectra.
+/// A luminance (nits) per unit direction of a map's frame.
+pub(crate) type LuminanceFn = Box<dyn Fn(Vec3) -> f32 + Send + Sync>;
+
+/// A map's texels: RGB from a file, or daylight spectra; or no texels but one daylight spectrum of 1 nit
+/// (`unit`) times a luminance evaluated per direction (the CIE sky, `cie_sky.rs`).
 enum Texels {
     Rgb(Vec<Texel>),
     Daylight(Vec<DaylightTexel>),
+    Analytic { unit: DaylightTexel, luminance: LuminanceFn },
 }
 
 /// The CIE daylight basis S0, S1, S2 on the 1 nm grid of 360–830 nm, each with its relative luminance and
@@ -279,6 +286,56 @@ impl EnvironmentMap {
         })
     }
 
+    /// A map whose radiance along a direction is one daylight spectrum (`weights` on S0, S1, S2, of
+    /// luminance 1 nit) times `luminance` of that direction (a unit vector of the map's frame; nits, ≥ 0):
+    /// exact per direction, with no texels. Sampled ∝ luminance × sin θ by the table of `luminance` at
+    /// the centres of `width` × `height` texels (only the density is piecewise constant, so the table's
+    /// resolution changes noise, not the expectation); the mean, for power and white, is that table's.
+    pub(crate) fn from_luminance(
+        name: &str,
+        width: usize,
+        height: usize,
+        weights: [f64; 3],
+        luminance: LuminanceFn,
+    ) -> Result<Self> {
+        let fail = |reason: String| Error::EnvironmentMap { path: PathBuf::from(name), reason };
+        if width == 0 || height == 0 || width.saturating_mul(height) > MAX_TEXELS {
+            return Err(fail(format!("{width}×{height} sampling table")));
+        }
+        let basis = &*DAYLIGHT_BASIS;
+        let unit_luminance = (0..3).map(|i| weights[i] * basis.luminance[i]).sum::<f64>();
+        if !((unit_luminance - 1.0).abs() < 1e-6 && weights.iter().all(|w| w.is_finite())) {
+            return Err(fail(format!("daylight weights {weights:?} of luminance {unit_luminance}, not 1")));
+        }
+        let rgb = [0, 1, 2].map(|c| (0..3).map(|i| weights[i] * f64::from(basis.rgb[i][c])).sum::<f64>() as f32);
+        let unit = DaylightTexel { weights: weights.map(|w| w as f32), rgb, luminance: 1.0 };
+        let mut func = Vec::with_capacity(width * height);
+        let (mut mean, mut total) = (0.0f64, 0.0f64);
+        for row in 0..height {
+            let (sin_theta, solid_angle) = row_measure(row, width, height);
+            for column in 0..width {
+                let uv = Vec2::new((column as f32 + 0.5) / width as f32, (row as f32 + 0.5) / height as f32);
+                let l = luminance(Self::uv_to_direction(uv).0);
+                let l = if l.is_finite() && l > 0.0 { l } else { 0.0 };
+                func.push(l * sin_theta);
+                mean += f64::from(l) * solid_angle;
+                total += solid_angle;
+            }
+        }
+        let mean = mean / total;
+        Ok(Self {
+            path: PathBuf::from(name),
+            width,
+            height,
+            distribution: PiecewiseConstant2D::new(&func, width, height),
+            rotation: (0.0, 1.0),
+            mean_rgb: rgb.map(|c| f64::from(c) * mean),
+            mean_daylight: Some(weights.map(|w| w * mean)),
+            digest: 0,
+            texels: Texels::Analytic { unit, luminance },
+        })
+    }
+
     /// The spectrum of the map's mean radiance (what its power, the scene's white and the spectral
     /// choices are computed from): an RGB map's mean RGB as an illuminant spectrum (sigmoid × D65, so a
     /// constant map's mean is its texels' spectrum); a daylight map's mean weights on the daylight basis.
@@ -379,15 +436,18 @@ impl EnvironmentMap {
             out[..3].copy_from_slice(c);
             SampledSpectrum(out)
         };
-        let i = self.texel_index(w);
         match &self.texels {
             Texels::Rgb(texels) => {
-                let t = &texels[i];
+                let t = &texels[self.texel_index(w)];
                 if rgb { lanes(&t.rgb) } else { t.spectrum.sample(lambda) }
             }
             Texels::Daylight(texels) => {
-                let t = &texels[i];
+                let t = &texels[self.texel_index(w)];
                 if rgb { lanes(&t.rgb) } else { daylight_sample(t.weights, lambda) }
+            }
+            Texels::Analytic { unit, luminance } => {
+                let l = luminance(self.to_local(w)).max(0.0);
+                if rgb { lanes(&unit.rgb.map(|c| c * l)) } else { daylight_sample(unit.weights.map(|v| v * l), lambda) }
             }
         }
     }
@@ -395,10 +455,10 @@ impl EnvironmentMap {
     /// Luminance (nits) arriving from world direction `w`.
     #[cfg(test)]
     pub(crate) fn luminance(&self, w: Vec3) -> f32 {
-        let i = self.texel_index(w);
         match &self.texels {
-            Texels::Rgb(texels) => luminance(texels[i].rgb),
-            Texels::Daylight(texels) => texels[i].luminance,
+            Texels::Rgb(texels) => luminance(texels[self.texel_index(w)].rgb),
+            Texels::Daylight(texels) => texels[self.texel_index(w)].luminance,
+            Texels::Analytic { luminance, .. } => luminance(self.to_local(w)).max(0.0),
         }
     }
 

@@ -17,6 +17,7 @@ use geometry::{Primitive, Scene};
 use glam::{Vec2, Vec3};
 use materials::sampling::{cosine_hemisphere, uniform_sphere};
 
+pub(crate) mod cie_sky;
 pub(crate) mod envmap;
 pub(crate) mod sky;
 

@@ -348,4 +348,4 @@ const K_WA: [(f64, f64); 13] = [
 ];
 
 #[cfg(test)]
-mod tests;
+pub(super) mod tests;

@@ -14,6 +14,7 @@ use glam::{Vec2, Vec3};
 use materials::{Material, MaterialModel};
 
 use crate::error::{Error, Result};
+use crate::lights::cie_sky::{CIE_SKY_MAP_SIZE, CieSky, CieSkyScale};
 use crate::lights::envmap::EnvironmentMap;
 use crate::lights::{Emitters, Light, LightKind};
 use crate::material_desc::{
@@ -39,6 +40,9 @@ pub struct AssemblyOptions {
     /// The analytic daylight sky (`--light-env sky`): it replaces the file's environment and background
     /// like `environment` (which must then be `None`).
     pub sky: Option<SkyOption>,
+    /// The CIE standard general sky (`--light-env cie-sky:N`): it replaces the file's environment and
+    /// background like `sky` (`environment` and `sky` must then be `None`).
+    pub cie_sky: Option<CieSkyOption>,
     /// Read glTF transmission without `KHR_materials_volume` as thin walls everywhere, as the specification
     /// does (`--thin-glass`); by default such a material on a closed mesh is solid glass.
     pub thin_glass: bool,
@@ -65,6 +69,55 @@ impl Default for SkyOption {
     fn default() -> Self {
         Self { turbidity: 3.0, sun_elevation_deg: 45.0, sun_azimuth_deg: None, sun: true, intensity: 1.0 }
     }
+}
+
+/// `--light-env cie-sky:N`: one of the fifteen relative luminance distributions of the CIE standard
+/// general sky (ISO 15469:2004 / CIE S 011/E:2003), of CIE daylight at one CCT, in absolute units, with
+/// an optional sun (`docs/defaults.md`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CieSkyOption {
+    /// The standard's sky type, 1–15.
+    pub sky_type: u8,
+    /// Sun elevation above the horizon, degrees, 0–90 (it places the indicatrix even without a sun light).
+    pub sun_elevation_deg: f32,
+    /// Sun azimuth, degrees, in the environment maps' φ (0 towards −Z, 90 towards +X); `None`: the key
+    /// light's azimuth (behind, above and right of the camera), as for `--light-env sky`.
+    pub sun_azimuth_deg: Option<f32>,
+    /// The sky's absolute scale: its diffuse horizontal illuminance (lux) or its zenith luminance (nits).
+    pub scale: CieSkyScale,
+    /// Correlated colour temperature of the sky's CIE daylight spectrum, kelvin (4000–25000).
+    pub cct: f32,
+    /// The sun as a directional light, if any.
+    pub sun: Option<CieSunOption>,
+}
+
+impl Default for CieSkyOption {
+    fn default() -> Self {
+        Self {
+            sky_type: 5,
+            sun_elevation_deg: 45.0,
+            sun_azimuth_deg: None,
+            scale: CieSkyScale::DiffuseHorizontalLux(CIE_SKY_DEFAULT_LUX),
+            cct: 6500.0,
+            sun: None,
+        }
+    }
+}
+
+/// The default diffuse horizontal illuminance of `--light-env cie-sky:N`, lux: a bright overcast day
+/// (CIE 110-1994's overcast-sky diffuse illuminances run from about 5 to 30 klx at mid solar elevations).
+pub const CIE_SKY_DEFAULT_LUX: f32 = 10_000.0;
+
+/// The sun beside a CIE sky: a directional light (the 0.53° disc treated as a direction, as the Preetham
+/// sky's sun) of a given illuminance and spectrum.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CieSunOption {
+    /// Its illuminance, lux: at normal incidence (`horizontal` false) or on a horizontal plane.
+    pub illuminance_lux: f32,
+    /// Whether `illuminance_lux` is on a horizontal plane (E_v = E_vn sin elevation) rather than normal.
+    pub horizontal: bool,
+    /// Its spectrum: an illuminant name (`D55`, `D5800`, `bb5778`, …; `colorimetry::Illuminant::parse`).
+    pub spectrum: String,
 }
 
 /// The lights assembly may add to a scene's own (`docs/defaults.md`, "Lights"; decided in
@@ -289,8 +342,9 @@ impl RenderScene {
         let (camera, camera_source) = (chosen.desc, chosen.source);
         let auto_integrator = auto_integrator(&settings)?;
         // glTF lights are KHR_lights_punctual: candela (point, spot) and lux (directional).
-        let photometric_lights =
-            (format == geometry::SceneFormat::Gltf && !light_descs.is_empty()) || options.sky.is_some();
+        let photometric_lights = (format == geometry::SceneFormat::Gltf && !light_descs.is_empty())
+            || options.sky.is_some()
+            || options.cie_sky.is_some();
         let resolution = image_size(&camera, None, None);
 
         let sky_lights =
@@ -678,6 +732,62 @@ fn sky_lights(sky: &SkyOption, camera: &CameraDesc, lit: bool) -> Result<(Vec<Li
     Ok((lights, descs, note))
 }
 
+/// The lights of `--light-env cie-sky:N`: the sky as an analytic environment map and, if asked for, the sun
+/// as a directional light (no key light: the standard sky is the scene's light, in absolute units); their
+/// descriptions (for `info`) and a note.
+fn cie_sky_lights(cie: &CieSkyOption, camera: &CameraDesc) -> Result<(Vec<Light>, Vec<LightDesc>, String)> {
+    let fail = |reason: String| Error::EnvironmentMap { path: PathBuf::from("--light-env cie-sky"), reason };
+    let towards_key = towards_key_light(camera);
+    let azimuth = cie.sun_azimuth_deg.unwrap_or_else(|| towards_key.x.atan2(-towards_key.z).to_degrees());
+    let model = CieSky::new(cie.sky_type, cie.sun_elevation_deg, azimuth, cie.scale).map_err(fail)?;
+    let (width, height) = CIE_SKY_MAP_SIZE;
+    let map = model.environment_map(f64::from(cie.cct), width, height)?;
+    let horizontal = model.horizontal_illuminance();
+    let zenith = model.zenith_luminance();
+    let sky_desc = LightDesc::Environment {
+        spectrum: SpectrumDesc::Named(format!(
+            "CIE sky type {} D{} sun {}° at azimuth {azimuth:.1}°",
+            cie.sky_type, cie.cct, cie.sun_elevation_deg
+        )),
+        intensity: LightAmount { value: zenith as f32, unit: LightUnit::Nit },
+        map: None,
+    };
+    let mut lights = vec![Light::environment_map(map)];
+    let mut descs = vec![sky_desc];
+    let mut note = format!(
+        "--light-env cie-sky:{}: CIE standard general sky type {}, CIE daylight of {} K, the sun {}° above the horizon at azimuth {azimuth:.1}°; zenith {zenith:.0} nits, {horizontal:.0} lux on a horizontal plane",
+        cie.sky_type, cie.sky_type, cie.cct, cie.sun_elevation_deg
+    );
+    if let Some(sun) = &cie.sun {
+        let sin_elevation = f64::from(cie.sun_elevation_deg).to_radians().sin();
+        let normal = if sun.horizontal {
+            if !(sin_elevation > 1e-6) {
+                return Err(fail("a horizontal sun illuminance needs the sun above the horizon".to_owned()));
+            }
+            f64::from(sun.illuminance_lux) / sin_elevation
+        } else {
+            f64::from(sun.illuminance_lux)
+        };
+        if !(normal.is_finite() && normal >= 0.0) {
+            return Err(fail(format!("sun illuminance {} must be finite and ≥ 0", sun.illuminance_lux)));
+        }
+        colorimetry::Illuminant::parse(&sun.spectrum).map_err(|e| fail(format!("sun spectrum: {e}")))?;
+        let desc = LightDesc::Directional {
+            direction: -model.sun_direction(),
+            spectrum: SpectrumDesc::Named(sun.spectrum.clone()),
+            intensity: LightAmount { value: normal as f32, unit: LightUnit::Lux },
+        };
+        lights.push(light_from_desc(&desc).map_err(|source| Error::Spectrum { what: "the sun", source })?);
+        descs.push(desc);
+        note.push_str(&format!(
+            "; the sun (a directional light, {}) {normal:.0} lux at normal incidence, {:.0} lux on a horizontal plane",
+            sun.spectrum,
+            normal * sin_elevation
+        ));
+    }
+    Ok((lights, descs, note))
+}
+
 /// MikkTSpace tangents for every mesh whose material has a normal map or is anisotropic
 /// (`KHR_materials_anisotropy`, whose direction is given in tangent space) and whose file gives no
 /// `TANGENT` (`tangents.rs`), charged to the scene's memory budget (16 bytes per vertex, and each
@@ -872,6 +982,18 @@ fn replace_environment(
             intensity: LightAmount { value: env.intensity, unit: LightUnit::Nit },
             map: Some(EnvironmentMapDesc { path: env.path.clone(), rotation_deg: env.rotation_deg }),
         });
+    }
+    if let Some(cie) = &options.cie_sky {
+        if options.environment.is_some() || options.sky.is_some() {
+            return Err(Error::EnvironmentMap {
+                path: PathBuf::from("--light-env cie-sky"),
+                reason: "the CIE sky cannot light a scene beside an environment map or the Preetham sky".to_owned(),
+            });
+        }
+        let replaced = drop_environments(light_descs, background);
+        let (added, descs, note) = cie_sky_lights(cie, camera)?;
+        warnings.push(format!("{note}{replaced}"));
+        return Ok(Some((added, descs)));
     }
     Ok(match &options.sky {
         Some(_) if options.environment.is_some() => {

@@ -13,7 +13,10 @@ pub(crate) mod summary;
 pub(crate) mod survey;
 pub(crate) mod tangents;
 
-pub use assembly::{AssemblyOptions, DefaultLights, EnvironmentOption, RenderScene, SkyOption};
+pub use assembly::{
+    AssemblyOptions, CIE_SKY_DEFAULT_LUX, CieSkyOption, CieSunOption, DefaultLights, EnvironmentOption, RenderScene,
+    SkyOption,
+};
 pub use camera::{CameraOptions, UpAxis};
 
 /// Spikiness (see `materials::spikiness`) above which a spectrum counts as a line spectrum

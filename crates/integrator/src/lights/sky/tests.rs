@@ -42,7 +42,7 @@ fn perez_function_matches_hand_values() {
 
 /// Luminance (nits) of the map's spectrum seen along `d`: Σ L(λ) ȳ(λ) / Σ ȳ at 1 nm, the spectrum the
 /// path tracer's lanes see (its `eval`), 16 wavelengths at a time.
-fn map_luminance(map: &EnvironmentMap, d: Vec3) -> f64 {
+pub(in crate::lights) fn map_luminance(map: &EnvironmentMap, d: Vec3) -> f64 {
     let cmf = &colorimetry::Observer::Cie1931.cmf().y;
     let mut sum = 0.0;
     let lambdas: Vec<f32> = (360..=830).map(|l| l as f32).collect();
