@@ -36,10 +36,7 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
     args.load.check_scene(args.scene.as_deref())?;
     // The size a render with the same flags would frame a default view for.
     let mut assembly = args.camera.assembly((args.width, args.height));
-    assembly.environment = args.env.option()?;
-    assembly.default_lights = args.env.default_lights()?;
-    assembly.sky = args.env.sky()?;
-    assembly.cie_sky = args.env.cie_sky()?;
+    args.env.apply(&mut assembly)?;
     let (desc, scene) = match &args.scene {
         Some(path) => {
             // Loader errors name the file (and line) themselves.

@@ -85,9 +85,7 @@ pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
         integrator::check_outputs_spare_inputs(&[output], &inputs)?;
     }
     let mut assembly = args.camera.assembly((None, None));
-    assembly.environment = args.env.option()?;
-    assembly.default_lights = args.env.default_lights()?;
-    assembly.sky = args.env.sky()?;
+    args.env.apply(&mut assembly)?;
     let scene = match &args.scene {
         Some(path) => {
             let desc = geometry::load_scene_with(path, &args.load.options())?;

@@ -477,10 +477,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
     integrator::check_distinct_outputs(&paths).map_err(explain)?;
 
     let mut assembly = args.camera.assembly((args.width, args.height));
-    assembly.environment = args.env.option()?;
-    assembly.default_lights = args.env.default_lights()?;
-    assembly.sky = args.env.sky()?;
-    assembly.cie_sky = args.env.cie_sky()?;
+    args.env.apply(&mut assembly)?;
     let scene = match &args.scene {
         // Scene errors name the file (and line) themselves.
         Some(path) => RenderScene::load_with_options(path, &args.load.options(), &assembly)?,

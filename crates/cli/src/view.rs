@@ -166,6 +166,15 @@ pub(crate) struct EnvArgs {
 }
 
 impl EnvArgs {
+    /// The lights these flags ask for, set on `assembly` (what `render`, `info` and `measure` share).
+    pub(crate) fn apply(&self, assembly: &mut AssemblyOptions) -> anyhow::Result<()> {
+        assembly.environment = self.option()?;
+        assembly.default_lights = self.default_lights()?;
+        assembly.sky = self.sky()?;
+        assembly.cie_sky = self.cie_sky()?;
+        Ok(())
+    }
+
     /// Which default lights the assembly may add.
     pub(crate) fn default_lights(&self) -> anyhow::Result<DefaultLights> {
         Ok(match (self.no_default_lights, self.light_env.as_deref()) {
