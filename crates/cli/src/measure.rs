@@ -35,6 +35,10 @@ pub(crate) struct MeasureArgs {
     /// [default: standard output].
     #[arg(short, long, value_name = "CSV")]
     output: Option<PathBuf>,
+    /// With --grid: also write the grid's illuminance in false colour on a logarithmic scale, with a
+    /// legend in lux, as a PNG.
+    #[arg(long, value_name = "FILE.png", requires = "grid")]
+    false_color: Option<PathBuf>,
     /// Exactly N samples per point (otherwise each point samples to --target-error).
     #[arg(long, value_name = "N", conflicts_with = "target_error")]
     spp: Option<u32>,
@@ -74,6 +78,9 @@ pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
         (None, Some(spec)) => grid_points(spec)?,
         (None, None) => bail!("give --points CSV or --grid SPEC"),
     };
+    if args.false_color.is_some() && args.output.is_none() {
+        bail!("--false-color goes with -o OUT.csv (the CSV is the measurement; the picture shows it)");
+    }
     if let Some(output) = &args.output {
         let mut inputs: Vec<(&Path, &str)> = Vec::new();
         if let Some(p) = &args.points {
@@ -82,7 +89,8 @@ pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
         if let Some(s) = &args.scene {
             inputs.push((s, "the scene file"));
         }
-        integrator::check_outputs_spare_inputs(&[output], &inputs)?;
+        let outputs: Vec<&Path> = [Some(output.as_path()), args.false_color.as_deref()].into_iter().flatten().collect();
+        integrator::check_outputs_spare_inputs(&outputs, &inputs)?;
     }
     let mut assembly = args.camera.assembly((None, None));
     args.env.apply(&mut assembly)?;
@@ -150,9 +158,22 @@ pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
         );
     }
     let text = to_csv(&points, &results);
-    match &args.output {
-        Some(path) => integrator::write_bytes_atomically(path, text.as_bytes())?,
-        None => crate::write_stdout(&text)?,
+    match (&args.output, &args.false_color, &args.grid) {
+        (Some(csv), Some(png), Some(spec)) => {
+            let (nu, nv) = grid_size(spec)?;
+            // Rows of the picture run along V from the far edge, so V points up as on a plan.
+            let values: Vec<f32> = (0..nv)
+                .rev()
+                .flat_map(|j| (0..nu).map(move |i| j * nu + i))
+                .map(|k| results[k].illuminance as f32)
+                .collect();
+            let cell = (512 / nu.max(nv)).max(1);
+            let picture =
+                integrator::false_color_png(&values, nu, nv, cell, None, "lux").map_err(anyhow::Error::msg)?;
+            integrator::write_files_atomically(&[(csv, text.as_bytes()), (png, &picture)])?;
+        }
+        (Some(path), ..) => integrator::write_bytes_atomically(path, text.as_bytes())?,
+        (None, ..) => crate::write_stdout(&text)?,
     }
     Ok(())
 }
@@ -258,6 +279,15 @@ fn split_csv(line: &str) -> Vec<String> {
     }
     fields.push(field);
     fields
+}
+
+/// The cell counts (NU, NV) of a `--grid` that [`grid_points`] read.
+fn grid_size(spec: &str) -> anyhow::Result<(usize, usize)> {
+    let v: Vec<f64> = spec.split(',').map(|s| s.trim().parse::<f64>()).collect::<Result<_, _>>()?;
+    match v.as_slice() {
+        [.., nu, nv] => Ok((*nu as usize, *nv as usize)),
+        _ => bail!("--grid {spec}: expected 11 numbers"),
+    }
 }
 
 /// The sensors of `--grid CORNER,U,V,NU,NV` (11 numbers).

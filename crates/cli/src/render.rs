@@ -80,6 +80,14 @@ pub(crate) struct RenderArgs {
     /// and per 8×8 tile (`deltaE00.tile`), and the samples taken (`spp`).
     #[arg(help_heading = "Output", long, value_name = "FILE.exr")]
     error_map: Option<PathBuf>,
+    /// Also write the luminance (cd/m² with photometric lights) in false colour on a logarithmic scale,
+    /// with a legend, as a PNG (Radiance's `falsecolor -log`).
+    #[arg(help_heading = "Output", long, value_name = "FILE.png")]
+    false_color: Option<PathBuf>,
+    /// The false-colour scale's ends in cd/m² [default: the four decades below the power of ten at or
+    /// above the image's 99.9th percentile].
+    #[arg(help_heading = "Output", long, value_name = "LO,HI", requires = "false_color", value_parser = parse_luminance_range)]
+    false_color_range: Option<(f32, f32)>,
     /// No progress bar or notes on stderr.
     #[arg(help_heading = "Output", short, long)]
     quiet: bool,
@@ -469,6 +477,12 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
         plan.add_error_map(path).map_err(explain)?;
     }
+    if let Some(path) = &args.false_color {
+        if image_path.is_none() {
+            anyhow::bail!("--false-color goes with an image (-o)");
+        }
+        plan.add_false_color(path, args.false_color_range).map_err(explain)?;
+    }
     let mut paths: Vec<&Path> = plan.outputs.iter().map(|o| o.path.as_path()).collect();
     paths.extend(parts.film.as_deref());
     if parts.checkpoint != parts.film {
@@ -766,4 +780,12 @@ fn png_path(output: &Path) -> anyhow::Result<PathBuf> {
         Some(ext) if ext.eq_ignore_ascii_case("exr") => Ok(output.with_extension("png")),
         _ => anyhow::bail!("{}: the output must end in .exr (a .png is written beside it)", output.display()),
     }
+}
+
+/// `LO,HI`: two numbers.
+fn parse_luminance_range(s: &str) -> Result<(f32, f32), String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    let [lo, hi] = parts.as_slice() else { return Err(format!("expected LO,HI, got {s:?}")) };
+    let number = |t: &str| t.trim().parse::<f32>().map_err(|e| format!("{t:?}: {e}"));
+    Ok((number(lo)?, number(hi)?))
 }

@@ -19,6 +19,17 @@ pub fn write_bytes_atomically(path: &Path, bytes: &[u8]) -> Result<()> {
     write_all_or_nothing(&[(path, Box::new(|w: &mut BufWriter<File>| w.write_all(bytes).map_err(|e| e.to_string())))])
 }
 
+/// Write each `(path, bytes)`, all or nothing ([`write_all_or_nothing`]).
+pub fn write_files_atomically(files: &[(&Path, &[u8])]) -> Result<()> {
+    let encoders: Vec<(&Path, Encoder<'_>)> = files
+        .iter()
+        .map(|&(path, bytes)| -> (&Path, Encoder<'_>) {
+            (path, Box::new(move |w: &mut BufWriter<File>| w.write_all(bytes).map_err(|e| e.to_string())))
+        })
+        .collect();
+    write_all_or_nothing(&encoders)
+}
+
 /// Every file to a temporary beside it, checked and fsynced; then, only when all succeeded,
 /// each renamed into place. On an error every temporary is removed and nothing is renamed.
 pub(crate) fn write_all_or_nothing(files: &[(&Path, Encoder<'_>)]) -> Result<()> {

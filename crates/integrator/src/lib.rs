@@ -83,8 +83,11 @@ pub use film::file::{FILM_MAGIC, FILM_VERSION, FilmFile, FilmHeader, Merged, Mer
 pub use film::{Film, ObjectId};
 
 // Images and their files.
-pub use files::{check_distinct_outputs, check_outputs_spare_inputs, remove_pending_outputs, write_bytes_atomically};
+pub use files::{
+    check_distinct_outputs, check_outputs_spare_inputs, remove_pending_outputs, write_bytes_atomically,
+    write_files_atomically,
+};
 pub use output::{
     Display, EXR_VIEW_ATTRIBUTE, Exposure, Image, MIDDLE_GREY, OutputFile, OutputKind, OutputPlan, Tonemap, View,
-    ViewPlan, auto_exposure_ev, auto_exposure_ev_of, pbr_neutral,
+    ViewPlan, auto_exposure_ev, auto_exposure_ev_of, false_color_png, pbr_neutral,
 };

@@ -84,6 +84,8 @@ pub struct Image {
     pub(crate) error: Option<(ErrorEstimate, Vec<u32>)>,
     /// How the PNG shows it (exposure, tone curve); recorded in the EXR's header when not the identity.
     pub(crate) view: View,
+    /// The false-colour picture's luminance range (lo, hi); `None`: chosen from the image.
+    pub(crate) false_color_range: Option<(f32, f32)>,
 }
 
 /// What [`Image::set_sample_statistics`] keeps of a film.
@@ -115,6 +117,7 @@ impl Image {
             sample_stats: None,
             error: None,
             view: View::default(),
+            false_color_range: None,
         }
     }
 

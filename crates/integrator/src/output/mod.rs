@@ -10,6 +10,8 @@ use crate::files::{Encoder, check_distinct_outputs, write_all_or_nothing};
 use crate::film::Film;
 
 pub(crate) mod developed;
+mod false_color;
+pub use false_color::false_color_png;
 pub(crate) mod view;
 
 pub use developed::{Display, Image, auto_exposure_ev, auto_exposure_ev_of};
@@ -30,6 +32,9 @@ pub enum OutputKind {
     /// Each pixel's estimated error as an OpenEXR: ΔE00 per pixel (`deltaE00`), per tile
     /// (`deltaE00.tile`) and the samples taken (`spp`) ([`Image::set_error_estimate`]).
     ErrorMap,
+    /// Luminance in false colour on a logarithmic scale, with a legend: an 8-bit PNG
+    /// ([`OutputPlan::add_false_color`]).
+    FalseColor,
 }
 
 /// One file to write: where, and what.
@@ -54,6 +59,8 @@ pub struct OutputPlan {
     variance: bool,
     /// Whether the image keeps the film's error estimate (an [`OutputKind::ErrorMap`] output).
     error_map: bool,
+    /// The luminance range of an [`OutputKind::FalseColor`] output (`None`: from the image).
+    false_color_range: Option<(f32, f32)>,
 }
 
 impl OutputPlan {
@@ -89,7 +96,7 @@ impl OutputPlan {
         }
         let paths: Vec<&Path> = outputs.iter().map(|o| o.path.as_path()).collect();
         check_distinct_outputs(&paths)?;
-        Ok(Self { outputs, view, variance: variance.is_some(), error_map: false })
+        Ok(Self { outputs, view, variance: variance.is_some(), error_map: false, false_color_range: None })
     }
 
     /// Also write the film's error estimate to `path` (`--error-map`), checked like the others.
@@ -104,6 +111,32 @@ impl OutputPlan {
         Ok(())
     }
 
+    /// Also write the luminance in false colour to `path` (`--false-color`, a .png), on the scale from
+    /// `range`'s lo to hi (cd/m²; both > 0, lo < hi) or, without one, the four decades below the power of
+    /// ten at or above the image's 99.9th percentile.
+    pub fn add_false_color(&mut self, path: &Path, range: Option<(f32, f32)>) -> Result<()> {
+        if !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+            return Err(Error::Write {
+                path: path.to_owned(),
+                message: "the false-colour image must end in .png".to_owned(),
+            });
+        }
+        if let Some((lo, hi)) = range
+            && !(lo > 0.0 && hi > lo && hi.is_finite())
+        {
+            return Err(Error::InvalidOption {
+                option: "false-colour range",
+                value: format!("{lo},{hi}"),
+                expected: "LO,HI with 0 < LO < HI (cd/m²)",
+            });
+        }
+        self.outputs.push(OutputFile { path: path.to_owned(), kind: OutputKind::FalseColor });
+        let paths: Vec<&Path> = self.outputs.iter().map(|o| o.path.as_path()).collect();
+        check_distinct_outputs(&paths)?;
+        self.false_color_range = range;
+        Ok(())
+    }
+
     /// The image of `film` (its pixels holding samples from index `first` on) as these outputs
     /// show it, and the view its PNG takes (auto-exposure resolved on this image).
     pub fn develop(&self, film: &Film, first: u32) -> (Image, View) {
@@ -113,6 +146,7 @@ impl OutputPlan {
         }
         let view = self.view.view_for(&image);
         image.set_view(view);
+        image.false_color_range = self.false_color_range;
         if self.error_map {
             // Judged as the PNG shows it: at the view's exposure.
             image.set_error_estimate(film, f64::from(view.ev).exp2(), first);
@@ -179,7 +213,19 @@ impl Image {
             OutputKind::SpectralExr => self.encode_spectral_exr(w),
             OutputKind::Variance => self.encode_variance_exr(w),
             OutputKind::ErrorMap => self.encode_error_exr(w),
+            OutputKind::FalseColor => self.encode_false_color(w),
         }
+    }
+
+    fn encode_false_color<W: Write>(&self, w: &mut W) -> std::result::Result<(), String> {
+        use image::ImageEncoder as _;
+        let y: Vec<f32> = self.xyz.iter().map(|p| p[1]).collect();
+        let range = false_color::scale_range(&y, self.false_color_range);
+        let (rgb, width, height) =
+            false_color::false_color(&y, self.width as usize, self.height as usize, range, "nits");
+        image::codecs::png::PngEncoder::new(w)
+            .write_image(&rgb, width as u32, height as u32, image::ExtendedColorType::Rgb8)
+            .map_err(|e| e.to_string())
     }
 
     fn encode_error_exr<W: Write + Seek>(&self, w: &mut W) -> std::result::Result<(), String> {
