@@ -598,6 +598,23 @@ pub enum LightDesc {
         /// Illuminance on a surface facing the light (lux, W/m²).
         intensity: LightAmount,
     },
+    /// A luminaire: a point light whose luminous intensity per direction is a measured goniometric web
+    /// (an IES LM-63 or EULUMDAT file), oriented by its nadir and C0 plane. A variant of its own rather than
+    /// an option of `Point`, so every exhaustive match has to say what a web means to it.
+    Luminaire {
+        /// World position (the photometric centre).
+        position: Vec3,
+        /// Unit direction of the luminaire's nadir (γ = 0).
+        direction: Vec3,
+        /// Unit direction in the luminaire's C0 half-plane, perpendicular to `direction`.
+        up: Vec3,
+        /// Emission spectrum: its colour only (normalised to luminance 1, unless absolute).
+        spectrum: SpectrumDesc,
+        /// A plain factor on the file's candela (`intensity`, default 1).
+        scale: f32,
+        /// The file's web.
+        web: PhotometricWeb,
+    },
     /// Environment illuminating the scene from all directions: uniform, or an image (`map`).
     Environment {
         /// Emission spectrum (uniform environment; a map's texels give its colour instead).
@@ -607,6 +624,50 @@ pub enum LightDesc {
         /// An equirectangular image giving the radiance per direction, if any.
         map: Option<EnvironmentMapDesc>,
     },
+}
+
+/// Which half of the C planes a goniometric web gives, the rest following by symmetry (LM-63's last
+/// horizontal angle; EULUMDAT's `Isym`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WebSymmetry {
+    /// Every plane given (C from 0 up to 360).
+    None,
+    /// One plane: the same in every C plane.
+    Rotational,
+    /// Planes C0 to C180, mirrored about the C0–C180 plane: I(C) = I(360° − C).
+    C0C180,
+    /// Planes C90 to C270, mirrored about the C90–C270 plane: I(C) = I(180° − C).
+    C90C270,
+    /// Planes C0 to C90, mirrored about both: I(C) = I(180° − C) = I(360° − C).
+    Quadrant,
+}
+
+/// Which format a goniometric web was read from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PhotometricFormat {
+    /// IES LM-63 (1986 to 2019), type C photometry.
+    Ies,
+    /// EULUMDAT (`.ldt`).
+    Ldt,
+}
+
+/// A luminaire's goniometric web as its file gives it, in candela after the file's multipliers: intensities
+/// at the C planes the file lists (`c_deg`, within 0–360°) and vertical angles γ from the nadir (`gamma_deg`,
+/// within 0–180°), both strictly increasing. The renderer expands the symmetry and interpolates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhotometricWeb {
+    /// The file, resolved against the scene file's folder.
+    pub path: PathBuf,
+    /// IES or LDT.
+    pub format: PhotometricFormat,
+    /// Which planes follow by symmetry.
+    pub symmetry: WebSymmetry,
+    /// The C planes given, degrees.
+    pub c_deg: Vec<f32>,
+    /// The vertical angles, degrees from the nadir.
+    pub gamma_deg: Vec<f32>,
+    /// Candela, plane by plane: `candela[c * gamma_deg.len() + g]`, finite and ≥ 0.
+    pub candela: Vec<f32>,
 }
 
 /// An equirectangular (latitude–longitude) environment image, as a scene file names it: decoded by the
@@ -625,6 +686,7 @@ impl LightDesc {
         match self {
             Self::Point { .. } => "point",
             Self::Spot { .. } => "spot",
+            Self::Luminaire { .. } => "luminaire",
             Self::Directional { .. } => "directional",
             Self::Environment { .. } => "environment",
         }
@@ -635,6 +697,7 @@ impl LightDesc {
         match self {
             Self::Point { spectrum, .. }
             | Self::Spot { spectrum, .. }
+            | Self::Luminaire { spectrum, .. }
             | Self::Directional { spectrum, .. }
             | Self::Environment { spectrum, .. } => spectrum,
         }

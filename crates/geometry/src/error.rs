@@ -128,6 +128,16 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// A photometric file (IES LM-63, EULUMDAT) that cannot be read as a goniometric web.
+    #[error("{}{}: {message}", path.display(), line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Photometric {
+        /// The `.ies` or `.ldt` file.
+        path: PathBuf,
+        /// 1-based line number, where the fault has one.
+        line: Option<usize>,
+        /// What is wrong.
+        message: String,
+    },
     /// Geometry read from a file was rejected by the mesh constructor.
     #[error("{}: {context}: {cause}", path.display())]
     InvalidGeometry {

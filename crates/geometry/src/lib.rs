@@ -60,11 +60,13 @@ mod load;
 mod manifest;
 mod obj_loader;
 mod overrides;
+mod photometry;
 mod prefilter;
 pub use desc::{
     AbsorptionDesc, AlphaMode, AnisotropyLayer, CameraDesc, Clearcoat, EnvironmentMapDesc, ImageDesc, IorDesc,
-    LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, MaterialTextures, Projection, SceneDescription,
-    SceneFormat, Settings, SheenLayer, SpectrumDesc, SpecularLayer, TextureDesc, TextureTransform, WrapMode,
+    LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, MaterialTextures, PhotometricFormat,
+    PhotometricWeb, Projection, SceneDescription, SceneFormat, Settings, SheenLayer, SpectrumDesc, SpecularLayer,
+    TextureDesc, TextureTransform, WebSymmetry, WrapMode,
 };
 pub use hash::xxh64;
 pub use limits::{DEFAULT_FLATTEN_TRIANGLES, DEFAULT_MAX_MEMORY, LoadOptions, MAX_COORDINATE, MemoryBudget};

@@ -27,6 +27,18 @@ pub const MAX_COORDINATE: f32 = 1e18;
 /// ≈ 50 KB; 16 MiB leaves room for any measured data while keeping the CSV parser's working set small.
 pub(crate) const MAX_SPECTRUM_FILE_BYTES: u64 = 16 << 20;
 
+/// Largest photometric file (IES, LDT) a scene may refer to. A full 0.5° web (721 × 361 values) written
+/// as text is ≈ 2 MB; real files are a few KB to a few hundred.
+pub(crate) const MAX_PHOTOMETRIC_FILE_BYTES: u64 = 8 << 20;
+
+/// Most intensities a goniometric web may have (C planes × vertical angles, after its symmetry is
+/// expanded): a full 0.25° web is ≈ 1.04 M; checked on the counts a file claims, before anything is allocated.
+pub(crate) const MAX_WEB_VALUES: u64 = 1 << 21;
+
+/// Memory charged per intensity of a web: the value and its angles as read (≈ 12 B), the renderer's
+/// expanded copy and its sampling distribution (≈ 20 B, and as much again of headroom).
+pub(crate) const BYTES_PER_WEB_VALUE: u64 = 64;
+
 /// Memory charged per triangle that reaches the renderer: its indices in the mesh (12 B), what the
 /// scene keeps of it (≈ 60 B: its share of the wide nodes and of the leaves, a 40-byte single or a
 /// share of a 160-byte four-triangle packet), and the build's transient peak (padded bounds, obvhs's

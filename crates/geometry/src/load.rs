@@ -246,6 +246,12 @@ fn transform_light(light: LightDesc, m: Mat4) -> LightDesc {
         LightDesc::Directional { direction, spectrum, intensity } => {
             LightDesc::Directional { direction: dir(direction), spectrum, intensity }
         }
+        LightDesc::Luminaire { position, direction, up, spectrum, scale, web } => {
+            let direction = dir(direction);
+            // Kept perpendicular to the nadir (a shear would tilt it); the old C0 if the transform folds it onto it.
+            let up = dir(up).reject_from_normalized(direction).try_normalize().unwrap_or(up);
+            LightDesc::Luminaire { position: m.transform_point3(position), direction, up, spectrum, scale, web }
+        }
         env @ LightDesc::Environment { .. } => env,
     }
 }

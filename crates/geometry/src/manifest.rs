@@ -17,7 +17,8 @@ use crate::desc::{
 };
 use crate::error::{Error, Result};
 use crate::forms::{Ctx, absorption, ior, number, spectrum, unknown_key};
-use crate::limits::{Budget, check_coordinates};
+use crate::limits::{Budget, MAX_PHOTOMETRIC_FILE_BYTES, check_coordinates};
+use crate::photometry;
 use crate::shapes::{Mesh, Sphere};
 
 #[derive(Deserialize)]
@@ -78,6 +79,12 @@ enum LightJson {
         #[serde(default = "one")]
         intensity: f32,
         unit: Option<String>,
+        /// A photometric file (`.ies`, `.ldt`) relative to the manifest: the light becomes a luminaire.
+        ies: Option<String>,
+        /// A luminaire's nadir (default straight down); only with `ies`.
+        direction: Option<[f32; 3]>,
+        /// A direction in a luminaire's C0 plane; only with `ies`.
+        up: Option<[f32; 3]>,
     },
     Spot {
         position: [f32; 3],
@@ -316,7 +323,7 @@ pub(crate) fn parse(
     desc.camera = json.camera.map(|c| camera(&ctx, c)).transpose()?;
     desc.cameras = desc.camera.iter().map(|c| ("camera".to_owned(), c.clone())).collect();
     for (i, light) in json.lights.into_iter().enumerate() {
-        desc.lights.push(light_desc(&ctx, &format!("lights[{i}]"), light)?);
+        desc.lights.push(light_desc(&ctx, &format!("lights[{i}]"), light, &mut desc.warnings)?);
     }
     if let Some(bg) = &json.background {
         desc.background = Some(background(&ctx, bg)?);
@@ -462,14 +469,51 @@ fn intensity(ctx: &Ctx<'_>, context: &str, v: f32, unit: Option<&str>, allowed: 
 /// Units of point and spot lights, the default first.
 const POINT_UNITS: &[LightUnit] = &[LightUnit::Candela, LightUnit::Lumen, LightUnit::Watt];
 
-fn light_desc(ctx: &Ctx<'_>, context: &str, light: LightJson) -> Result<LightDesc> {
+fn light_desc(ctx: &Ctx<'_>, context: &str, light: LightJson, warnings: &mut Vec<String>) -> Result<LightDesc> {
     let spec = |v: &Value| spectrum(ctx, &format!("{context}.spectrum"), v);
     Ok(match light {
-        LightJson::Point { position, spectrum, intensity: i, unit } => LightDesc::Point {
-            position: ctx.vec3(&format!("{context}.position"), position)?,
-            spectrum: spec(&spectrum)?,
-            intensity: intensity(ctx, context, i, unit.as_deref(), POINT_UNITS)?,
-        },
+        LightJson::Point { position, spectrum, intensity: i, unit, ies: None, direction, up } => {
+            if let Some(key) = [("direction", direction.is_some()), ("up", up.is_some())].iter().find(|k| k.1) {
+                return Err(ctx.err(format!("{context}.{}", key.0), "orients a luminaire: only with `ies`"));
+            }
+            LightDesc::Point {
+                position: ctx.vec3(&format!("{context}.position"), position)?,
+                spectrum: spec(&spectrum)?,
+                intensity: intensity(ctx, context, i, unit.as_deref(), POINT_UNITS)?,
+            }
+        }
+        LightJson::Point { position, spectrum, intensity: i, unit, ies: Some(file), direction, up } => {
+            if unit.is_some() {
+                return Err(ctx.err(
+                    format!("{context}.unit"),
+                    "a luminaire's file gives its candela; `intensity` is a plain factor on them (remove `unit`)",
+                ));
+            }
+            let scale = intensity(ctx, context, i, None, POINT_UNITS)?.value;
+            let direction = ctx.unit(&format!("{context}.direction"), direction.unwrap_or([0.0, -1.0, 0.0]))?;
+            // The default C0 plane: towards +Z, or +X for a luminaire aimed along Z.
+            let default_up = if direction.z.abs() < 0.999 { [0.0, 0.0, 1.0] } else { [1.0, 0.0, 0.0] };
+            let up = ctx.unit(&format!("{context}.up"), up.unwrap_or(default_up))?;
+            let up =
+                up.reject_from_normalized(direction).try_normalize().filter(|_| up.cross(direction).length() > 1e-3);
+            let up = up.ok_or_else(|| ctx.err(format!("{context}.up"), "must not be parallel to `direction`"))?;
+            let path = ctx.budget.resolve(Path::new(ctx.origin), ctx.base_dir, &file)?;
+            ctx.budget.check_file(Path::new(ctx.origin), &path, MAX_PHOTOMETRIC_FILE_BYTES)?;
+            let bytes = ctx.budget.read(Path::new(ctx.origin), &path)?;
+            // IES files are often Latin-1; only numbers and keywords matter here.
+            let text = String::from_utf8_lossy(&bytes);
+            let format = photometry::format_of(&path, &text);
+            let (web, file_warnings) = photometry::parse(&text, &path, format, ctx.budget, Path::new(ctx.origin))?;
+            warnings.extend(file_warnings);
+            LightDesc::Luminaire {
+                position: ctx.vec3(&format!("{context}.position"), position)?,
+                direction,
+                up,
+                spectrum: spec(&spectrum)?,
+                scale,
+                web,
+            }
+        }
         LightJson::Spot { position, direction, inner_cone_deg, outer_cone_deg, spectrum, intensity: i, unit } => {
             let outer = ctx.in_range(&format!("{context}.outer_cone_deg"), outer_cone_deg, 0.0, 90.0)?;
             let inner = ctx.in_range(&format!("{context}.inner_cone_deg"), inner_cone_deg, 0.0, outer)?;

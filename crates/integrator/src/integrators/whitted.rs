@@ -91,7 +91,7 @@ impl<'a, const N: usize> Whitted<'a, N> {
             .emitters
             .iter()
             .filter(|(kind, _)| kind.is_delta())
-            .map(|(kind, e)| LaneLight { kind: *kind, spectrum: emission(e) })
+            .map(|(kind, e)| LaneLight { kind: kind.clone(), spectrum: emission(e) })
             .collect();
         let (lo, hi) = scene.geometry.bounds();
         let center = LightSampleContext { p: (lo + hi) * 0.5, ns: Vec3::Y };

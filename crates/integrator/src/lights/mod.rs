@@ -19,16 +19,21 @@ use materials::sampling::{cosine_hemisphere, uniform_sphere};
 
 pub(crate) mod cie_sky;
 pub(crate) mod envmap;
+pub(crate) mod luminaire;
 pub(crate) mod sky;
 
 use crate::sampling::uniform_triangle;
 use envmap::EnvironmentMap;
+pub(crate) use luminaire::Luminaire;
 
-/// The shape of a light.
-#[derive(Debug, Clone, Copy)]
+/// The shape of a light. Not `Copy`: a luminaire shares its web.
+#[derive(Debug, Clone)]
 pub(crate) enum LightKind {
     /// A point light (the paper's D65 source).
     Point { position: Vec3 },
+    /// A point light whose intensity per direction is a goniometric web (an IES or LDT file), in cd
+    /// times the light's spectrum (of luminance = the manifest's `intensity` factor).
+    Luminaire { position: Vec3, web: Arc<Luminaire> },
     /// A spot light with a smooth fall-off between the inner and outer cone.
     Spot { position: Vec3, direction: Vec3, cos_inner: f32, cos_outer: f32 },
     /// A distant light; `direction` is the way the light travels.
@@ -106,7 +111,7 @@ impl Light {
 impl LightKind {
     /// Whether the light is a point, spot or directional light.
     pub(crate) fn is_delta(&self) -> bool {
-        matches!(self, Self::Point { .. } | Self::Spot { .. } | Self::Directional { .. })
+        matches!(self, Self::Point { .. } | Self::Luminaire { .. } | Self::Spot { .. } | Self::Directional { .. })
     }
 
     /// Sample incident light at `ctx`: direction, shadow-ray target, density (`pmf`, the
@@ -120,6 +125,11 @@ impl LightKind {
             Self::Point { position } => {
                 let (wi, falloff) = towards_point(ctx.p, position)?;
                 Some(sample(wi, Some(position), pmf, falloff))
+            }
+            Self::Luminaire { position, ref web } => {
+                let (wi, falloff) = towards_point(ctx.p, position)?;
+                let candela = web.intensity(-wi);
+                (candela > 0.0).then(|| sample(wi, Some(position), pmf, falloff * candela))
             }
             Self::Spot { position, direction, cos_inner, cos_outer } => {
                 let (wi, falloff) = towards_point(ctx.p, position)?;
@@ -178,6 +188,7 @@ impl LightKind {
         let r2 = f64::from(radius * radius);
         match *self {
             Self::Point { .. } => 4.0 * pi * y,
+            Self::Luminaire { ref web, .. } => web.flux() * y,
             Self::Spot { cos_inner, cos_outer, .. } => {
                 2.0 * pi * y * (1.0 - 0.5 * f64::from(cos_inner + cos_outer)).max(1e-6)
             }
@@ -272,9 +283,9 @@ impl Emitters {
                 environment_luminance += y;
                 continue;
             }
-            set.kinds.push(l.kind);
-            set.emission.push(Emission::Light(i));
             power.push(l.kind.phi(y, radius));
+            set.kinds.push(l.kind.clone());
+            set.emission.push(Emission::Light(i));
         }
         // The background is what escaping rays see: for a physically based renderer it is part
         // of the environment and lights the scene like it.
@@ -313,9 +324,9 @@ impl Emitters {
                 }
             };
             set.area_light_of[id as usize] = set.kinds.len() as u32;
+            power.push(kind.phi(colorimetry::relative_luminance(e), radius));
             set.kinds.push(kind);
             set.emission.push(Emission::Material(material));
-            power.push(kind.phi(colorimetry::relative_luminance(e), radius));
         }
         set.choose_by_power(&power);
         set

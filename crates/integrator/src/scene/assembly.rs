@@ -4,6 +4,7 @@
 
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use colorimetry::DenselySampledSpectrum;
 use geometry::{
@@ -16,7 +17,7 @@ use materials::{Material, MaterialModel};
 use crate::error::{Error, Result};
 use crate::lights::cie_sky::{CIE_SKY_MAP_SIZE, CieSky, CieSkyScale};
 use crate::lights::envmap::EnvironmentMap;
-use crate::lights::{Emitters, Light, LightKind};
+use crate::lights::{Emitters, Light, LightKind, Luminaire};
 use crate::material_desc::{
     emission_spectrum, emission_spectrum_scaled, hall_params, material_from_desc, solid_glass_model,
 };
@@ -1166,7 +1167,8 @@ fn blender_emission_units(
                     intensity.value *= factor / (4.0 * std::f32::consts::PI);
                 }
                 LightDesc::Directional { intensity, .. } => intensity.value *= factor,
-                LightDesc::Environment { .. } => {}
+                // Luminaires come from manifests only, environments have no Blender watts.
+                LightDesc::Luminaire { .. } | LightDesc::Environment { .. } => {}
             }
         }
         warnings.push(format!(
@@ -1453,6 +1455,12 @@ fn light_from_desc(desc: &LightDesc) -> materials::Result<Light> {
                 light_spectrum(spectrum, *intensity, steradians)?,
             )
         }
+        LightDesc::Luminaire { position, direction, up, spectrum, scale, web } => Light::new(
+            LightKind::Luminaire { position: *position, web: Arc::new(Luminaire::new(web, *direction, *up)) },
+            // The file's candela are luminous intensity, so the spectrum is only their colour: normalised to
+            // luminance 1 as a point light's in cd, times the plain factor `intensity`.
+            emission_spectrum(spectrum, *scale)?,
+        ),
         LightDesc::Directional { direction, spectrum, intensity } => Light::new(
             LightKind::Directional { direction: direction.normalize_or(Vec3::NEG_Y) },
             light_spectrum(spectrum, *intensity, 1.0)?,

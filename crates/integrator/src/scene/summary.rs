@@ -164,6 +164,17 @@ fn light_json(l: &LightDesc) -> Value {
                 obj.insert("intensity".into(), json!(intensity.value));
                 obj.insert("unit".into(), json!(intensity.unit.name()));
             }
+            LightDesc::Luminaire { position, direction, up, scale, web, .. } => {
+                obj.insert("position".into(), json!(position.to_array()));
+                obj.insert("direction".into(), json!(direction.to_array()));
+                obj.insert("up".into(), json!(up.to_array()));
+                obj.insert("intensity".into(), json!(scale));
+                obj.insert("ies".into(), json!(web.path.display().to_string()));
+                obj.insert("symmetry".into(), json!(format!("{:?}", web.symmetry)));
+                obj.insert("web".into(), json!([web.c_deg.len(), web.gamma_deg.len()]));
+                let peak = web.candela.iter().copied().fold(0.0f32, f32::max);
+                obj.insert("peak_cd".into(), json!(peak));
+            }
             LightDesc::Directional { direction, intensity, .. } => {
                 obj.insert("direction".into(), json!(direction.to_array()));
                 obj.insert("intensity".into(), json!(intensity.value));

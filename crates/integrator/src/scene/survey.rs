@@ -116,7 +116,9 @@ impl<'a> Survey<'a> {
         let lights = lights
             .iter()
             .filter_map(|l| match l {
-                LightDesc::Point { position, .. } => Some(SurveyLight::At { position: *position, spot: None }),
+                LightDesc::Point { position, .. } | LightDesc::Luminaire { position, .. } => {
+                    Some(SurveyLight::At { position: *position, spot: None })
+                }
                 LightDesc::Spot { position, direction, outer_cone_deg, .. } => Some(SurveyLight::At {
                     position: *position,
                     spot: Some((direction.normalize_or(Vec3::NEG_Y), outer_cone_deg.to_radians().cos())),

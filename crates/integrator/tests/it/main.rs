@@ -5,6 +5,7 @@ mod defaults;
 mod envmap;
 mod film;
 mod hard_cases;
+mod luminaires;
 mod measure;
 mod paper_model;
 mod path;
