@@ -2,6 +2,9 @@
 //! as spectrace's own scenes (`scenes/cie171/`), measured with `integrator::measure` (the engine of
 //! `spectrace measure`) against their exact values:
 //!
+//! - 5.2: a point source of Lambertian distribution I(γ) = 1000 cd · cos γ (`scenes/luminaires/
+//!   lambert_1000cd.ies`, the project's own file) 3 m above a plane: at the ten points A–J the illuminance
+//!   is I₀ h²/d⁴ (A 111.11 … J 49.38 lx).
 //! - 5.4: an isotropic 10 000 lm point source at the centre of a black 4 × 4 × 3 m room. Every point's
 //!   illuminance is I cos θ / d² exactly, and the flux over the six surfaces (8 × 8 Gauss–Legendre nodes
 //!   on each; the rule's own error on this integrand is 3e-5) is Φ.
@@ -85,7 +88,7 @@ fn direct(i: f64, s: [f64; 3], p: glam::Vec3, n: glam::Vec3) -> f64 {
     i * cos.max(0.0) / d2
 }
 
-/// Measure `points` in a scene of `scenes/cie171/` (with `set` applied): results, samples and seconds.
+/// Measure `points` in a scene under `scenes/` (with `set` applied): results, samples and seconds.
 fn run_case(
     root: &Path,
     file: &str,
@@ -99,7 +102,7 @@ fn run_case(
         .map(|(p, v)| Override::new(p, v.clone()).map_err(anyhow::Error::msg))
         .collect::<anyhow::Result<_>>()?;
     let options = LoadOptions { variation: Variation { frame: None, overrides }, ..LoadOptions::default() };
-    let desc = geometry::load_scene_with(&root.join("scenes/cie171").join(file), &options)?;
+    let desc = geometry::load_scene_with(&root.join("scenes").join(file), &options)?;
     let scene = integrator::RenderScene::from_description(desc)?;
     let options = MeasureOptions { target_relative_error: relative_error, seed: 171, spectral, ..Default::default() };
     let start = Instant::now();
@@ -114,6 +117,55 @@ pub(super) fn checks(report: &mut Report, root: &Path, quick: bool) -> anyhow::R
     let intensity = PHI / (4.0 * std::f64::consts::PI);
     let n = if quick { 4 } else { 8 };
     let target = if quick { 0.01 } else { 0.0025 };
+
+    // 5.2: the Lambertian luminaire over a plane, the ten points of the case (x, z in metres from the
+    // point below the source; the scene is y-up).
+    let abc = [
+        ("A", 0.0, 0.0),
+        ("B", 0.5, 0.0),
+        ("C", 1.0, 0.0),
+        ("D", 1.5, 0.0),
+        ("E", 0.5, 0.5),
+        ("F", 1.0, 0.5),
+        ("G", 1.5, 0.5),
+        ("H", 1.0, 1.0),
+        ("I", 1.5, 1.0),
+        ("J", 1.5, 1.5),
+    ];
+    let points: Vec<SensorPoint> = abc
+        .iter()
+        .map(|&(name, x, z)| SensorPoint {
+            name: name.into(),
+            position: glam::Vec3::new(x as f32, 0.0, z as f32),
+            normal: glam::Vec3::Y,
+        })
+        .collect();
+    let (m, samples, seconds) =
+        run_case(root, "luminaires/cie171_5_2.json", &[], &points, target, SpectralMode::Bins(16))?;
+    let mut worst = (0.0f64, "");
+    for (m, &(name, x, z)) in m.iter().zip(&abc) {
+        let (h, d2) = (3.0f64, 9.0 + x * x + z * z);
+        let want = 1000.0 * h * h / (d2 * d2);
+        let error = m.illuminance / want - 1.0;
+        if error.abs() > worst.0.abs() {
+            worst = (error, name);
+        }
+        section += &format!(
+            "| 5.2 Lambertian luminaire | point {name} (lx) | {:.3} | {want:.3} | {:+.3} % | 1 | {} | |\n",
+            m.illuminance,
+            error * 100.0,
+            m.samples
+        );
+    }
+    section += &format!("| 5.2 Lambertian luminaire | all ten points | | | | 10 | {samples} | {seconds:.1} |\n");
+    report.check(
+        "CIE 171",
+        "5.2 Lambertian luminaire (own IES file): ten points against I₀ h²/d⁴",
+        format!("worst {:+.3} % (point {})", worst.0 * 100.0, worst.1),
+        "< 1 %".into(),
+        "analytic",
+        worst.0.abs() < 0.01,
+    );
 
     // 5.4: the black room, all six surfaces.
     let room = [
@@ -131,7 +183,7 @@ pub(super) fn checks(report: &mut Report, root: &Path, quick: bool) -> anyhow::R
         .collect();
     let points: Vec<SensorPoint> = nodes.iter().map(|(p, ..)| p.clone()).collect();
     // Fixed lanes: a delta light's every sample is then exact (hero wavelengths would add colour noise).
-    let (m, samples, seconds) = run_case(root, "black_room.json", &[], &points, target, SpectralMode::Bins(16))?;
+    let (m, samples, seconds) = run_case(root, "cie171/black_room.json", &[], &points, target, SpectralMode::Bins(16))?;
     let source = [0.0, 0.0, 1.5];
     let worst = m
         .iter()
@@ -176,7 +228,7 @@ pub(super) fn checks(report: &mut Report, root: &Path, quick: bool) -> anyhow::R
     for &rho in rhos {
         let set = [("materials.wall.base_color", serde_json::json!(rho))];
         let (m, samples, seconds) =
-            run_case(root, "grey_cube.json", &set, &points, target, SpectralMode::Hero { count: 8 })?;
+            run_case(root, "cie171/grey_cube.json", &set, &points, target, SpectralMode::Hero { count: 8 })?;
         let mean: f64 = m.iter().zip(&nodes).map(|(m, (_, w))| m.illuminance * w).sum();
         let indirect: f64 = m
             .iter()
