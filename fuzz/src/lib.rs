@@ -102,6 +102,20 @@ pub fn obj_mtl(data: &[u8]) {
     run_file(&put("fuzz.obj", &text));
 }
 
+/// Target `luminaire`: a photometric file, read as IES when its first byte is even and as EULUMDAT
+/// otherwise (the rest is the file), as the web of a luminaire over a plane, then rendered.
+pub fn luminaire(data: &[u8]) {
+    let Some((&first, file)) = data.split_first() else { return };
+    let name = if first % 2 == 0 { "fuzz.ies" } else { "fuzz.ldt" };
+    put(name, file);
+    let manifest = format!(
+        r#"{{"camera": {{"position": [0, 1, 3], "look_at": [0, 0, 0], "vfov_deg": 60}},
+        "lights": [{{"type": "point", "position": [0, 2, 0], "ies": "{name}"}}],
+        "objects": [{{"type": "quad", "corner": [-2, 0, -2], "edge_u": [0, 0, 4], "edge_v": [4, 0, 0]}}]}}"#
+    );
+    run_file(&put("fuzz_luminaire.json", manifest.as_bytes()));
+}
+
 /// Target `manifest`: manifest JSON text; references resolve under `scenes/reference/`, so
 /// mutated manifests also load the committed meshes and spectra.
 pub fn manifest(data: &[u8]) {
