@@ -7,7 +7,7 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use glam::DVec3;
 
 use super::*;
-use crate::lights::sky::tests::map_luminance;
+use crate::lights::sky::tests::{map_luminance, mean_luminance};
 
 /// The standard's relative luminance L(χ, Z) / L_z = f(χ) φ(Z) / (f(Z_s) φ(0)) (ISO 15469:2004 / CIE S 011
 /// eqs. 1–4), from (a, b, c, d, e) typed again from the standard's Table 1 (not read from
@@ -135,7 +135,6 @@ fn corner_factor(a: f64, b: f64, h: f64) -> f64 {
 /// is checked not to match a 10 % smaller opening's factor.
 #[test]
 fn roof_opening_under_the_uniform_sky_gives_its_configuration_factor() {
-    use std::sync::atomic::AtomicBool;
     let black = r#""black""#;
     let quad = |corner: [f64; 3], u: [f64; 3], v: [f64; 3]| {
         format!(r#"{{"type": "quad", "corner": {corner:?}, "edge_u": {u:?}, "edge_v": {v:?}, "material": {black}}}"#)
@@ -163,21 +162,7 @@ fn roof_opening_under_the_uniform_sky_gives_its_configuration_factor() {
     let cie = crate::CieSkyOption { sky_type: 5, scale: CieSkyScale::ZenithNits(1000.0), ..Default::default() };
     let options = crate::AssemblyOptions { cie_sky: Some(cie), ..Default::default() };
     let scene = crate::RenderScene::from_description_with(desc, &options).unwrap();
-    let render = crate::RenderOptions {
-        width: 8,
-        height: 8,
-        spp: 4096,
-        threads: Some(2),
-        spectral: crate::SpectralMode::Hero { count: 4 },
-        ..Default::default()
-    }
-    .path(|_| {});
-    let (film, stats) = crate::render_film(&scene, &render, &|_| {}, &AtomicBool::new(false)).unwrap();
-    assert_eq!(stats.nonfinite_samples, 0);
-    let image = film.to_image();
-    let n = image.pixels().len() as f64;
-    let mean = image.pixels().iter().map(|p| f64::from(p[1])).sum::<f64>() / n;
-    let standard_error = film.luminance_variance().iter().map(|&v| f64::from(v)).sum::<f64>().sqrt() / n;
+    let (mean, standard_error) = mean_luminance(&scene, 4096, 2);
     let factor = 4.0 * corner_factor(0.5, 0.5, 1.0);
     assert!((factor - 0.239_45).abs() < 1e-5, "F = {factor}");
     let want = 0.8 * 1000.0 * factor;

@@ -156,7 +156,6 @@ fn sun_spectrum_reddens_and_dims_as_the_paper_describes() {
 /// same render is rejected when the expectation is computed for T = 4.5.
 #[test]
 fn path_traced_plane_under_the_sky_has_the_models_irradiance() {
-    use std::sync::atomic::AtomicBool;
     let json = r#"{ "camera": {"position": [0, 3, 0.3], "look_at": [0, 0, 0], "vfov_deg": 20},
         "materials": {"white": {"model": "diffuse", "base_color": 0.8}},
         "objects": [{"type": "plane", "point": [0, 0, 0], "normal": [0, 1, 0], "size": 100, "material": "white"}] }"#;
@@ -170,21 +169,7 @@ fn path_traced_plane_under_the_sky_has_the_models_irradiance() {
     let desc = geometry::parse_manifest(json, std::path::Path::new("."), "<test>").unwrap();
     let options = crate::AssemblyOptions { sky: Some(option(3.0)), ..Default::default() };
     let scene = crate::RenderScene::from_description_with(desc, &options).unwrap();
-    let render = crate::RenderOptions {
-        width: 8,
-        height: 8,
-        spp: 2048,
-        threads: Some(1),
-        spectral: crate::SpectralMode::Hero { count: 4 },
-        ..Default::default()
-    }
-    .path(|_| {});
-    let (film, stats) = crate::render_film(&scene, &render, &|_| {}, &AtomicBool::new(false)).unwrap();
-    assert_eq!(stats.nonfinite_samples, 0);
-    let image = film.to_image();
-    let n = image.pixels().len() as f64;
-    let mean = image.pixels().iter().map(|p| f64::from(p[1])).sum::<f64>() / n;
-    let standard_error = film.luminance_variance().iter().map(|&v| f64::from(v)).sum::<f64>().sqrt() / n;
+    let (mean, standard_error) = mean_luminance(&scene, 2048, 1);
     let expected = |t: f32| {
         let sky = PreethamSky::new(t, elevation, azimuth).unwrap();
         let sun = colorimetry::K_M * colorimetry::y_sum() * relative_luminance(&sky.sun_irradiance());
@@ -200,4 +185,26 @@ fn path_traced_plane_under_the_sky_has_the_models_irradiance() {
     );
     assert!(z(want) < 4.0, "path tracer {mean} ± {standard_error}, model {want}");
     assert!(z(expected(4.5)) > 4.0, "a turbidity of 4.5 passed");
+}
+
+/// The mean luminance of an 8 × 8 path-traced render of `scene` (hero:4, `spp` samples, `threads`) and its
+/// standard error, from the film's per-pixel variances; no sample may be non-finite.
+pub(crate) fn mean_luminance(scene: &crate::RenderScene, spp: u32, threads: usize) -> (f64, f64) {
+    let render = crate::RenderOptions {
+        width: 8,
+        height: 8,
+        spp,
+        threads: Some(threads),
+        spectral: crate::SpectralMode::Hero { count: 4 },
+        ..Default::default()
+    }
+    .path(|_| {});
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let (film, stats) = crate::render_film(scene, &render, &|_| {}, &cancel).unwrap();
+    assert_eq!(stats.nonfinite_samples, 0);
+    let image = film.to_image();
+    let n = image.pixels().len() as f64;
+    let mean = image.pixels().iter().map(|p| f64::from(p[1])).sum::<f64>() / n;
+    let standard_error = film.luminance_variance().iter().map(|&v| f64::from(v)).sum::<f64>().sqrt() / n;
+    (mean, standard_error)
 }
