@@ -11,8 +11,11 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use integrator::{MeasureOptions, Measurement, RenderScene, SensorPoint, SpectralMode};
 
-/// The columns a points file must have, in any order (others are ignored, with a note).
+/// The columns a points file must have, in any order (others are ignored, and a note names them).
 const COLUMNS: [&str; 7] = ["name", "x", "y", "z", "nx", "ny", "nz"];
+
+/// The most cells a side of a grid's false-colour picture may have (one pixel each at least).
+const MAX_PICTURE_SIDE: usize = 8192;
 
 /// The most points a file or grid may give (10⁷: a few hundred MB of results at most).
 const MAX_POINTS: usize = 10_000_000;
@@ -31,7 +34,7 @@ pub(crate) struct MeasureArgs {
     /// edges U and V from the corner, NU × NV of them, a sensor at each cell's centre facing U × V.
     #[arg(long, value_name = "SPEC", conflicts_with = "points", allow_hyphen_values = true)]
     grid: Option<String>,
-    /// Output CSV: the input columns, then illuminance_lux, std_error_lux, X, Y, Z, cct_k, samples
+    /// Output CSV: name,x,y,z,nx,ny,nz (the sensor columns), then illuminance_lux, std_error_lux, X, Y, Z, cct_k, samples
     /// [default: standard output].
     #[arg(short, long, value_name = "CSV")]
     output: Option<PathBuf>,
@@ -74,7 +77,7 @@ pub(crate) struct MeasureArgs {
 pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
     args.load.check_scene(args.scene.as_deref())?;
     let points = match (&args.points, &args.grid) {
-        (Some(path), _) => read_points(path)?,
+        (Some(path), _) => read_points(path, args.quiet)?,
         (None, Some(spec)) => grid_points(spec)?,
         (None, None) => bail!("give --points CSV or --grid SPEC"),
     };
@@ -150,6 +153,10 @@ pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
         Err(integrator::Error::Cancelled) => bail!("interrupted; nothing was written"),
         other => other?,
     };
+    let nonfinite: u64 = results.iter().map(|m| m.nonfinite).sum();
+    if nonfinite > 0 {
+        eprintln!("spectrace: warning: {nonfinite} samples were not finite and were counted as 0");
+    }
     let late = results.iter().filter(|m| m.timed_out).count();
     if late > 0 && !args.quiet {
         eprintln!(
@@ -161,6 +168,13 @@ pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
     match (&args.output, &args.false_color, &args.grid) {
         (Some(csv), Some(png), Some(spec)) => {
             let (nu, nv) = grid_size(spec)?;
+            if nu.max(nv) > MAX_PICTURE_SIDE {
+                bail!(
+                    "--false-color: the grid has {}×{} cells; a picture is drawn of at most {MAX_PICTURE_SIDE} a side",
+                    nu,
+                    nv
+                );
+            }
             // Rows of the picture run along V from the far edge, so V points up as on a plan.
             let values: Vec<f32> = (0..nv)
                 .rev()
@@ -178,7 +192,7 @@ pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The output CSV: the input columns and the measurement.
+/// The output CSV: the sensor columns and the measurement.
 fn to_csv(points: &[SensorPoint], results: &[Measurement]) -> String {
     let mut out = String::from("name,x,y,z,nx,ny,nz,illuminance_lux,std_error_lux,X,Y,Z,cct_k,samples\n");
     for (p, m) in points.iter().zip(results) {
@@ -210,9 +224,21 @@ fn csv_field(s: &str) -> String {
 }
 
 /// Read a points file: a header naming the columns, then one point per line; errors name the file and line.
-fn read_points(path: &Path) -> anyhow::Result<Vec<SensorPoint>> {
+fn read_points(path: &Path, quiet: bool) -> anyhow::Result<Vec<SensorPoint>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    parse_points(&text).map_err(|(line, message)| anyhow::anyhow!("{}:{line}: {message}", path.display()))
+    // A spreadsheet's UTF-8 byte-order mark is not part of the first column's name.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    if !quiet && let Some(header) = text.lines().find(|l| !l.trim().is_empty()) {
+        let extra: Vec<&str> = header
+            .split(',')
+            .map(|c| c.trim().trim_matches('"'))
+            .filter(|c| !COLUMNS.contains(&c.to_ascii_lowercase().as_str()))
+            .collect();
+        if !extra.is_empty() {
+            eprintln!("spectrace: note: {}: columns {} are not read", path.display(), extra.join(", "));
+        }
+    }
+    parse_points(text).map_err(|(line, message)| anyhow::anyhow!("{}:{line}: {message}", path.display()))
 }
 
 /// The points of a CSV text, or (line, message).
@@ -369,7 +395,14 @@ mod tests {
     #[test]
     fn csv_output_quotes_names_and_leaves_an_undefined_cct_empty() {
         let p = [SensorPoint { name: "a,b".into(), position: Vec3::ZERO, normal: Vec3::Z }];
-        let m = [Measurement { illuminance: 0.0, std_error: 0.0, xyz: [0.0; 3], samples: 4096, timed_out: false }];
+        let m = [Measurement {
+            illuminance: 0.0,
+            std_error: 0.0,
+            xyz: [0.0; 3],
+            samples: 4096,
+            timed_out: false,
+            nonfinite: 0,
+        }];
         let text = to_csv(&p, &m);
         assert_eq!(
             text.lines().nth(1),

@@ -28,8 +28,13 @@ use crate::spectral::{LaneJob, Lanes, SpectralMode, lane_count, with_lanes};
 /// bright room low, as CIE 171 case 5.8 shows of renderers that cut paths).
 pub const MEASURE_MAX_DEPTH: u32 = 10_000;
 
-/// Samples per point between two checks of the stopping rule (and the fewest a point takes).
+/// Samples per point between two checks of the stopping rule.
 const BATCH: u32 = 256;
+
+/// The fewest samples a point takes before the stopping rule may end it: a rule checked on very few
+/// samples stops early where a rare bright path has not yet been seen, reading low with too small an
+/// error; 1024 samples make that unlikely for all but very heavy tails.
+const MIN_SPP: u64 = 1024;
 
 /// A sensor: where, and which hemisphere it sees.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,6 +100,9 @@ pub struct Measurement {
     pub samples: u64,
     /// Whether the point stopped because the time limit ran out before its own rule was met.
     pub timed_out: bool,
+    /// Samples whose value was not finite: counted as 0 (never seen in practice; reported so that none is
+    /// dropped silently).
+    pub nonfinite: u64,
 }
 
 impl Measurement {
@@ -214,6 +222,7 @@ impl LaneJob for MeasureJob<'_> {
 #[derive(Default)]
 struct Sums {
     n: u64,
+    nonfinite: u64,
     y: f64,
     y2: f64,
     xyz: [f64; 3],
@@ -261,19 +270,21 @@ fn measure_point<const N: usize>(
                 sensor.to_xyz(&s.indirect.l, &s.lambda_indirect, s.indirect.lane).0,
             );
             let y = f64::from(xyz[1]);
-            if y.is_finite() {
+            if y.is_finite() && xyz.iter().all(|v| v.is_finite()) {
                 sums.y += y;
                 sums.y2 += y * y;
                 for (sum, v) in sums.xyz.iter_mut().zip(xyz) {
                     *sum += f64::from(v);
                 }
+            } else {
+                sums.nonfinite += 1;
             }
             sums.n += 1;
         }
         if cancel.load(Ordering::Relaxed) {
             break;
         }
-        if options.spp.is_none() {
+        if options.spp.is_none() && sums.n >= MIN_SPP {
             let mean = sums.mean();
             if mean > 0.0 && sums.std_error() <= options.target_relative_error * mean {
                 break;
@@ -294,6 +305,7 @@ fn measure_point<const N: usize>(
         xyz: sums.xyz.map(|v| v / n),
         samples: sums.n,
         timed_out,
+        nonfinite: sums.nonfinite,
     }
 }
 

@@ -81,6 +81,9 @@ pub struct ConductorIndex {
     k: DenselySampledSpectrum,
 }
 
+/// The largest η or κ a measured index may have.
+const MAX_INDEX: f64 = 1e4;
+
 impl ConductorIndex {
     /// η and κ, each covering 360–830 nm, η > 0 and κ ≥ 0 throughout.
     pub fn new(eta: DenselySampledSpectrum, k: DenselySampledSpectrum) -> Result<Self> {
@@ -99,11 +102,13 @@ impl ConductorIndex {
                 .filter(move |(i, _)| (lo - step..=hi + step).contains(&(first + step * *i as f64)))
                 .map(|(_, v)| *v)
         }
-        if let Some(v) = inside(&eta, lo, hi).find(|v| !(*v > 0.0)) {
-            return Err(Error::OutOfRange { what: "eta", value: v, range: "> 0" });
+        // Measured metals have η below 10 and κ below 100 in the visible; the bound only keeps the Fresnel
+        // arithmetic finite.
+        if let Some(v) = inside(&eta, lo, hi).find(|v| !(*v > 0.0 && *v <= MAX_INDEX)) {
+            return Err(Error::OutOfRange { what: "eta", value: v, range: "> 0 and at most 10 000" });
         }
-        if let Some(v) = inside(&k, lo, hi).find(|v| !(*v >= 0.0)) {
-            return Err(Error::OutOfRange { what: "k", value: v, range: ">= 0" });
+        if let Some(v) = inside(&k, lo, hi).find(|v| !(*v >= 0.0 && *v <= MAX_INDEX)) {
+            return Err(Error::OutOfRange { what: "k", value: v, range: ">= 0 and at most 10 000" });
         }
         Ok(Self { eta, k })
     }

@@ -1185,7 +1185,10 @@ impl<const N: usize> PathTracer<'_, N> {
         sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> IrradianceSample<N> {
-        let error = (p.abs() + Vec3::splat(1e-3)) * (1.0 / 65536.0);
+        // The same lift along every axis (the offset takes the part along `n`): a point on a floor at z = 0 is
+        // lifted by its x and y too, so a surface whose vertices carry rounding (a transform, a unit scale)
+        // still lies below it.
+        let error = Vec3::splat((p.abs().max_element() + 1e-3) * (1.0 / 65536.0));
         let hit = Hit {
             t: 0.0,
             p,

@@ -129,3 +129,19 @@ fn std_error_matches_the_scatter_between_seeds() {
     let sky = std::f64::consts::PI * (1.0 - 1.0 / 1.44);
     assert!(mean > sky && mean < sky + 0.5 * std::f64::consts::PI / 1.44 + 4.0 * reported, "{mean} vs {sky}");
 }
+
+/// A sensor placed on a floor whose stored height carries rounding (here 1e-6 m above z = 0, as a
+/// transformed or rescaled mesh has) is lifted above it by a relative 2⁻¹⁶ of its largest coordinate,
+/// whatever its normal's axis, so the floor does not shadow it.
+#[test]
+fn a_sensor_on_a_rounded_floor_is_not_shadowed_by_it() {
+    let json = r#"{
+        "lights": [{"type": "point", "position": [4, 4, 2], "spectrum": "E", "intensity": 100, "unit": "cd"}],
+        "materials": {"black": {"model": "diffuse", "base_color": 0}},
+        "objects": [{"type": "quad", "corner": [-10, -10, 0.000001], "edge_u": [20, 0, 0], "edge_v": [0, 20, 0], "material": "black"}]
+    }"#;
+    let spectral = integrator::SpectralMode::Bins(16);
+    let options = MeasureOptions { spp: Some(4), seed: 1, threads: Some(1), spectral, ..Default::default() };
+    let m = run(json, &[point("floor", Vec3::new(4.0, 4.0, 0.0), Vec3::Z)], &options);
+    assert!((m[0].illuminance / 25.0 - 1.0).abs() < 1e-3, "{:?}", m[0]);
+}

@@ -19,9 +19,10 @@
 //! The 1/η² is the radiance compression when light leaves the denser coat. For a smooth coat and a white
 //! base the two terms reflect exactly 1 in a furnace (T integrates to η² (1 − ρ_int)). A rough coat as
 //! Mitsuba writes it loses much more than its single-scattering GGX interface does, because the light
-//! under it crosses that interface many times: a white plastic reflects 0.79 of a white furnace at α 0.2,
-//! 0.55 at α 0.5 and 0.34 at α 1 (normal incidence; Mitsuba 3.9.1's own `roughplastic` reads 0.79, 0.54,
-//! 0.34). That is what `"multiple_scattering": false` renders, for comparisons.
+//! under it crosses that interface many times: as written here a white plastic reflects 0.797 of a white
+//! furnace at α 0.2, 0.553 at α 0.5 and 0.365 at α 1 (normal incidence); Mitsuba 3.9.1's own `roughplastic`
+//! reads 0.794, 0.540, 0.336, the difference being the masking term above. That is what
+//! `"multiple_scattering": false` renders, for comparisons.
 //!
 //! By default (`compensate`) the energy is conserved instead, reciprocally: what the coat does not reflect
 //! enters it, T(μ) = 1 − R(μ) with R the coat's single-scattering reflection albedo, and ρ_int = 1 −
