@@ -76,9 +76,13 @@ pub(crate) struct MeasureArgs {
 
 pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
     args.load.check_scene(args.scene.as_deref())?;
-    let points = match (&args.points, &args.grid) {
-        (Some(path), _) => read_points(path, args.quiet)?,
-        (None, Some(spec)) => grid_points(spec)?,
+    // A grid's cell counts, for its picture.
+    let (points, grid) = match (&args.points, &args.grid) {
+        (Some(path), _) => (read_points(path, args.quiet)?, None),
+        (None, Some(spec)) => {
+            let (points, nu, nv) = grid_points(spec)?;
+            (points, Some((nu, nv)))
+        }
         (None, None) => bail!("give --points CSV or --grid SPEC"),
     };
     if args.false_color.is_some() && args.output.is_none() {
@@ -165,9 +169,8 @@ pub(crate) fn run(args: &MeasureArgs) -> anyhow::Result<()> {
         );
     }
     let text = to_csv(&points, &results);
-    match (&args.output, &args.false_color, &args.grid) {
-        (Some(csv), Some(png), Some(spec)) => {
-            let (nu, nv) = grid_size(spec)?;
+    match (&args.output, &args.false_color, grid) {
+        (Some(csv), Some(png), Some((nu, nv))) => {
             if nu.max(nv) > MAX_PICTURE_SIDE {
                 bail!(
                     "--false-color: the grid has {}×{} cells; a picture is drawn of at most {MAX_PICTURE_SIDE} a side",
@@ -307,17 +310,8 @@ fn split_csv(line: &str) -> Vec<String> {
     fields
 }
 
-/// The cell counts (NU, NV) of a `--grid` that [`grid_points`] read.
-fn grid_size(spec: &str) -> anyhow::Result<(usize, usize)> {
-    let v: Vec<f64> = spec.split(',').map(|s| s.trim().parse::<f64>()).collect::<Result<_, _>>()?;
-    match v.as_slice() {
-        [.., nu, nv] => Ok((*nu as usize, *nv as usize)),
-        _ => bail!("--grid {spec}: expected 11 numbers"),
-    }
-}
-
-/// The sensors of `--grid CORNER,U,V,NU,NV` (11 numbers).
-fn grid_points(spec: &str) -> anyhow::Result<Vec<SensorPoint>> {
+/// The sensors of `--grid CORNER,U,V,NU,NV` (11 numbers), row by row along U, and (NU, NV).
+fn grid_points(spec: &str) -> anyhow::Result<(Vec<SensorPoint>, usize, usize)> {
     let v: Vec<f64> = spec
         .split(',')
         .map(|s| s.trim().parse::<f64>())
@@ -350,7 +344,7 @@ fn grid_points(spec: &str) -> anyhow::Result<Vec<SensorPoint>> {
             points.push(SensorPoint { name: format!("{i}_{j}"), position: p, normal });
         }
     }
-    Ok(points)
+    Ok((points, nu, nv))
 }
 
 #[cfg(test)]
@@ -382,8 +376,8 @@ mod tests {
 
     #[test]
     fn a_grid_puts_a_sensor_at_each_cell_centre_facing_u_cross_v() {
-        let g = grid_points("0,0,0.8, 4,0,0, 0,4,0, 4,2").unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(g.len(), 8);
+        let (g, nu, nv) = grid_points("0,0,0.8, 4,0,0, 0,4,0, 4,2").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!((g.len(), nu, nv), (8, 4, 2));
         assert_eq!(g[0].position, Vec3::new(0.5, 1.0, 0.8));
         assert_eq!(g[7].position, Vec3::new(3.5, 3.0, 0.8));
         assert!(g.iter().all(|p| p.normal.normalize() == Vec3::Z));

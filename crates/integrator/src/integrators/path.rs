@@ -833,7 +833,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                     let specular = hit_specular(specular);
                     let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, at_uv, &tangent, ns));
                     let g = self.metal_rough(base, metallic, roughness, ior, specular, anisotropy);
-                    Bsdf::GltfMetalRough(if m.multiple_scattering { g.compensated() } else { g.conserving() })
+                    Bsdf::GltfMetalRough(g.energy(m.multiple_scattering))
                 }
                 PathScattering::GltfTransmission {
                     base: id,
@@ -876,7 +876,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         let anisotropy = m.anisotropy.map(|a| self.anisotropy_at(a, at_uv, &tangent, ns));
                         let metal = metal.min(1.0);
                         let g = self.metal_rough(colour, metal, roughness, ior, specular, anisotropy);
-                        Bsdf::GltfMetalRough(if m.multiple_scattering { g.compensated() } else { g.conserving() })
+                        Bsdf::GltfMetalRough(g.energy(m.multiple_scattering))
                     }
                 }
             };
@@ -1127,21 +1127,33 @@ impl<const N: usize> Kernel<N> for PathTracer<'_, N> {
         sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> Radiance<N> {
+        let r = self.trace_path(ray, PathStart::CAMERA, lambda, sensor, sampler, count);
+        debug_assert!(r.l.is_finite(), "non-finite radiance {:?}", r.l);
+        r
+    }
+}
+
+impl<const N: usize> PathTracer<'_, N> {
+    /// [`PathTracer::trace`] instantiated for this scene: the rough and layered models only where a material
+    /// needs them, texture code only where a material has textures (camera rays and sensors alike).
+    #[inline]
+    fn trace_path(
+        &self,
+        ray: &Ray,
+        start: PathStart,
+        lambda: &mut SampledWavelengths<N>,
+        sensor: &Sensor<N>,
+        sampler: &mut Sampler,
+        count: &mut RayCount,
+    ) -> Radiance<N> {
         let mut lane = None;
         let textured = !self.scene.textures.is_empty();
         let (l, first) = match (self.rough, textured) {
-            (true, true) => self.trace::<true, true>(ray, PathStart::CAMERA, lambda, sensor, &mut lane, sampler, count),
-            (true, false) => {
-                self.trace::<true, false>(ray, PathStart::CAMERA, lambda, sensor, &mut lane, sampler, count)
-            }
-            (false, true) => {
-                self.trace::<false, true>(ray, PathStart::CAMERA, lambda, sensor, &mut lane, sampler, count)
-            }
-            (false, false) => {
-                self.trace::<false, false>(ray, PathStart::CAMERA, lambda, sensor, &mut lane, sampler, count)
-            }
+            (true, true) => self.trace::<true, true>(ray, start, lambda, sensor, &mut lane, sampler, count),
+            (true, false) => self.trace::<true, false>(ray, start, lambda, sensor, &mut lane, sampler, count),
+            (false, true) => self.trace::<false, true>(ray, start, lambda, sensor, &mut lane, sampler, count),
+            (false, false) => self.trace::<false, false>(ray, start, lambda, sensor, &mut lane, sampler, count),
         };
-        debug_assert!(l.is_finite(), "non-finite radiance {l:?}");
         Radiance { l, first, lane }
     }
 }
@@ -1216,17 +1228,9 @@ impl<const N: usize> PathTracer<'_, N> {
         if let Some(s) = white.sample_f(&frame, n, sampler.uniform(), sampler.uniform2()) {
             let ray = spawn_ray(&hit, s.wi);
             let start = PathStart { specular: false, pdf: s.pdf, ns: n };
-            let mut lane = None;
-            let textured = !self.scene.textures.is_empty();
-            let li = &mut lambda_indirect;
-            let (l, first) = match (self.rough, textured) {
-                (true, true) => self.trace::<true, true>(&ray, start, li, sensor, &mut lane, sampler, count),
-                (true, false) => self.trace::<true, false>(&ray, start, li, sensor, &mut lane, sampler, count),
-                (false, true) => self.trace::<false, true>(&ray, start, li, sensor, &mut lane, sampler, count),
-                (false, false) => self.trace::<false, false>(&ray, start, li, sensor, &mut lane, sampler, count),
-            };
+            let r = self.trace_path(&ray, start, &mut lambda_indirect, sensor, sampler, count);
             // The sample's weight f cos / pdf is 1 for a white Lambertian: E = π L.
-            indirect = Radiance { l: l * (pi * s.weight.0[0]), first, lane };
+            indirect = Radiance { l: r.l * (pi * s.weight.0[0]), ..r };
         }
         IrradianceSample { direct, lambda_direct: lambda, indirect, lambda_indirect }
     }

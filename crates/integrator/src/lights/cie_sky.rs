@@ -97,6 +97,8 @@ pub(crate) struct CieSky {
     inverse_zenith: f64,
     /// L_z, nits.
     zenith_nits: f64,
+    /// D_v / L_z, integrated once (the scale and the sky's illuminance both need it).
+    relative_horizontal: f64,
 }
 
 impl CieSky {
@@ -117,13 +119,12 @@ impl CieSky {
         let zs = (90.0 - f64::from(elevation_deg)).to_radians();
         let phi = f64::from(azimuth_deg).to_radians();
         let sun = DVec3::new(phi.sin() * zs.sin(), zs.cos(), -phi.cos() * zs.sin());
-        let mut sky = Self { sky_type, params, sun, inverse_zenith: 0.0, zenith_nits: 0.0 };
+        let mut sky = Self { sky_type, params, sun, inverse_zenith: 0.0, zenith_nits: 0.0, relative_horizontal: 0.0 };
         sky.inverse_zenith = 1.0 / (sky.indicatrix(zs) * sky.gradation(1.0));
+        sky.relative_horizontal = sky.relative_horizontal_illuminance(SCALE_GRID.0, SCALE_GRID.1);
         sky.zenith_nits = match scale {
             CieSkyScale::ZenithNits(l) if l.is_finite() && l >= 0.0 => f64::from(l),
-            CieSkyScale::DiffuseHorizontalLux(e) if e.is_finite() && e >= 0.0 => {
-                f64::from(e) / sky.relative_horizontal_illuminance(SCALE_GRID.0, SCALE_GRID.1)
-            }
+            CieSkyScale::DiffuseHorizontalLux(e) if e.is_finite() && e >= 0.0 => f64::from(e) / sky.relative_horizontal,
             CieSkyScale::ZenithNits(v) | CieSkyScale::DiffuseHorizontalLux(v) => {
                 return Err(format!("sky luminance scale {v} must be finite and ≥ 0"));
             }
@@ -191,7 +192,7 @@ impl CieSky {
 
     /// The sky's illuminance (lux) on an unobstructed horizontal plane (D_v).
     pub(crate) fn horizontal_illuminance(&self) -> f64 {
-        self.zenith_nits * self.relative_horizontal_illuminance(SCALE_GRID.0, SCALE_GRID.1)
+        self.zenith_nits * self.relative_horizontal
     }
 
     /// The sky as an environment map of CIE daylight at `cct` kelvin (4000–25000) in every direction: its

@@ -95,7 +95,7 @@ fn direction(s: f32) -> Vec3 {
 
 /// The u of stratum (i, j) of an s × s grid, jittered deterministically (golden-ratio offsets).
 #[inline]
-fn stratum(i: usize, j: usize, s: usize) -> Vec2 {
+pub(crate) fn stratum(i: usize, j: usize, s: usize) -> Vec2 {
     let jx = (0.5 + 0.618_034 * (i * s + j) as f32).fract();
     let jy = (0.5 + 0.754_878 * (j * s + i) as f32).fract();
     Vec2::new((i as f32 + jx) / s as f32, (j as f32 + jy) / s as f32)

@@ -216,6 +216,12 @@ impl<const N: usize> GltfMetalRoughBxdf<N> {
         Self { coupling: Coupling(self.specular_albedo_avg(self.distrib.alpha_min())), ..self }
     }
 
+    /// [`Self::compensated`] where `compensate` (a material's `multiple_scattering`), else
+    /// [`Self::conserving`] (the specification's layers with the diffuse coupling).
+    pub fn energy(self, compensate: bool) -> Self {
+        if compensate { self.compensated() } else { self.conserving() }
+    }
+
     /// This model conserving ([`Self::conserving`]) and with the multiple-scattering lobe of its metal and
     /// dielectric specular layers (module docs), the diffuse layer coupled to the compensated specular
     /// layer. A smooth model has nothing to compensate and is [`Self::conserving`]'s.

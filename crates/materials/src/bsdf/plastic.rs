@@ -47,6 +47,7 @@ use std::sync::{LazyLock, Mutex};
 use colorimetry::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
+use super::compensation::stratum;
 use super::microfacet::TrowbridgeReitz;
 use super::{BxdfFlags, LocalSample, glossy_or_cosine_pdf};
 use crate::sampling::cosine_hemisphere;
@@ -69,14 +70,6 @@ const SMOOTH_STEPS: usize = 1 << 14;
 pub struct PlasticTable {
     transmittance: [f32; TABLE_MU],
     internal_reflectance: f32,
-}
-
-/// The stratum point (i, j) of an s × s grid, jittered deterministically.
-#[inline]
-fn stratum(i: usize, j: usize, s: usize) -> Vec2 {
-    let jx = (0.5 + 0.618_034 * (i * s + j) as f32).fract();
-    let jy = (0.5 + 0.754_878 * (j * s + i) as f32).fract();
-    Vec2::new((i as f32 + jx) / s as f32, (j as f32 + jy) / s as f32)
 }
 
 /// The direction in the xz plane at cos θ = μ (floored at [`MU_FLOOR`]).
