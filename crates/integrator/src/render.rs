@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::film::estimate::{ErrorEstimate, TILE, tile_grid, tile_index};
 use crate::film::{Film, MAX_SPP, Sensor};
-use crate::integrators::{Kernel, PathTracer, Radiance, RayCount, Whitted};
+use crate::integrators::{Kernel, PathTracer, Radiance, RayCount, Splat, Whitted};
 use crate::options::{Integrator, PathOptions, RenderOptions, SamplerKind};
 use crate::output::auto_exposure_ev_of;
 use crate::sampling::{Rng, Sampler, SobolSample};
@@ -407,6 +407,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     let mut count = RayCount::default();
                     let mut fixed = Sampler::Independent(Rng::new(0, 0, 0));
                     let mut row_samples = 0u64;
+                    let mut splats = Vec::new();
                     for x in 0..width as usize {
                         if !active[row_tiles + x / TILE as usize] {
                             continue;
@@ -424,7 +425,7 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                             if i % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
                                 return Err(Error::Cancelled);
                             }
-                            let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed, &mut count);
+                            let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed, &mut count, &mut splats);
                             if i == 0 {
                                 row.set_first_hit(x, r.first);
                             }
@@ -647,6 +648,7 @@ impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
         i: u32,
         fixed: &mut Sampler,
         count: &mut RayCount,
+        splats: &mut Vec<Splat<N>>,
     ) -> (Radiance<N>, SampledWavelengths<N>) {
         let (width, height) = (self.width, self.height);
         let mut own;
@@ -674,7 +676,7 @@ impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
             let (dx, dy) = self.offsets[i as usize];
             (fixed, self.fixed_lambda, camera_ray(&self.camera, x, y, dx, dy, width, height))
         };
-        let r = self.kernel.li(&ray, &mut lambda, self.sensor, sampler, count);
+        let r = self.kernel.li(&ray, &mut lambda, self.sensor, sampler, count, splats);
         (r, lambda)
     }
 }

@@ -35,13 +35,31 @@ pub(crate) struct Radiance<const N: usize> {
     pub(crate) lane: Option<usize>,
 }
 
+/// Light a sample sends to another pixel than its own: a light subpath connected to the camera
+/// (bidirectional path tracing's t = 1 strategy). The pixel loop adds it to the film's splat sums
+/// with the sample's final wavelengths and lane ([`Radiance::lane`]), like the sample's own value.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Splat<const N: usize> {
+    /// The pixel it lands in (column, row from the top).
+    pub(crate) x: u32,
+    pub(crate) y: u32,
+    /// Its contribution to that pixel's measurement, in the units of a sample's radiance: the film
+    /// divides the splat sums by the samples per pixel (all samples over all pixels).
+    pub(crate) l: SampledSpectrum<N>,
+}
+
 /// An integrator as the pixel loop sees it: radiance along a camera ray.
 pub(crate) trait Kernel<const N: usize>: Sync {
     /// Whether samples are random (camera jitter and hero wavelengths drawn from the sample's
     /// own stream); otherwise sub-pixel positions are the deterministic R2 sequence.
     const RANDOM: bool;
 
-    /// Radiance arriving along `ray` at `lambda` (which a dispersive path may narrow).
+    /// Whether [`Kernel::li`] may push splats; the pixel loop keeps no splat sums otherwise.
+    const SPLATS: bool = false;
+
+    /// Radiance arriving along `ray` at `lambda` (which a dispersive path may narrow); light the
+    /// sample sends to other pixels is pushed to `splats` (only where [`Kernel::SPLATS`]).
+    #[allow(clippy::too_many_arguments)]
     fn li(
         &self,
         ray: &Ray,
@@ -49,5 +67,6 @@ pub(crate) trait Kernel<const N: usize>: Sync {
         sensor: &Sensor<N>,
         sampler: &mut Sampler,
         count: &mut RayCount,
+        splats: &mut Vec<Splat<N>>,
     ) -> Radiance<N>;
 }

@@ -21,7 +21,7 @@ use materials::bsdf::{
 use materials::{Anisotropy, Coat, Ior, LAMBDA_D, MaterialModel};
 
 use crate::film::{ObjectId, Sensor, WavelengthTable};
-use crate::integrators::kernel::{Kernel, Radiance, RayCount};
+use crate::integrators::kernel::{Kernel, Radiance, RayCount, Splat};
 use crate::lights::envmap::EnvironmentMap;
 use crate::lights::{Emission, LightSampleContext, emits_towards};
 use crate::options::{PathOptions, WavelengthPdf};
@@ -1126,6 +1126,7 @@ impl<const N: usize> Kernel<N> for PathTracer<'_, N> {
         sensor: &Sensor<N>,
         sampler: &mut Sampler,
         count: &mut RayCount,
+        _splats: &mut Vec<Splat<N>>,
     ) -> Radiance<N> {
         let r = self.trace_path(ray, PathStart::CAMERA, lambda, sensor, sampler, count);
         debug_assert!(r.l.is_finite(), "non-finite radiance {:?}", r.l);

@@ -12,7 +12,7 @@ use glam::{Vec2, Vec3};
 use materials::{hall, scattering};
 
 use crate::film::{ObjectId, Sensor};
-use crate::integrators::kernel::{Kernel, Radiance, RayCount};
+use crate::integrators::kernel::{Kernel, Radiance, RayCount, Splat};
 use crate::lights::{Emission, LightKind, LightSampleContext, emits_towards};
 use crate::options::{Ambient, WhittedOptions};
 use crate::sampling::Sampler;
@@ -383,6 +383,7 @@ impl<const N: usize> Kernel<N> for Whitted<'_, N> {
         _sensor: &Sensor<N>,
         _sampler: &mut Sampler,
         count: &mut RayCount,
+        _splats: &mut Vec<Splat<N>>,
     ) -> Radiance<N> {
         let (l, first) = self.trace_with_id(ray, 0, 1.0, None, count);
         Radiance { l, first, lane: None }
