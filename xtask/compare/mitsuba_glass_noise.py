@@ -67,7 +67,7 @@ def spectrace_renders(args, seeds):
         "multiple_scattering": False,
     }
     manifest = mm.spectrace_manifest(material, None, args)
-    name = f"glass_{args.alpha}_{args.lights}"
+    name = f"glass_{args.alpha}_{args.lights}_{getattr(args, 'integrator', 'path')}"
     return np.array([mm.render_spectrace(manifest, name, seed, args)[0][:, :, 1] for seed in seeds])
 
 
@@ -96,6 +96,13 @@ def main():
     p.add_argument("--point", type=float, default=105.0 * np.pi, help="point light intensity, cd")
     p.add_argument("--max-depth", type=int, default=32)
     p.add_argument("--threads", type=int, default=1, help="spectrace's (the statistics do not depend on it)")
+    p.add_argument(
+        "--integrator",
+        nargs="+",
+        default=["path"],
+        choices=["path", "bdpt"],
+        help="spectrace's integrators to score (each its own row)",
+    )
     args = p.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     args.spectrace = args.spectrace.resolve()
@@ -113,7 +120,10 @@ def main():
 
     seeds = range(1, 1 + args.seeds)
     mitsuba = score(mitsuba_renders(args, args.spp, seeds), ref, sigma, mask)
-    spectrace = score(spectrace_renders(SimpleNamespace(**vars(args)), seeds), ref, sigma, mask)
+    rows = [("Mitsuba 3.9.1", mitsuba)]
+    for integrator in args.integrator:
+        run = SimpleNamespace(**dict(vars(args), integrator=integrator))
+        rows.append((f"spectrace {integrator}", score(spectrace_renders(run, seeds), ref, sigma, mask)))
     table = [
         f"Rough glass sphere (IOR 1.5, GGX α {args.alpha}, uncompensated), lights: {args.lights}, "
         f"{args.size}×{args.size}, {args.spp} spp × {args.seeds} seeds per renderer; reference Mitsuba "
@@ -123,7 +133,7 @@ def main():
         "| renderer | relMSE | relMSE / Mitsuba's | pixels > 10σ (per seed) | largest (Y − Y_ref) / σ | Y / Y_ref |",
         "| --- | --- | --- | --- | --- | --- |",
     ]
-    for name, (rel, outliers, z, lum) in (("Mitsuba 3.9.1", mitsuba), ("spectrace", spectrace)):
+    for name, (rel, outliers, z, lum) in rows:
         table.append(f"| {name} | {rel:.4g} | {rel / mitsuba[0]:.2f} | {outliers} | {z:.1f} | {lum:.4f} |")
     print("\n".join(table))
     (args.out / "table_glass_noise.md").write_text("\n".join(table) + "\n")

@@ -294,7 +294,8 @@ def render_spectrace(manifest, name, seed, args):
     scene = args.out / f"{name}.json"
     scene.write_text(json.dumps(manifest, indent=1))
     exr = args.out / f"{name}_spectrace_s{seed}.exr"
-    cmd = [str(args.spectrace), "render", str(scene), "--integrator", "path", "--spp", str(args.spp)]
+    integrator = getattr(args, "integrator", "path")
+    cmd = [str(args.spectrace), "render", str(scene), "--integrator", integrator, "--spp", str(args.spp)]
     cmd += ["--seed", str(seed), "--spectral", "hero:4", "--wavelength-pdf", "visible"]
     # (A render's samples do not depend on the thread count; mitsuba_glass_noise.py raises it.)
     cmd += ["--threads", str(getattr(args, "threads", 1))]

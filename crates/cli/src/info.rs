@@ -80,6 +80,10 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
         let integrator = match kind {
             integrator::IntegratorKind::WhittedHall => integrator::Integrator::default(),
             integrator::IntegratorKind::Path => integrator::Integrator::Path(integrator::PathOptions::default()),
+            integrator::IntegratorKind::Bdpt => integrator::Integrator::Bdpt(integrator::PathOptions {
+                sampler: integrator::SamplerKind::Independent,
+                ..integrator::PathOptions::default()
+            }),
         };
         let sampling = args.sampling.plan(kind)?;
         let options = integrator::RenderOptions {

@@ -541,6 +541,17 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
             wavelength_pdf: args.wavelength_pdf,
             sampler: args.sampler.unwrap_or_default(),
         }),
+        IntegratorKind::Bdpt => {
+            if args.sampler.is_some_and(|s| s != integrator::SamplerKind::Independent) {
+                anyhow::bail!("--sampler {}: bdpt draws independent numbers (its light subpaths are not stratified)", args.sampler.unwrap_or_default());
+            }
+            Integrator::Bdpt(PathOptions {
+                max_depth: args.max_depth,
+                rr_depth: args.rr_depth,
+                wavelength_pdf: args.wavelength_pdf,
+                sampler: integrator::SamplerKind::Independent,
+            })
+        }
     };
     let options = RenderOptions {
         width,

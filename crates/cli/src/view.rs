@@ -374,6 +374,7 @@ pub(crate) fn kind_name(kind: IntegratorKind) -> &'static str {
     match kind {
         IntegratorKind::WhittedHall => "whitted-hall",
         IntegratorKind::Path => "path",
+        IntegratorKind::Bdpt => "bdpt",
     }
 }
 

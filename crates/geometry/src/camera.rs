@@ -83,6 +83,40 @@ impl Camera {
         Ray { origin: self.position + sx * self.right + sy * self.up, dir: self.forward }
     }
 
+    /// Where a pinhole camera sees the point `p`: its image position (`x`, `y`) in pixels (y down, as
+    /// [`Camera::generate_ray`] takes them) in a `width`×`height` image and the cosine between the view
+    /// axis and the direction to `p`; `None` behind the camera, outside the image, or for an orthographic
+    /// camera (light tracing connects to a pinhole only).
+    pub fn raster_of(&self, p: Vec3, width: u32, height: u32) -> Option<(f32, f32, f32)> {
+        if self.orthographic {
+            return None;
+        }
+        let d = p - self.position;
+        let z = d.dot(self.forward);
+        let length = d.length();
+        if !(z > 0.0 && length > 0.0 && length.is_finite()) {
+            return None;
+        }
+        let sx = d.dot(self.right) / (z * self.tan_half_fov * self.aspect);
+        let sy = d.dot(self.up) / (z * self.tan_half_fov);
+        let x = (sx + 1.0) * 0.5 * width as f32;
+        let y = (1.0 - sy) * 0.5 * height as f32;
+        let inside = (0.0..width as f32).contains(&x) && (0.0..height as f32).contains(&y);
+        inside.then_some((x, y, z / length))
+    }
+
+    /// The area of a pinhole camera's image plane at distance 1 from the eye (pbrt-v4's `A` of
+    /// `PerspectiveCamera`): the importance it emits along a ray at angle θ to the axis is
+    /// 1 / (A cos⁴ θ), so that it integrates to 1 over the image.
+    pub fn image_plane_area(&self) -> f32 {
+        4.0 * self.tan_half_fov * self.tan_half_fov * self.aspect
+    }
+
+    /// The unit view direction.
+    pub fn forward(&self) -> Vec3 {
+        self.forward
+    }
+
     /// Whether rays are parallel (orthographic) rather than from the eye.
     pub fn is_orthographic(&self) -> bool {
         self.orthographic
@@ -97,6 +131,21 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A point seen through a pixel projects back to that pixel, at the ray's cosine to the axis.
+    #[test]
+    fn raster_of_inverts_generate_ray() {
+        let c = Camera::look_at(Vec3::new(1.0, 2.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0, 1.5).unwrap();
+        for (x, y) in [(0.5, 0.5), (299.25, 1.0), (150.0, 100.0), (17.3, 199.9)] {
+            let r = c.generate_ray(x, y, 300, 200);
+            let (px, py, cos) = c.raster_of(r.origin + 7.0 * r.dir, 300, 200).unwrap();
+            assert!((px - x).abs() < 1e-3 && (py - y).abs() < 1e-3, "({x}, {y}) → ({px}, {py})");
+            assert!((cos - r.dir.dot(c.forward())).abs() < 1e-6);
+        }
+        assert!(c.raster_of(Vec3::new(1.0, 2.0, 10.0), 300, 200).is_none(), "behind the camera");
+        // tan 20° squared × 4 × 1.5.
+        assert!((c.image_plane_area() - 4.0 * 0.363_970_23f32.powi(2) * 1.5).abs() < 1e-5);
+    }
 
     /// An orthographic camera 2 high and 4 wide (aspect 2) at z = 5 looking down −z: every ray points
     /// along −z, and the image's corners and centre start at the rectangle's corners and centre.

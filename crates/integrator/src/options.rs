@@ -22,6 +22,9 @@ pub enum IntegratorKind {
     WhittedHall,
     /// The physically based spectral path tracer (`docs/path-tracer.md`).
     Path,
+    /// Bidirectional path tracing over the path tracer's surfaces and lights: caustics from small lights
+    /// (`docs/path-tracer.md`, "Bidirectional path tracing").
+    Bdpt,
 }
 
 impl FromStr for IntegratorKind {
@@ -32,10 +35,11 @@ impl FromStr for IntegratorKind {
         match s {
             "whitted-hall" | "whitted" | "paper" => Ok(Self::WhittedHall),
             "path" => Ok(Self::Path),
+            "bdpt" => Ok(Self::Bdpt),
             _ => Err(Error::InvalidOption {
                 option: "integrator",
                 value: s.to_owned(),
-                expected: "whitted-hall or path",
+                expected: "whitted-hall, path or bdpt",
             }),
         }
     }
@@ -200,6 +204,9 @@ pub enum Integrator {
     WhittedHall(WhittedOptions),
     /// The physically based path tracer.
     Path(PathOptions),
+    /// Bidirectional path tracing, with the path tracer's options (its sampler is always independent
+    /// numbers: the light subpath's dimensions are not stratified).
+    Bdpt(PathOptions),
 }
 
 impl Integrator {
@@ -208,6 +215,7 @@ impl Integrator {
         match self {
             Self::WhittedHall(_) => IntegratorKind::WhittedHall,
             Self::Path(_) => IntegratorKind::Path,
+            Self::Bdpt(_) => IntegratorKind::Bdpt,
         }
     }
 }
@@ -336,7 +344,7 @@ impl RenderOptions {
     pub fn whitted(self, f: impl FnOnce(&mut WhittedOptions)) -> Self {
         let mut o = match self.integrator {
             Integrator::WhittedHall(o) => o,
-            Integrator::Path(_) => WhittedOptions::default(),
+            Integrator::Path(_) | Integrator::Bdpt(_) => WhittedOptions::default(),
         };
         f(&mut o);
         Self { integrator: Integrator::WhittedHall(o), ..self }
@@ -346,7 +354,7 @@ impl RenderOptions {
     /// held the paper's model's).
     pub fn path(self, f: impl FnOnce(&mut PathOptions)) -> Self {
         let mut o = match self.integrator {
-            Integrator::Path(o) => o,
+            Integrator::Path(o) | Integrator::Bdpt(o) => o,
             Integrator::WhittedHall(_) => PathOptions::default(),
         };
         f(&mut o);
@@ -364,6 +372,12 @@ impl RenderOptions {
                 "whitted-hall max_depth={:?} min_weight={:?} absorption={} ambient={:?}",
                 w.max_depth, w.min_weight, w.absorption, w.ambient
             ),
+            Integrator::Bdpt(p) => {
+                format!(
+                    "bdpt max_depth={:?} rr_depth={:?} wavelength_pdf={:?}",
+                    p.max_depth, p.rr_depth, p.wavelength_pdf
+                )
+            }
             Integrator::Path(p) => {
                 format!(
                     "path max_depth={:?} rr_depth={:?} wavelength_pdf={:?} sampler={}",

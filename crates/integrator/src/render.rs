@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::film::estimate::{ErrorEstimate, TILE, tile_grid, tile_index};
 use crate::film::{Film, MAX_SPP, Sensor};
-use crate::integrators::{Kernel, PathTracer, Radiance, RayCount, Splat, Whitted};
+use crate::integrators::{Bdpt, Kernel, PathTracer, Radiance, RayCount, Splat, Whitted};
 use crate::options::{Integrator, PathOptions, RenderOptions, SamplerKind};
 use crate::output::auto_exposure_ev_of;
 use crate::sampling::{Rng, Sampler, SobolSample};
@@ -278,6 +278,23 @@ impl LaneJob for RenderJob<'_> {
                     _ => Some(fixed()),
                 };
                 let (kernel, sensor) = PathTracer::<N>::new(self.scene, sensor, o);
+                render_pixels(&kernel, &sensor, self)
+            }
+            Integrator::Bdpt(o) => {
+                let sensor = match self.spectral {
+                    SpectralMode::Hero { .. } => None,
+                    _ => Some(fixed()),
+                };
+                let camera = self.scene.camera(self.options.width, self.options.height)?;
+                if camera.is_orthographic() {
+                    return Err(Error::InvalidOption {
+                        option: "integrator",
+                        value: "bdpt with an orthographic camera".to_owned(),
+                        expected: "a perspective camera (light tracing connects to a pinhole), or --integrator path",
+                    });
+                }
+                let (tracer, sensor) = PathTracer::<N>::new(self.scene, sensor, o);
+                let kernel = Bdpt::new(tracer, camera, self.options.width, self.options.height);
                 render_pixels(&kernel, &sensor, self)
             }
         }

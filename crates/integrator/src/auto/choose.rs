@@ -70,8 +70,10 @@ const MAX_CASES: usize = 20_000;
 /// tracer (unbiased for any spectrum), `bins:95` for the paper's model (its finest grid).
 pub fn choose_auto(scene: &RenderScene, integrator: IntegratorKind) -> SpectralMode {
     match integrator {
-        IntegratorKind::Path if scene.materials.iter().any(Material::is_dispersive) => SpectralMode::Hero { count: 8 },
-        IntegratorKind::Path => auto_bins(scene).map_or(SpectralMode::Hero { count: 8 }, SpectralMode::Bins),
+        IntegratorKind::Path | IntegratorKind::Bdpt if scene.materials.iter().any(Material::is_dispersive) => {
+            SpectralMode::Hero { count: 8 }
+        }
+        IntegratorKind::Path | IntegratorKind::Bdpt => auto_bins(scene).map_or(SpectralMode::Hero { count: 8 }, SpectralMode::Bins),
         IntegratorKind::WhittedHall => SpectralMode::Bins(auto_bins(scene).unwrap_or(FINE_BINS)),
     }
 }

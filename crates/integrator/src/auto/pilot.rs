@@ -188,7 +188,7 @@ pub fn pilot_strategies(
     strategies: &[SpectralMode],
 ) -> Result<Vec<AutoCandidate>> {
     let path = match options.integrator {
-        Integrator::Path(path) => path,
+        Integrator::Path(path) | Integrator::Bdpt(path) => path,
         Integrator::WhittedHall(_) => PathOptions::default(),
     };
     let pixels = pilot_pixels(options.width, options.height);

@@ -3,10 +3,12 @@
 //! Kernels see the assembled scene, the lights and textures, the film's sensor and the sampler;
 //! they know nothing of pixels, passes or output.
 
+pub(crate) mod bdpt;
 mod kernel;
 pub(crate) mod path;
 pub(crate) mod whitted;
 
 pub(crate) use kernel::{Kernel, Radiance, RayCount, Splat};
+pub(crate) use bdpt::Bdpt;
 pub(crate) use path::PathTracer;
 pub(crate) use whitted::Whitted;

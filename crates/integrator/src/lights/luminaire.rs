@@ -181,7 +181,6 @@ impl Luminaire {
     /// A direction leaving the luminaire, sampled ∝ the flux of the web's cells and uniformly in solid
     /// angle within one (pbrt-v4 `GoniometricLight::SampleLe`'s direction part), with its density per
     /// steradian; `None` for a dark web.
-    #[allow(dead_code, reason = "light tracing's half of the light (issue 43); χ²-tested below")]
     pub(crate) fn sample_le(&self, u: Vec2) -> Option<(Vec3, f32)> {
         if !(self.flux > 0.0) {
             return None;
@@ -200,7 +199,6 @@ impl Luminaire {
     }
 
     /// The density of [`Luminaire::sample_le`] for the unit direction `w`.
-    #[allow(dead_code, reason = "light tracing's half of the light (issue 43); χ²-tested below")]
     pub(crate) fn pdf_le(&self, w: Vec3) -> f32 {
         if !(self.flux > 0.0) {
             return 0.0;

@@ -96,6 +96,23 @@ pub(crate) struct LiSample {
     pub(crate) delta: bool,
 }
 
+/// A ray leaving a light ([`LightKind::sample_le`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LeSample {
+    /// Where it leaves.
+    pub(crate) p: Vec3,
+    /// The emitting side's normal on an area light; `None` for a point.
+    pub(crate) n: Option<Vec3>,
+    /// Unit direction of travel.
+    pub(crate) w: Vec3,
+    /// Density of `p` per unit area (1 for a point).
+    pub(crate) pdf_pos: f32,
+    /// Density of `w` per steradian.
+    pub(crate) pdf_dir: f32,
+    /// The emission is multiplied by this (a spot's fall-off, a luminaire's candela; 1 otherwise).
+    pub(crate) scale: f32,
+}
+
 impl Light {
     pub(crate) fn new(kind: LightKind, spectrum: DenselySampledSpectrum) -> Self {
         Self { kind, spectrum, map: None }
@@ -164,6 +181,73 @@ impl LightKind {
         }
     }
 
+    /// A ray leaving the light (pbrt-v4 `Light::SampleLe`), for light subpaths: `u` places the origin on
+    /// an area light (uniformly by area), `u2` the direction (cosine-weighted about the emitting side's
+    /// normal; a two-sided emitter picks its side with `u2.x`; a point light uniformly, a spot uniformly
+    /// in its outer cone, a luminaire ∝ its web's flux). `None` for lights at infinity (directional,
+    /// environment: light subpaths never start there, their light is found from the camera side) and
+    /// where the light sends nothing.
+    pub(crate) fn sample_le(&self, u: Vec2, u2: Vec2) -> Option<LeSample> {
+        let pi = std::f32::consts::PI;
+        match *self {
+            Self::Point { position } => {
+                Some(LeSample { p: position, n: None, w: uniform_sphere(u2), pdf_pos: 1.0, pdf_dir: 0.25 / pi, scale: 1.0 })
+            }
+            Self::Luminaire { position, ref web } => {
+                let (w, pdf_dir) = web.sample_le(u2)?;
+                let scale = web.intensity(w);
+                (scale > 0.0).then_some(LeSample { p: position, n: None, w, pdf_pos: 1.0, pdf_dir, scale })
+            }
+            Self::Spot { position, direction, cos_inner, cos_outer } => {
+                // Uniform in the cone of half-angle θ_outer.
+                let cos = 1.0 - u2.x * (1.0 - cos_outer);
+                let sin = (1.0 - cos * cos).max(0.0).sqrt();
+                let phi = 2.0 * pi * u2.y;
+                let (t, b) = materials::sampling::basis(direction);
+                let w = (cos * direction + sin * (phi.cos() * t + phi.sin() * b)).normalize();
+                let scale = smoothstep(cos_outer, cos_inner, cos);
+                let pdf_dir = 1.0 / (2.0 * pi * (1.0 - cos_outer).max(1e-7));
+                (scale > 0.0).then_some(LeSample { p: position, n: None, w, pdf_pos: 1.0, pdf_dir, scale })
+            }
+            Self::Directional { .. } | Self::Environment => None,
+            Self::Triangle { area, two_sided, .. } | Self::Sphere { area, two_sided, .. } => {
+                let (p, n) = self.sample_area(u);
+                if n == Vec3::ZERO {
+                    return None;
+                }
+                let (n, ux, sides) = match (two_sided, u2.x < 0.5) {
+                    (false, _) => (n, u2.x, 1.0),
+                    (true, true) => (n, 2.0 * u2.x, 2.0),
+                    (true, false) => (-n, 2.0 * u2.x - 1.0, 2.0),
+                };
+                let w = cosine_hemisphere(n, Vec2::new(ux.min(1.0 - f32::EPSILON / 2.0), u2.y));
+                let pdf_dir = n.dot(w) / (pi * sides);
+                (pdf_dir > 0.0).then_some(LeSample { p, n: Some(n), w, pdf_pos: 1.0 / area, pdf_dir, scale: 1.0 })
+            }
+        }
+    }
+
+    /// The densities with which [`LightKind::sample_le`] leaves from a point with normal `n` (area lights;
+    /// ignored otherwise) along the unit direction `w`: per unit area (1 for point lights) and per
+    /// steradian. Both 0 for lights at infinity, which start no light subpath.
+    pub(crate) fn pdf_le(&self, n: Vec3, w: Vec3) -> (f32, f32) {
+        let pi = std::f32::consts::PI;
+        match *self {
+            Self::Point { .. } => (1.0, 0.25 / pi),
+            Self::Luminaire { ref web, .. } => (1.0, web.pdf_le(w)),
+            Self::Spot { direction, cos_outer, .. } => {
+                let inside = w.dot(direction) >= cos_outer;
+                (1.0, if inside { 1.0 / (2.0 * pi * (1.0 - cos_outer).max(1e-7)) } else { 0.0 })
+            }
+            Self::Directional { .. } | Self::Environment => (0.0, 0.0),
+            Self::Triangle { area, two_sided, .. } | Self::Sphere { area, two_sided, .. } => {
+                let cos = n.dot(w);
+                let dir = if two_sided { cos.abs() / (2.0 * pi) } else { cos.max(0.0) / pi };
+                (1.0 / area, dir)
+            }
+        }
+    }
+
     /// A point on an area light, uniformly by area, and the surface normal there.
     fn sample_area(&self, u: Vec2) -> (Vec3, Vec3) {
         match *self {
@@ -221,7 +305,7 @@ fn towards_point(p: Vec3, position: Vec3) -> Option<(Vec3, f32)> {
 }
 
 /// pbrt-v4's `SmoothStep`: 0 below `a`, 1 above `b`, a cubic in between.
-fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+pub(crate) fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
     if a == b {
         return if x < a { 0.0 } else { 1.0 };
     }
@@ -375,10 +459,25 @@ impl Emitters {
         }
     }
 
-    /// The probability of choosing light `light`.
-    #[cfg(test)]
+    /// The probability of choosing light `light` ([`Emitters::sample_li`] and [`Emitters::choose`] alike).
     pub(crate) fn probability(&self, light: usize) -> f32 {
         self.pmf[light]
+    }
+
+    /// A light chosen ∝ power with `u`, as [`Emitters::sample_li`] chooses it, with its probability.
+    pub(crate) fn choose(&self, u: f32) -> Option<(usize, f32)> {
+        let light = self.cdf.partition_point(|&c| c <= u).min(self.kinds.len().checked_sub(1)?);
+        Some((light, self.pmf[light]))
+    }
+
+    /// Light `light`'s shape.
+    pub(crate) fn kind(&self, light: usize) -> &LightKind {
+        &self.kinds[light]
+    }
+
+    /// The light primitive `primitive` is, if it is an area light.
+    pub(crate) fn light_of_primitive(&self, primitive: u32) -> Option<usize> {
+        self.area_light_of.get(primitive as usize).filter(|&&l| l != u32::MAX).map(|&l| l as usize)
     }
 
     /// The primitives that are area lights, each with its index in the set ([`Emitters::iter`] order).

@@ -341,7 +341,7 @@ impl RenderScene {
             }
         }
         let (camera, camera_source) = (chosen.desc, chosen.source);
-        let auto_integrator = auto_integrator(&settings)?;
+        let settings_integrator = auto_integrator(&settings)?;
         // glTF lights are KHR_lights_punctual: candela (point, spot) and lux (directional).
         let photometric_lights = (format == geometry::SceneFormat::Gltf && !light_descs.is_empty())
             || options.sky.is_some()
@@ -380,6 +380,11 @@ impl RenderScene {
         };
         let lights_why =
             add_default_lights(options.default_lights, &world, &mut lights, &mut light_descs, &mut warnings)?;
+        let orthographic = matches!(camera.projection, geometry::Projection::Orthographic { .. });
+        let auto_integrator = match (settings.integrator.is_none(), orthographic) {
+            (true, false) => caustic_integrator(&lights, &materials).unwrap_or(settings_integrator),
+            _ => settings_integrator,
+        };
 
         let background = match background {
             Some((spectrum, intensity)) => Some(
@@ -574,6 +579,42 @@ fn auto_integrator(settings: &Settings) -> Result<(IntegratorKind, String)> {
         }
     }
 }
+
+/// Bidirectional path tracing, with the reason, where the scene has caustics the path tracer cannot find: a
+/// point, spot or luminaire light (a delta light: no path from the camera can hit it) and a smooth surface
+/// that refracts or mirrors (glass, a thin pane, a mirror or polished metal of roughness below
+/// [`CAUSTIC_ROUGHNESS`]), through which that light reaches whatever lies beyond. Otherwise `None`: the path
+/// tracer, and the scene pays nothing for BDPT.
+fn caustic_integrator(lights: &[Light], materials: &[Material]) -> Option<(IntegratorKind, String)> {
+    let delta = lights.iter().filter(|l| l.kind.is_delta() && !matches!(l.kind, LightKind::Directional { .. })).count();
+    if delta == 0 {
+        return None;
+    }
+    let smooth = |m: &&Material| match m.model {
+        MaterialModel::Mirror | MaterialModel::ThinDielectric => true,
+        MaterialModel::Dielectric { roughness } | MaterialModel::Conductor { roughness, .. } => {
+            roughness < CAUSTIC_ROUGHNESS
+        }
+        MaterialModel::GltfTransmission { roughness, transmission, .. } => {
+            transmission > 0.0 && roughness < CAUSTIC_ROUGHNESS
+        }
+        _ => false,
+    };
+    let caster = materials.iter().find(smooth)?;
+    let lights = if delta == 1 { "a point light shines" } else { "point lights shine" };
+    Some((
+        IntegratorKind::Bdpt,
+        format!(
+            "bdpt: {lights} through or off a smooth surface (material `{}`): caustics the path tracer cannot find",
+            caster.name
+        ),
+    ))
+}
+
+/// Roughness (α = roughness²) below which a refracting or mirroring surface focuses a point light into a
+/// caustic the path tracer misses: at 0.3 (α 0.09) a glossy lobe still concentrates the light into a
+/// spot a few degrees wide, which camera paths find only by chance.
+const CAUSTIC_ROUGHNESS: f32 = 0.3;
 
 /// The light of a scene that has neither lights nor emitters: D65, up-left-front, ten bounding radii away
 /// (as the paper's light), intensity d² so the irradiance at the centre is 1. Coordinates are bounded by

@@ -1,6 +1,7 @@
 //! Integration tests of the integrator: analytic answers and hard cases, rendered at tiny
 //! resolutions.
 
+mod bdpt;
 mod defaults;
 mod envmap;
 mod film;
