@@ -290,6 +290,11 @@ impl LaneJob for RenderJob<'_> {
 /// film's sums are exact, so the image is the same for any thread count, pass size or split
 /// into sample ranges.
 ///
+/// A kernel that splats ([`Kernel::SPLATS`]) gets a film with splat sums: each sample's splats are
+/// converted with its final wavelengths and lane, kept in a bounded batch per row task and added
+/// under the lock of the row it lands in (`film::splat`); integer sums again, so the same bits
+/// for any thread count. Other kernels compile to the loop without them.
+///
 /// With a target error the samples are taken in stages ([`stage_ends`]); after each, the tiles
 /// whose estimated error reached the target stop. Which tiles go on is decided from the film
 /// alone (its sums and counts), so a resumed render decides as the uninterrupted one did: a

@@ -266,7 +266,7 @@ const MAX_PREFIX_BYTES: u64 = (16 + FIXED_HEADER_BYTES + 4 * (4 + MAX_TEXT) + 4 
 
 /// Largest film file a valid header can announce: [`MAX_PIXELS`] pixels of sums, material ids,
 /// [`MAX_BINS`] per-wavelength sums, half-film sums and the splat sums of each, after the
-/// longest header, and the checksum (≈ 428 GB).
+/// longest header, and the checksum (≈ 441 GB).
 pub(crate) const MAX_FILM_BYTES: u64 =
     MAX_PREFIX_BYTES + MAX_PIXELS * (PIXEL_BYTES + 4 + 2 * 16 * MAX_BINS + 3 * 48) as u64 + 8;
 
