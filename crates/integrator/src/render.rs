@@ -17,7 +17,8 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::film::estimate::{ErrorEstimate, TILE, tile_grid, tile_index};
-use crate::film::{Film, MAX_SPP, Sensor};
+use crate::film::splat::{SPLAT_BATCH, SplatValue};
+use crate::film::{Film, MAX_SPP, Sensor, second_half};
 use crate::integrators::{Bdpt, Kernel, PathTracer, Radiance, RayCount, Splat, Whitted};
 use crate::options::{Integrator, PathOptions, RenderOptions, SamplerKind};
 use crate::output::auto_exposure_ev_of;
@@ -306,6 +307,11 @@ impl LaneJob for RenderJob<'_> {
 /// film's sums are exact, so the image is the same for any thread count, pass size or split
 /// into sample ranges.
 ///
+/// A kernel that splats ([`Kernel::SPLATS`]) gets a film with splat sums: each sample's splats are
+/// converted with its final wavelengths and lane, kept in a bounded batch per row task and added
+/// under the lock of the row it lands in (`film::splat`); integer sums again, so the same bits
+/// for any thread count. Other kernels compile to the loop without them.
+///
 /// With a target error the samples are taken in stages ([`stage_ends`]); after each, the tiles
 /// whose estimated error reached the target stop. Which tiles go on is decided from the film
 /// alone (its sums and counts), so a resumed render decides as the uninterrupted one did: a
@@ -324,11 +330,12 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
             if (film.width, film.height) != (width, height)
                 || film.wavelengths != wavelengths
                 || film.has_halves() != options.keeps_halves()
+                || film.has_splats() != K::SPLATS
             {
                 return Err(Error::InvalidOption {
                     option: "film to resume",
                     value: format!("{}x{} with {} wavelengths", film.width, film.height, film.wavelengths.len()),
-                    expected: "a film of the same size, wavelengths and error estimate as the render",
+                    expected: "a film of the same size, wavelengths, error estimate and splats as the render",
                 });
             }
             if film.max_sample_count() > samples.len() as u32 {
@@ -340,8 +347,11 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
             }
             film
         }
-        None if options.keeps_halves() => Film::new(width, height, wavelengths).with_halves(),
-        None => Film::new(width, height, wavelengths),
+        None => {
+            let film = Film::new(width, height, wavelengths);
+            let film = if options.keeps_halves() { film.with_halves() } else { film };
+            if K::SPLATS { film.with_splats() } else { film }
+        }
     };
     let sampler = PixelSampler::new(kernel, sensor, camera, options);
     let range = samples.len() as u32;
@@ -403,8 +413,8 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
         let rows_total = rows_done.load(Ordering::Relaxed) + active_rows * u64::from(passes - skip);
         for pass in skip..passes {
             let end = samples.start + (lo + (pass + 1) * pass_size).min(hi);
-            let counts: Vec<(u64, u64)> = film
-                .rows_mut()
+            let (rows, splat_target) = film.pass_mut();
+            let counts: Vec<(u64, u64)> = rows
                 // One row per task for a render to a target error: the few rows its late stages
                 // sample would otherwise sit in one thread's half of the image while the other
                 // idles (wall time 0.75×, measured). A fixed-spp render keeps rayon's own split.
@@ -425,6 +435,8 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     let mut fixed = Sampler::Independent(Rng::new(0, 0, 0));
                     let mut row_samples = 0u64;
                     let mut splats = Vec::new();
+                    // This row's samples' splats, converted, added to the film in batches.
+                    let mut batch = Vec::<SplatValue<N>>::new();
                     for x in 0..width as usize {
                         if !active[row_tiles + x / TILE as usize] {
                             continue;
@@ -442,14 +454,35 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                             if i % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
                                 return Err(Error::Cancelled);
                             }
+                            if K::SPLATS {
+                                splats.clear();
+                            }
                             let (r, lambda) = sampler.sample(x, y, rotation, i, &mut fixed, &mut count, &mut splats);
                             if i == 0 {
                                 row.set_first_hit(x, r.first);
                             }
                             let (xyz, values) = sensor.to_xyz(&r.l, &lambda, r.lane);
                             row.add_sample(x, i, xyz, &values);
+                            if K::SPLATS {
+                                // With the sample's final wavelengths and lane, as its own value.
+                                for s in &splats {
+                                    if s.x >= width || s.y >= height {
+                                        debug_assert!(false, "a splat outside the image: ({}, {})", s.x, s.y);
+                                        continue;
+                                    }
+                                    let (xyz, values) = sensor.to_xyz(&s.l, &lambda, r.lane);
+                                    let pixel = s.y as usize * width as usize + s.x as usize;
+                                    batch.push(SplatValue { pixel, second: second_half(i), xyz, values });
+                                }
+                                if batch.len() >= SPLAT_BATCH {
+                                    splat_target.add(&mut batch);
+                                }
+                            }
                         }
                         row_samples += u64::from(end.saturating_sub(next));
+                    }
+                    if K::SPLATS {
+                        splat_target.add(&mut batch);
                     }
                     let rays_now = rays.fetch_add(count.rays, Ordering::Relaxed) + count.rays;
                     shadow_rays.fetch_add(count.shadow, Ordering::Relaxed);
@@ -466,6 +499,8 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                     Ok((row.nonfinite, row.clamped))
                 })
                 .collect::<Result<_>>()?;
+            let (nonfinite, clamped) = splat_target.finish();
+            film.add_counts(nonfinite, clamped);
             for (nonfinite, clamped) in counts {
                 film.add_counts(nonfinite, clamped);
             }
@@ -657,6 +692,7 @@ impl<'a, const N: usize, K: Kernel<N>> PixelSampler<'a, N, K> {
     /// Sample `i` of pixel (x, y) (`rotation` from [`PixelSampler::rotation`]): its radiance and
     /// wavelengths. The random numbers depend only on (seed, pixel, i).
     #[inline]
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn sample(
         &self,
         x: usize,
@@ -754,6 +790,277 @@ mod tests {
             matches!(&all, NonfiniteVerdict::Refuse(m) if m.starts_with("3072 of 3072 samples (100.000 %)")),
             "{all:?}"
         );
+    }
+
+    /// Splats through the whole pixel loop, with a kernel whose answer is known exactly: every
+    /// sample of pixel (x, y) sees [`OWN`] and splats [`splat_from`] (x, y) to pixel
+    /// ((x + 1) mod w, (y + 1) mod h), in another row, so rows running in parallel add to each
+    /// other's splat sums.
+    mod splats {
+        use std::path::Path;
+        use std::sync::Mutex;
+
+        use colorimetry::{DenselySampledSpectrum, SampledSpectrum};
+
+        use super::*;
+        use crate::film::ObjectId;
+        use crate::film::estimate::pixel_error_with_splats;
+        use crate::film::file::{FilmFile, FilmHeader};
+        use crate::film::splat::SplatScales;
+        use crate::options::Integrator;
+
+        const OWN: [f32; 4] = [0.25, 0.5, 0.125, 0.25];
+        const W: u32 = 7;
+        const H: u32 = 5;
+        const SPP: u32 = 4;
+
+        /// What pixel (x, y) sends to its neighbour: different per pixel and per lane, so a splat
+        /// added to the wrong pixel or lane shows.
+        fn splat_from(x: u32, y: u32) -> [f32; 4] {
+            let v = 0.125 * (1 + x + W * y) as f32;
+            [v, 2.0 * v, 0.5 * v, 0.75 * v]
+        }
+
+        struct SplatKernel {
+            camera: Camera,
+        }
+
+        impl SplatKernel {
+            /// The pixel a camera ray goes through: how many pixel edges it lies beyond, each edge a
+            /// plane through the eye (the deterministic sub-pixel positions keep ≥ 0.0098 pixel from
+            /// the edges at 4 spp, far beyond rounding).
+            fn pixel_of(&self, ray: &Ray) -> (u32, u32) {
+                let dir = |x: f32, y: f32| self.camera.generate_ray(x, y, W, H).dir;
+                let columns = (1..W)
+                    .filter(|&e| {
+                        let e = e as f32;
+                        let normal = dir(e, 0.0).cross(dir(e, H as f32));
+                        (normal.dot(ray.dir) > 0.0) != (normal.dot(dir(e - 0.5, 0.5 * H as f32)) > 0.0)
+                    })
+                    .count();
+                let rows = (1..H)
+                    .filter(|&e| {
+                        let e = e as f32;
+                        let normal = dir(0.0, e).cross(dir(W as f32, e));
+                        (normal.dot(ray.dir) > 0.0) != (normal.dot(dir(0.5 * W as f32, e - 0.5)) > 0.0)
+                    })
+                    .count();
+                (columns as u32, rows as u32)
+            }
+        }
+
+        impl Kernel<4> for SplatKernel {
+            const RANDOM: bool = false;
+            const SPLATS: bool = true;
+
+            fn li(
+                &self,
+                ray: &Ray,
+                _lambda: &mut SampledWavelengths<4>,
+                _sensor: &Sensor<4>,
+                _sampler: &mut Sampler,
+                count: &mut RayCount,
+                splats: &mut Vec<Splat<4>>,
+            ) -> Radiance<4> {
+                count.rays += 1;
+                let (x, y) = self.pixel_of(ray);
+                splats.push(Splat { x: (x + 1) % W, y: (y + 1) % H, l: SampledSpectrum(splat_from(x, y)) });
+                Radiance { l: SampledSpectrum(OWN), first: ObjectId::Background, lane: None }
+            }
+        }
+
+        fn scene() -> RenderScene {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/reference/cornell_box.json");
+            RenderScene::load(&path).unwrap()
+        }
+
+        fn sensor() -> Sensor<4> {
+            Sensor::Fixed(Lanes::bins(4, &DenselySampledSpectrum::constant(1.0)))
+        }
+
+        fn options(threads: usize) -> RenderOptions {
+            RenderOptions {
+                width: W,
+                height: H,
+                integrator: Integrator::default(),
+                spectral: SpectralMode::Bins(4),
+                spp: SPP,
+                threads: Some(threads),
+                spectral_film: true,
+                ..RenderOptions::default()
+            }
+        }
+
+        fn render(
+            scene: &RenderScene,
+            options: &RenderOptions,
+            resume: Option<Film>,
+            checkpoint: Option<Checkpoint<'_>>,
+        ) -> Film {
+            let sensor = sensor();
+            let kernel = SplatKernel { camera: scene.camera(W, H).unwrap() };
+            let cancel = AtomicBool::new(false);
+            let job = RenderJob {
+                scene,
+                options,
+                spectral: options.spectral,
+                samples: check_options(options).unwrap(),
+                progress: &|_| {},
+                cancel: &cancel,
+                resume,
+                checkpoint,
+            };
+            thread_pool(options).unwrap().install(|| render_pixels(&kernel, &sensor, job)).unwrap().0
+        }
+
+        /// Own value plus the splat from the pixel up and to the left, as the film should show it.
+        fn expected(x: u32, y: u32) -> ([f32; 3], [f32; 4]) {
+            let Sensor::Fixed(lanes) = sensor() else { unreachable!() };
+            let from = splat_from((x + W - 1) % W, (y + H - 1) % H);
+            let (own_xyz, splat_xyz) = (lanes.xyz(&OWN), lanes.xyz(&from));
+            (
+                [0, 1, 2].map(|c| (f64::from(own_xyz[c]) + f64::from(splat_xyz[c])) as f32),
+                [0, 1, 2, 3].map(|i| (f64::from(OWN[i]) + f64::from(from[i])) as f32),
+            )
+        }
+
+        fn assert_expected(film: &Film) {
+            let image = film.to_image();
+            let (_, spectral) = image.spectral().unwrap();
+            for y in 0..H {
+                for x in 0..W {
+                    let (xyz, values) = expected(x, y);
+                    assert_eq!(image.xyz(x, y), xyz, "pixel ({x}, {y})");
+                    let i = (y * W + x) as usize;
+                    assert_eq!(spectral[4 * i..4 * i + 4], values, "pixel ({x}, {y})");
+                }
+            }
+        }
+
+        #[test]
+        fn splats_land_in_their_pixels_divided_by_the_samples_per_pixel() {
+            let scene = scene();
+            let one = render(&scene, &options(1), None, None);
+            assert!(one.has_splats() && one.min_sample_count() == SPP && one.nonfinite_samples() == 0);
+            // Every pixel got SPP splats of its neighbour's value: the sums are exact.
+            let Sensor::Fixed(lanes) = sensor() else { unreachable!() };
+            let from = lanes.xyz(&splat_from(0, 0));
+            let sum = one.splats.xyz[(W + 1) as usize][1];
+            assert_eq!(crate::film::from_fixed(sum, crate::film::FRACTION_BITS), 4.0 * f64::from(from[1]));
+            assert_expected(&one);
+            // Rows in parallel add to each other's splat sums: the same bits.
+            let two = render(&scene, &options(2), None, None);
+            assert!(one == two, "1 and 2 threads differ");
+            // Mean luminance (auto-exposure) reads the splats too.
+            let y: Vec<f32> = one.mean_luminances().collect();
+            assert_eq!(y[0], expected(0, 0).0[1]);
+        }
+
+        #[test]
+        fn sample_ranges_with_splats_merge_into_the_whole_render() {
+            let scene = scene();
+            let whole = render(&scene, &options(2), None, None);
+            let part =
+                |range: Range<u32>| render(&scene, &RenderOptions { samples: Some(range), ..options(2) }, None, None);
+            let mut merged = part(3..4);
+            merged.merge(&part(0..1)).unwrap();
+            merged.merge(&part(1..3)).unwrap();
+            assert!(merged == whole, "the merged film differs from the whole render");
+            assert_expected(&merged);
+            // A part alone is normalised by its own samples: 1 per pixel, and still the exact value.
+            assert_expected(&part(1..2));
+            // A film without splat sums is another render's.
+            let mut plain = Film::new(W, H, whole.wavelengths.clone());
+            let err = plain.merge(&whole).unwrap_err().to_string();
+            assert!(err.contains("splat sums"), "{err}");
+        }
+
+        #[test]
+        fn a_resumed_render_with_splats_is_the_uninterrupted_one() {
+            let scene = scene();
+            let whole = render(&scene, &options(2), None, None);
+            // Checkpoints after every pass of one sample per pixel: keep them all.
+            let kept = Mutex::new(Vec::new());
+            let write = |film: &Film| -> Result<()> {
+                kept.lock().unwrap().push(film.clone());
+                Ok(())
+            };
+            let checkpoint = Checkpoint { every: Duration::ZERO, write: &write };
+            let checkpointed = render(&scene, &options(2), None, Some(checkpoint));
+            assert!(checkpointed == whole);
+            let kept = kept.into_inner().unwrap();
+            assert_eq!(kept.len(), SPP as usize - 1);
+            for partial in kept {
+                let held = partial.max_sample_count();
+                assert!(partial != whole && partial.min_sample_count() == held);
+                assert_expected(&partial);
+                // Through the file, as `--resume` reads it.
+                let header = FilmHeader::new(1, &options(2), SpectralMode::Bins(4), "exposure auto".to_owned());
+                let bytes = FilmFile { header, film: partial }.to_bytes();
+                let back = FilmFile::from_bytes(&bytes, Path::new("c.film")).unwrap().film;
+                let resumed = render(&scene, &options(1), Some(back), None);
+                assert!(resumed == whole, "resumed from {held} samples per pixel");
+            }
+        }
+
+        #[test]
+        fn splat_sums_survive_the_film_file_and_a_damaged_splat_section_is_named() {
+            let scene = scene();
+            let with_halves = RenderOptions { error_estimate: true, ..options(2) };
+            for options in [options(2), with_halves] {
+                let film = render(&scene, &options, None, None);
+                assert_eq!(film.has_halves(), options.error_estimate);
+                let header = FilmHeader::new(7, &options, SpectralMode::Bins(4), "exposure auto".to_owned());
+                let file = FilmFile { header, film };
+                let bytes = file.to_bytes();
+                assert_eq!(u32::from_le_bytes(bytes[8..12].try_into().unwrap()), 4, "splats need version 4");
+                let back = FilmFile::from_bytes(&bytes, Path::new("s.film")).unwrap();
+                assert!(back == file);
+                assert_expected(&back.film);
+                // The splat section cut short, or flagged in a version 3 file.
+                let cut = bytes.len() - 8 - 16;
+                let e = FilmFile::from_bytes(&bytes[..cut], Path::new("s.film")).unwrap_err().to_string();
+                assert!(e.starts_with("s.film: truncated"), "{e}");
+                let mut v3 = bytes.clone();
+                v3[8..12].copy_from_slice(&3u32.to_le_bytes());
+                let header_end = 16 + u32::from_le_bytes(v3[12..16].try_into().unwrap()) as usize;
+                let checksum = geometry::xxh64(&v3[..header_end], 0);
+                v3[header_end..header_end + 8].copy_from_slice(&checksum.to_le_bytes());
+                let e = FilmFile::from_bytes(&v3, Path::new("s.film")).unwrap_err().to_string();
+                assert_eq!(e, "s.film: corrupted: splat sums (flag bit 2) in a version 3 file, which has none");
+                // A flipped byte in the splat sums: the checksum.
+                let mut flipped = bytes.clone();
+                flipped[cut] ^= 1;
+                let e = FilmFile::from_bytes(&flipped, Path::new("s.film")).unwrap_err().to_string();
+                assert!(e.starts_with("s.film: corrupted: checksum"), "{e}");
+            }
+        }
+
+        #[test]
+        fn half_films_divide_their_splats_by_their_own_samples() {
+            // Every sample is the same, so both half-films must show exactly the same value and
+            // the estimated error is 0 in every pixel: if each half keeps the splats of its own
+            // sample indices and divides them by its own samples per pixel. At 3 spp the halves
+            // are unequal (indices 0 and 2, and 1), so the per-half division shows. Judged at a
+            // display scale that keeps every pixel (Y up to 9) below white, where nothing clips.
+            const DISPLAY: f64 = 0.05;
+            let scene = scene();
+            let film = render(&scene, &RenderOptions { error_estimate: true, spp: 3, ..options(2) }, None, None);
+            let estimate = film.error_estimate(DISPLAY, 0).unwrap();
+            assert!(estimate.pixels.iter().all(|&e| e == 0.0), "{:?}", estimate.pixels);
+            let scales = film.splat_scales(0).unwrap();
+            assert_eq!((scales.whole, scales.first_half, scales.second_half), (1.0 / 3.0, 0.5, 1.0));
+            // The mistakes this guards against read an error: the halves' splats divided by the
+            // whole film's samples per pixel, or splats not split by half.
+            let (p, h, s, sh) = (film.pixels[0], film.halves[0], film.splats.xyz[0], film.splats.halves[0]);
+            let error = |second: [i128; 3], scales| {
+                pixel_error_with_splats(p.xyz, h, p.count, 0, DISPLAY, Some((s, second, scales)))
+            };
+            assert_eq!(error(sh, scales), 0.0);
+            let whole = SplatScales { first_half: scales.whole, second_half: scales.whole, ..scales };
+            assert!(error(sh, whole) > 1.0, "{}", error(sh, whole));
+            assert!(error([0; 3], scales) > 1.0, "{}", error([0; 3], scales));
+        }
     }
 
     #[test]

@@ -316,8 +316,15 @@ impl LaneJob for PilotJob<'_> {
                     let rotation = sampler.rotation(u64::from(y) * u64::from(options.width) + u64::from(x));
                     let mut sum = [0.0f64; 3];
                     for i in 0..options.spp {
-                        let (r, lambda) =
-                            sampler.sample(x as usize, y as usize, rotation, i, &mut fixed, &mut count, &mut Vec::new());
+                        let (r, lambda) = sampler.sample(
+                            x as usize,
+                            y as usize,
+                            rotation,
+                            i,
+                            &mut fixed,
+                            &mut count,
+                            &mut Vec::new(),
+                        );
                         let (xyz, _) = sensor.to_xyz(&r.l, &lambda, r.lane);
                         // The film adds a non-finite sample as black.
                         if xyz.iter().all(|v| v.is_finite()) {

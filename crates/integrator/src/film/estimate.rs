@@ -30,6 +30,7 @@
 use colorimetry::{Lab, Xyz, delta_e_2000};
 use rayon::prelude::*;
 
+use crate::film::splat::SplatScales;
 use crate::film::{FRACTION_BITS, Film, from_fixed, second_half_count};
 
 /// Side in pixels of the tiles that adaptive sampling decides on: 64 one-draw pixel estimates
@@ -106,6 +107,20 @@ pub fn displayed_delta_e(a: [f64; 3], b: [f64; 3], scale: f64) -> f64 {
 /// `total` and `second` are the pixel's sums (all samples, second half), `count` its samples,
 /// the first at index `first`.
 pub(crate) fn pixel_error(total: [i128; 3], second: [i128; 3], count: u32, first: u32, scale: f64) -> f32 {
+    pixel_error_with_splats(total, second, count, first, scale, None)
+}
+
+/// [`pixel_error`] of a pixel with splat sums: `splats` holds the pixel's splat sums (all
+/// samples', the second half's) and the film's factors for them; each half-film adds its own
+/// splats over its own samples per pixel (`film::splat`).
+pub(crate) fn pixel_error_with_splats(
+    total: [i128; 3],
+    second: [i128; 3],
+    count: u32,
+    first: u32,
+    scale: f64,
+    splats: Option<([i128; 3], [i128; 3], SplatScales)>,
+) -> f32 {
     // A film file may pair any start with any count (a merge checks them; a fuzzed file need not).
     let n_second = second_half_count(first..first.saturating_add(count));
     let n_first = count - n_second;
@@ -115,9 +130,18 @@ pub(crate) fn pixel_error(total: [i128; 3], second: [i128; 3], count: u32, first
     let total = total.map(|s| from_fixed(s, FRACTION_BITS));
     let second = second.map(|s| from_fixed(s, FRACTION_BITS));
     let (inv_a, inv_b) = (1.0 / f64::from(n_first), 1.0 / f64::from(n_second));
-    let a = [0, 1, 2].map(|c| (total[c] - second[c]) * inv_a);
-    let b = second.map(|v| v * inv_b);
-    let mean = total.map(|v| v / f64::from(count));
+    let mut a = [0, 1, 2].map(|c| (total[c] - second[c]) * inv_a);
+    let mut b = second.map(|v| v * inv_b);
+    let mut mean = total.map(|v| v / f64::from(count));
+    if let Some((splat_total, splat_second, scales)) = splats {
+        let splat_total = splat_total.map(|s| from_fixed(s, FRACTION_BITS));
+        let splat_second = splat_second.map(|s| from_fixed(s, FRACTION_BITS));
+        for c in 0..3 {
+            a[c] += (splat_total[c] - splat_second[c]) * scales.first_half;
+            b[c] += splat_second[c] * scales.second_half;
+            mean[c] += splat_total[c] * scales.whole;
+        }
+    }
     // A draw of the mean's error: the half-films' difference, weighted. It is taken from the
     // mean itself, as the true error is, rather than between the halves: where the display
     // clips (a firefly in one half), ΔE00(A, B) is that of the mean against the truth, not
@@ -139,14 +163,26 @@ impl Film {
             return None;
         }
         let width = self.width as usize;
-        let pixels: Vec<f32> = self
-            .pixels
-            .par_chunks(width)
-            .zip(self.halves.par_chunks(width))
-            .flat_map_iter(|(row, halves)| {
-                row.iter().zip(halves).map(|(p, h)| pixel_error(p.xyz, *h, p.count, first, scale))
-            })
-            .collect();
+        let pixels: Vec<f32> = match self.splat_scales(first) {
+            None => self
+                .pixels
+                .par_chunks(width)
+                .zip(self.halves.par_chunks(width))
+                .flat_map_iter(|(row, halves)| {
+                    row.iter().zip(halves).map(|(p, h)| pixel_error(p.xyz, *h, p.count, first, scale))
+                })
+                .collect(),
+            Some(scales) => self
+                .pixels
+                .par_iter()
+                .zip(&self.halves)
+                .zip(&self.splats.xyz)
+                .zip(&self.splats.halves)
+                .map(|(((p, h), s), sh)| {
+                    pixel_error_with_splats(p.xyz, *h, p.count, first, scale, Some((*s, *sh, scales)))
+                })
+                .collect(),
+        };
         let (tiles_x, tiles_y) = tile_grid(self.width, self.height);
         let mut sums = vec![(0.0f64, 0u32); tiles_x as usize * tiles_y as usize];
         for (i, &e) in pixels.iter().enumerate() {

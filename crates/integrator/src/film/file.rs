@@ -7,6 +7,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::film::splat::SplatSums;
 use crate::film::{Film, ObjectId, PixelSums};
 use crate::limits::{MAX_PIXELS, MAX_SIDE};
 use crate::options::RenderOptions;
@@ -14,15 +15,23 @@ use crate::spectral::{MAX_BINS, SpectralMode};
 
 /// The first 8 bytes of every film file.
 pub const FILM_MAGIC: [u8; 8] = *b"SPTRFILM";
-/// The layout version this build writes. It reads this one and version 2, the same layout
-/// without the half-film sums (flag bit 1).
-pub const FILM_VERSION: u32 = 3;
+/// The newest layout version this build writes and reads: version 4 adds splat sums (flag bit
+/// 2), and is written only for a film that has them; others are written as version 3, whose
+/// layout is version 4's without them, so films of renders without splats keep their bytes.
+/// Version 2 is version 3 without the half-film sums (flag bit 1).
+pub const FILM_VERSION: u32 = 4;
+/// The version of a film without splat sums.
+const VERSION_WITHOUT_SPLATS: u32 = 3;
 /// The oldest layout version this build reads.
 const OLDEST_READ_VERSION: u32 = 2;
 /// Header flag: pixel sample 0's hits are recorded.
 const FLAG_FIRST_SAMPLE: u32 = 1;
 /// Header flag: the film keeps half-film sums (three i128 per pixel after the spectral sums).
 const FLAG_HALVES: u32 = 2;
+/// Header flag (version 4): the film keeps splat sums (after the half-film sums: three i128 per
+/// pixel, then one per pixel and wavelength, then, with flag bit 1, three per pixel of the
+/// second half-film's).
+const FLAG_SPLATS: u32 = 4;
 /// Bytes per pixel of the sums: a u32 count and four i128 (Σ X, Σ Y, Σ Z, Σ Y²).
 const PIXEL_BYTES: usize = 4 + 4 * 16;
 /// Fixed part of the header after the length field (see `docs/film-format.md`).
@@ -143,6 +152,7 @@ struct Parsed {
     lanes: usize,
     has_first_sample: bool,
     halves: bool,
+    splats: bool,
     nonfinite: u64,
     clamped: u64,
     wavelengths: Vec<f32>,
@@ -152,7 +162,9 @@ impl Parsed {
     /// Bytes of the payload the header announces (`None` if beyond any real film).
     fn payload_bytes(&self) -> Option<usize> {
         let pixels = (self.width as usize).checked_mul(self.height as usize)?;
-        let per_pixel = PIXEL_BYTES + 4 + 16 * self.lanes + if self.halves { 3 * 16 } else { 0 };
+        let halves = if self.halves { 3 * 16 } else { 0 };
+        let splats = if self.splats { 3 * 16 + 16 * self.lanes + halves } else { 0 };
+        let per_pixel = PIXEL_BYTES + 4 + 16 * self.lanes + halves + splats;
         pixels.checked_mul(per_pixel)
     }
 }
@@ -182,7 +194,7 @@ fn parse_header(r: &mut Reader<'_>) -> Option<Parsed> {
         .collect::<Option<_>>()?;
     let header =
         FilmHeader { scene_hash, options, options_hash, seed, spp, samples: start..end, spectral, writer, view };
-    if flags & !(FLAG_FIRST_SAMPLE | FLAG_HALVES) != 0 {
+    if flags & !(FLAG_FIRST_SAMPLE | FLAG_HALVES | FLAG_SPLATS) != 0 {
         return None;
     }
     Some(Parsed {
@@ -192,6 +204,7 @@ fn parse_header(r: &mut Reader<'_>) -> Option<Parsed> {
         lanes,
         has_first_sample: flags & FLAG_FIRST_SAMPLE != 0,
         halves: flags & FLAG_HALVES != 0,
+        splats: flags & FLAG_SPLATS != 0,
         nonfinite,
         clamped,
         wavelengths,
@@ -234,6 +247,9 @@ fn read_header(bytes: &[u8], file_len: u64, path: &Path) -> Result<(Parsed, usiz
     let p = parse_header(&mut hr)
         .filter(|_| hr.at == header.len())
         .ok_or_else(|| bad("corrupted: the header does not parse".to_owned()))?;
+    if p.splats && version < FILM_VERSION {
+        return Err(bad(format!("corrupted: splat sums (flag bit 2) in a version {version} file, which has none")));
+    }
     let payload_at = header_end + 8;
     let expected = p.payload_bytes().and_then(|payload| payload.checked_add(payload_at + 8));
     match expected.map(|e| e as u64) {
@@ -248,10 +264,11 @@ fn read_header(bytes: &[u8], file_len: u64, path: &Path) -> Result<(Parsed, usiz
 /// [`MAX_BINS`] wavelengths, its checksum): the prefix [`FilmFile::read`] reads first.
 const MAX_PREFIX_BYTES: u64 = (16 + FIXED_HEADER_BYTES + 4 * (4 + MAX_TEXT) + 4 * MAX_BINS + 8) as u64;
 
-/// Largest film file a valid header can announce: [`MAX_PIXELS`] pixels of sums, material ids and
-/// [`MAX_BINS`] per-wavelength sums, after the longest header, and the checksum (≈ 216 GB).
+/// Largest film file a valid header can announce: [`MAX_PIXELS`] pixels of sums, material ids,
+/// [`MAX_BINS`] per-wavelength sums, half-film sums and the splat sums of each, after the
+/// longest header, and the checksum (≈ 441 GB).
 pub(crate) const MAX_FILM_BYTES: u64 =
-    MAX_PREFIX_BYTES + MAX_PIXELS * (PIXEL_BYTES + 4 + 16 * MAX_BINS + 48) as u64 + 8;
+    MAX_PREFIX_BYTES + MAX_PIXELS * (PIXEL_BYTES + 4 + 2 * 16 * MAX_BINS + 3 * 48) as u64 + 8;
 
 impl FilmHeader {
     /// Write `film` with this header to `path` atomically (a temporary beside it, fsynced,
@@ -267,7 +284,9 @@ fn encode(h: &FilmHeader, f: &Film) -> Vec<u8> {
     for v in [h.scene_hash, h.options_hash, h.seed] {
         header.extend_from_slice(&v.to_le_bytes());
     }
-    let flags = if f.has_first_sample { FLAG_FIRST_SAMPLE } else { 0 } | if f.has_halves() { FLAG_HALVES } else { 0 };
+    let flags = if f.has_first_sample { FLAG_FIRST_SAMPLE } else { 0 }
+        | if f.has_halves() { FLAG_HALVES } else { 0 }
+        | if f.has_splats() { FLAG_SPLATS } else { 0 };
     let lanes = f.wavelengths.len() as u32;
     for v in [h.spp, h.samples.start, h.samples.end, f.width, f.height, lanes, flags] {
         header.extend_from_slice(&v.to_le_bytes());
@@ -285,7 +304,8 @@ fn encode(h: &FilmHeader, f: &Film) -> Vec<u8> {
     let n = f.pixels.len();
     let mut out = Vec::with_capacity(24 + header.len() + n * (PIXEL_BYTES + 4) + f.spectral.len() * 16 + 8);
     out.extend_from_slice(&FILM_MAGIC);
-    out.extend_from_slice(&FILM_VERSION.to_le_bytes());
+    let version = if f.has_splats() { FILM_VERSION } else { VERSION_WITHOUT_SPLATS };
+    out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&(header.len() as u32).to_le_bytes());
     out.extend_from_slice(&header);
     let header_checksum = geometry::xxh64(&out, 0);
@@ -306,6 +326,9 @@ fn encode(h: &FilmHeader, f: &Film) -> Vec<u8> {
         for s in h {
             out.extend_from_slice(&s.to_le_bytes());
         }
+    }
+    for s in f.splats.xyz.iter().flatten().chain(&f.splats.spectral).chain(f.splats.halves.iter().flatten()) {
+        out.extend_from_slice(&s.to_le_bytes());
     }
     let checksum = geometry::xxh64(&out, 0);
     out.extend_from_slice(&checksum.to_le_bytes());
@@ -376,8 +399,22 @@ impl FilmFile {
         } else {
             Vec::new()
         };
+        let splats = if p.splats {
+            let mut read = |count: usize| -> Result<Vec<i128>> {
+                let bytes = r.take(16 * count).ok_or_else(truncated)?;
+                Ok(bytes.chunks_exact(16).map(|b| i128::from_le_bytes(b.try_into().unwrap_or_default())).collect())
+            };
+            let triples = |sums: Vec<i128>| sums.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+            let xyz = triples(read(3 * n)?);
+            let spectral = read(n * p.lanes)?;
+            let halves = if p.halves { triples(read(3 * n)?) } else { Vec::new() };
+            SplatSums { xyz, spectral, halves }
+        } else {
+            SplatSums::default()
+        };
         let film = Film {
             halves,
+            splats,
             width: p.width,
             height: p.height,
             pixels: sums,

@@ -21,6 +21,9 @@ use crate::spectral::Lanes;
 
 pub(crate) mod estimate;
 pub(crate) mod file;
+pub(crate) mod splat;
+
+use splat::{SplatSums, SplatTarget};
 
 /// What a pixel's first camera ray hit: a material (by index; `None` = the default material)
 /// or nothing. Reports use it to average over objects (e.g. "the spheres").
@@ -119,6 +122,26 @@ pub(crate) fn pixel_mean(sum: i128, count: u32) -> f32 {
     (from_fixed(sum, FRACTION_BITS) * (1.0 / f64::from(count.max(1)))) as f32
 }
 
+/// A pixel's value with splats: the mean of its own `sum` over `count` samples plus its
+/// `splat` sum times `scale` (1/S, [`splat::SplatScales`]).
+#[inline]
+pub(crate) fn pixel_value(sum: i128, count: u32, splat: i128, scale: f64) -> f32 {
+    (from_fixed(sum, FRACTION_BITS) * (1.0 / f64::from(count.max(1))) + from_fixed(splat, FRACTION_BITS) * scale) as f32
+}
+
+/// `v` clamped to ±[`MAX_SAMPLE_VALUE`], counting a clamp in `clamped`.
+#[inline]
+fn clamp_sample(v: f32, clamped: &mut u64) -> f32 {
+    // 2⁴² is exact in f32, so the clamp compares and clamps without widening.
+    const MAX: f32 = MAX_SAMPLE_VALUE as f32;
+    if v.abs() > MAX {
+        *clamped += 1;
+        MAX.copysign(v)
+    } else {
+        v
+    }
+}
+
 /// One pixel's sums: Σ X, Σ Y, Σ Z, Σ Y² (fixed point) and the number of samples.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(crate) struct PixelSums {
@@ -142,6 +165,8 @@ pub struct Film {
     /// with the whole sums they make two half-films, whose difference estimates each pixel's
     /// error ([`estimate`]). Kept only when asked for ([`Film::with_halves`]).
     pub(crate) halves: Vec<[i128; 3]>,
+    /// Light samples sent to other pixels than their own, or empty ([`Film::with_splats`]).
+    pub(crate) splats: SplatSums,
     /// What each pixel's sample 0 hit (valid where `has_first_sample`).
     pub(crate) ids: Vec<ObjectId>,
     pub(crate) has_first_sample: bool,
@@ -185,6 +210,7 @@ impl Film {
             pixels: vec![PixelSums::default(); n],
             spectral: vec![0; n * wavelengths.len()],
             halves: Vec::new(),
+            splats: SplatSums::default(),
             wavelengths,
             ids: vec![ObjectId::Background; n],
             has_first_sample: false,
@@ -197,6 +223,9 @@ impl Film {
     /// pixel's error can be estimated ([`Film::error_estimate`]).
     pub(crate) fn with_halves(mut self) -> Self {
         self.halves = vec![[0; 3]; self.pixels.len()];
+        if self.has_splats() {
+            self.splats.halves = vec![[0; 3]; self.pixels.len()];
+        }
         self
     }
 
@@ -241,8 +270,16 @@ impl Film {
     }
 
     /// Each pixel's mean luminance Y, as its image shows it, row by row.
-    pub(crate) fn mean_luminances(&self) -> impl Iterator<Item = f32> + '_ {
-        self.pixels.iter().map(|p| pixel_mean(p.xyz[1], p.count))
+    pub(crate) fn mean_luminances(&self) -> Box<dyn Iterator<Item = f32> + '_> {
+        match self.splat_scales(0) {
+            None => Box::new(self.pixels.iter().map(|p| pixel_mean(p.xyz[1], p.count))),
+            Some(scales) => Box::new(
+                self.pixels
+                    .iter()
+                    .zip(&self.splats.xyz)
+                    .map(move |(p, s)| pixel_value(p.xyz[1], p.count, s[1], scales.whole)),
+            ),
+        }
     }
 
     /// Samples that were NaN or infinite (added as black).
@@ -256,9 +293,18 @@ impl Film {
     }
 
     /// The rows, in parallel, for one pass of the pixel loop.
+    #[cfg(test)]
     pub(crate) fn rows_mut(&mut self) -> impl IndexedParallelIterator<Item = FilmRow<'_>> + '_ {
+        self.pass_mut().0
+    }
+
+    /// The rows, in parallel, for one pass of the pixel loop, and the splat sums, which any row
+    /// adds to (nothing without splats); the splat target's counters go to
+    /// [`Film::add_counts`] after the pass.
+    pub(crate) fn pass_mut(&mut self) -> (impl IndexedParallelIterator<Item = FilmRow<'_>> + '_, SplatTarget<'_>) {
         let width = self.width as usize;
         let lanes = self.wavelengths.len();
+        let splats = SplatTarget::new(&mut self.splats, width, lanes);
         let spectral_row = (width * lanes).max(1);
         // Without a spectral film each row gets an empty slice (chunks of an empty vector
         // would be too few to zip).
@@ -274,7 +320,7 @@ impl Film {
         } else {
             rayon::iter::Either::Right(self.halves.par_chunks_mut(width))
         };
-        self.pixels.par_chunks_mut(width).zip(self.ids.par_chunks_mut(width)).zip(spectral).zip(halves).map(
+        let rows = self.pixels.par_chunks_mut(width).zip(self.ids.par_chunks_mut(width)).zip(spectral).zip(halves).map(
             move |(((pixels, ids), spectral), halves)| FilmRow {
                 pixels,
                 halves,
@@ -284,7 +330,8 @@ impl Film {
                 nonfinite: 0,
                 clamped: 0,
             },
-        )
+        );
+        (rows, splats)
     }
 
     /// Add the counters of finished rows.
@@ -303,17 +350,19 @@ impl Film {
         if (self.width, self.height) != (other.width, other.height)
             || self.wavelengths != other.wavelengths
             || self.has_halves() != other.has_halves()
+            || self.has_splats() != other.has_splats()
         {
             return Err(Error::InvalidOption {
                 option: "film to merge",
                 value: format!(
-                    "{}x{} with {} wavelengths{}",
+                    "{}x{} with {} wavelengths{}{}",
                     other.width,
                     other.height,
                     other.wavelengths.len(),
-                    if other.has_halves() { " and half-film sums" } else { "" }
+                    if other.has_halves() { " and half-film sums" } else { "" },
+                    if other.has_splats() { " and splat sums" } else { "" }
                 ),
-                expected: "a film of the same size and wavelengths, keeping half-film sums alike",
+                expected: "a film of the same size and wavelengths, keeping half-film and splat sums alike",
             });
         }
         // Films a render writes cannot overflow (a sample is below 2^42 with 64 fractional bits, at
@@ -329,6 +378,10 @@ impl Film {
                 .iter()
                 .zip(&other.halves)
                 .all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.checked_add(*y).is_some()))
+            && [(&self.splats.xyz, &other.splats.xyz), (&self.splats.halves, &other.splats.halves)].iter().all(
+                |(a, b)| a.iter().zip(b.iter()).all(|(a, b)| a.iter().zip(b).all(|(x, y)| x.checked_add(*y).is_some())),
+            )
+            && self.splats.spectral.iter().zip(&other.splats.spectral).all(|(a, b)| a.checked_add(*b).is_some())
             && self.nonfinite.checked_add(other.nonfinite).is_some()
             && self.clamped.checked_add(other.clamped).is_some();
         if !fits {
@@ -353,6 +406,20 @@ impl Film {
                 *x += y;
             }
         }
+        for (a, b) in self
+            .splats
+            .xyz
+            .iter_mut()
+            .zip(&other.splats.xyz)
+            .chain(self.splats.halves.iter_mut().zip(&other.splats.halves))
+        {
+            for (x, y) in a.iter_mut().zip(b) {
+                *x += y;
+            }
+        }
+        for (a, b) in self.splats.spectral.iter_mut().zip(&other.splats.spectral) {
+            *a += b;
+        }
         if other.has_first_sample {
             self.ids.copy_from_slice(&other.ids);
             self.has_first_sample = true;
@@ -365,7 +432,8 @@ impl Film {
     /// Per-pixel variance of the mean luminance, s²/n with s² the unbiased sample variance of
     /// Y (0 where fewer than two samples were taken): what a relative-error image shows. It is
     /// the variance of the mean for independent samples; the path tracer's default Sobol' points
-    /// stratify, and their mean's error is usually lower than this says.
+    /// stratify, and their mean's error is usually lower than this says. It is that of the
+    /// pixel's own samples: light splatted from other pixels ([`splat`]) keeps no squares.
     pub fn luminance_variance(&self) -> Vec<f32> {
         self.pixels
             .iter()
@@ -394,16 +462,7 @@ impl FilmRow<'_> {
             self.nonfinite += 1;
             return;
         }
-        // 2⁴² is exact in f32, so the clamp compares and clamps without widening.
-        const MAX: f32 = MAX_SAMPLE_VALUE as f32;
-        let mut clamp = |v: f32| {
-            if v.abs() > MAX {
-                self.clamped += 1;
-                MAX.copysign(v)
-            } else {
-                v
-            }
-        };
+        let mut clamp = |v: f32| clamp_sample(v, &mut self.clamped);
         let [x_, y, z] = xyz.map(&mut clamp);
         let fixed = [to_fixed_f32(x_), to_fixed_f32(y), to_fixed_f32(z)];
         for (sum, v) in pixel.xyz.iter_mut().zip(fixed) {

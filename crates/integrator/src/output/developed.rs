@@ -5,7 +5,7 @@ use colorimetry::{RgbColorSpace, Xyz};
 
 use crate::error::{Error, Result};
 use crate::film::estimate::ErrorEstimate;
-use crate::film::{Film, ObjectId, pixel_mean};
+use crate::film::{Film, ObjectId, pixel_mean, pixel_value};
 use crate::output::view::{Exposure, MIDDLE_GREY, View, ViewPlan};
 
 /// Which display the output RGB is for.
@@ -41,22 +41,39 @@ impl Display {
 }
 
 impl Film {
-    /// The image: each pixel's mean XYZ (and spectral radiance) over its samples.
+    /// The image: each pixel's mean XYZ (and spectral radiance) over its samples, plus the light
+    /// other pixels' samples splatted to it over the samples per pixel.
     pub fn to_image(&self) -> Image {
         let mut image = Image::new(self.width, self.height);
-        for (out, p) in image.xyz.iter_mut().zip(&self.pixels) {
-            *out = p.xyz.map(|s| pixel_mean(s, p.count));
+        // With splats a pixel adds its splat sums over the samples per pixel (`film::splat`);
+        // without, its mean alone, as it always was.
+        let splats = self.splat_scales(0).map(|s| s.whole);
+        match splats {
+            None => {
+                for (out, p) in image.xyz.iter_mut().zip(&self.pixels) {
+                    *out = p.xyz.map(|s| pixel_mean(s, p.count));
+                }
+            }
+            Some(scale) => {
+                for ((out, p), splat) in image.xyz.iter_mut().zip(&self.pixels).zip(&self.splats.xyz) {
+                    *out = [0, 1, 2].map(|c| pixel_value(p.xyz[c], p.count, splat[c], scale));
+                }
+            }
         }
         image.ids.copy_from_slice(&self.ids);
         image.nonfinite = self.nonfinite;
         if !self.wavelengths.is_empty() {
             let lanes = self.wavelengths.len();
-            let values = self
-                .spectral
-                .chunks(lanes)
-                .zip(&self.pixels)
-                .flat_map(|(sums, p)| sums.iter().map(move |&s| pixel_mean(s, p.count)))
-                .collect();
+            let own = self.spectral.chunks(lanes).zip(&self.pixels);
+            let values = match splats {
+                None => own.flat_map(|(sums, p)| sums.iter().map(move |&s| pixel_mean(s, p.count))).collect(),
+                Some(scale) => own
+                    .zip(self.splats.spectral.chunks(lanes))
+                    .flat_map(|((sums, p), splat)| {
+                        sums.iter().zip(splat).map(move |(&s, &t)| pixel_value(s, p.count, t, scale))
+                    })
+                    .collect(),
+            };
             image.spectral = Some(SpectralFilm { wavelengths: self.wavelengths.clone(), values });
         }
         // Means of finite fixed-point sums (|sum| < 2¹²⁷ · 2⁻⁶⁴) are finite: non-finite samples
