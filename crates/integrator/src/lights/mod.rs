@@ -109,8 +109,6 @@ pub(crate) struct LeSample {
     pub(crate) pdf_pos: f32,
     /// Density of `w` per steradian.
     pub(crate) pdf_dir: f32,
-    /// The emission is multiplied by this (a spot's fall-off, a luminaire's candela; 1 otherwise).
-    pub(crate) scale: f32,
 }
 
 impl Light {
@@ -191,12 +189,11 @@ impl LightKind {
         let pi = std::f32::consts::PI;
         match *self {
             Self::Point { position } => {
-                Some(LeSample { p: position, n: None, w: uniform_sphere(u2), pdf_pos: 1.0, pdf_dir: 0.25 / pi, scale: 1.0 })
+                Some(LeSample { p: position, n: None, w: uniform_sphere(u2), pdf_pos: 1.0, pdf_dir: 0.25 / pi })
             }
             Self::Luminaire { position, ref web } => {
                 let (w, pdf_dir) = web.sample_le(u2)?;
-                let scale = web.intensity(w);
-                (scale > 0.0).then_some(LeSample { p: position, n: None, w, pdf_pos: 1.0, pdf_dir, scale })
+                (web.intensity(w) > 0.0).then_some(LeSample { p: position, n: None, w, pdf_pos: 1.0, pdf_dir })
             }
             Self::Spot { position, direction, cos_inner, cos_outer } => {
                 // Uniform in the cone of half-angle θ_outer.
@@ -205,9 +202,9 @@ impl LightKind {
                 let phi = 2.0 * pi * u2.y;
                 let (t, b) = materials::sampling::basis(direction);
                 let w = (cos * direction + sin * (phi.cos() * t + phi.sin() * b)).normalize();
-                let scale = smoothstep(cos_outer, cos_inner, cos);
                 let pdf_dir = 1.0 / (2.0 * pi * (1.0 - cos_outer).max(1e-7));
-                (scale > 0.0).then_some(LeSample { p: position, n: None, w, pdf_pos: 1.0, pdf_dir, scale })
+                (smoothstep(cos_outer, cos_inner, cos) > 0.0)
+                    .then_some(LeSample { p: position, n: None, w, pdf_pos: 1.0, pdf_dir })
             }
             Self::Directional { .. } | Self::Environment => None,
             Self::Triangle { area, two_sided, .. } | Self::Sphere { area, two_sided, .. } => {
@@ -222,7 +219,7 @@ impl LightKind {
                 };
                 let w = cosine_hemisphere(n, Vec2::new(ux.min(1.0 - f32::EPSILON / 2.0), u2.y));
                 let pdf_dir = n.dot(w) / (pi * sides);
-                (pdf_dir > 0.0).then_some(LeSample { p, n: Some(n), w, pdf_pos: 1.0 / area, pdf_dir, scale: 1.0 })
+                (pdf_dir > 0.0).then_some(LeSample { p, n: Some(n), w, pdf_pos: 1.0 / area, pdf_dir })
             }
         }
     }
@@ -606,6 +603,37 @@ mod tests {
 
     fn at(p: Vec3) -> LightSampleContext {
         LightSampleContext { p, ns: Vec3::Y }
+    }
+
+    /// Every finite light's emitted rays have the densities `pdf_le` gives for them, and their
+    /// directions integrate to one: the mean of 1/pdf over the rays is the solid angle the light emits
+    /// into (4π for a point light, the cone's 2π(1 − cos θ) for a spot, 2π for each face of a two-sided
+    /// area light).
+    #[test]
+    fn emitted_rays_have_the_density_pdf_le_gives() {
+        let pi = std::f64::consts::PI;
+        let triangle = LightKind::Triangle { p: [Vec3::ZERO, Vec3::X, Vec3::Y], area: 0.5, two_sided: true };
+        let cos_outer = 30f32.to_radians().cos();
+        let spot = LightKind::Spot { position: Vec3::ZERO, direction: Vec3::Z, cos_inner: 1.0, cos_outer };
+        for (light, solid_angle) in [
+            (LightKind::Point { position: Vec3::ONE }, 4.0 * pi),
+            (spot, 2.0 * pi * (1.0 - f64::from(cos_outer))),
+            (triangle, 4.0 * pi),
+        ] {
+            let mut rng = crate::sampling::Rng::new(5, 0, 0);
+            let n = 20_000;
+            let mut sum = 0.0f64;
+            for _ in 0..n {
+                let s = light.sample_le(rng.uniform2(), rng.uniform2()).expect("a ray");
+                let (pos, dir) = light.pdf_le(s.n.unwrap_or(Vec3::ZERO), s.w);
+                assert!((pos - s.pdf_pos).abs() <= 1e-6 * pos && (dir - s.pdf_dir).abs() <= 1e-4 * dir, "{light:?}");
+                // Cosine-weighted directions: E[1/pdf] over a hemisphere is 2π, as for uniform ones.
+                sum += 1.0 / f64::from(s.pdf_dir);
+            }
+            let mean = sum / f64::from(n);
+            assert!((mean / solid_angle - 1.0).abs() < 0.03, "{light:?}: {mean} against {solid_angle}");
+        }
+        assert!(LightKind::Environment.sample_le(Vec2::ZERO, Vec2::ZERO).is_none());
     }
 
     #[test]
