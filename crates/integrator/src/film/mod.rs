@@ -170,9 +170,9 @@ pub struct Film {
     /// What each pixel's sample 0 hit (valid where `has_first_sample`).
     pub(crate) ids: Vec<ObjectId>,
     pub(crate) has_first_sample: bool,
-    /// Samples whose value was NaN or infinite (added as black; must be 0).
+    /// Samples whose value was NaN or infinite (added as black; must be 0), and splats (dropped).
     pub(crate) nonfinite: u64,
-    /// Samples whose value exceeded [`MAX_SAMPLE_VALUE`] (clamped).
+    /// Sample and splat values that exceeded [`MAX_SAMPLE_VALUE`] (clamped).
     pub(crate) clamped: u64,
 }
 
