@@ -543,7 +543,10 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }),
         IntegratorKind::Bdpt => {
             if args.sampler.is_some_and(|s| s != integrator::SamplerKind::Independent) {
-                anyhow::bail!("--sampler {}: bdpt draws independent numbers (its light subpaths are not stratified)", args.sampler.unwrap_or_default());
+                anyhow::bail!(
+                    "--sampler {}: bdpt draws independent numbers (its light subpaths are not stratified)",
+                    args.sampler.unwrap_or_default()
+                );
             }
             Integrator::Bdpt(PathOptions {
                 max_depth: args.max_depth,

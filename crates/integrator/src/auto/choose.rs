@@ -73,7 +73,9 @@ pub fn choose_auto(scene: &RenderScene, integrator: IntegratorKind) -> SpectralM
         IntegratorKind::Path | IntegratorKind::Bdpt if scene.materials.iter().any(Material::is_dispersive) => {
             SpectralMode::Hero { count: 8 }
         }
-        IntegratorKind::Path | IntegratorKind::Bdpt => auto_bins(scene).map_or(SpectralMode::Hero { count: 8 }, SpectralMode::Bins),
+        IntegratorKind::Path | IntegratorKind::Bdpt => {
+            auto_bins(scene).map_or(SpectralMode::Hero { count: 8 }, SpectralMode::Bins)
+        }
         IntegratorKind::WhittedHall => SpectralMode::Bins(auto_bins(scene).unwrap_or(FINE_BINS)),
     }
 }

@@ -692,7 +692,8 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             } else if let Some(map) = emitters.environment_map() {
                 le += tracer.map_radiance(map, ls.wi, lambda);
             }
-            let weight = if ls.delta { 1.0 } else { crate::sampling::power_heuristic(ls.pdf, bsdf.pdf(&pt.frame, wo, ls.wi)) };
+            let weight =
+                if ls.delta { 1.0 } else { crate::sampling::power_heuristic(ls.pdf, bsdf.pdf(&pt.frame, wo, ls.wi)) };
             return pt.beta * f * le * (visible * weight * ls.scale / ls.pdf);
         };
         // A light vertex at the sampled point: its normal on an area light.

@@ -8,7 +8,7 @@ mod kernel;
 pub(crate) mod path;
 pub(crate) mod whitted;
 
-pub(crate) use kernel::{Kernel, Radiance, RayCount, Splat};
 pub(crate) use bdpt::Bdpt;
+pub(crate) use kernel::{Kernel, Radiance, RayCount, Splat};
 pub(crate) use path::PathTracer;
 pub(crate) use whitted::Whitted;

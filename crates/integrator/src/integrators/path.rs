@@ -537,7 +537,12 @@ impl<'a, const N: usize> PathTracer<'a, N> {
     /// An environment map's radiance from `wi` (unit, pointing away from the scene): out of line, and
     /// added by the callers, so that the trace loop of scenes without a map is the one they had.
     #[inline(never)]
-    pub(super) fn map_radiance(&self, map: &EnvironmentMap, wi: Vec3, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    pub(super) fn map_radiance(
+        &self,
+        map: &EnvironmentMap,
+        wi: Vec3,
+        lambda: &SampledWavelengths<N>,
+    ) -> SampledSpectrum<N> {
         map.eval(wi, lambda, self.rgb_lanes)
     }
 
@@ -870,11 +875,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                         self.spectra.eval(k, lambda),
                         compensate,
                     ),
-                    _ => ConductorBxdf::from_reflectance(
-                        self.spectra.eval_memo(r, lambda, last),
-                        distrib,
-                        compensate,
-                    ),
+                    _ => ConductorBxdf::from_reflectance(self.spectra.eval_memo(r, lambda, last), distrib, compensate),
                 })
             }
             PathScattering::Plastic { base: id, alpha, eta, nonlinear, table } => Bsdf::Plastic(PlasticBxdf::new(
@@ -896,15 +897,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
                 let g = self.metal_rough(base, metallic, roughness, ior, specular, anisotropy);
                 Bsdf::GltfMetalRough(g.energy(m.multiple_scattering))
             }
-            PathScattering::GltfTransmission {
-                base: id,
-                metallic,
-                roughness,
-                ior,
-                transmission,
-                thin,
-                specular,
-            } => {
+            PathScattering::GltfTransmission { base: id, metallic, roughness, ior, transmission, thin, specular } => {
                 let (metallic, roughness) =
                     textures.map_or((metallic, roughness), |t| t.metallic_roughness(uv, metallic, roughness));
                 let transmission = textures.map_or(transmission, |t| t.transmission(uv, transmission));

@@ -203,8 +203,13 @@ impl LightKind {
                 let (t, b) = materials::sampling::basis(direction);
                 let w = (cos * direction + sin * (phi.cos() * t + phi.sin() * b)).normalize();
                 let pdf_dir = 1.0 / (2.0 * pi * (1.0 - cos_outer).max(1e-7));
-                (smoothstep(cos_outer, cos_inner, cos) > 0.0)
-                    .then_some(LeSample { p: position, n: None, w, pdf_pos: 1.0, pdf_dir })
+                (smoothstep(cos_outer, cos_inner, cos) > 0.0).then_some(LeSample {
+                    p: position,
+                    n: None,
+                    w,
+                    pdf_pos: 1.0,
+                    pdf_dir,
+                })
             }
             Self::Directional { .. } | Self::Environment => None,
             Self::Triangle { area, two_sided, .. } | Self::Sphere { area, two_sided, .. } => {

@@ -601,7 +601,8 @@ fn caustic_integrator(lights: &[Light], materials: &[Material]) -> Option<(Integ
         _ => false,
     };
     let caster = materials.iter().find(smooth)?;
-    let lights = if delta == 1 { "a point light shines" } else { "point lights shine" };
+    let lights =
+        if delta == 1 { "a point, spot or luminaire light shines" } else { "point, spot or luminaire lights shine" };
     Some((
         IntegratorKind::Bdpt,
         format!(

@@ -122,8 +122,8 @@ fn light_tracing_finds_a_point_light_in_a_mirror() {
     assert!(lit.len() > 40 && clear.len() > 200, "{} lit by the mirror, {} clear", lit.len(), clear.len());
     let check = |what: &str, image: &Image, pixels: &[usize], with_mirror: bool| {
         let (got, se) = mean_y(image, pixels.iter().copied());
-        let want =
-            pixels.iter().map(|&i| direct[i] + if with_mirror { mirrored[i] } else { 0.0 }).sum::<f64>() / pixels.len() as f64;
+        let want = pixels.iter().map(|&i| direct[i] + if with_mirror { mirrored[i] } else { 0.0 }).sum::<f64>()
+            / pixels.len() as f64;
         assert!(
             (got - want).abs() < 5.0 * se + 0.01 * want,
             "{what}: {got:.5} ± {se:.5}, analytic {want:.5} (ratio {:.4})",
@@ -144,4 +144,88 @@ fn bdpt_images_do_not_depend_on_the_thread_count() {
     let (one, _) = render_with(&scene, &options(bdpt(), 12, 12, 4, 9, 1));
     let (two, _) = render_with(&scene, &options(bdpt(), 12, 12, 4, 9, 2));
     assert_eq!(one.pixels(), two.pixels());
+}
+
+/// A spectrum from a prism (`scenes/caustics/prism_beam.json`): a narrow beam from a spot light through a
+/// dense-flint prism throws a band on a white wall, which only light tracing can find (a delta light
+/// through two delta refractions). Each wavelength must land where Snell's law sends it: the beam traced
+/// through the prism's cross-section with n(λ) meets the wall at a point the camera sees at a pixel, and
+/// the band's centroid in that wavelength's channel of the spectral film must be within half a pixel of
+/// it, for three wavelengths, red least deviated (highest on the wall) and violet most.
+#[test]
+fn a_prism_throws_each_wavelength_where_snells_law_sends_it() {
+    use glam::DVec2;
+
+    let file = crate::path::reference_path("../caustics/prism_beam.json");
+    let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let scene = integrator::RenderScene::load(&file).expect("prism_beam.json loads");
+    let (w, h) = (80u32, 60u32);
+    let options =
+        RenderOptions { spectral: SpectralMode::Bins(48), spectral_film: true, ..options(bdpt(), w, h, 24, 5, 2) };
+    let (image, stats) = render_with(&scene, &options);
+    assert_all_finite(&image, &stats);
+    let (wavelengths, values) = image.spectral().expect("a spectral film");
+    let lanes = wavelengths.len();
+    let v3 = |v: &serde_json::Value| {
+        Vec3::new(v[0].as_f64().unwrap() as f32, v[1].as_f64().unwrap() as f32, v[2].as_f64().unwrap() as f32)
+    };
+    let cam = &m["camera"];
+    let camera = Camera::look_at(
+        v3(&cam["position"]),
+        v3(&cam["look_at"]),
+        v3(&cam["up"]),
+        cam["vfov_deg"].as_f64().unwrap() as f32,
+        w as f32 / h as f32,
+    )
+    .unwrap();
+    let spot = &m["lights"][0];
+    let (origin, direction) = (v3(&spot["position"]), v3(&spot["direction"]).normalize());
+    let abbe = &m["materials"]["flint"]["ior"]["abbe"];
+    let ior =
+        materials::Ior::from_abbe(abbe["nd"].as_f64().unwrap() as f32, abbe["vd"].as_f64().unwrap() as f32).unwrap();
+    // The prism's cross-section (prism.obj), counter-clockwise: an edge's outward normal is on its right.
+    let (p0, p1, p2) = (DVec2::new(-1.0, -1.0), DVec2::new(1.0, -1.0), DVec2::new(0.0, 0.732051));
+    let normal = |a: DVec2, b: DVec2| -(b - a).perp().normalize();
+    let wall_x = 5.0;
+    let mut rows = Vec::new();
+    for target in [450.0f32, 550.0, 650.0] {
+        let lane = (0..lanes)
+            .min_by(|&a, &b| (wavelengths[a] - target).abs().total_cmp(&(wavelengths[b] - target).abs()))
+            .unwrap();
+        let n = f64::from(ior.eval(wavelengths[lane]));
+        // The beam's axis through the left face (p2 → p0), then out of the right face (p1 → p2).
+        let o = DVec2::new(f64::from(origin.x), f64::from(origin.y));
+        let d = DVec2::new(f64::from(direction.x), f64::from(direction.y));
+        let (t, _) = crate::prism::cross_line(o, d, p2, p0);
+        let entry = o + d * t;
+        let inside = crate::prism::refract(d, normal(p2, p0), n).expect("enters");
+        let (t2, f2) = crate::prism::cross_line(entry, inside, p1, p2);
+        assert!((0.0..=1.0).contains(&f2), "the beam leaves through the right face");
+        let exit = entry + inside * t2;
+        let out = crate::prism::refract(inside, normal(p1, p2), n).expect("no total internal reflection");
+        let on_wall = exit + out * ((wall_x - exit.x) / out.x);
+        let (ex, ey, _) =
+            camera.raster_of(Vec3::new(wall_x as f32, on_wall.y as f32, 0.0), w, h).expect("the camera sees it");
+        // The channel's centroid (pixel centres at x + 0.5).
+        let (mut sum, mut sx, mut sy) = (0.0f64, 0.0f64, 0.0f64);
+        for y in 0..h {
+            for x in 0..w {
+                let v = f64::from(values[(y * w + x) as usize * lanes + lane]).max(0.0);
+                sum += v;
+                sx += v * (f64::from(x) + 0.5);
+                sy += v * (f64::from(y) + 0.5);
+            }
+        }
+        assert!(sum > 0.0, "{} nm: no light on the wall", wavelengths[lane]);
+        let (cx, cy) = (sx / sum, sy / sum);
+        assert!(
+            (cx - f64::from(ex)).abs() < 0.5 && (cy - f64::from(ey)).abs() < 0.5,
+            "{} nm (n = {n:.5}): centroid ({cx:.2}, {cy:.2}), Snell's law puts it at ({ex:.2}, {ey:.2})",
+            wavelengths[lane]
+        );
+        rows.push(cy);
+    }
+    // Red is deviated least: highest on the wall (smallest row); the band spans several pixels.
+    assert!(rows[2] < rows[1] && rows[1] < rows[0], "rows {rows:?}");
+    assert!(rows[0] - rows[2] > 5.0, "rows {rows:?}");
 }

@@ -43,7 +43,7 @@ fn monochromatic_scene(lambda: f64) -> RenderScene {
 
 /// Refract unit `d` at a surface of the glass with unit outward normal `n` and index `eta`
 /// (air outside), entering or leaving; `None` on total internal reflection.
-fn refract(d: DVec2, n: DVec2, eta: f64) -> Option<DVec2> {
+pub(crate) fn refract(d: DVec2, n: DVec2, eta: f64) -> Option<DVec2> {
     let (n, eta) = if d.dot(n) < 0.0 { (n, eta) } else { (-n, 1.0 / eta) };
     let cos_i = -d.dot(n);
     let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
@@ -51,7 +51,7 @@ fn refract(d: DVec2, n: DVec2, eta: f64) -> Option<DVec2> {
 }
 
 /// Where a ray meets the line through `a` and `b`: (t along the ray, fraction along a→b).
-fn cross_line(o: DVec2, d: DVec2, a: DVec2, b: DVec2) -> (f64, f64) {
+pub(crate) fn cross_line(o: DVec2, d: DVec2, a: DVec2, b: DVec2) -> (f64, f64) {
     let e = b - a;
     let denom = d.perp_dot(e);
     ((a - o).perp_dot(e) / denom, (a - o).perp_dot(d) / denom)
