@@ -20,7 +20,7 @@
 
 use std::sync::{Mutex, PoisonError};
 
-use crate::film::{Film, clamp_sample, second_half_count, to_fixed_f32};
+use crate::film::fixed::{clamp_sample, to_fixed_f32};
 
 /// Σ X, Σ Y, Σ Z of the splats per pixel (fixed point, 64 fractional bits), Σ lane values per
 /// pixel with a spectral film (pixel-major), and Σ X, Σ Y, Σ Z of the splats made by samples of
@@ -156,45 +156,11 @@ pub(crate) struct SplatScales {
     pub(crate) second_half: f64,
 }
 
-impl Film {
-    /// This film keeping splat sums too (after [`Film::with_halves`] where it keeps halves), for a
-    /// kernel that splats ([`crate::integrators::Kernel::SPLATS`]).
-    pub(crate) fn with_splats(mut self) -> Self {
-        let n = self.pixels.len();
-        self.splats = SplatSums {
-            xyz: vec![[0; 3]; n],
-            spectral: vec![0; n * self.wavelengths.len()],
-            halves: if self.has_halves() { vec![[0; 3]; n] } else { Vec::new() },
-        };
-        self
-    }
-
-    /// Whether the film keeps splat sums (its render's integrator sends light to other pixels).
-    pub fn has_splats(&self) -> bool {
-        !self.splats.xyz.is_empty()
-    }
-
-    /// The factors of the splat sums for a film whose samples start at index `first`; `None`
-    /// without splats.
-    pub(crate) fn splat_scales(&self, first: u32) -> Option<SplatScales> {
-        if !self.has_splats() {
-            return None;
-        }
-        let pixels = self.pixels.len() as f64;
-        let (mut total, mut second) = (0u64, 0u64);
-        for p in &self.pixels {
-            total += u64::from(p.count);
-            second += u64::from(second_half_count(first..first.saturating_add(p.count)));
-        }
-        let inverse = |samples: u64| if samples == 0 { 0.0 } else { pixels / samples as f64 };
-        Some(SplatScales { whole: inverse(total), first_half: inverse(total - second), second_half: inverse(second) })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::film::MAX_SAMPLE_VALUE;
+    use crate::film::Film;
+    use crate::film::fixed::MAX_SAMPLE_VALUE;
 
     #[test]
     fn non_finite_splats_are_dropped_and_huge_ones_clamped_and_both_counted() {

@@ -387,7 +387,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             if mode == Mode::Importance {
                 // The adjoint BSDF: a refraction does not scale importance by 1/η² as it scales radiance,
                 // and shading normals need Veach's correction (pbrt-v4 `CorrectShadingNormal`).
-                weight = weight * (s.eta_scale * shading_correction(&frame, wo, s.wi));
+                weight *= s.eta_scale * shading_correction(&frame, wo, s.wi);
             }
             beta *= weight;
             eta_scale *= s.eta_scale;
@@ -584,7 +584,8 @@ impl<'a, const N: usize> Bdpt<'a, N> {
                 sum += ri * ri;
             }
         }
-        1.0 / (1.0 + sum)
+        // (A density ratio that overflows makes this strategy's weight 0, as its limit is.)
+        if sum.is_nan() { 0.0 } else { 1.0 / (1.0 + sum) }
     }
 
     fn is_delta_light(&self, v: &Vertex<N>) -> bool {

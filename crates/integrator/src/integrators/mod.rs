@@ -1,9 +1,10 @@
 //! Light transport: the [`Kernel`] contract the pixel loop calls (radiance along a camera ray)
-//! and its two models, the paper's Whitted–Hall ray tracer and the spectral path tracer.
-//! Kernels see the assembled scene, the lights and textures, the film's sensor and the sampler;
-//! they know nothing of pixels, passes or output.
+//! and its models: the paper's Whitted–Hall ray tracer, the spectral path tracer, and bidirectional
+//! path tracing over the path tracer's surfaces. Kernels see the assembled scene, the lights and
+//! textures, the film's sensor and the sampler; they know nothing of pixels, passes or output (a
+//! kernel's light for other pixels goes back as splats).
 
-pub(crate) mod bdpt;
+mod bdpt;
 mod kernel;
 pub(crate) mod path;
 pub(crate) mod whitted;

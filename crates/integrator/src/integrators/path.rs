@@ -783,7 +783,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         // Cornell box, path, 4 spp at 128²: +0.069 % instructions folded into `base`, +0.029 % so).
         // A clear coat is picked with its share of the light seen from `wo`, the material otherwise. The
         // coat has its own normal: its normal map's, else the interpolated one (not the base's map).
-        let tangent = HitTangent::new(&self.scene.geometry, &hit);
+        let tangent = HitTangent::new(&self.scene.geometry, hit);
         let coated = if ROUGH {
             m.coat
                 .map(|c| match textures {

@@ -119,6 +119,10 @@ fn every_committed_scene_renders_without_nan() {
         }
     }
     assert!(files.len() >= 6, "expected the committed scenes, found {files:?}");
+    let bdpt = integrator::Integrator::Bdpt(integrator::PathOptions {
+        sampler: integrator::SamplerKind::Independent,
+        ..integrator::PathOptions::default()
+    });
     for path in files {
         let s = integrator::RenderScene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         for spectral in [integrator::SpectralMode::Rgb, integrator::SpectralMode::Auto] {
@@ -127,6 +131,20 @@ fn every_committed_scene_renders_without_nan() {
             let (image, stats) = render_with(&s, &opts);
             assert_eq!(stats.nonfinite_samples, 0, "{}", path.display());
             assert!(image.pixels().iter().flatten().all(|v| v.is_finite()), "{}", path.display());
+        }
+        // Bidirectional path tracing too (a pinhole camera only: light tracing connects to one).
+        let opts = RenderOptions {
+            spectral: integrator::SpectralMode::Hero { count: 4 },
+            spp: 2,
+            integrator: bdpt,
+            ..options(12, 9)
+        };
+        match integrator::render(&s, &opts, &|_| {}, &std::sync::atomic::AtomicBool::new(false)) {
+            Ok((image, stats)) => {
+                assert_eq!(stats.nonfinite_samples, 0, "bdpt: {}", path.display());
+                assert!(image.pixels().iter().flatten().all(|v| v.is_finite()), "bdpt: {}", path.display());
+            }
+            Err(e) => assert!(e.to_string().contains("orthographic"), "bdpt: {}: {e}", path.display()),
         }
     }
 }
