@@ -145,6 +145,9 @@ fn build_scaled(mut bounds: Vec<Aabb>, lo: Vec3, hi: Vec3, leaves: Leaves) -> Co
     }
 }
 
+/// Scenes of this many primitives or more build their bounds and leaves in parallel.
+const PARALLEL_BUILD: usize = 1 << 14;
+
 /// Leaves of this many triangles or more are four-lane packets; smaller ones (and spheres) are
 /// tested one primitive at a time from [`Scene::singles`]: a packet is 160 bytes, a single 40.
 /// Measured against packets for every leaf (`traversal_table`, 1 thread, AVX2, the same binary
@@ -313,18 +316,28 @@ impl Scene {
             let r = Vec3::splat(s.radius());
             bounds_list.push(padded(s.center() - r, s.center() + r));
         }
+        // Small scenes stay on this thread: starting rayon's pool costs milliseconds, more than
+        // their whole build.
+        let parallel = count >= PARALLEL_BUILD;
         for mesh in &meshes {
             let p = mesh.positions();
-            bounds_list.par_extend(mesh.indices().par_iter().map(|tri| {
+            let bound = |tri: &[u32; 3]| {
                 let t = tri.map(|i| p[i as usize]);
                 padded(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
-            }));
+            };
+            if parallel {
+                bounds_list.par_extend(mesh.indices().par_iter().map(bound));
+            } else {
+                bounds_list.extend(mesh.indices().iter().map(bound));
+            }
         }
         let empty = || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        let (lo, hi) = bounds_list
-            .par_iter()
-            .fold(empty, |(lo, hi), b| (lo.min(b.min.into()), hi.max(b.max.into())))
-            .reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1)));
+        let add = |(lo, hi): (Vec3, Vec3), b: &Aabb| (lo.min(b.min.into()), hi.max(b.max.into()));
+        let (lo, hi) = if parallel {
+            bounds_list.par_iter().fold(empty, add).reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+        } else {
+            bounds_list.iter().fold(empty(), add)
+        };
         if !(lo.is_finite() && hi.is_finite()) && count > 0 {
             return Err(Error::Invalid("scene bounds are not finite".to_owned()));
         }
@@ -335,23 +348,17 @@ impl Scene {
         // (A sphere's "vertices" are NaN: only its index is read.)
         let vertices =
             |prim: u32| if (prim as usize) < n_spheres { [Vec3::NAN; 3] } else { triangle(prim as usize - n_spheres) };
-        let singles = bvh
-            .as_ref()
-            .map(|b| b.singles.par_iter().map(|&prim| (vertices(prim), prim)).collect())
-            .unwrap_or_default();
-        let packets = bvh
-            .as_ref()
-            .map(|b| {
-                b.packed
-                    .par_chunks(4)
-                    .map(|lanes| {
-                        TrianglePacket::new(
-                            lanes.iter().take_while(|&&p| p != NO_LANE).map(|&prim| (vertices(prim), prim)),
-                        )
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
+        let single = |&prim: &u32| (vertices(prim), prim);
+        let packet = |lanes: &[u32]| {
+            TrianglePacket::new(lanes.iter().take_while(|&&p| p != NO_LANE).map(|&prim| (vertices(prim), prim)))
+        };
+        let (singles, packets) = match &bvh {
+            None => (Vec::new(), Vec::new()),
+            Some(b) if parallel => {
+                (b.singles.par_iter().map(single).collect(), b.packed.par_chunks(4).map(packet).collect())
+            }
+            Some(b) => (b.singles.iter().map(single).collect(), b.packed.chunks(4).map(packet).collect()),
+        };
         let bvh = bvh.map(|b| b.bvh).unwrap_or_default();
         Ok(Self {
             spheres,

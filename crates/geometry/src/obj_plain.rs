@@ -80,10 +80,13 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
     }
     let charged = AtomicU64::new(0);
     let give_up = AtomicBool::new(false);
-    let chunks: Vec<Chunk> = starts
-        .par_windows(2)
-        .map(|w| parse_chunk(&text[w[0]..w[1]], allowance, &charged, &give_up))
-        .collect::<Option<Vec<Chunk>>>()?;
+    let parse = |w: &[usize]| parse_chunk(&text[w[0]..w[1]], allowance, &charged, &give_up);
+    // One chunk stays on this thread (starting rayon's pool costs more than a small file).
+    let chunks: Vec<Chunk> = if starts.len() > 2 {
+        starts.par_windows(2).map(parse).collect::<Option<Vec<Chunk>>>()?
+    } else {
+        starts.windows(2).map(parse).collect::<Option<Vec<Chunk>>>()?
+    };
 
     // Faces refer only to vertices above them; `o`/`g` only before the first face.
     let (mut before, mut faces_above, mut name) = (0i64, false, None);

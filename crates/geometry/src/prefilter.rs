@@ -58,6 +58,9 @@ fn hash_key((bits, material): ([[u32; 3]; 3], Option<u32>)) -> u64 {
     h >> 1
 }
 
+/// Scenes of this many triangles or more are hashed and sorted in parallel.
+const PARALLEL_MIN: usize = 1 << 14;
+
 /// The sort key of a zero-area triangle.
 const DEGENERATE: u64 = u64::MAX;
 
@@ -85,13 +88,23 @@ pub(crate) fn remove_unhittable(meshes: Vec<Mesh>) -> (Vec<Mesh>, Removed) {
     let mut records: Vec<(u64, usize)> = Vec::with_capacity(total);
     for (m, mesh) in meshes.iter().enumerate() {
         let (p, base, material) = (mesh.positions(), offsets[m], mesh.material());
-        records.par_extend(mesh.indices().par_iter().enumerate().map(|(t, tri)| {
+        let record = |(t, tri): (usize, &[u32; 3])| {
             let t3 = tri.map(|i| p[i as usize]);
             let h = if is_degenerate(t3) { DEGENERATE } else { hash_key(key(t3, material)) };
             (h, base + t)
-        }));
+        };
+        // Small scenes stay on this thread (starting rayon's pool costs more than their sort).
+        if total >= PARALLEL_MIN {
+            records.par_extend(mesh.indices().par_iter().enumerate().map(record));
+        } else {
+            records.extend(mesh.indices().iter().enumerate().map(record));
+        }
     }
-    records.par_sort_unstable();
+    if total >= PARALLEL_MIN {
+        records.par_sort_unstable();
+    } else {
+        records.sort_unstable();
+    }
     let mut remove = vec![false; total];
     let mut run_start = 0;
     while run_start < records.len() {
