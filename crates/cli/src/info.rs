@@ -40,10 +40,20 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let (desc, scene) = match &args.scene {
         Some(path) => {
             // Loader errors name the file (and line) themselves.
-            let desc = geometry::load_scene_with(path, &args.load.options())?;
-            let scene = RenderScene::from_description_with(desc.clone(), &assembly)
+            let mut desc = geometry::load_scene_with(path, &args.load.options())?;
+            // The summary reads the meshes' count and materials only: it gets empty meshes with
+            // the same materials, not a copy of every vertex and triangle (24 bytes a triangle
+            // on a plain mesh, all alive while the BVH is built).
+            let meshes = std::mem::take(&mut desc.meshes);
+            let mut summary_desc = desc.clone();
+            summary_desc.meshes = meshes
+                .iter()
+                .map(|m| geometry::Mesh::new(Vec::new(), None, None, Vec::new(), m.material()))
+                .collect::<Result<_, _>>()?;
+            desc.meshes = meshes;
+            let scene = RenderScene::from_description_with(desc, &assembly)
                 .with_context(|| format!("assembling {}", path.display()))?;
-            (desc, scene)
+            (summary_desc, scene)
         }
         None => {
             let desc = RenderScene::default_description().context("building the default scene")?;

@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::ray::{Hit, NO_PRIMITIVE, Ray, ShadowRay, gamma, offset_ray_origin};
@@ -143,6 +144,9 @@ fn build_scaled(mut bounds: Vec<Aabb>, lo: Vec3, hi: Vec3, leaves: Leaves) -> Co
         Leaves::Placements => WideBvh::from_bvh2(&bvh2, scale, |_| 0.3, |prims| prims.len() == 1, usize::MAX),
     }
 }
+
+/// Scenes of this many primitives or more build their bounds and leaves in parallel.
+const PARALLEL_BUILD: usize = 1 << 14;
 
 /// Leaves of this many triangles or more are four-lane packets; smaller ones (and spheres) are
 /// tested one primitive at a time from [`Scene::singles`]: a packet is 160 bytes, a single 40.
@@ -288,31 +292,52 @@ impl Scene {
 
     fn build_one_level(spheres: Vec<Sphere>, meshes: Vec<Mesh>) -> Result<Self> {
         let start = Instant::now();
-        let mut triangles = Vec::new();
         let mut triangle_offsets = Vec::with_capacity(meshes.len());
+        let mut triangle_count = 0usize;
         for mesh in &meshes {
-            triangle_offsets.push(triangles.len() as u32);
-            let p = mesh.positions();
-            triangles.extend(mesh.indices().iter().map(|tri| tri.map(|i| p[i as usize])));
+            triangle_offsets.push(triangle_count as u32);
+            triangle_count += mesh.indices().len();
         }
-        let count = spheres.len() + triangles.len();
+        let count = spheres.len() + triangle_count;
         if count > MAX_PRIMITIVES {
             return Err(Error::Invalid(format!("{count} primitives: at most {MAX_PRIMITIVES} are supported")));
         }
+        // Triangle `t`'s vertices (among all triangles), read from its mesh where they are needed:
+        // a flat copy of every triangle's vertices was 36 bytes a triangle at the build's peak.
+        let triangle = |t: usize| {
+            let m = triangle_offsets.partition_point(|&o| o as usize <= t) - 1;
+            let (mesh, p) = (&meshes[m], meshes[m].positions());
+            mesh.indices()[t - triangle_offsets[m] as usize].map(|i| p[i as usize])
+        };
+        // Bounds, their union, and below the leaves' vertices, in parallel: each element is
+        // computed alone, and min/max are exact in any order, so the results are the serial ones.
         let mut bounds_list = Vec::with_capacity(count);
         for s in &spheres {
             let r = Vec3::splat(s.radius());
             bounds_list.push(padded(s.center() - r, s.center() + r));
         }
-        for t in &triangles {
-            bounds_list.push(padded(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])));
+        // Small scenes stay on this thread: starting rayon's pool costs milliseconds, more than
+        // their whole build.
+        let parallel = count >= PARALLEL_BUILD;
+        for mesh in &meshes {
+            let p = mesh.positions();
+            let bound = |tri: &[u32; 3]| {
+                let t = tri.map(|i| p[i as usize]);
+                padded(t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))
+            };
+            if parallel {
+                bounds_list.par_extend(mesh.indices().par_iter().map(bound));
+            } else {
+                bounds_list.extend(mesh.indices().iter().map(bound));
+            }
         }
-        let mut lo = Vec3::splat(f32::INFINITY);
-        let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        for b in &bounds_list {
-            lo = lo.min(b.min.into());
-            hi = hi.max(b.max.into());
-        }
+        let empty = || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        let add = |(lo, hi): (Vec3, Vec3), b: &Aabb| (lo.min(b.min.into()), hi.max(b.max.into()));
+        let (lo, hi) = if parallel {
+            bounds_list.par_iter().fold(empty, add).reduce(empty, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+        } else {
+            bounds_list.iter().fold(empty(), add)
+        };
         if !(lo.is_finite() && hi.is_finite()) && count > 0 {
             return Err(Error::Invalid("scene bounds are not finite".to_owned()));
         }
@@ -321,30 +346,25 @@ impl Scene {
             (count > 0).then(|| build_scaled(bounds_list, lo, hi, Leaves::Primitives { n_spheres: n_spheres as u32 }));
         let bounds = if count > 0 { (lo, hi) } else { (Vec3::ZERO, Vec3::ZERO) };
         // (A sphere's "vertices" are NaN: only its index is read.)
-        let vertices = |prim: u32| {
-            if (prim as usize) < n_spheres { [Vec3::NAN; 3] } else { triangles[prim as usize - n_spheres] }
+        let vertices =
+            |prim: u32| if (prim as usize) < n_spheres { [Vec3::NAN; 3] } else { triangle(prim as usize - n_spheres) };
+        let single = |&prim: &u32| (vertices(prim), prim);
+        let packet = |lanes: &[u32]| {
+            TrianglePacket::new(lanes.iter().take_while(|&&p| p != NO_LANE).map(|&prim| (vertices(prim), prim)))
         };
-        let singles =
-            bvh.as_ref().map(|b| b.singles.iter().map(|&prim| (vertices(prim), prim)).collect()).unwrap_or_default();
-        let packets = bvh
-            .as_ref()
-            .map(|b| {
-                b.packed
-                    .chunks(4)
-                    .map(|lanes| {
-                        TrianglePacket::new(
-                            lanes.iter().take_while(|&&p| p != NO_LANE).map(|&prim| (vertices(prim), prim)),
-                        )
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
+        let (singles, packets) = match &bvh {
+            None => (Vec::new(), Vec::new()),
+            Some(b) if parallel => {
+                (b.singles.par_iter().map(single).collect(), b.packed.par_chunks(4).map(packet).collect())
+            }
+            Some(b) => (b.singles.iter().map(single).collect(), b.packed.chunks(4).map(packet).collect()),
+        };
         let bvh = bvh.map(|b| b.bvh).unwrap_or_default();
         Ok(Self {
             spheres,
             meshes,
             triangle_offsets,
-            triangle_count: triangles.len(),
+            triangle_count,
             bvh,
             singles,
             packets,

@@ -59,6 +59,7 @@ mod limits;
 mod load;
 mod manifest;
 mod obj_loader;
+mod obj_plain;
 mod overrides;
 mod photometry;
 mod prefilter;

@@ -40,6 +40,39 @@ pub(crate) fn load_obj_file(path: &Path, budget: &Budget) -> Result<SceneDescrip
 /// Loads OBJ from memory. `base`: folder for `mtllib` (`None`: materials are not loaded, with a warning);
 /// `path`: the name used in messages.
 pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget: &Budget) -> Result<SceneDescription> {
+    let memory = budget.memory();
+    match crate::obj_plain::parse(text, memory.limit.saturating_sub(memory.used)) {
+        Some(plain) => load_plain(plain, path, budget),
+        None => load_obj_checked(text, base, path, budget),
+    }
+}
+
+/// A plain file ([`crate::obj_plain`]) as [`load_obj_checked`] loads it: the same charge, checks and mesh.
+fn load_plain(plain: crate::obj_plain::Plain, path: &Path, budget: &Budget) -> Result<SceneDescription> {
+    let mut desc = SceneDescription::empty(SceneFormat::Obj);
+    budget.charge(
+        path,
+        || format!("{} face corners and {} triangles", plain.corners, plain.triangles),
+        plain
+            .corners
+            .saturating_mul(BYTES_PER_VERTEX)
+            .saturating_add(plain.triangles.saturating_mul(BYTES_PER_TRIANGLE)),
+    )?;
+    let context = format!("object '{}'", plain.name);
+    check_coordinates(&plain.positions, path, &context)?;
+    if !plain.indices.is_empty() {
+        let mesh = Mesh::new(plain.positions, None, None, plain.indices, None).map_err(|e| Error::InvalidGeometry {
+            path: path.to_path_buf(),
+            context,
+            cause: Box::new(e),
+        })?;
+        desc.meshes.push(mesh);
+    }
+    Ok(desc)
+}
+
+/// Loads OBJ through tobj, behind the line-by-line pre-scan whose errors name the file and line.
+fn load_obj_checked(text: &str, base: Option<&Path>, path: &Path, budget: &Budget) -> Result<SceneDescription> {
     let mut desc = SceneDescription::empty(SceneFormat::Obj);
     let counts = prescan_obj(text, path, &mut desc.warnings)?;
     // tobj's output before it is read: with `single_index` up to one vertex per face corner, and the
@@ -771,6 +804,87 @@ mod tests {
             + entry(size_of::<SideInfo>())
             + size_of::<MaterialDesc>();
         assert!(records as u64 <= BYTES_PER_MATERIAL, "{records} bytes per material");
+    }
+
+    /// What a load gives, for comparing the two paths: warnings, and per mesh its positions,
+    /// triangles and material.
+    type Loaded = (Vec<String>, Vec<(Vec<Vec3>, Vec<[u32; 3]>, Option<u32>)>);
+
+    fn loaded(desc: Result<SceneDescription>) -> std::result::Result<Loaded, String> {
+        let desc = desc.map_err(|e| e.to_string())?;
+        let meshes = desc.meshes.iter().map(|m| (m.positions().to_vec(), m.indices().to_vec(), m.material())).collect();
+        Ok((desc.warnings, meshes))
+    }
+
+    #[test]
+    fn plain_files_load_exactly_as_through_tobj() {
+        let path = Path::new("t.obj");
+        let budget = || Budget::allowing_absolute_paths();
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let mut texts: Vec<(String, String)> = ["scenes/reference/prism.obj", "scenes/meshes/icosphere.obj"]
+            .iter()
+            .map(|f| (f.to_string(), std::fs::read_to_string(root.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"))))
+            .collect();
+        // The normals and the object line taken out of the icosphere: plain, 5120 triangles.
+        let plain_sphere: String = texts[1]
+            .1
+            .lines()
+            .filter(|l| !l.starts_with("vn") && !l.starts_with("o "))
+            .map(|l| {
+                // `f a//na b//nb c//nc` → `f a b c`
+                let words: Vec<&str> = l.split_whitespace().map(|w| w.split('/').next().unwrap_or(w)).collect();
+                format!("{}\n", words.join(" "))
+            })
+            .collect();
+        texts.push(("icosphere without normals".into(), plain_sphere));
+        // A terrain of quads and a polygon, with CRLF line ends, a name and unused vertices; large
+        // enough for several parallel chunks (~2.6 MB).
+        let n = 300;
+        let mut terrain = String::from("# terrain\r\no terrain\r\n");
+        for j in 0..=n {
+            for i in 0..=n {
+                terrain.push_str(&format!(
+                    "v {} {} {}\r\n",
+                    i as f32 / 7.0,
+                    ((i * j) % 13) as f32 * 0.1,
+                    j as f32 / 3.0
+                ));
+            }
+        }
+        terrain.push_str("v 1e6 1e6 1e6\r\ns 1\r\n");
+        for j in 0..n {
+            for i in 0..n {
+                let a = j * (n + 1) + i + 1;
+                terrain.push_str(&format!("f {} {} {} {}\r\n", a + n + 1, a, a + 1, a + n + 2));
+            }
+        }
+        terrain.push_str("f 1 2 3 4 5 6 7\r\n");
+        texts.push(("terrain".into(), terrain));
+        let mut fast = 0;
+        for (name, text) in &texts {
+            let checked = loaded(load_obj_checked(text, None, path, &budget()));
+            let either = loaded(load_obj_text(text, None, path, &budget()));
+            assert_eq!(either, checked, "{name}");
+            if crate::obj_plain::parse(text, u64::MAX).is_some() {
+                fast += 1;
+                let triangles: usize = checked.as_ref().map(|c| c.1.iter().map(|m| m.1.len()).sum()).unwrap_or(0);
+                assert!(triangles > 0, "{name}");
+            }
+        }
+        // All but the icosphere with normals took the fast path.
+        assert_eq!(fast, texts.len() - 1);
+        // Errors: the fast path declines, and the checked path names the line.
+        let e =
+            load_obj_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", None, path, &budget()).err().map(|e| e.to_string());
+        assert!(e.as_deref().is_some_and(|e| e.contains("line 4")), "{e:?}");
+        let e = load_obj_text("v 0 0 0\nv 1 inf 0\n", None, path, &budget()).err().map(|e| e.to_string());
+        assert!(e.as_deref().is_some_and(|e| e.contains("line 2")), "{e:?}");
+        // Over budget: the same error either way.
+        let small = || Budget::new(crate::LoadOptions { max_memory: 1000, ..Default::default() });
+        let text = &texts[0].1;
+        let a = load_obj_text(text, None, path, &small()).err().map(|e| e.to_string());
+        let b = load_obj_checked(text, None, path, &small()).err().map(|e| e.to_string());
+        assert!(a.is_some() && a == b, "{a:?} {b:?}");
     }
 
     #[test]

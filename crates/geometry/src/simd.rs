@@ -290,3 +290,42 @@ fn run_avx2<K: Kernel>(kernel: K) -> K::Output {
 fn run_avx512<K: Kernel>(kernel: K) -> K::Output {
     kernel.run(Avx2 { _proof: () })
 }
+
+/// The three lanes of `v` truncated to integers, each clamped to `0..=max` first (NaN gives
+/// `max`): the bin indices of the BVH build's binning (`sah.rs`), where a saturating
+/// float-to-integer cast per lane (`as u32`: a conversion, a compare and a select each) was the
+/// largest single cost. One SSE2 `cvttps2dq` converts all lanes; after the clamp every lane is
+/// in range, where truncation is what `as` gives.
+#[inline(always)]
+pub(crate) fn truncate_clamped(v: glam::Vec3A, max: f32) -> [u32; 3] {
+    // `min` before `max`: x86 `minps` returns its second operand for a NaN lane.
+    let v = v.min(glam::Vec3A::splat(max)).max(glam::Vec3A::ZERO);
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{__m128, __m128i, _mm_cvttps_epi32};
+        // SAFETY: SSE2 is part of the x86-64 baseline; the conversion has no other precondition.
+        let i: __m128i = unsafe { _mm_cvttps_epi32(__m128::from(v)) };
+        // SAFETY: __m128i and [i32; 4] have the same size, and every bit pattern is an i32.
+        let lanes: [i32; 4] = unsafe { std::mem::transmute::<__m128i, [i32; 4]>(i) };
+        [lanes[0] as u32, lanes[1] as u32, lanes[2] as u32]
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        v.as_uvec3().to_array()
+    }
+}
+
+#[cfg(test)]
+mod truncate_tests {
+    use super::truncate_clamped;
+    use glam::Vec3A;
+
+    #[test]
+    fn truncation_matches_the_saturating_cast_in_range_and_clamps_outside() {
+        for x in [0.0f32, 0.999_999_9, 1.0, 2.5, 3.0, 14.999_999, 15.0, 15.5, 1e30, f32::INFINITY] {
+            let expected = (x as u32).min(15);
+            assert_eq!(truncate_clamped(Vec3A::new(x, x, x), 15.0), [expected; 3], "{x}");
+        }
+        assert_eq!(truncate_clamped(Vec3A::new(-3.0, f32::NAN, 7.9), 15.0), [0, 15, 7]);
+    }
+}

@@ -156,76 +156,93 @@ impl WideBvh {
             let l = bn[n].first_index as usize;
             (l, l + 1)
         };
-        // Pre-order with an explicit stack (a degenerate tree is as deep as it is large);
-        // reversed, every node comes after its children.
-        let mut preorder = Vec::with_capacity(bn.len());
-        let mut stack = vec![0usize];
-        while let Some(n) = stack.pop() {
-            preorder.push(n);
-            if !bn[n].is_leaf() {
-                let (l, r) = children(n);
-                stack.push(r);
-                stack.push(l);
-            }
-        }
-        // Each node's primitives are consecutive in leaf order: `span[n]` = (first, count).
-        let mut span = vec![(0u32, 0u32); bn.len()];
-        let mut prims: Vec<u32> = Vec::with_capacity(bvh2.primitive_indices.len());
-        for &n in &preorder {
-            if bn[n].is_leaf() {
-                let (first, count) = (bn[n].first_index as usize, bn[n].prim_count as usize);
-                span[n] = (prims.len() as u32, count as u32);
-                prims.extend_from_slice(&bvh2.primitive_indices[first..first + count]);
-            }
-        }
-        for &n in preorder.iter().rev() {
-            if !bn[n].is_leaf() {
-                let (l, r) = children(n);
-                span[n] = (span[l].0, span[l].1 + span[r].1);
-            }
-        }
-        // cost[n][i − 1]: cheapest use of at most i slots; how[n][i − 1]: LEAF_SLOT / NODE_SLOT
+        // `sah::build`'s layout: the primitives in leaf order, a leaf's `first_index` its position,
+        // so a subtree's primitives are one range of them.
+        let prims = &bvh2.primitive_indices[..];
+        // cost[i − 1]: cheapest use of at most i slots; how[n][i − 1]: LEAF_SLOT / NODE_SLOT
         // for one slot, SAME (as i − 1 slots) or the left child's share j of a split. A child is
         // never given all eight slots (its sibling takes one), so index 7 serves the node's own
-        // wide node instead: cost[n][7] is the cost of its eight slots split between its
+        // wide node instead: cost[7] is the cost of its eight slots split between its
         // children, how[n][7] the left child's share of them.
         const LEAF_SLOT: u8 = 0xff;
         const NODE_SLOT: u8 = 0xfe;
         const SAME: u8 = 0xfd;
-        let mut cost = vec![[0f32; 8]; bn.len()];
         let mut how = vec![[0u8; 8]; bn.len()];
-        for &n in preorder.iter().rev() {
+        // Post-order with an explicit stack (a degenerate tree is as deep as it is large). Only
+        // the subtrees whose parent is still to come keep their costs and primitive ranges
+        // (`done`: (cost, first, count)), so this takes memory in proportion to the depth; an
+        // array of them per node was 40 bytes a node, 80 a triangle, at the build's peak.
+        let mut done: Vec<([f32; 8], u32, u32)> = Vec::new();
+        let mut todo = vec![(0usize, false)];
+        while let Some((n, children_done)) = todo.pop() {
+            let is_leaf = bn[n].is_leaf();
+            if !is_leaf && !children_done {
+                let (l, r) = children(n);
+                todo.extend([(n, true), (r, false), (l, false)]);
+                continue;
+            }
             let area = bn[n].aabb().half_area();
-            let (first, count) = (span[n].0 as usize, span[n].1 as usize);
+            let (first, count, below) = if is_leaf {
+                (bn[n].first_index, 1, None)
+            } else {
+                let (right, left) = (done.pop(), done.pop());
+                let (Some(left), Some(right)) = (left, right) else { unreachable!("both children are done") };
+                debug_assert_eq!(left.1 + left.2, right.1, "leaves out of order");
+                (left.1, left.2 + right.2, Some((left.0, right.0)))
+            };
+            let (first_u, count_u) = (first as usize, count as usize);
             // (Decided by `allowed`, not by an infinite cost: the costs cannot overflow at the
             // magnitudes `build_scaled` hands over, but a leaf that does not fit must never be
             // chosen even if they did.)
-            let allowed = count <= MAX_LEAF && leaf_ok(&prims[first..first + count]);
-            let leaf = if allowed { area * leaf_cost(count) } else { f32::INFINITY };
-            if bn[n].is_leaf() {
-                cost[n] = [leaf; 8];
+            let allowed = count_u <= MAX_LEAF && leaf_ok(&prims[first_u..first_u + count_u]);
+            let leaf = if allowed { area * leaf_cost(count_u) } else { f32::INFINITY };
+            let Some((cost_l, cost_r)) = below else {
                 how[n] = [LEAF_SLOT; 8];
+                done.push(([leaf; 8], first, count));
                 continue;
-            }
-            let (l, r) = children(n);
+            };
             // split[i − 1]: i slots shared by the children, each taking at least one.
             let mut split = [(f32::INFINITY, 1u8); 8];
             for i in 2..=8 {
                 for j in 1..i {
-                    let c = cost[l][j - 1] + cost[r][i - j - 1];
+                    let c = cost_l[j - 1] + cost_r[i - j - 1];
                     if c < split[i - 1].0 {
                         split[i - 1] = (c, j as u8);
                     }
                 }
             }
+            let mut cost = [0f32; 8];
             let node = area + split[7].0;
-            (cost[n][0], how[n][0]) = if allowed && leaf <= node { (leaf, LEAF_SLOT) } else { (node, NODE_SLOT) };
-            (cost[n][7], how[n][7]) = split[7];
+            (cost[0], how[n][0]) = if allowed && leaf <= node { (leaf, LEAF_SLOT) } else { (node, NODE_SLOT) };
+            (cost[7], how[n][7]) = split[7];
             for i in 2..=7 {
-                (cost[n][i - 1], how[n][i - 1]) =
-                    if cost[n][i - 2] <= split[i - 1].0 { (cost[n][i - 2], SAME) } else { split[i - 1] };
+                (cost[i - 1], how[n][i - 1]) =
+                    if cost[i - 2] <= split[i - 1].0 { (cost[i - 2], SAME) } else { split[i - 1] };
             }
+            done.push((cost, first, count));
         }
+        let root_cost = done.first().map_or(0.0, |d| d.0[0]);
+        drop(done);
+        // The primitive range (first, count) of a subtree the collapse made a leaf (at most
+        // `MAX_LEAF` primitives, so a walk of a few nodes).
+        let span = |n: usize| {
+            // A subtree of at most MAX_LEAF leaves has fewer pending nodes than that.
+            let (mut first, mut count, mut stack, mut top) = (u32::MAX, 0u32, [0usize; MAX_LEAF + 1], 1);
+            stack[0] = n;
+            while top > 0 {
+                top -= 1;
+                let k = stack[top];
+                if bn[k].is_leaf() {
+                    first = first.min(bn[k].first_index);
+                    count += 1;
+                } else {
+                    let (l, r) = children(k);
+                    (stack[top], stack[top + 1]) = (l, r);
+                    top += 2;
+                }
+            }
+            (first, count)
+        };
         // The slots subtree n fills with at most i < 8 of them (`todo`: scratch, left empty).
         let gather = |n: usize, i: usize, out: &mut Vec<usize>, todo: &mut Vec<(usize, usize)>| {
             todo.push((n, i));
@@ -256,7 +273,7 @@ impl WideBvh {
             children: [EMPTY; 8],
         };
         let mut nodes = vec![empty];
-        let mut order = Vec::with_capacity(prims.len());
+        let mut order = Vec::new();
         let mut packed = Vec::new();
         // (wide node to fill, the binary node it stands for).
         let mut work = vec![(0usize, 0usize)];
@@ -281,7 +298,8 @@ impl WideBvh {
                     node.bounds[2 * axis + 1][slot] = (aabb.max[axis] * scale).next_up();
                 }
                 node.children[slot] = if how[item][0] == LEAF_SLOT {
-                    let (first, count) = (span[item].0 as usize, span[item].1 as usize);
+                    let (first, count) = span(item);
+                    let (first, count) = (first as usize, count as usize);
                     let start = if count >= packed_from {
                         // A packet of four slots per four primitives, the unused ones `NO_LANE`.
                         let start = packed.len();
@@ -308,7 +326,7 @@ impl WideBvh {
         }
         // Grown by pushes: without this up to half the array would be spare capacity.
         nodes.shrink_to_fit();
-        Collapsed { bvh: Self { nodes }, singles: order, packed, cost: cost[0][0] }
+        Collapsed { bvh: Self { nodes }, singles: order, packed, cost: root_cost }
     }
 
     pub(crate) fn node_count(&self) -> usize {

@@ -1,0 +1,39 @@
+#!/usr/bin/env python3
+"""Write the geometry benchmarks' terrain (`crates/geometry/benches/common/mod.rs`, `terrain(n)`:
+a bumpy heightfield of n×n quads, 2n² triangles) as a plain OBJ of `v` and `f` lines, for
+timing the loader and the BVH build on a large mesh (`docs/perf.md`, "Loading and building").
+
+    python3 xtask/compare/terrain_obj.py 894 /tmp/terrain_1m6.obj   # 1,598,472 triangles, 60 MB
+
+Needs numpy. Outside the project's runtime, like the other scripts here.
+"""
+
+import argparse
+
+import numpy as np
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("n", type=int, help="quads per side (2n² triangles)")
+    ap.add_argument("out")
+    args = ap.parse_args()
+    n = args.n
+    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
+    x = (i / n * 2.0 - 1.0).astype(np.float32).ravel()
+    z = (j / n * 2.0 - 1.0).astype(np.float32).ravel()
+    y = (0.1 * np.sin(7.0 * x) * np.cos(5.0 * z) + 0.03 * np.sin(31.0 * x + 17.0 * z)).astype(np.float32)
+    qi, qj = np.meshgrid(np.arange(n), np.arange(n))
+    a = (qj * (n + 1) + qi).ravel() + 1  # OBJ indices start at 1
+    b, c, d = a + 1, a + n + 1, a + n + 2
+    faces = np.empty((2 * n * n, 3), np.int64)
+    faces[0::2] = np.stack([a, c, b], axis=1)
+    faces[1::2] = np.stack([b, c, d], axis=1)
+    with open(args.out, "w") as f:
+        f.write(f"# terrain {n}x{n} quads, {2 * n * n} triangles\n")
+        np.savetxt(f, np.stack([x, y, z], axis=1), fmt="v %.7g %.7g %.7g")
+        np.savetxt(f, faces, fmt="f %d %d %d")
+
+
+if __name__ == "__main__":
+    main()
