@@ -240,6 +240,13 @@ pub(crate) fn render_resolved(
             expected: "bins:N (fixed wavelengths; bins:95 is the 5 nm grid)",
         });
     }
+    // Fixed lanes cannot follow a path to the wavelength a fluorescent surface absorbed at.
+    if let Integrator::Path(_) = &options.integrator
+        && !matches!(spectral, SpectralMode::Hero { .. })
+        && let Some(m) = scene.materials.iter().find(|m| m.fluorescence.is_some())
+    {
+        return Err(Error::FluorescenceNeedsHero { material: m.name.clone(), spectral });
+    }
     let lanes = lane_count(spectral)?;
     let pool = thread_pool(options)?;
     let job = RenderJob { scene, options, spectral, samples, progress, cancel, resume, checkpoint };

@@ -3,6 +3,7 @@
 //! Kernels see the assembled scene, the lights and textures, the film's sensor and the sampler;
 //! they know nothing of pixels, passes or output.
 
+mod fluorescence;
 mod kernel;
 pub(crate) mod path;
 pub(crate) mod whitted;

@@ -4,6 +4,7 @@
 mod defaults;
 mod envmap;
 mod film;
+mod fluorescence;
 mod hard_cases;
 mod luminaires;
 mod measure;
