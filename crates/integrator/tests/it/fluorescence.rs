@@ -164,7 +164,7 @@ fn energy_gaining_fluorescence_is_an_error_naming_the_material() {
         "D65",
     );
     let desc = geometry::parse_manifest(&json, std::path::Path::new("."), "<test>").expect("parses");
-    let e = integrator::RenderScene::from_description(desc).err().expect("ρ + a = 1.1 is refused");
+    let Err(e) = integrator::RenderScene::from_description(desc) else { panic!("ρ + a = 1.1 is refused") };
     let msg = crate::chain(&e);
     assert!(msg.contains("material `sample`") && msg.contains("reflectance + excitation"), "{msg}");
 }
@@ -191,7 +191,8 @@ fn a_reradiation_matrix_renders_its_diagonal_and_re_emission() {
     // `base_color` beside a matrix is ambiguous: an error naming the key.
     let json = sample_scene(r#"{"model": "diffuse", "base_color": 0.5, "fluorescence": {"matrix": "m.csv"}}"#, "E");
     let desc = geometry::parse_manifest(&json, &dir, "<test>").expect("parses");
-    let msg = crate::chain(&integrator::RenderScene::from_description(desc).err().expect("refused"));
+    let Err(e) = integrator::RenderScene::from_description(desc) else { panic!("base_color with a matrix is refused") };
+    let msg = crate::chain(&e);
     assert!(msg.contains("material `sample`") && msg.contains("base_color"), "{msg}");
     std::fs::remove_dir_all(&dir).ok();
 }
