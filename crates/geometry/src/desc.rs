@@ -445,8 +445,9 @@ pub struct MaterialDesc {
     pub sheen: Option<SheenLayer>,
     /// glTF `KHR_materials_anisotropy`: the specular lobe stretched along a direction in the tangent plane.
     pub anisotropy: Option<AnisotropyLayer>,
-    /// Manifest `fluorescence`: re-emission at longer wavelengths (Lambertian materials only).
-    pub fluorescence: Option<FluorescenceDesc>,
+    /// Manifest `fluorescence`: re-emission at longer wavelengths (Lambertian materials only); boxed, as few
+    /// materials have it and every material record is charged to the load budget by its size.
+    pub fluorescence: Option<Box<FluorescenceDesc>>,
     /// Manifest `multiple_scattering`: whether rough conductors and dielectrics are energy-compensated
     /// (default yes); `false` is the single-scattering GGX of pbrt-v4 and Mitsuba 3.
     pub multiple_scattering: Option<bool>,
@@ -537,7 +538,7 @@ impl MaterialDesc {
             Some(AbsorptionDesc::SigmaA(s)) => out.push(("absorption", s)),
             _ => {}
         }
-        if let Some(FluorescenceDesc::Spectra { excitation, emission, .. }) = &self.fluorescence {
+        if let Some(FluorescenceDesc::Spectra { excitation, emission, .. }) = self.fluorescence.as_deref() {
             out.push(("fluorescence.excitation", excitation));
             out.push(("fluorescence.emission", emission));
         }

@@ -711,7 +711,7 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value) -> Result<MaterialDesc> {
                 "fluorescence needs a Lambertian material (`\"model\": \"diffuse\"` or no model)",
             ));
         }
-        out.fluorescence = Some(fluorescence(ctx, &format!("{context}.fluorescence"), v)?);
+        out.fluorescence = Some(Box::new(fluorescence(ctx, &format!("{context}.fluorescence"), v)?));
     }
     // Passed up untouched, as a glTF material's `extras` are.
     out.extras = match m.extras {
@@ -846,8 +846,8 @@ mod tests {
             material(r#"{"fluorescence":{"excitation":{"samples":[[300,0.2],[400,0]]},"emission":"D65","yield":0.8}}"#)
                 .unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(
-            d.materials[0].fluorescence,
-            Some(FluorescenceDesc::Spectra {
+            d.materials[0].fluorescence.as_deref(),
+            Some(&FluorescenceDesc::Spectra {
                 excitation: SpectrumDesc::Samples { lambda: vec![300.0, 400.0], values: vec![0.2, 0.0] },
                 emission: SpectrumDesc::Named("D65".into()),
                 quantum_yield: 0.8,
@@ -1059,9 +1059,11 @@ mod tests {
             m.contains("known keys: model, metal, eta, k, nonlinear, base_color,") && m.ends_with("extras)"),
             "{m}"
         );
-        // Far from every key: refused with the list only.
         let m = message(r#"{"fluorescense":0.5}"#);
-        assert!(m.starts_with("test.json: materials.m.fluorescense: unknown key (known keys: model,"), "{m}");
+        assert!(m.starts_with("test.json: materials.m.fluorescense: unknown key; did you mean `fluorescence`?"), "{m}");
+        // Far from every key: refused with the list only.
+        let m = message(r#"{"phosphorescence":0.5}"#);
+        assert!(m.starts_with("test.json: materials.m.phosphorescence: unknown key (known keys: model,"), "{m}");
         // Free-form data has one place, an object.
         assert_eq!(
             message(r#"{"extras":3}"#),

@@ -335,7 +335,7 @@ fn conductor_index(desc: &MaterialDesc) -> materials::Result<Option<ConductorInd
 
 /// A manifest material's `fluorescence`, with the reflectance a re-radiation matrix gives (its diagonal).
 fn fluorescence(desc: &MaterialDesc) -> materials::Result<(Option<Fluorescence>, Option<DenselySampledSpectrum>)> {
-    Ok(match &desc.fluorescence {
+    Ok(match desc.fluorescence.as_deref() {
         None => (None, None),
         Some(FluorescenceDesc::Spectra { excitation, emission, quantum_yield }) => {
             let excitation = reflectance_spectrum(excitation)?;
