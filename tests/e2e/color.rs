@@ -205,3 +205,58 @@ fn a_commented_file_gives_the_same_colour_as_the_bare_one() {
     let b = lines(&color(&[&path.display().to_string()]));
     assert_eq!(a, b);
 }
+
+/// xy of a `color` output line.
+fn xy_of(line: &serde_json::Value) -> [f64; 2] {
+    [line["xy"][0].as_f64().unwrap(), line["xy"][1].as_f64().unwrap()]
+}
+
+#[test]
+fn an_optical_brightener_makes_white_bluer_under_d65_than_under_a() {
+    // A white of reflectance 0.8 with excitation 0.15 over 320–380 nm, blue emission at 435 nm, yield 0.9:
+    // its chromaticity moves from the illuminant's by (−0.0033, −0.0069) under D65 and (−0.0011, −0.0015)
+    // under A (the same numbers the renderer's brightener test reaches through a render); the plain white
+    // does not move at all.
+    let brightened = |ill: &str| {
+        lines(&color(&[
+            &fixture("white80.csv"),
+            "--illuminant",
+            ill,
+            "--excitation",
+            &fixture("brightener_excitation.csv"),
+            "--emission",
+            &fixture("brightener_emission.csv"),
+            "--yield",
+            "0.9",
+        ]))
+        .remove(0)
+    };
+    for (ill, want) in [("D65", [-0.00327, -0.00688]), ("A", [-0.00106, -0.00146])] {
+        let plain = lines(&color(&[&fixture("white80.csv"), "--illuminant", ill])).remove(0);
+        assert_eq!(plain["reemitted_XYZ"], serde_json::Value::Null);
+        let fluorescent = brightened(ill);
+        let (p, f) = (xy_of(&plain), xy_of(&fluorescent));
+        for c in 0..2 {
+            assert!((f[c] - p[c] - want[c]).abs() < 1e-5, "{ill}: {f:?} − {p:?} vs {want:?}");
+        }
+        // Reflected plus re-emitted.
+        for c in 0..3 {
+            let sum = plain["XYZ"][c].as_f64().unwrap() + fluorescent["reemitted_XYZ"][c].as_f64().unwrap();
+            assert!((fluorescent["XYZ"][c].as_f64().unwrap() - sum).abs() < 1e-9, "{fluorescent}");
+        }
+    }
+}
+
+#[test]
+fn a_bad_fluorescence_matrix_names_the_file_and_line() {
+    let dir = scratch("color-matrix");
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "nm,400,450\n400,0.5,0.3\n450,0.1,0.6\n").unwrap();
+    let out = color(&["--matrix", bad.to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.csv:3") && err.contains("anti-Stokes"), "{err}");
+    // Excitation without emission and yield is a usage error, not a colour.
+    let out = color(&[&fixture("white80.csv"), "--excitation", &fixture("brightener_excitation.csv")]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--emission"));
+}

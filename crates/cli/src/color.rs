@@ -6,8 +6,9 @@ use std::path::{Path, PathBuf};
 use anyhow::Context as _;
 use colorimetry::{
     DenselySampledSpectrum, Illuminant, Integration, MIN_STEP_NM, NamedSpectrum, Observer, RgbColorSpace, Xyz,
-    bradford, quantize_u8, read_spectra_csv, reflectance_to_xyz, srgb_encode,
+    bradford, emission_to_xyz, quantize_u8, read_spectra_csv, reflectance_to_xyz, srgb_encode,
 };
+use materials::Fluorescence;
 
 /// Arguments of `spectrace color`.
 #[derive(Debug, clap::Args)]
@@ -15,7 +16,25 @@ pub(crate) struct ColorArgs {
     /// CSV file: header line, first column wavelength in nm, one column per spectrum
     /// (reflectances in [0, 1]). Linear between rows; outside the file's range the first and
     /// last values are held (CIE / colour-science convention, as for the built-in tables).
-    reflectance: PathBuf,
+    /// Optional with `--matrix`, whose diagonal is the reflectance.
+    #[arg(required_unless_present = "matrix")]
+    reflectance: Option<PathBuf>,
+    /// Fluorescence: a CSV whose first spectrum column is the excitation a(λ_in) in [0, 1] (the
+    /// fraction absorbed for re-emission; read over its own range, down to 300 nm). Needs
+    /// `--emission` and `--yield`; the colour is then that of the reflected plus re-emitted light
+    /// (`docs/fluorescence.md`).
+    #[arg(long, requires_all = ["emission", "quantum_yield"], conflicts_with = "matrix")]
+    excitation: Option<PathBuf>,
+    /// Fluorescence: a CSV whose first spectrum column is the emission's shape (normalised to unit area).
+    #[arg(long, requires = "excitation")]
+    emission: Option<PathBuf>,
+    /// Fluorescence: the quantum yield in [0, 1] (photons emitted per photon absorbed).
+    #[arg(long = "yield", requires = "excitation")]
+    quantum_yield: Option<f32>,
+    /// Fluorescence: a re-radiation (Donaldson) matrix CSV, rows λ_in, columns λ_out, energy fractions;
+    /// its diagonal is the reflectance.
+    #[arg(long, conflicts_with = "reflectance")]
+    matrix: Option<PathBuf>,
     /// Only this column (default: every column).
     #[arg(long)]
     column: Option<String>,
@@ -58,6 +77,22 @@ fn held(column: NamedSpectrum, path: &Path) -> anyhow::Result<DenselySampledSpec
     column.spectrum.held_to_visible().with_context(|| format!("{}: column `{}`", path.display(), column.name))
 }
 
+/// `--excitation`, `--emission` and `--yield` as a kernel (clap makes them come together).
+fn fluorescence_spectra(args: &ColorArgs) -> anyhow::Result<Option<Fluorescence>> {
+    let (Some(excitation), Some(emission), Some(q)) = (&args.excitation, &args.emission, args.quantum_yield) else {
+        return Ok(None);
+    };
+    let first = |path: &Path| -> anyhow::Result<DenselySampledSpectrum> {
+        let table = read_spectra_csv(path)?;
+        let first = table.into_iter().next().with_context(|| format!("{}: no spectrum column", path.display()))?;
+        Ok(first.spectrum)
+    };
+    let f = Fluorescence::from_spectra(first(excitation)?, &first(emission)?, q).with_context(|| {
+        format!("--excitation {} --emission {} --yield {q}", excitation.display(), emission.display())
+    })?;
+    Ok(Some(f))
+}
+
 /// The coarsest `--step` (nm): a sum over the visible range needs a few nodes at least.
 const MAX_STEP_NM: f64 = 100.0;
 
@@ -68,16 +103,26 @@ pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
         anyhow::bail!("--step {} is out of range [{MIN_STEP_NM}, {MAX_STEP_NM}] nm", colorimetry::Num(args.step));
     };
     let illuminant = illuminant(&args.illuminant).with_context(|| format!("illuminant `{}`", args.illuminant))?;
-    let spectra = read_spectra_csv(&args.reflectance)?
-        .into_iter()
-        .map(|s| Ok(NamedSpectrum { name: s.name.clone(), spectrum: held(s, &args.reflectance)? }))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let (fluorescence, spectra, source) = match (&args.reflectance, &args.matrix) {
+        (_, Some(matrix)) => {
+            let (f, diagonal) = Fluorescence::from_matrix_csv(matrix)?;
+            (Some(f), vec![NamedSpectrum { name: "diagonal".into(), spectrum: diagonal }], matrix)
+        }
+        (Some(path), None) => {
+            let spectra = read_spectra_csv(path)?
+                .into_iter()
+                .map(|s| Ok(NamedSpectrum { name: s.name.clone(), spectrum: held(s, path)? }))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            (fluorescence_spectra(args)?, spectra, path)
+        }
+        (None, None) => anyhow::bail!("give a reflectance CSV or --matrix"),
+    };
     let selected: Vec<_> = match &args.column {
         Some(c) => {
             let found: Vec<_> = spectra.iter().filter(|s| &s.name == c).collect();
             if found.is_empty() {
                 let names: Vec<&str> = spectra.iter().map(|s| s.name.as_str()).collect();
-                anyhow::bail!("{}: no column `{c}` (columns: {})", args.reflectance.display(), names.join(", "));
+                anyhow::bail!("{}: no column `{c}` (columns: {})", source.display(), names.join(", "));
             }
             found
         }
@@ -97,18 +142,30 @@ pub(crate) fn run(args: &ColorArgs) -> anyhow::Result<()> {
     let d65 = Xyz::from_xy_y(srgb.white(), 100.0);
     let adapt = bradford(white, d65);
     let mut out = String::new();
+    // The re-emitted light in the units of the reflected: 100 / Σ E ȳ Δλ, as `reflectance_to_xyz` scales.
+    let reemitted = fluorescence.as_ref().map(|f| {
+        let e = emission_to_xyz(&illuminant, args.observer, &integration);
+        emission_to_xyz(&f.reemitted_radiance(&illuminant), args.observer, &integration).scaled(100.0 / e.y)
+    });
     for s in selected {
-        let xyz = reflectance_to_xyz(&s.spectrum, &illuminant, args.observer, &integration);
+        if let Some(f) = &fluorescence {
+            f.check_energy(&s.spectrum).with_context(|| format!("{}: column `{}`", source.display(), s.name))?;
+        }
+        let mut xyz = reflectance_to_xyz(&s.spectrum, &illuminant, args.observer, &integration);
+        if let Some(r) = reemitted {
+            xyz = Xyz { x: xyz.x + r.x, y: xyz.y + r.y, z: xyz.z + r.z };
+        }
         let linear = srgb.xyz_to_rgb(xyz.transformed(adapt).scaled(0.01));
         let rgb = [linear.r, linear.g, linear.b];
         // Spectra read from files are bounded (values at most 1e30), so this holds; a JSON `null`
         // must never be printed as if it were a colour.
         if ![xyz.x, xyz.y, xyz.z, rgb[0], rgb[1], rgb[2]].iter().all(|v| v.is_finite()) {
-            anyhow::bail!("{}: column `{}`: the colour is not finite", args.reflectance.display(), s.name);
+            anyhow::bail!("{}: column `{}`: the colour is not finite", source.display(), s.name);
         }
         let json = serde_json::json!({
             "name": s.name,
             "XYZ": [xyz.x, xyz.y, xyz.z],
+            "reemitted_XYZ": reemitted.map(|r| [r.x, r.y, r.z]),
             "xy": xyz.chromaticity(),
             "srgb_linear": rgb,
             "srgb8": rgb.map(|c| quantize_u8(srgb_encode(c))),

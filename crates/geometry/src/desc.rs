@@ -118,6 +118,25 @@ pub enum AbsorptionDesc {
     },
 }
 
+/// Fluorescence of a manifest material: light absorbed at one wavelength and re-emitted at a longer one
+/// (`docs/fluorescence.md`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum FluorescenceDesc {
+    /// `{"excitation": SPECTRUM, "emission": SPECTRUM, "yield": q}`: the fraction a(λ_in) absorbed for
+    /// re-emission, the shape of the emission (normalised by the layers above) and the quantum yield q.
+    Spectra {
+        /// a(λ_in), the fraction of the incident light absorbed and re-emitted, in [0, 1].
+        excitation: SpectrumDesc,
+        /// The emission's spectral shape over λ_out (any scale).
+        emission: SpectrumDesc,
+        /// Quantum yield q in [0, 1]: photons emitted per photon absorbed.
+        quantum_yield: f32,
+    },
+    /// `{"matrix": "file.csv"}`: a re-radiation (Donaldson) matrix, rows λ_in, columns λ_out; the path is
+    /// resolved against the manifest's folder.
+    Matrix(PathBuf),
+}
+
 /// An image a scene file refers to, as bytes still encoded (PNG, JPEG, …): read and charged to
 /// the load budget by the loader, decoded by the integrator's assembly (which knows colour).
 #[derive(Clone, Debug, PartialEq)]
@@ -426,6 +445,9 @@ pub struct MaterialDesc {
     pub sheen: Option<SheenLayer>,
     /// glTF `KHR_materials_anisotropy`: the specular lobe stretched along a direction in the tangent plane.
     pub anisotropy: Option<AnisotropyLayer>,
+    /// Manifest `fluorescence`: re-emission at longer wavelengths (Lambertian materials only); boxed, as few
+    /// materials have it and every material record is charged to the load budget by its size.
+    pub fluorescence: Option<Box<FluorescenceDesc>>,
     /// Manifest `multiple_scattering`: whether rough conductors and dielectrics are energy-compensated
     /// (default yes); `false` is the single-scattering GGX of pbrt-v4 and Mitsuba 3.
     pub multiple_scattering: Option<bool>,
@@ -475,6 +497,7 @@ impl MaterialDesc {
             clearcoat: None,
             sheen: None,
             anisotropy: None,
+            fluorescence: None,
             multiple_scattering: None,
             dissolve: None,
             illum: None,
@@ -514,6 +537,10 @@ impl MaterialDesc {
             Some(AbsorptionDesc::PerUnit(s)) => out.push(("absorption", s)),
             Some(AbsorptionDesc::SigmaA(s)) => out.push(("absorption", s)),
             _ => {}
+        }
+        if let Some(FluorescenceDesc::Spectra { excitation, emission, .. }) = self.fluorescence.as_deref() {
+            out.push(("fluorescence.excitation", excitation));
+            out.push(("fluorescence.emission", emission));
         }
         out
     }

@@ -64,8 +64,8 @@ mod overrides;
 mod photometry;
 mod prefilter;
 pub use desc::{
-    AbsorptionDesc, AlphaMode, AnisotropyLayer, CameraDesc, Clearcoat, EnvironmentMapDesc, ImageDesc, IorDesc,
-    LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, MaterialTextures, PhotometricFormat,
+    AbsorptionDesc, AlphaMode, AnisotropyLayer, CameraDesc, Clearcoat, EnvironmentMapDesc, FluorescenceDesc, ImageDesc,
+    IorDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, MaterialTextures, PhotometricFormat,
     PhotometricWeb, Projection, SceneDescription, SceneFormat, Settings, SheenLayer, SpectrumDesc, SpecularLayer,
     TextureDesc, TextureTransform, WebSymmetry, WrapMode,
 };

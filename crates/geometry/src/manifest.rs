@@ -12,12 +12,12 @@ use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use crate::desc::{
-    CameraDesc, EnvironmentMapDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat, Projection,
-    SceneDescription, SceneFormat, Settings, SpectrumDesc,
+    CameraDesc, EnvironmentMapDesc, FluorescenceDesc, LightAmount, LightDesc, LightUnit, MaterialDesc, MaterialFormat,
+    Projection, SceneDescription, SceneFormat, Settings, SpectrumDesc,
 };
 use crate::error::{Error, Result};
-use crate::forms::{Ctx, absorption, ior, number, spectrum, unknown_key};
-use crate::limits::{Budget, MAX_PHOTOMETRIC_FILE_BYTES, check_coordinates};
+use crate::forms::{Ctx, absorption, ior, number, only_keys, spectrum, unknown_key};
+use crate::limits::{Budget, MAX_PHOTOMETRIC_FILE_BYTES, MAX_SPECTRUM_FILE_BYTES, check_coordinates};
 use crate::photometry;
 use crate::shapes::{Mesh, Sphere};
 
@@ -205,6 +205,7 @@ struct MaterialJson {
     emission_strength: Option<f32>,
     double_sided: Option<bool>,
     multiple_scattering: Option<bool>,
+    fluorescence: Option<Value>,
     extras: Option<Value>,
 }
 
@@ -233,6 +234,7 @@ const MATERIAL_KEYS: &[&str] = &[
     "emission_strength",
     "double_sided",
     "multiple_scattering",
+    "fluorescence",
     "extras",
 ];
 
@@ -701,6 +703,16 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value) -> Result<MaterialDesc> {
     out.emission_strength = non_negative("emission_strength", m.emission_strength)?;
     out.double_sided = m.double_sided;
     out.multiple_scattering = m.multiple_scattering;
+    if let Some(v) = &m.fluorescence {
+        // Re-emission is modelled on a Lambertian surface only (`docs/fluorescence.md`).
+        if !matches!(out.model.as_deref(), None | Some("diffuse")) {
+            return Err(ctx.err(
+                format!("{context}.fluorescence"),
+                "fluorescence needs a Lambertian material (`\"model\": \"diffuse\"` or no model)",
+            ));
+        }
+        out.fluorescence = Some(Box::new(fluorescence(ctx, &format!("{context}.fluorescence"), v)?));
+    }
     // Passed up untouched, as a glTF material's `extras` are.
     out.extras = match m.extras {
         None => None,
@@ -712,6 +724,30 @@ fn material(ctx: &Ctx<'_>, name: &str, value: &Value) -> Result<MaterialDesc> {
         }
     };
     Ok(out)
+}
+
+/// A material's `fluorescence`: `{"excitation", "emission", "yield"}` or `{"matrix": "file.csv"}`.
+fn fluorescence(ctx: &Ctx<'_>, context: &str, v: &Value) -> Result<FluorescenceDesc> {
+    const FORMS: &str =
+        "{\"excitation\": SPECTRUM, \"emission\": SPECTRUM, \"yield\": q} or {\"matrix\": \"file.csv\"}";
+    let Value::Object(obj) = v else { return Err(ctx.err(context, format!("expected {FORMS}, found {v}"))) };
+    if let Some(file) = obj.get("matrix") {
+        only_keys(ctx, context, obj, &["matrix"])?;
+        let c = format!("{context}.matrix");
+        let file = file.as_str().filter(|s| !s.is_empty()).ok_or_else(|| ctx.err(&c, "expected a file name"))?;
+        let referrer = Path::new(ctx.origin);
+        let path = ctx.budget.resolve(referrer, ctx.base_dir, file)?;
+        ctx.budget.check_file(referrer, &path, MAX_SPECTRUM_FILE_BYTES)?;
+        return Ok(FluorescenceDesc::Matrix(path));
+    }
+    only_keys(ctx, context, obj, &["excitation", "emission", "yield"])?;
+    let required =
+        |key: &str| obj.get(key).ok_or_else(|| ctx.err(context, format!("missing `{key}` (expected {FORMS})")));
+    let excitation = spectrum(ctx, &format!("{context}.excitation"), required("excitation")?)?;
+    let emission = spectrum(ctx, &format!("{context}.emission"), required("emission")?)?;
+    let c = format!("{context}.yield");
+    let quantum_yield = ctx.in_range(&c, number(ctx, &c, required("yield")?)?, 0.0, 1.0)?;
+    Ok(FluorescenceDesc::Spectra { excitation, emission, quantum_yield })
 }
 
 fn quad(ctx: &Ctx<'_>, context: &str, corner: Vec3, u: Vec3, v: Vec3, material: Option<u32>) -> Result<Mesh> {
@@ -795,6 +831,44 @@ mod tests {
             (r#"{"model":"conductor","k":3}"#, "materials.m.k", "`eta`"),
             (r#"{"model":"conductor","metal":"Au","eta":1.2,"k":3}"#, "materials.m.metal", "not both"),
             (r#"{"model":"conductor","nonlinear":true}"#, "materials.m.nonlinear", "plastic"),
+        ] {
+            let e = material(m).err().map(|e| e.to_string()).unwrap_or_else(|| panic!("{m} loaded"));
+            assert!(e.contains(key) && e.contains(says), "{m}: {e}");
+        }
+    }
+
+    /// `fluorescence` takes excitation, emission and yield, or a matrix file, on a Lambertian material; each
+    /// refusal names the key.
+    #[test]
+    fn fluorescence_keys_are_checked() {
+        let material = |m: &str| parse_text(&format!(r#"{{"materials":{{"m":{m}}}}}"#));
+        let d =
+            material(r#"{"fluorescence":{"excitation":{"samples":[[300,0.2],[400,0]]},"emission":"D65","yield":0.8}}"#)
+                .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(
+            d.materials[0].fluorescence.as_deref(),
+            Some(&FluorescenceDesc::Spectra {
+                excitation: SpectrumDesc::Samples { lambda: vec![300.0, 400.0], values: vec![0.2, 0.0] },
+                emission: SpectrumDesc::Named("D65".into()),
+                quantum_yield: 0.8,
+            })
+        );
+        for (m, key, says) in [
+            (r#"{"model":"mirror","fluorescence":{"matrix":"m.csv"}}"#, "materials.m.fluorescence", "Lambertian"),
+            (r#"{"fluorescence":{"excitation":0.1,"emission":1}}"#, "materials.m.fluorescence", "missing `yield`"),
+            (
+                r#"{"fluorescence":{"excitation":0.1,"emission":1,"yield":1.5}}"#,
+                "materials.m.fluorescence.yield",
+                "outside",
+            ),
+            (
+                r#"{"fluorescence":{"excitation":0.1,"emission":1,"yield":1,"q":1}}"#,
+                "materials.m.fluorescence",
+                "unknown key `q`",
+            ),
+            (r#"{"fluorescence":{"matrix":""}}"#, "materials.m.fluorescence.matrix", "file name"),
+            (r#"{"fluorescence":{"matrix":"m.csv","yield":1}}"#, "materials.m.fluorescence", "unknown key `yield`"),
+            (r#"{"fluorescence":3}"#, "materials.m.fluorescence", "expected"),
         ] {
             let e = material(m).err().map(|e| e.to_string()).unwrap_or_else(|| panic!("{m} loaded"));
             assert!(e.contains(key) && e.contains(says), "{m}: {e}");
@@ -985,9 +1059,11 @@ mod tests {
             m.contains("known keys: model, metal, eta, k, nonlinear, base_color,") && m.ends_with("extras)"),
             "{m}"
         );
-        // Far from every key: refused with the list only.
         let m = message(r#"{"fluorescense":0.5}"#);
-        assert!(m.starts_with("test.json: materials.m.fluorescense: unknown key (known keys: model,"), "{m}");
+        assert!(m.starts_with("test.json: materials.m.fluorescense: unknown key; did you mean `fluorescence`?"), "{m}");
+        // Far from every key: refused with the list only.
+        let m = message(r#"{"phosphorescence":0.5}"#);
+        assert!(m.starts_with("test.json: materials.m.phosphorescence: unknown key (known keys: model,"), "{m}");
         // Free-form data has one place, an object.
         assert_eq!(
             message(r#"{"extras":3}"#),

@@ -27,6 +27,17 @@ pub enum Error {
         #[source]
         source: materials::Error,
     },
+    /// A fluorescent material in a path-traced render with fixed lanes.
+    #[error(
+        "material `{material}` fluoresces, which `--spectral {spectral}` cannot render (fixed lanes cannot \
+         shift a path's wavelength): use hero, hero:8 or auto"
+    )]
+    FluorescenceNeedsHero {
+        /// The first fluorescent material.
+        material: String,
+        /// The spectral mode asked for.
+        spectral: crate::SpectralMode,
+    },
     /// A light's spectrum or parameters are invalid.
     #[error("light {index}")]
     Light {

@@ -4,9 +4,9 @@
 //! assembly), so it sits below both.
 
 use colorimetry::DenselySampledSpectrum;
-use geometry::{AbsorptionDesc, IorDesc, MaterialDesc, MaterialFormat, SpectrumDesc};
+use geometry::{AbsorptionDesc, FluorescenceDesc, IorDesc, MaterialDesc, MaterialFormat, SpectrumDesc};
 use materials::bsdf::Metal;
-use materials::{Absorption, Coat, ConductorIndex, DielectricSpecular, Ior, Material, MaterialModel};
+use materials::{Absorption, Coat, ConductorIndex, DielectricSpecular, Fluorescence, Ior, Material, MaterialModel};
 
 use crate::error::{Error, Result};
 
@@ -333,6 +333,25 @@ fn conductor_index(desc: &MaterialDesc) -> materials::Result<Option<ConductorInd
     Ok(Some(ConductorIndex::new(constants("eta", eta)?, constants("k", k)?)?))
 }
 
+/// A manifest material's `fluorescence`, with the reflectance a re-radiation matrix gives (its diagonal).
+fn fluorescence(desc: &MaterialDesc) -> materials::Result<(Option<Fluorescence>, Option<DenselySampledSpectrum>)> {
+    Ok(match desc.fluorescence.as_deref() {
+        None => (None, None),
+        Some(FluorescenceDesc::Spectra { excitation, emission, quantum_yield }) => {
+            let excitation = reflectance_spectrum(excitation)?;
+            let emission = reflectance_spectrum(emission)?;
+            (Some(Fluorescence::from_spectra(excitation, &emission, *quantum_yield)?), None)
+        }
+        Some(FluorescenceDesc::Matrix(path)) => {
+            if desc.base_color.is_some() {
+                return Err(materials::Error::FluorescenceMatrixReflectance);
+            }
+            let (f, reflectance) = Fluorescence::from_matrix_csv(path)?;
+            (Some(f), Some(reflectance))
+        }
+    })
+}
+
 /// The model [`material_from_desc`] decides for `desc`, for what must agree with it before the material is
 /// built (an MTL `map_Ks` needs a specular layer before assembly; its textures are loaded first).
 pub(crate) fn model_of(desc: &MaterialDesc) -> materials::Result<MaterialModel> {
@@ -345,7 +364,12 @@ pub(crate) fn model_of(desc: &MaterialDesc) -> materials::Result<MaterialModel> 
 pub(crate) fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
     let wrap = |source| Error::Material { material: desc.name.clone(), source };
     let p = hall_params(desc);
-    let diffuse = reflectance_spectrum(&p.base_color).map_err(wrap)?;
+    let (fluorescence, matrix_reflectance) = fluorescence(desc).map_err(wrap)?;
+    // A re-radiation matrix's diagonal is the surface's reflectance.
+    let diffuse = match matrix_reflectance {
+        Some(r) => r,
+        None => reflectance_spectrum(&p.base_color).map_err(wrap)?,
+    };
     let metal = desc.metal.as_deref().map(str::parse::<Metal>).transpose().map_err(wrap)?;
     let conductor_index = conductor_index(desc).map_err(wrap)?;
     // A named or measured metal's specular colour is its normal-incidence reflectance (what Hall's model
@@ -423,6 +447,7 @@ pub(crate) fn material_from_desc(desc: &MaterialDesc) -> Result<Material> {
         }),
         anisotropy: desc.anisotropy.map(|a| materials::Anisotropy { strength: a.strength, rotation: a.rotation }),
         conductor_index,
+        fluorescence,
     };
     material.validate().map_err(wrap)?;
     Ok(material)

@@ -197,6 +197,12 @@ impl LaneJob for MeasureJob<'_> {
                 });
             }
         };
+        // Fixed lanes cannot follow a path to the wavelength a fluorescent surface absorbed at.
+        if fixed.is_some()
+            && let Some(m) = scene.materials.iter().find(|m| m.fluorescence.is_some())
+        {
+            return Err(Error::FluorescenceNeedsHero { material: m.name.clone(), spectral: options.spectral });
+        }
         let path = PathOptions { max_depth: Some(MEASURE_MAX_DEPTH), ..options.path };
         let (tracer, sensor) = PathTracer::<N>::new(scene, fixed, &path);
         let start = Instant::now();

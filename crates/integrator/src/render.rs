@@ -241,6 +241,24 @@ pub(crate) fn render_resolved(
             expected: "bins:N (fixed wavelengths; bins:95 is the 5 nm grid)",
         });
     }
+    // Fixed lanes cannot follow a path to the wavelength a fluorescent surface absorbed at.
+    if let Integrator::Path(_) = &options.integrator
+        && !matches!(spectral, SpectralMode::Hero { .. })
+        && let Some(m) = scene.materials.iter().find(|m| m.fluorescence.is_some())
+    {
+        return Err(Error::FluorescenceNeedsHero { material: m.name.clone(), spectral });
+    }
+    // Bidirectional path tracing does not shift wavelengths: it would render a fluorescent surface's
+    // reflectance alone, a wrong answer given silently.
+    if let Integrator::Bdpt(_) = &options.integrator
+        && let Some(m) = scene.materials.iter().find(|m| m.fluorescence.is_some())
+    {
+        return Err(Error::InvalidOption {
+            option: "integrator",
+            value: format!("bdpt with the fluorescent material `{}`", m.name),
+            expected: "--integrator path (bidirectional path tracing does not render fluorescence yet)",
+        });
+    }
     let lanes = lane_count(spectral)?;
     let pool = thread_pool(options)?;
     let job = RenderJob { scene, options, spectral, samples, progress, cancel, resume, checkpoint };

@@ -60,6 +60,32 @@ pub enum Error {
         /// Which quantity.
         what: &'static str,
     },
+    /// A re-radiation matrix file that cannot be read as one (`line` 0: the file as a whole).
+    #[error("{}:{line}: {message}", path.display())]
+    Matrix {
+        /// The CSV file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong there.
+        message: String,
+    },
+    /// A fluorescent material that would send back more energy than it receives at some wavelength.
+    #[error("fluorescence: {what} = {value:.6} at {lambda} nm exceeds 1 (the surface would create energy)")]
+    FluorescenceGainsEnergy {
+        /// The sum that exceeds 1.
+        what: &'static str,
+        /// Where (nm).
+        lambda: f64,
+        /// Its value.
+        value: f64,
+    },
+    /// Fluorescence on a model other than the Lambertian one.
+    #[error("fluorescence needs a Lambertian material (`\"model\": \"diffuse\"`)")]
+    FluorescenceModel,
+    /// `base_color` beside a re-radiation matrix, whose diagonal is the reflectance.
+    #[error("base_color: a fluorescence matrix's diagonal is the reflectance; remove `base_color`")]
+    FluorescenceMatrixReflectance,
     /// An error from the colorimetry crate (a CSV file, an illuminant).
     #[error(transparent)]
     Colorimetry(#[from] colorimetry::Error),

@@ -28,6 +28,7 @@
 mod absorption;
 pub mod bsdf;
 mod error;
+mod fluorescence;
 pub mod hall;
 mod ior;
 mod material;
@@ -37,6 +38,7 @@ mod spectra;
 
 pub use absorption::{Absorption, beer_transmittance};
 pub use error::{Error, Result};
+pub use fluorescence::{Fluorescence, LAMBDA_UV_MIN};
 pub use ior::{Ior, LAMBDA_D};
 pub use material::{Anisotropy, Coat, ConductorIndex, DielectricSpecular, Material, MaterialModel, Sheen};
 pub use spectra::{

@@ -6,6 +6,7 @@ use colorimetry::DenselySampledSpectrum;
 use crate::absorption::Absorption;
 use crate::bsdf::Metal;
 use crate::error::{Error, Result};
+use crate::fluorescence::Fluorescence;
 use crate::ior::Ior;
 use crate::spectra::is_flat;
 
@@ -69,6 +70,9 @@ pub struct Material {
     /// A conductor's measured complex index (manifest `eta` and `k`), read by [`MaterialModel::Conductor`]
     /// without a named `metal`; `None`: the metal's tables, or the specular colour's index.
     pub conductor_index: Option<ConductorIndex>,
+    /// Re-emission at other wavelengths ([`Fluorescence`]) beside the Lambertian reflectance k_d F_d;
+    /// only [`MaterialModel::Diffuse`] has it. `None`: light keeps its wavelength.
+    pub fluorescence: Option<Fluorescence>,
 }
 
 /// A conductor's complex index of refraction η(λ) + iκ(λ) relative to the outside medium, as measured:
@@ -320,6 +324,7 @@ impl Material {
             sheen: None,
             anisotropy: None,
             conductor_index: None,
+            fluorescence: None,
             two_sided: true,
         }
     }
@@ -371,7 +376,18 @@ impl Material {
         if !(n.is_finite() && n >= 0.0) {
             return Err(Error::OutOfRange { what: "ior at 550 nm", value: n.into(), range: "finite, >= 0" });
         }
+        if let Some(f) = &self.fluorescence {
+            if self.model != MaterialModel::Diffuse {
+                return Err(Error::FluorescenceModel);
+            }
+            f.check_energy(&self.lambertian_reflectance())?;
+        }
         Ok(())
+    }
+
+    /// The reflectance the path tracer gives a Lambertian surface: k_d F_d(λ) clamped to [0, 1].
+    pub fn lambertian_reflectance(&self) -> DenselySampledSpectrum {
+        self.diffuse.map(|v| (v * f64::from(self.kd)).clamp(0.0, 1.0))
     }
 
     /// Whether light passes through the surface: the model transmits and its filter

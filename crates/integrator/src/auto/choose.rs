@@ -11,7 +11,7 @@
 
 use colorimetry::{DenselySampledSpectrum, Lab, Xyz, delta_e_2000};
 use glam::Vec3;
-use materials::{Material, is_flat};
+use materials::is_flat;
 
 use crate::options::IntegratorKind;
 use crate::scene::{RenderScene, emitter_spectra, scene_white};
@@ -70,7 +70,10 @@ const MAX_CASES: usize = 20_000;
 /// tracer (unbiased for any spectrum), `bins:95` for the paper's model (its finest grid).
 pub fn choose_auto(scene: &RenderScene, integrator: IntegratorKind) -> SpectralMode {
     match integrator {
-        IntegratorKind::Path | IntegratorKind::Bdpt if scene.materials.iter().any(Material::is_dispersive) => {
+        // Dispersion and fluorescence shift or split wavelengths per path: only hero wavelengths can follow.
+        IntegratorKind::Path | IntegratorKind::Bdpt
+            if scene.materials.iter().any(|m| m.is_dispersive() || m.fluorescence.is_some()) =>
+        {
             SpectralMode::Hero { count: 8 }
         }
         IntegratorKind::Path | IntegratorKind::Bdpt => {

@@ -5,6 +5,7 @@
 //! kernel's light for other pixels goes back as splats).
 
 mod bdpt;
+mod fluorescence;
 mod kernel;
 pub(crate) mod path;
 pub(crate) mod whitted;

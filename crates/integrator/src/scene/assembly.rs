@@ -587,7 +587,8 @@ fn auto_integrator(settings: &Settings) -> Result<(IntegratorKind, String)> {
 /// tracer, and the scene pays nothing for BDPT.
 fn caustic_integrator(lights: &[Light], materials: &[Material]) -> Option<(IntegratorKind, String)> {
     let delta = lights.iter().filter(|l| l.kind.is_delta() && !matches!(l.kind, LightKind::Directional { .. })).count();
-    if delta == 0 {
+    // (Bidirectional path tracing does not shift wavelengths: a fluorescent scene stays with the path tracer.)
+    if delta == 0 || materials.iter().any(|m| m.fluorescence.is_some()) {
         return None;
     }
     let smooth = |m: &&Material| match m.model {

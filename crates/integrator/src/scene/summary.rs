@@ -21,8 +21,10 @@ use crate::scene::assembly::RenderScene;
 /// `bvh` (`nodes`, `build_ms`, `bytes`, `bytes_per_primitive`), `memory` (`charged_bytes`, `budget_bytes`:
 /// the scene's memory budget, see `geometry::MemoryBudget`), `settings`, `generator` (glTF `asset.generator`),
 /// `warnings`, and `needs`:
-/// `{dispersion, absorbing_media, emission, transmission, spectral_inputs}` where `spectral_inputs` lists
-/// the names or files of the non-RGB spectra used (for the layers above to check for spikes).
+/// `{dispersion, absorbing_media, emission, transmission, fluorescence, spectral_inputs}` where
+/// `fluorescence` names the used materials that re-emit at other wavelengths (a path tracer with hero
+/// wavelengths renders them; fixed lanes cannot shift wavelength) and `spectral_inputs` lists the names or
+/// files of the non-RGB spectra used (for the layers above to check for spikes).
 pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
     let scene = render_scene.geometry();
     let stats = scene.stats();
@@ -110,6 +112,10 @@ pub fn summarize(desc: &SceneDescription, render_scene: &RenderScene) -> Value {
             "absorbing_media": used_assembled().any(Material::absorbs),
             "emission": used_assembled().any(Material::emits),
             "transmission": used_assembled().any(Material::is_transmissive),
+            "fluorescence": used_assembled()
+                .filter(|m| m.fluorescence.is_some())
+                .map(|m| m.name.clone())
+                .collect::<Vec<_>>(),
             "spectral_inputs": spectral_inputs,
         },
     })
@@ -140,6 +146,7 @@ fn material_json(d: &MaterialDesc, m: &Material, used: bool, vertex_colors: bool
             "sheen": m.sheen.is_some(),
             "anisotropy": m.anisotropy.is_some(),
             "specular_layer": m.dielectric_specular.is_some(),
+            "fluorescence": m.fluorescence.as_ref().map(materials::Fluorescence::describe),
         },
         "ior": d.ior.as_ref().map(ior_json),
         "spectra": d.spectra().into_iter().map(|(k, s)| json!({"field": k, "spectrum": s.label()})).collect::<Vec<_>>(),

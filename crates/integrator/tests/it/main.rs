@@ -5,6 +5,7 @@ mod bdpt;
 mod defaults;
 mod envmap;
 mod film;
+mod fluorescence;
 mod hard_cases;
 mod luminaires;
 mod measure;
