@@ -520,6 +520,14 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
         // The paper's model has no Russian roulette: say so rather than drop the flag silently.
         eprintln!("spectrace: warning: --rr-depth is ignored by whitted-hall (it has no Russian roulette)");
     }
+    if integrator_kind == IntegratorKind::WhittedHall
+        && let Some(m) = scene.fluorescent_material()
+    {
+        // The paper's model keeps every wavelength where it is: say what it leaves out.
+        eprintln!(
+            "spectrace: note: whitted-hall renders material `{m}`'s reflectance only, not its fluorescence (--integrator path renders it)"
+        );
+    }
     if integrator_kind == IntegratorKind::WhittedHall && args.sampler.is_some() {
         // Its sub-pixel positions are deterministic and it draws no other numbers.
         eprintln!("spectrace: warning: --sampler is ignored by whitted-hall (it draws no random numbers)");

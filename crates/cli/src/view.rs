@@ -23,7 +23,7 @@ impl FromStr for IntegratorChoice {
         if s == "auto" {
             return Ok(Self::Auto);
         }
-        s.parse().map(Self::Kind).map_err(|_| format!("expected auto, whitted-hall or path, got `{s}`"))
+        s.parse().map(Self::Kind).map_err(|_| format!("expected auto, whitted-hall, path or bdpt, got `{s}`"))
     }
 }
 
@@ -404,6 +404,7 @@ mod tests {
         assert!(parse_vec3("1,2").is_err() && parse_vec3("1,2,nan").is_err() && parse_vec3("a,b,c").is_err());
         assert_eq!("auto".parse::<IntegratorChoice>(), Ok(IntegratorChoice::Auto));
         assert_eq!("path".parse::<IntegratorChoice>(), Ok(IntegratorChoice::Kind(IntegratorKind::Path)));
-        assert!("bdpt".parse::<IntegratorChoice>().is_err());
+        assert_eq!("bdpt".parse::<IntegratorChoice>(), Ok(IntegratorChoice::Kind(IntegratorKind::Bdpt)));
+        assert!("sppm".parse::<IntegratorChoice>().is_err());
     }
 }

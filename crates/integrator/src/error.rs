@@ -35,8 +35,9 @@ pub enum Error {
     FluorescenceNeedsHero {
         /// The first fluorescent material.
         material: String,
-        /// The spectral mode asked for.
-        spectral: crate::SpectralMode,
+        /// The spectral mode asked for, as `--spectral` spells it (text: the error module depends on no
+        /// other module of the crate).
+        spectral: String,
     },
     /// A light's spectrum or parameters are invalid.
     #[error("light {index}")]

@@ -201,7 +201,10 @@ impl LaneJob for MeasureJob<'_> {
         if fixed.is_some()
             && let Some(m) = scene.materials.iter().find(|m| m.fluorescence.is_some())
         {
-            return Err(Error::FluorescenceNeedsHero { material: m.name.clone(), spectral: options.spectral });
+            return Err(Error::FluorescenceNeedsHero {
+                material: m.name.clone(),
+                spectral: options.spectral.to_string(),
+            });
         }
         let path = PathOptions { max_depth: Some(MEASURE_MAX_DEPTH), ..options.path };
         let (tracer, sensor) = PathTracer::<N>::new(scene, fixed, &path);

@@ -437,7 +437,8 @@ mod tests {
         assert!(matches!("sky".parse::<Ambient>(), Err(Error::InvalidOption { .. })));
         assert_eq!("whitted-hall".parse::<IntegratorKind>().unwrap(), IntegratorKind::WhittedHall);
         assert_eq!("path".parse::<IntegratorKind>().unwrap(), IntegratorKind::Path);
-        assert!("bdpt".parse::<IntegratorKind>().is_err());
+        assert_eq!("bdpt".parse::<IntegratorKind>().unwrap(), IntegratorKind::Bdpt);
+        assert!("sppm".parse::<IntegratorKind>().is_err());
         assert_eq!("visible".parse::<WavelengthPdf>().unwrap(), WavelengthPdf::Visible);
         assert!("uniform".parse::<WavelengthPdf>().is_err());
     }

@@ -246,7 +246,7 @@ pub(crate) fn render_resolved(
         && !matches!(spectral, SpectralMode::Hero { .. })
         && let Some(m) = scene.materials.iter().find(|m| m.fluorescence.is_some())
     {
-        return Err(Error::FluorescenceNeedsHero { material: m.name.clone(), spectral });
+        return Err(Error::FluorescenceNeedsHero { material: m.name.clone(), spectral: spectral.to_string() });
     }
     // Bidirectional path tracing does not shift wavelengths: it would render a fluorescent surface's
     // reflectance alone, a wrong answer given silently.

@@ -492,6 +492,11 @@ impl RenderScene {
         (self.auto_integrator.0, &self.auto_integrator.1)
     }
 
+    /// The first fluorescent material, if the scene has one (only the path tracer shifts wavelengths).
+    pub fn fluorescent_material(&self) -> Option<&str> {
+        self.materials.iter().find(|m| m.fluorescence.is_some()).map(|m| m.name.as_str())
+    }
+
     /// Whether the file's lights are photometric (glTF: candela and lux), so the image is absolute and the
     /// PNG is auto-exposed by default.
     pub fn has_photometric_lights(&self) -> bool {
@@ -572,9 +577,13 @@ fn auto_integrator(settings: &Settings) -> Result<(IntegratorKind, String)> {
             let kind = name.parse::<IntegratorKind>().map_err(|_| Error::InvalidOption {
                 option: "settings.integrator",
                 value: name.clone(),
-                expected: "whitted-hall or path",
+                expected: "whitted-hall, path or bdpt",
             })?;
-            let label = if kind == IntegratorKind::WhittedHall { "whitted-hall" } else { "path" };
+            let label = match kind {
+                IntegratorKind::WhittedHall => "whitted-hall",
+                IntegratorKind::Path => "path",
+                IntegratorKind::Bdpt => "bdpt",
+            };
             Ok((kind, format!("{label}: the scene's settings ask for it (\"integrator\": \"{name}\")")))
         }
     }

@@ -50,7 +50,7 @@ fn estimate(
     for i in 0..samples {
         let mut sampler = Sampler::Independent(Rng::new(7, u64::from(lambda_out.to_bits()), i));
         let mut lambda = SampledWavelengths::<N>::from_parts([lambda_out; N], [1.0; N]);
-        let r = tracer.li(ray, &mut lambda, sensor, &mut sampler, &mut count);
+        let r = tracer.li(ray, &mut lambda, sensor, &mut sampler, &mut count, &mut Vec::new());
         let pdf = lambda.pdf();
         let v: f64 =
             (0..N).filter(|&j| pdf[j] > 0.0).map(|j| f64::from(r.l[j]) / f64::from(pdf[j])).sum::<f64>() / N as f64;
