@@ -18,12 +18,12 @@
 
 use colorimetry::{SampledSpectrum, SampledWavelengths};
 use geometry::{Camera, Hit, Ray, spawn_ray, spawn_ray_to};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use materials::bsdf::{Bsdf, Frame};
 
 use crate::film::{ObjectId, Sensor};
 use crate::integrators::kernel::{Kernel, Radiance, RayCount, Splat};
-use crate::integrators::path::{HitSurface, LastSpectrum, PathTracer};
+use crate::integrators::path::{HitSurface, LastSpectrum, PathTracer, lifted_point};
 use crate::lights::{LightKind, LightSampleContext, emits_towards};
 use crate::sampling::Sampler;
 use crate::texture::{MAX_ALPHA_SKIPS, Uv};
@@ -472,8 +472,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         let ray = match le.n {
             Some(n) => {
                 // An area light's point lies on its surface: rays leave it offset as from a hit.
-                let error = Vec3::splat((le.p.abs().max_element() + 1e-3) * (1.0 / 65536.0));
-                let hit = light_hit(le.p, n, error);
+                let hit = lifted_point(le.p, n);
                 v.ng = n;
                 v.ns = n;
                 v.hit = Some(hit);
@@ -717,8 +716,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         qs.ng = n;
         qs.ns = n;
         if n != Vec3::ZERO {
-            let error = Vec3::splat((target.abs().max_element() + 1e-3) * (1.0 / 65536.0));
-            qs.hit = Some(light_hit(target, n, error));
+            qs.hit = Some(lifted_point(target, n));
         }
         qs.pdf_fwd = self.pdf_light_origin(&qs, -ls.wi);
         let Some(tr) = self.transmittance(pt, &qs, lambda, count) else { return black };
@@ -837,22 +835,6 @@ fn shading_correction(frame: &Frame, wo: Vec3, wi: Vec3) -> f32 {
     let (ng, ns) = frame.facing(wo);
     let den = wo.dot(ng).abs() * wi.dot(ns).abs();
     if den == 0.0 { 0.0 } else { wo.dot(ns).abs() * wi.dot(ng).abs() / den }
-}
-
-/// A hit record for a point on an area light (rays leave it offset along `n` by `error`).
-fn light_hit(p: Vec3, n: Vec3, error: Vec3) -> Hit {
-    Hit {
-        t: 0.0,
-        p,
-        p_error: error,
-        n,
-        ns: n,
-        uv: Vec2::ZERO,
-        primitive: u32::MAX,
-        placement: u32::MAX,
-        object_primitive: u32::MAX,
-        material: None,
-    }
 }
 
 impl<const N: usize> Kernel<N> for Bdpt<'_, N> {

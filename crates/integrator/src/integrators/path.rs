@@ -1256,6 +1256,26 @@ impl PathStart {
     const CAMERA: Self = Self { specular: true, pdf: 0.0, ns: Vec3::Z };
 }
 
+/// A hit record for a point `p` that lies on no primitive (an illuminance sensor, a point sampled on an area
+/// light) with normal `n`, so that rays leave it as from a surface: lifted along `n` by a relative 2⁻¹⁶ of its
+/// largest coordinate. The same lift along every axis (the offset takes the part along `n`): a point on a
+/// floor at z = 0 is lifted by its x and y too, so a surface whose vertices carry rounding (a transform, a
+/// unit scale) still lies below it.
+pub(super) fn lifted_point(p: Vec3, n: Vec3) -> Hit {
+    Hit {
+        t: 0.0,
+        p,
+        p_error: Vec3::splat((p.abs().max_element() + 1e-3) * (1.0 / 65536.0)),
+        n,
+        ns: n,
+        uv: Vec2::ZERO,
+        primitive: u32::MAX,
+        placement: u32::MAX,
+        object_primitive: u32::MAX,
+        material: None,
+    }
+}
+
 /// What one sample of an illuminance sensor measured: the light sampled directly, at every wavelength of the
 /// sample, and π × the radiance along a cosine-sampled direction, which a dispersive path may have narrowed to
 /// `lane` and whose `lambda` it may have changed.
@@ -1281,22 +1301,7 @@ impl<const N: usize> PathTracer<'_, N> {
         sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> IrradianceSample<N> {
-        // The same lift along every axis (the offset takes the part along `n`): a point on a floor at z = 0 is
-        // lifted by its x and y too, so a surface whose vertices carry rounding (a transform, a unit scale)
-        // still lies below it.
-        let error = Vec3::splat((p.abs().max_element() + 1e-3) * (1.0 / 65536.0));
-        let hit = Hit {
-            t: 0.0,
-            p,
-            p_error: error,
-            n,
-            ns: n,
-            uv: Vec2::ZERO,
-            primitive: u32::MAX,
-            placement: u32::MAX,
-            object_primitive: u32::MAX,
-            material: None,
-        };
+        let hit = lifted_point(p, n);
         let frame = Frame { n, ns: n };
         let white = Bsdf::Lambertian { r: SampledSpectrum([1.0; N]) };
         let pi = std::f32::consts::PI;
