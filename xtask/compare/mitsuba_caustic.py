@@ -36,18 +36,11 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from mitsuba_common import ROOT, delta_e00, illuminant, read_spectrace_exr, spectrum  # noqa: E402
 
+from mitsuba_glass_noise import set_fast_variant  # noqa: E402  (llvm_ad_spectral where it loads)
+
 import mitsuba as mi  # noqa: E402
 
 SCENE = ROOT / "scenes/caustics/glass_sphere.json"
-
-
-def set_variant():
-    try:
-        mi.set_variant("llvm_ad_spectral")
-        mi.load_dict({"type": "scene"})
-    except Exception:  # noqa: BLE001 (no LLVM library: Dr.Jit raises several kinds)
-        mi.set_variant("scalar_spectral")
-    return mi.variant()
 
 
 def mitsuba_scene(desc, args):
@@ -174,7 +167,7 @@ def main():
     args = p.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     args.spectrace = args.spectrace.resolve()
-    variant = set_variant()
+    variant = set_fast_variant()
     mi.set_log_level(mi.LogLevel.Warn)
     if variant.startswith("llvm"):
         import drjit as dr

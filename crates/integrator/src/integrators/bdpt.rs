@@ -314,16 +314,11 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             let textures = tracer.textures(hit.material);
             let colors = tracer.vertex_color_of(textures, &hit);
             let uv = if textures.is_some() { tracer.hit_uvs(textures, &hit) } else { Uv::same(hit.uv) };
-            if let Some(t) = textures.filter(|t| t.has_alpha())
-                && skips < MAX_ALPHA_SKIPS
-            {
-                let coverage = t.coverage(uv, colors.map_or(1.0, |c| c.alpha()));
-                if coverage <= 0.0 || (coverage < 1.0 && sampler.uniform_aside() >= coverage) {
-                    skipped += hit.t * ray.dir.length();
-                    skips += 1;
-                    ray = spawn_ray(&hit, ray.dir);
-                    continue;
-                }
+            if skips < MAX_ALPHA_SKIPS && PathTracer::<N>::cut_away(textures, colors, uv, sampler) {
+                skipped += hit.t * ray.dir.length();
+                skips += 1;
+                ray = spawn_ray(&hit, ray.dir);
+                continue;
             }
             let m = tracer.material(hit.material);
             let dir_len = ray.dir.length();

@@ -698,16 +698,11 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             let uv = if TEXTURED { self.hit_uvs(textures, &hit) } else { Uv::same(hit.uv) };
             // A cut-out (or, with probability 1 − alpha, a blended surface) is not there: go on
             // through it in the same direction, the path's vertex unchanged.
-            if let Some(t) = textures.filter(|t| t.has_alpha())
-                && skips < MAX_ALPHA_SKIPS
-            {
-                let coverage = t.coverage(uv, colors.map_or(1.0, |c| c.alpha()));
-                if coverage <= 0.0 || (coverage < 1.0 && sampler.uniform_aside() >= coverage) {
-                    skipped += hit.t * ray.dir.length();
-                    skips += 1;
-                    ray = spawn_ray(&hit, ray.dir);
-                    continue;
-                }
+            if skips < MAX_ALPHA_SKIPS && Self::cut_away(textures, colors, uv, sampler) {
+                skipped += hit.t * ray.dir.length();
+                skips += 1;
+                ray = spawn_ray(&hit, ray.dir);
+                continue;
             }
             if depth == 0 {
                 first = ObjectId::Material(hit.material);
@@ -797,6 +792,21 @@ impl<'a, const N: usize> PathTracer<'a, N> {
             *lambda = film;
         }
         (radiance, first)
+    }
+
+    /// Whether a ray goes on through the surface it hit as if it were not there: a cut-out (MASK) where alpha
+    /// is below the cutoff, a blended surface (BLEND) with probability 1 − alpha. Shared by the path tracer's
+    /// and the bidirectional walks; draws a number only where coverage is strictly between 0 and 1.
+    #[inline(always)]
+    pub(super) fn cut_away(
+        textures: Option<&MaterialTextures>,
+        colors: Option<VertexColorHit<'_>>,
+        uv: Uv,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let Some(t) = textures.filter(|t| t.has_alpha()) else { return false };
+        let coverage = t.coverage(uv, colors.map_or(1.0, |c| c.alpha()));
+        coverage <= 0.0 || (coverage < 1.0 && sampler.uniform_aside() >= coverage)
     }
 
     /// The BSDF at `hit` (material `m`, seen from `wo`) and its shading frame: the material's model with its
