@@ -164,6 +164,13 @@ def main():
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--target", type=float, default=0.01, help="relMSE for the time to equal error")
     p.add_argument("--ladder", type=int, nargs="+", default=[16, 32, 64, 128, 256, 512])
+    p.add_argument(
+        "--integrators",
+        nargs="+",
+        default=["bdpt", "sppm", "path"],
+        choices=["bdpt", "sppm", "path"],
+        help="spectrace's integrators to compare (sppm: spp = iterations, one photon per pixel each)",
+    )
     args = p.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     args.spectrace = args.spectrace.resolve()
@@ -187,8 +194,10 @@ def main():
     ref = ref_xyz[..., 1]
     core = mask & (ref > args.core * np.median(ref[mask]))
 
-    bdpt = np.mean([render_spectrace(args, "bdpt", args.spp, s)[0] for s in range(1, 1 + args.seeds)], axis=0)
-    path = np.mean([render_spectrace(args, "path", args.spp, s)[0] for s in range(1, 1 + args.seeds)], axis=0)
+    ours = {
+        f"spectrace {i}": np.mean([render_spectrace(args, i, args.spp, s)[0] for s in range(1, 1 + args.seeds)], axis=0)
+        for i in args.integrators
+    }
     mits = np.mean([render_mitsuba(scene, args.spp, s)[0] for s in range(1, 1 + args.seeds)], axis=0)
 
     def block_de(img):
@@ -207,19 +216,19 @@ def main():
         "| renderer | Y / Y_ref floor | Y / Y_ref core | block ΔE00 (4×4, floor) |",
         "| --- | --- | --- | --- |",
     ]
-    for name, img in (("Mitsuba ptracer", mits), ("spectrace bdpt", bdpt), ("spectrace path", path)):
+    for name, img in [("Mitsuba ptracer", mits), *ours.items()]:
         y = img[..., 1]
         lines.append(
             f"| {name} | {y[mask].mean() / ref[mask].mean():.4f} | {y[core].mean() / ref[core].mean():.4f} "
             f"| {block_de(img):.3f} |"
         )
 
-    runs = {"Mitsuba ptracer": [], "spectrace bdpt": [], "spectrace path": []}
+    runs = {"Mitsuba ptracer": [], **{f"spectrace {i}": [] for i in args.integrators}}
     for spp in args.ladder:
         # Interleaved, so the three share the machine's state at each rung.
         img, sec = render_mitsuba(scene, spp, 7)
         runs["Mitsuba ptracer"].append((sec, rel_mse(img[..., 1], ref, mask)))
-        for integrator in ("bdpt", "path"):
+        for integrator in args.integrators:
             img, sec = render_spectrace(args, integrator, spp, 7)
             runs[f"spectrace {integrator}"].append((sec, rel_mse(img[..., 1], ref, mask)))
     lines += [

@@ -94,6 +94,14 @@ pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<()> {
                 sampler: integrator::SamplerKind::Independent,
                 ..integrator::PathOptions::default()
             }),
+            integrator::IntegratorKind::Sppm => integrator::Integrator::Sppm(integrator::SppmOptions {
+                path: integrator::PathOptions {
+                    sampler: integrator::SamplerKind::Independent,
+                    ..integrator::PathOptions::default()
+                },
+                photons: None,
+                radius: None,
+            }),
         };
         let sampling = args.sampling.plan(kind)?;
         let options = integrator::RenderOptions {

@@ -65,6 +65,13 @@ pub(crate) struct RenderArgs {
     /// `rr_depth`, else 3].
     #[arg(help_heading = "Light transport", long)]
     rr_depth: Option<u32>,
+    /// Photon mapping (`--integrator sppm`): photons per iteration [default: one per pixel].
+    #[arg(help_heading = "Light transport", long)]
+    photons: Option<u64>,
+    /// Photon mapping: the first iteration's gather radius in scene units [default: two pixel
+    /// footprints at each visible point]; it shrinks with every iteration.
+    #[arg(help_heading = "Light transport", long)]
+    radius: Option<f32>,
     /// Skip ray-tree branches whose weight is below this (0 = trace the full tree).
     #[arg(help_heading = "Light transport", long, default_value_t = 1e-3)]
     min_weight: f32,
@@ -141,6 +148,10 @@ pub(crate) const DEFAULT_MAX_SPP: u32 = 4096;
 /// Time limit of a render to a target error when `--time-limit` is not given: a first image is
 /// answered within minutes, however hard the scene.
 pub(crate) const DEFAULT_TIME_LIMIT: std::time::Duration = std::time::Duration::from_secs(300);
+/// Photon mapping's iterations without `--spp` (pbrt-v4's default for its SPPM).
+const SPPM_ITERATIONS: u32 = 64;
+/// Most photons per iteration (2³⁰): beyond any render's need; a mistyped count is refused, not run for days.
+const MAX_PHOTONS: u64 = 1 << 30;
 
 /// What a render will take: its samples per pixel (a bound with a target), the target, the time
 /// limit, and how that was decided (one line for notes and `info`).
@@ -188,6 +199,27 @@ impl SamplingArgs {
                 time_limit: limit(None),
                 seed: self.seed,
                 why: "1 spp (whitted-hall is deterministic; --spp N for anti-aliasing)".to_owned(),
+            });
+        }
+        if kind == IntegratorKind::Sppm {
+            // Photon mapping keeps no half-films, so it has no error estimate to stop at.
+            if self.target_error.is_some() {
+                anyhow::bail!(
+                    "--target-error: sppm has no error estimate (its radius couples the iterations); give --spp N iterations, or --integrator bdpt"
+                );
+            }
+            let spp = self.max_spp.unwrap_or(SPPM_ITERATIONS);
+            check_spp("--max-spp", spp)?;
+            let time_limit = limit(Some(DEFAULT_TIME_LIMIT));
+            return Ok(SamplingPlan {
+                spp,
+                target: None,
+                time_limit,
+                seed: self.seed,
+                why: match time_limit {
+                    Some(t) => format!("{spp} photon-mapping iterations, or fewer after {} s", t.as_secs_f64()),
+                    None => format!("{spp} photon-mapping iterations"),
+                },
             });
         }
         let target = self.target_error.unwrap_or(DEFAULT_TARGET_ERROR);
@@ -563,7 +595,37 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<()> {
                 sampler: integrator::SamplerKind::Independent,
             })
         }
+        IntegratorKind::Sppm => {
+            if args.sampler.is_some_and(|s| s != integrator::SamplerKind::Independent) {
+                anyhow::bail!(
+                    "--sampler {}: sppm draws independent numbers (its photons are not stratified)",
+                    args.sampler.unwrap_or_default()
+                );
+            }
+            if let Some(r) = args.radius {
+                anyhow::ensure!(r.is_finite() && r > 0.0, "--radius {r} must be a positive length in scene units");
+            }
+            if let Some(p) = args.photons {
+                anyhow::ensure!(
+                    (1..=MAX_PHOTONS).contains(&p),
+                    "--photons {p} is outside 1..={MAX_PHOTONS} (photons per iteration)"
+                );
+            }
+            Integrator::Sppm(integrator::SppmOptions {
+                path: PathOptions {
+                    max_depth: args.max_depth,
+                    rr_depth: args.rr_depth,
+                    wavelength_pdf: args.wavelength_pdf,
+                    sampler: integrator::SamplerKind::Independent,
+                },
+                photons: args.photons,
+                radius: args.radius,
+            })
+        }
     };
+    if integrator_kind != IntegratorKind::Sppm && (args.photons.is_some() || args.radius.is_some()) {
+        eprintln!("spectrace: warning: --photons and --radius are photon mapping's (--integrator sppm): ignored");
+    }
     let options = RenderOptions {
         width,
         height,

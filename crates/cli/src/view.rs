@@ -23,7 +23,7 @@ impl FromStr for IntegratorChoice {
         if s == "auto" {
             return Ok(Self::Auto);
         }
-        s.parse().map(Self::Kind).map_err(|_| format!("expected auto, whitted-hall, path or bdpt, got `{s}`"))
+        s.parse().map(Self::Kind).map_err(|_| format!("expected auto, whitted-hall, path, bdpt or sppm, got `{s}`"))
     }
 }
 
@@ -375,6 +375,7 @@ pub(crate) fn kind_name(kind: IntegratorKind) -> &'static str {
         IntegratorKind::WhittedHall => "whitted-hall",
         IntegratorKind::Path => "path",
         IntegratorKind::Bdpt => "bdpt",
+        IntegratorKind::Sppm => "sppm",
     }
 }
 

@@ -61,7 +61,7 @@ pub use limits::{MAX_PIXELS, MAX_SIDE, MAX_SPECTRAL_SAMPLES, MAX_THREADS};
 pub use measure::{MEASURE_MAX_DEPTH, MeasureOptions, Measurement, SensorPoint, measure};
 pub use options::{
     Ambient, DEFAULT_K_A, DEFAULT_RESOLUTION, Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind,
-    TargetError, WavelengthPdf, WhittedOptions, part_samples,
+    SppmOptions, TargetError, WavelengthPdf, WhittedOptions, part_samples,
 };
 pub use render::{
     Checkpoint, ErrorProgress, ErrorReached, FIRST_STAGE_SPP, MAX_NONFINITE_SHARE, NonfiniteVerdict, Progress,

@@ -25,21 +25,25 @@ pub enum IntegratorKind {
     /// Bidirectional path tracing over the path tracer's surfaces and lights: caustics from small lights
     /// (`docs/path-tracer.md`, "Bidirectional path tracing").
     Bdpt,
+    /// Stochastic progressive photon mapping: also caustics seen through glass or in a mirror
+    /// (`docs/path-tracer.md`, "Photon mapping").
+    Sppm,
 }
 
 impl FromStr for IntegratorKind {
     type Err = Error;
 
-    /// `whitted-hall` (also `whitted`, `paper`) or `path`.
+    /// `whitted-hall` (also `whitted`, `paper`), `path`, `bdpt` or `sppm`.
     fn from_str(s: &str) -> Result<Self> {
         match s {
             "whitted-hall" | "whitted" | "paper" => Ok(Self::WhittedHall),
             "path" => Ok(Self::Path),
             "bdpt" => Ok(Self::Bdpt),
+            "sppm" => Ok(Self::Sppm),
             _ => Err(Error::InvalidOption {
                 option: "integrator",
                 value: s.to_owned(),
-                expected: "whitted-hall, path or bdpt",
+                expected: "whitted-hall, path, bdpt or sppm",
             }),
         }
     }
@@ -197,6 +201,19 @@ impl Default for PathOptions {
     }
 }
 
+/// Options of stochastic progressive photon mapping (`sppm`): the path tracer's (its sampler is always
+/// independent numbers) and the photon pass's. Its samples per pixel are its iterations.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SppmOptions {
+    /// Depth, roulette and wavelength density, as the path tracer's.
+    pub path: PathOptions,
+    /// Photons per iteration; `None`: one per pixel (pbrt-v4's default).
+    pub photons: Option<u64>,
+    /// The gather radius of the first iteration, in scene units; `None`: two pixel footprints at each
+    /// visible point.
+    pub radius: Option<f32>,
+}
+
 /// The light transport model with its options: only meaningful combinations can be written.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Integrator {
@@ -207,6 +224,8 @@ pub enum Integrator {
     /// Bidirectional path tracing, with the path tracer's options (its sampler is always independent
     /// numbers: the light subpath's dimensions are not stratified).
     Bdpt(PathOptions),
+    /// Stochastic progressive photon mapping over BDPT's walks.
+    Sppm(SppmOptions),
 }
 
 impl Integrator {
@@ -216,6 +235,7 @@ impl Integrator {
             Self::WhittedHall(_) => IntegratorKind::WhittedHall,
             Self::Path(_) => IntegratorKind::Path,
             Self::Bdpt(_) => IntegratorKind::Bdpt,
+            Self::Sppm(_) => IntegratorKind::Sppm,
         }
     }
 }
@@ -344,7 +364,7 @@ impl RenderOptions {
     pub fn whitted(self, f: impl FnOnce(&mut WhittedOptions)) -> Self {
         let mut o = match self.integrator {
             Integrator::WhittedHall(o) => o,
-            Integrator::Path(_) | Integrator::Bdpt(_) => WhittedOptions::default(),
+            Integrator::Path(_) | Integrator::Bdpt(_) | Integrator::Sppm(_) => WhittedOptions::default(),
         };
         f(&mut o);
         Self { integrator: Integrator::WhittedHall(o), ..self }
@@ -354,7 +374,7 @@ impl RenderOptions {
     /// held the paper's model's).
     pub fn path(self, f: impl FnOnce(&mut PathOptions)) -> Self {
         let mut o = match self.integrator {
-            Integrator::Path(o) | Integrator::Bdpt(o) => o,
+            Integrator::Path(o) | Integrator::Bdpt(o) | Integrator::Sppm(SppmOptions { path: o, .. }) => o,
             Integrator::WhittedHall(_) => PathOptions::default(),
         };
         f(&mut o);
@@ -376,6 +396,13 @@ impl RenderOptions {
                 format!(
                     "bdpt max_depth={:?} rr_depth={:?} wavelength_pdf={:?}",
                     p.max_depth, p.rr_depth, p.wavelength_pdf
+                )
+            }
+            Integrator::Sppm(o) => {
+                let p = o.path;
+                format!(
+                    "sppm max_depth={:?} rr_depth={:?} wavelength_pdf={:?} photons={:?} radius={:?}",
+                    p.max_depth, p.rr_depth, p.wavelength_pdf, o.photons, o.radius
                 )
             }
             Integrator::Path(p) => {
@@ -438,7 +465,8 @@ mod tests {
         assert_eq!("whitted-hall".parse::<IntegratorKind>().unwrap(), IntegratorKind::WhittedHall);
         assert_eq!("path".parse::<IntegratorKind>().unwrap(), IntegratorKind::Path);
         assert_eq!("bdpt".parse::<IntegratorKind>().unwrap(), IntegratorKind::Bdpt);
-        assert!("sppm".parse::<IntegratorKind>().is_err());
+        assert_eq!("sppm".parse::<IntegratorKind>().unwrap(), IntegratorKind::Sppm);
+        assert!("photons".parse::<IntegratorKind>().is_err());
         assert_eq!("visible".parse::<WavelengthPdf>().unwrap(), WavelengthPdf::Visible);
         assert!("uniform".parse::<WavelengthPdf>().is_err());
     }

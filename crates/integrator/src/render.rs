@@ -19,7 +19,7 @@ use crate::error::{Error, Result};
 use crate::film::estimate::{ErrorEstimate, TILE, tile_grid, tile_index};
 use crate::film::splat::{SPLAT_BATCH, SplatValue};
 use crate::film::{Film, MAX_SPP, Sensor, second_half};
-use crate::integrators::{Bdpt, Kernel, PathTracer, Radiance, RayCount, Splat, Whitted};
+use crate::integrators::{Bdpt, Kernel, PathTracer, PhotonMapping, Radiance, RayCount, Splat, Whitted};
 use crate::options::{Integrator, PathOptions, RenderOptions, SamplerKind};
 use crate::output::auto_exposure_ev_of;
 use crate::sampling::{Rng, Sampler, SobolSample};
@@ -248,16 +248,36 @@ pub(crate) fn render_resolved(
     {
         return Err(Error::FluorescenceNeedsHero { material: m.name.clone(), spectral: spectral.to_string() });
     }
-    // Bidirectional path tracing does not shift wavelengths: it would render a fluorescent surface's
-    // reflectance alone, a wrong answer given silently.
-    if let Integrator::Bdpt(_) = &options.integrator
+    // Bidirectional path tracing and photon mapping do not shift wavelengths: they would render a
+    // fluorescent surface's reflectance alone, a wrong answer given silently.
+    if let Integrator::Bdpt(_) | Integrator::Sppm(_) = &options.integrator
         && let Some(m) = scene.materials.iter().find(|m| m.fluorescence.is_some())
     {
         return Err(Error::InvalidOption {
             option: "integrator",
-            value: format!("bdpt with the fluorescent material `{}`", m.name),
-            expected: "--integrator path (bidirectional path tracing does not render fluorescence yet)",
+            value: format!("{} with the fluorescent material `{}`", integrator_name(&options.integrator), m.name),
+            expected: "--integrator path (bidirectional path tracing and photon mapping do not render fluorescence yet)",
         });
+    }
+    if let Integrator::Sppm(_) = &options.integrator {
+        // The radius couples the iterations: a part, a resumed film or a half-film is not a sum of
+        // independent samples.
+        let refused = if samples.start != 0 || samples.end != options.spp {
+            Some(format!("sample range {}..{}", samples.start, samples.end))
+        } else if resume.is_some() || checkpoint.is_some() {
+            Some("a resumed or checkpointed render".to_owned())
+        } else if options.keeps_halves() {
+            Some("a target error or an error map".to_owned())
+        } else {
+            None
+        };
+        if let Some(value) = refused {
+            return Err(Error::InvalidOption {
+                option: "sppm render",
+                value,
+                expected: "one whole render (photon mapping's radius couples its iterations: no parts, resume, checkpoints or error estimate; --integrator bdpt has them)",
+            });
+        }
     }
     let lanes = lane_count(spectral)?;
     let pool = thread_pool(options)?;
@@ -316,8 +336,78 @@ impl LaneJob for RenderJob<'_> {
                 let kernel = Bdpt::new(tracer, camera, self.options.width, self.options.height);
                 render_pixels(&kernel, &sensor, self)
             }
+            Integrator::Sppm(o) => {
+                let sensor = match self.spectral {
+                    SpectralMode::Hero { .. } => None,
+                    _ => Some(fixed()),
+                };
+                let (width, height) = (self.options.width, self.options.height);
+                let camera = self.scene.camera(width, height)?;
+                if camera.is_orthographic() {
+                    return Err(Error::InvalidOption {
+                        option: "integrator",
+                        value: "sppm with an orthographic camera".to_owned(),
+                        expected: "a perspective camera, or --integrator path",
+                    });
+                }
+                let (tracer, sensor) = PathTracer::<N>::new(self.scene, sensor, &o.path);
+                let photons = o.photons.unwrap_or(u64::from(width) * u64::from(height));
+                let mapping = PhotonMapping::new(tracer, camera, width, height, self.options.seed, photons, o.radius);
+                render_photon_mapping(&mapping, &sensor, self)
+            }
         }
     }
+}
+
+/// The name `--integrator` takes for `integrator`.
+fn integrator_name(integrator: &Integrator) -> &'static str {
+    match integrator {
+        Integrator::WhittedHall(_) => "whitted-hall",
+        Integrator::Path(_) => "path",
+        Integrator::Bdpt(_) => "bdpt",
+        Integrator::Sppm(_) => "sppm",
+    }
+}
+
+/// Photon mapping's render: its iterations (the samples per pixel) into a film with splat sums, the
+/// camera passes as samples and the photon term as splats (`integrators/sppm.rs`). A time limit stops it
+/// after the iteration that passes it; the film is normalised by the iterations it holds.
+fn render_photon_mapping<const N: usize>(
+    mapping: &PhotonMapping<'_, N>,
+    sensor: &Sensor<N>,
+    job: RenderJob<'_>,
+) -> Result<(Film, RenderStats)> {
+    let RenderJob { options, spectral, progress, cancel, .. } = job;
+    let (width, height) = (options.width, options.height);
+    let wavelengths = if options.spectral_film { sensor.film_wavelengths().unwrap_or_default() } else { Vec::new() };
+    let mut film = Film::new(width, height, wavelengths).with_splats();
+    let start = Instant::now();
+    let out_of_time = || options.time_limit.is_some_and(|limit| start.elapsed() >= limit);
+    let pixels = u64::from(width) * u64::from(height);
+    let report = |done: u32, count: RayCount| {
+        progress(Progress {
+            rows_done: u64::from(done) * u64::from(height),
+            rows_total: u64::from(options.spp) * u64::from(height),
+            rays: count.rays,
+            samples: u64::from(done) * pixels,
+            elapsed: start.elapsed(),
+            error: None,
+        })
+    };
+    let count = mapping.render(&mut film, sensor, options.spp, cancel, &out_of_time, &report)?;
+    let stats = RenderStats {
+        spectral,
+        rays: count.rays,
+        shadow_rays: count.shadow,
+        elapsed: start.elapsed(),
+        nonfinite_samples: film.nonfinite_samples(),
+        samples: film.sample_counts().iter().map(|&c| u64::from(c)).sum(),
+        spp: film.min_sample_count(),
+        max_spp: film.max_sample_count(),
+        clamped_samples: film.clamped_samples(),
+        error: None,
+    };
+    Ok((film, stats))
 }
 
 /// The pixel loop: samples `job.samples` of every pixel, in passes over the image, rows in

@@ -71,12 +71,12 @@ const MAX_CASES: usize = 20_000;
 pub fn choose_auto(scene: &RenderScene, integrator: IntegratorKind) -> SpectralMode {
     match integrator {
         // Dispersion and fluorescence shift or split wavelengths per path: only hero wavelengths can follow.
-        IntegratorKind::Path | IntegratorKind::Bdpt
+        IntegratorKind::Path | IntegratorKind::Bdpt | IntegratorKind::Sppm
             if scene.materials.iter().any(|m| m.is_dispersive() || m.fluorescence.is_some()) =>
         {
             SpectralMode::Hero { count: 8 }
         }
-        IntegratorKind::Path | IntegratorKind::Bdpt => {
+        IntegratorKind::Path | IntegratorKind::Bdpt | IntegratorKind::Sppm => {
             auto_bins(scene).map_or(SpectralMode::Hero { count: 8 }, SpectralMode::Bins)
         }
         IntegratorKind::WhittedHall => SpectralMode::Bins(auto_bins(scene).unwrap_or(FINE_BINS)),

@@ -17,7 +17,7 @@ use crate::film::Sensor;
 // score images.
 use crate::film::estimate::WHITE;
 use crate::integrators::{PathTracer, RayCount};
-use crate::options::{Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind};
+use crate::options::{Integrator, IntegratorKind, PathOptions, RenderOptions, SamplerKind, SppmOptions};
 use crate::render::{PixelSampler, thread_pool};
 use crate::sampling::{Rng, Sampler};
 use crate::scene::{RenderScene, scene_white};
@@ -188,7 +188,7 @@ pub fn pilot_strategies(
     strategies: &[SpectralMode],
 ) -> Result<Vec<AutoCandidate>> {
     let path = match options.integrator {
-        Integrator::Path(path) | Integrator::Bdpt(path) => path,
+        Integrator::Path(path) | Integrator::Bdpt(path) | Integrator::Sppm(SppmOptions { path, .. }) => path,
         Integrator::WhittedHall(_) => PathOptions::default(),
     };
     let pixels = pilot_pixels(options.width, options.height);

@@ -47,19 +47,19 @@ enum Kind {
 
 /// One vertex of a subpath (pbrt-v4 `Vertex`).
 #[derive(Clone, Copy)]
-struct Vertex<const N: usize> {
+pub(super) struct Vertex<const N: usize> {
     kind: Kind,
-    p: Vec3,
+    pub(super) p: Vec3,
     /// Geometric normal (zero at a point: the camera, a point light).
     ng: Vec3,
     /// Shading normal for the cosines of connections (zero at a point).
     ns: Vec3,
     /// The surface hit (surface vertices and area-light points: rays leave from it).
     hit: Option<Hit>,
-    frame: Frame,
-    bsdf: Option<Bsdf<N>>,
+    pub(super) frame: Frame,
+    pub(super) bsdf: Option<Bsdf<N>>,
     /// The subpath's throughput up to and including this vertex's arrival (pbrt-v4 `beta`).
-    beta: SampledSpectrum<N>,
+    pub(super) beta: SampledSpectrum<N>,
     /// Density per unit area of this vertex when its own subpath made it, and when the other side would
     /// have (pbrt-v4 `pdfFwd`, `pdfRev`).
     pdf_fwd: f32,
@@ -70,7 +70,7 @@ struct Vertex<const N: usize> {
     emitter: Option<usize>,
     /// The material's σ_a where it encloses an absorbing medium (Beer–Lambert on connections inside).
     absorbs: bool,
-    material: Option<u32>,
+    pub(super) material: Option<u32>,
 }
 
 impl<const N: usize> Vertex<N> {
@@ -98,7 +98,7 @@ impl<const N: usize> Vertex<N> {
     }
 
     /// Whether a connection can end here: a light, the camera, or a surface with a non-delta lobe.
-    fn connectible(&self) -> bool {
+    pub(super) fn connectible(&self) -> bool {
         match self.kind {
             Kind::Surface => self.bsdf.is_some_and(|b| !b.is_specular()),
             _ => true,
@@ -131,13 +131,26 @@ pub(crate) struct Bdpt<'a, const N: usize> {
     height: u32,
     /// The image plane's area at distance 1 ([`Camera::image_plane_area`]).
     plane_area: f32,
+    /// Photon mapping's camera pass (`sppm.rs`): camera walks stop at the first surface with a non-delta
+    /// lobe (the visible point), and the strategies left — light hit through delta vertices, a light
+    /// sampled at the visible point — each count in full, since photons make every other path.
+    gather: bool,
 }
 
 impl<'a, const N: usize> Bdpt<'a, N> {
     /// BDPT over `tracer`'s scene seen by `camera` (a pinhole) in a `width`×`height` image.
     pub(crate) fn new(tracer: PathTracer<'a, N>, camera: Camera, width: u32, height: u32) -> Self {
         let plane_area = camera.image_plane_area();
-        Self { tracer, camera, width, height, plane_area }
+        Self { tracer, camera, width, height, plane_area, gather: false }
+    }
+
+    /// The walks and strategies of photon mapping's camera pass and photon pass (see [`Bdpt::gather`]).
+    pub(super) fn for_photon_mapping(tracer: PathTracer<'a, N>, camera: Camera, width: u32, height: u32) -> Self {
+        Self { gather: true, ..Self::new(tracer, camera, width, height) }
+    }
+
+    pub(super) fn tracer(&self) -> &PathTracer<'a, N> {
+        &self.tracer
     }
 
     /// Density per steradian with which the camera sends a ray along unit `w` (pbrt-v4
@@ -370,6 +383,9 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             v.ns = frame.facing(wo).1;
             v.bsdf = Some(bsdf);
             path.push(v);
+            if self.gather && mode == Mode::Radiance && !bsdf.is_specular() {
+                break;
+            }
             let block = match mode {
                 Mode::Radiance => 2 * bounce + 2,
                 Mode::Importance => LIGHT_BLOCKS + bounce,
@@ -414,7 +430,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     /// The camera subpath of `ray` (a unit direction from the pinhole); returns the environment's light
     /// the walk found (strategy s = 0 on lights at infinity).
     #[allow(clippy::too_many_arguments)]
-    fn camera_subpath<const ROUGH: bool>(
+    pub(super) fn camera_subpath<const ROUGH: bool>(
         &self,
         ray: &Ray,
         path: &mut Vec<Vertex<N>>,
@@ -437,7 +453,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     /// The light subpath: a light chosen ∝ power, a ray leaving it, a walk (pbrt-v4
     /// `GenerateLightSubpath`). Empty where the chosen light is at infinity or sends nothing.
     #[allow(clippy::too_many_arguments)]
-    fn light_subpath<const ROUGH: bool>(
+    pub(super) fn light_subpath<const ROUGH: bool>(
         &self,
         path: &mut Vec<Vertex<N>>,
         lambda: &mut SampledWavelengths<N>,
@@ -505,7 +521,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         qs_sampled: Option<Vertex<N>>,
         pt_sampled: Option<Vertex<N>>,
     ) -> f32 {
-        if s + t == 2 {
+        if s + t == 2 || self.gather {
             return 1.0;
         }
         // Copies of the few densities the connection changes.
@@ -626,7 +642,12 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     }
 
     /// s = 0: the camera subpath's last vertex is on an area light.
-    fn hit_light(&self, camera: &[Vertex<N>], t: usize, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    pub(super) fn hit_light(
+        &self,
+        camera: &[Vertex<N>],
+        t: usize,
+        lambda: &SampledWavelengths<N>,
+    ) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
         let pt = &camera[t - 1];
         let Some(light) = pt.emitter else { return black };
@@ -640,7 +661,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     }
 
     /// s = 1: a light sampled from the camera subpath's last vertex (next-event estimation).
-    fn light_sample(
+    pub(super) fn light_sample(
         &self,
         camera: &[Vertex<N>],
         t: usize,
@@ -687,8 +708,11 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             } else if let Some(map) = emitters.environment_map() {
                 le += tracer.map_radiance(map, ls.wi, lambda);
             }
-            let weight =
-                if ls.delta { 1.0 } else { crate::sampling::power_heuristic(ls.pdf, bsdf.pdf(&pt.frame, wo, ls.wi)) };
+            let weight = if ls.delta || self.gather {
+                1.0
+            } else {
+                crate::sampling::power_heuristic(ls.pdf, bsdf.pdf(&pt.frame, wo, ls.wi))
+            };
             return pt.beta * f * le * (visible * weight * ls.scale / ls.pdf);
         };
         // A light vertex at the sampled point: its normal on an area light.

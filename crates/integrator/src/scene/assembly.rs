@@ -577,12 +577,13 @@ fn auto_integrator(settings: &Settings) -> Result<(IntegratorKind, String)> {
             let kind = name.parse::<IntegratorKind>().map_err(|_| Error::InvalidOption {
                 option: "settings.integrator",
                 value: name.clone(),
-                expected: "whitted-hall, path or bdpt",
+                expected: "whitted-hall, path, bdpt or sppm",
             })?;
             let label = match kind {
                 IntegratorKind::WhittedHall => "whitted-hall",
                 IntegratorKind::Path => "path",
                 IntegratorKind::Bdpt => "bdpt",
+                IntegratorKind::Sppm => "sppm",
             };
             Ok((kind, format!("{label}: the scene's settings ask for it (\"integrator\": \"{name}\")")))
         }

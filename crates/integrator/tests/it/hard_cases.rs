@@ -123,6 +123,14 @@ fn every_committed_scene_renders_without_nan() {
         sampler: integrator::SamplerKind::Independent,
         ..integrator::PathOptions::default()
     });
+    let sppm = integrator::Integrator::Sppm(integrator::SppmOptions {
+        path: integrator::PathOptions {
+            sampler: integrator::SamplerKind::Independent,
+            ..integrator::PathOptions::default()
+        },
+        photons: Some(500),
+        radius: None,
+    });
     for path in files {
         let s = integrator::RenderScene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         for spectral in [integrator::SpectralMode::Rgb, integrator::SpectralMode::Auto] {
@@ -145,6 +153,15 @@ fn every_committed_scene_renders_without_nan() {
                 assert!(image.pixels().iter().flatten().all(|v| v.is_finite()), "bdpt: {}", path.display());
             }
             Err(e) => assert!(e.to_string().contains("orthographic"), "bdpt: {}: {e}", path.display()),
+        }
+        // And photon mapping, over the same walks (its own passes and gathers).
+        let opts = RenderOptions { integrator: sppm, ..opts };
+        match integrator::render(&s, &opts, &|_| {}, &std::sync::atomic::AtomicBool::new(false)) {
+            Ok((image, stats)) => {
+                assert_eq!(stats.nonfinite_samples, 0, "sppm: {}", path.display());
+                assert!(image.pixels().iter().flatten().all(|v| v.is_finite()), "sppm: {}", path.display());
+            }
+            Err(e) => assert!(e.to_string().contains("orthographic"), "sppm: {}: {e}", path.display()),
         }
     }
 }

@@ -13,6 +13,7 @@ mod paper_model;
 mod path;
 mod prism;
 mod spectral_film;
+mod sppm;
 mod terminator;
 mod textures;
 mod units;
