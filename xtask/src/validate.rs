@@ -5,13 +5,14 @@
 //! Expected values are analytic (or published) wherever one exists; otherwise the reference is
 //! the project's own converged render (cached by [`refs`]), named as such in the report.
 //!
-//! One submodule per category: [`colorimetry`], [`analytic`], [`hard`], [`speed`] (speed
+//! One submodule per category: [`colorimetry`], [`analytic`], [`hard`], [`caustics`], [`speed`] (speed
 //! against error; its `PATH_CASES` list is where new reference scenes plug in) and
 //! [`scaling`]; the paper's figures come from `crate::paper`.
 
 mod absorbing;
 mod analytic;
 mod auto_time;
+mod caustics;
 mod cie171;
 mod colorimetry;
 mod estimate;
@@ -52,7 +53,7 @@ pub(crate) struct ValidateArgs {
     /// Render every converged reference again, ignoring the cache.
     #[arg(long)]
     regen: bool,
-    /// Run only these parts (comma-separated): colorimetry, analytic, hard, speed, absorbing,
+    /// Run only these parts (comma-separated): colorimetry, analytic, hard, caustics, speed, absorbing,
     /// auto, sampler, estimate, cie171, paper, scaling. The report then holds only their checks.
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
@@ -91,10 +92,11 @@ impl Report {
 }
 
 /// The parts `--only` may name, in the order they run.
-const PARTS: [&str; 11] = [
+const PARTS: [&str; 12] = [
     "colorimetry",
     "analytic",
     "hard",
+    "caustics",
     "speed",
     "absorbing",
     "auto",
@@ -135,6 +137,10 @@ pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
     if wanted("hard") {
         hard::checks(&mut report, &out, args.quick)?;
         step("hard cases", &mut since);
+    }
+    if wanted("caustics") {
+        caustics::checks(&mut report, args.quick)?;
+        step("caustics", &mut since);
     }
     if wanted("speed") {
         speed::speed_vs_error(&mut report, &root, &out, &refs, args.quick)?;

@@ -9,6 +9,7 @@ mod fluorescence;
 mod hard_cases;
 mod luminaires;
 mod measure;
+mod mirrored_disc;
 mod paper_model;
 mod path;
 mod prism;

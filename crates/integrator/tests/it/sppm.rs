@@ -1,10 +1,9 @@
 //! Stochastic progressive photon mapping: against an analytic caustic seen in a mirror, which no camera
 //! path and no bidirectional connection can find, and against the path tracer where both converge.
 
-use geometry::Camera;
-use glam::Vec3;
 use integrator::{Image, Integrator, PathOptions, RenderOptions, SamplerKind, SpectralMode, SppmOptions};
 
+use crate::mirrored_disc::{disc_answer, mirrored_disc};
 use crate::{assert_all_finite, render_with, scene};
 
 fn options(integrator: Integrator, w: u32, h: u32, spp: u32, seed: u64, threads: usize) -> RenderOptions {
@@ -37,87 +36,13 @@ fn mean_y(image: &Image, pixels: impl Iterator<Item = usize>) -> (f64, f64) {
     (mean, (var / n).sqrt())
 }
 
-const INTENSITY: f32 = 40.0;
-const CONE_DEG: f32 = 20.0;
-
-/// A spot light at (0, 3, 0) points up into a mirror M1 (reflectance 0.9, 0.8 wide) at y = 4, which throws
-/// its cone back down as a disc of light on a white floor (ρ 0.8): from the light's image at (0, 5, 0),
-/// E = 0.9 I cos θ / d² within 20° of straight down. The camera sees the floor only in a second mirror
-/// M2 (0.9, the wall z = −4.5), so every path of that light is light → M1 → floor → M2 → camera: a delta
-/// vertex on both sides of the one diffuse vertex. `extra` is added to the objects (JSON).
-fn mirrored_disc(extra: &str) -> String {
-    format!(
-        r#"{{
-        "camera": {{"position": [0, 8, 4], "look_at": [0, 2.6, -4.5], "up": [0, 1, 0], "vfov_deg": 14}},
-        "lights": [{{"type": "spot", "position": [0, 3, 0], "direction": [0, 1, 0], "inner_cone_deg": {CONE_DEG},
-                     "outer_cone_deg": {CONE_DEG}, "spectrum": "D65", "intensity": {INTENSITY}}}],
-        "materials": {{
-            "floor": {{"model": "diffuse", "base_color": 0.8}},
-            "mirror": {{"model": "mirror", "base_color": 0, "specular": 0.9, "ks": 1}}
-        }},
-        "objects": [
-            {{"type": "quad", "corner": [-4.5, 0, -4.5], "edge_u": [0, 0, 9], "edge_v": [9, 0, 0], "material": "floor"}},
-            {{"type": "quad", "corner": [-0.4, 4, -0.4], "edge_u": [0.8, 0, 0], "edge_v": [0, 0, 0.8], "material": "mirror"}},
-            {{"type": "quad", "corner": [-4.5, 0, -4.5], "edge_u": [9, 0, 0], "edge_v": [0, 4, 0], "material": "mirror"}}
-            {extra}
-        ],
-        "settings": {{"max_depth": 8}}
-    }}"#
-    )
-}
-
-/// The analytic image of [`mirrored_disc`]: per pixel (its centre's ray) the radiance it sees in M2, and
-/// the pixels well inside the disc and well outside it (0.35 from its edge, about a pixel's footprint on
-/// the floor, so pixels straddling it are left out).
-fn disc_answer(w: u32, h: u32) -> (Vec<f64>, Vec<usize>, Vec<usize>) {
-    let camera =
-        Camera::look_at(Vec3::new(0.0, 8.0, 4.0), Vec3::new(0.0, 2.6, -4.5), Vec3::Y, 14.0, w as f32 / h as f32)
-            .unwrap();
-    let image = Vec3::new(0.0, 5.0, 0.0);
-    let edge = 5.0 * CONE_DEG.to_radians().tan();
-    let mut want = vec![0.0f64; (w * h) as usize];
-    let (mut inside, mut outside) = (Vec::new(), Vec::new());
-    for y in 0..h {
-        for x in 0..w {
-            let r = camera.generate_ray(x as f32 + 0.5, y as f32 + 0.5, w, h);
-            // Rays that pass M1 on their way (it hides the middle of the view) are left out.
-            let m1 = r.origin + r.dir * ((4.0 - r.origin.y) / r.dir.y);
-            if m1.x.abs() < 0.5 && m1.z.abs() < 0.5 {
-                continue;
-            }
-            // M2 at z = −4.5 (x in ±4.5, y in 0..4), then the floor.
-            let t = (-4.5 - r.origin.z) / r.dir.z;
-            let a = r.origin + r.dir * t;
-            if !(t > 0.0 && a.x.abs() < 4.4 && a.y > 0.1 && a.y < 3.9) {
-                continue;
-            }
-            let d = Vec3::new(r.dir.x, r.dir.y, -r.dir.z);
-            let q = a + d * (-a.y / d.y);
-            if q.x.abs() > 4.0 || q.z.abs() > 4.0 {
-                continue;
-            }
-            let i = (y * w + x) as usize;
-            let radius = q.x.hypot(q.z);
-            if radius < edge - 0.35 {
-                let to = image - q;
-                let irradiance = 0.9 * INTENSITY * (to.y / to.length()) / to.length_squared();
-                want[i] = 0.9 * 0.8 / std::f64::consts::PI * f64::from(irradiance);
-                inside.push(i);
-            } else if radius > edge + 0.35 {
-                outside.push(i);
-            }
-        }
-    }
-    (want, inside, outside)
-}
-
 /// Photon mapping renders the disc seen in M2 as the formula gives it (within 4 %: the light the floor
 /// and the mirrors pass among themselves adds about 1 %, the radius's blur less); bidirectional path
 /// tracing, which cannot join a path whose diffuse vertex has a delta vertex on both sides, sees nothing
 /// there, and outside the disc photon mapping sees no more than that interreflected light.
 #[test]
 fn photon_mapping_renders_a_caustic_seen_in_a_mirror() {
-    let scene = scene(&mirrored_disc(""));
+    let scene = scene(&mirrored_disc());
     let (w, h) = (48, 36);
     let (s, stats) = render_with(&scene, &options(sppm(4000, Some(0.1)), w, h, 24, 1, 2));
     assert_all_finite(&s, &stats);
@@ -170,7 +95,7 @@ fn photon_mapping_agrees_with_the_path_tracer_on_the_cornell_box() {
 /// Photons are traced in fixed chunks whose gathers are added in order: the same bits at any thread count.
 #[test]
 fn photon_mapping_images_do_not_depend_on_the_thread_count() {
-    let scene = scene(&mirrored_disc(""));
+    let scene = scene(&mirrored_disc());
     let (one, _) = render_with(&scene, &options(sppm(3000, None), 16, 12, 3, 9, 1));
     let (two, _) = render_with(&scene, &options(sppm(3000, None), 16, 12, 3, 9, 2));
     assert_eq!(one.pixels(), two.pixels());
@@ -180,7 +105,7 @@ fn photon_mapping_images_do_not_depend_on_the_thread_count() {
 /// Its iterations are coupled by the radius: a part of a render is refused with a clear error.
 #[test]
 fn photon_mapping_refuses_a_sample_range() {
-    let scene = scene(&mirrored_disc(""));
+    let scene = scene(&mirrored_disc());
     let options = RenderOptions { samples: Some(0..2), ..options(sppm(100, None), 8, 8, 4, 1, 1) };
     let error = integrator::render(&scene, &options, &|_| {}, &std::sync::atomic::AtomicBool::new(false))
         .unwrap_err()
