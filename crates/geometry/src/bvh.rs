@@ -122,7 +122,7 @@ fn build_scaled(mut bounds: Vec<Aabb>, lo: Vec3, hi: Vec3, leaves: Leaves) -> Co
         Leaves::Primitives { .. } => PACKET,
         Leaves::Placements => 1,
     };
-    let bvh2 = sah::build(&bounds, block);
+    let bvh2 = sah::build(&mut bounds, block);
     // The binary tree holds the boxes now: 32 bytes per primitive fewer at the collapse's peak.
     drop(bounds);
     match leaves {

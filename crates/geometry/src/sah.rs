@@ -14,8 +14,6 @@
 
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
-use obvhs::bvh2::Bvh2;
-use obvhs::bvh2::node::Bvh2Node;
 use rayon::prelude::*;
 
 use crate::simd::truncate_clamped;
@@ -32,49 +30,88 @@ const FORK_LEVELS: u32 = 8;
 /// The binary tree over `boxes`: node 0 the root, the children of an inner node side by side at
 /// `first_index`, one primitive per leaf (`first_index` into `primitive_indices`). `block`: the
 /// primitives per block of the split cost (1: every primitive its own leaf, as placements are).
-pub(crate) fn build(boxes: &[Aabb], block: usize) -> Bvh2 {
+///
+/// `boxes` is reordered with the primitives (left in leaf order, as `primitive_indices`): every
+/// pass of the build reads a node's boxes as one run of memory. Read through indices, the passes
+/// over the top levels' millions of boxes were cache misses.
+pub(crate) fn build(boxes: &mut [Aabb], block: usize) -> Tree {
     debug_assert!(block > 0);
     let n = boxes.len();
+    // Node indices below 2³¹ (`Node::index`'s leaf bit): callers refuse more primitives.
+    assert!(n <= crate::wide::MAX_PRIMITIVES, "{n} primitives");
     let mut indices: Vec<u32> = (0..n as u32).collect();
     if n == 0 {
-        return Bvh2 { nodes: Vec::new(), primitive_indices: indices, ..Default::default() };
+        return Tree { nodes: Vec::new(), primitive_indices: indices };
     }
-    let ctx = Context { boxes, block };
+    let ctx = Context { block };
     // A binary tree of n leaves has 2n − 1 nodes; every subtree of m leaves gets its 2m − 2
     // descendants as one range, so that subtrees can be built in parallel into disjoint slices.
-    let mut nodes = vec![Bvh2Node::new(Aabb::INVALID, 0, 0); 2 * n - 1];
+    let mut nodes = vec![Node { min: [0.0; 3], max: [0.0; 3], index: 0 }; 2 * n - 1];
     let (root, rest) = nodes.split_first_mut().expect("n ≥ 1");
-    let depth =
-        build_subtree(&ctx, Task { items: &mut indices, first_prim: 0, node: root, below: rest, below_at: 1 }, 0);
-    // obvhs reads `max_depth` as a traversal stack size (levels, at least its default); nothing
-    // here traverses a `Bvh2`, but the field keeps obvhs's meaning.
-    let max_depth = (depth + 1).max(obvhs::bvh2::DEFAULT_MAX_STACK_DEPTH);
-    Bvh2 { nodes, primitive_indices: indices, max_depth, ..Default::default() }
+    build_subtree(&ctx, Task { items: &mut indices, boxes, first_prim: 0, node: root, below: rest, below_at: 1 }, 0);
+    Tree { nodes, primitive_indices: indices }
 }
 
-struct Context<'a> {
-    boxes: &'a [Aabb],
+/// The binary tree [`build`] makes.
+#[derive(Debug)]
+pub(crate) struct Tree {
+    /// Node 0 the root; the two children of an inner node side by side.
+    pub(crate) nodes: Vec<Node>,
+    /// The primitives in leaf order.
+    pub(crate) primitive_indices: Vec<u32>,
+}
+
+/// A node of the binary tree: its box and, for an inner node, the index of its first child (the
+/// second follows it); for a leaf (one primitive), its position in [`Tree::primitive_indices`].
+/// 28 bytes: obvhs's `Bvh2Node` (a box of two 16-byte vectors, a count and an index) took 40,
+/// and the 2n − 1 nodes were the largest part of the build's peak memory (80 bytes a primitive).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Node {
+    min: [f32; 3],
+    max: [f32; 3],
+    /// The first child's index, or [`LEAF`] | the leaf's position.
+    index: u32,
+}
+
+const LEAF: u32 = 1 << 31;
+
+impl Node {
+    fn inner(aabb: &Aabb, first_child: usize) -> Self {
+        Self { min: aabb.min.to_array(), max: aabb.max.to_array(), index: first_child as u32 }
+    }
+
+    fn leaf(aabb: &Aabb, position: usize) -> Self {
+        Self { min: aabb.min.to_array(), max: aabb.max.to_array(), index: LEAF | position as u32 }
+    }
+
+    pub(crate) fn is_leaf(&self) -> bool {
+        self.index & LEAF != 0
+    }
+
+    /// An inner node's first child, or a leaf's position in the primitive order.
+    pub(crate) fn first_index(&self) -> u32 {
+        self.index & !LEAF
+    }
+
+    /// The box (the same numbers as stored: surface areas come out as from the build's boxes).
+    pub(crate) fn aabb(&self) -> Aabb {
+        Aabb { min: Vec3A::from_array(self.min), max: Vec3A::from_array(self.max) }
+    }
+}
+
+struct Context {
     block: usize,
 }
 
-impl Context<'_> {
-    /// Primitive `i`'s centroid: computed where it is needed rather than stored (12 bytes a
-    /// primitive less, and read with the box it comes from; the same value `Aabb::center` gives).
-    #[inline(always)]
-    fn centroid(&self, i: u32) -> Vec3A {
-        self.boxes[i as usize].center()
-    }
-}
-
-/// Centroid bounds and node box of `items`, in parallel over chunks when there are many (the
+/// Centroid bounds and node box of `boxes`, in parallel over chunks when there are many (the
 /// root's and the top levels', which no fork shares out): min and max are exact in any order,
-/// so the result is the serial one.
-fn bounds_of(ctx: &Context, items: &[u32]) -> (Aabb, Vec3A, Vec3A) {
-    let one = |items: &[u32]| {
+/// so the result is the serial one. (Centroids are computed where they are needed rather than
+/// stored: 12 bytes a primitive less, and read with the box they come from.)
+fn bounds_of(boxes: &[Aabb]) -> (Aabb, Vec3A, Vec3A) {
+    let one = |boxes: &[Aabb]| {
         let mut bounds = Aabb::INVALID;
         let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        for &i in items {
-            let b = &ctx.boxes[i as usize];
+        for b in boxes {
             bounds = bounds.union(b);
             let c = b.center();
             lo = lo.min(c);
@@ -82,10 +119,10 @@ fn bounds_of(ctx: &Context, items: &[u32]) -> (Aabb, Vec3A, Vec3A) {
         }
         (bounds, lo, hi)
     };
-    if items.len() < PARALLEL_PASS {
-        return one(items);
+    if boxes.len() < PARALLEL_PASS {
+        return one(boxes);
     }
-    items.par_chunks(PARALLEL_PASS / 4).map(one).reduce(
+    boxes.par_chunks(PARALLEL_PASS / 4).map(one).reduce(
         || (Aabb::INVALID, Vec3A::INFINITY, Vec3A::NEG_INFINITY),
         |a, b| (a.0.union(&b.0), a.1.min(b.1), a.2.max(b.2)),
     )
@@ -94,13 +131,15 @@ fn bounds_of(ctx: &Context, items: &[u32]) -> (Aabb, Vec3A, Vec3A) {
 /// Nodes of at least this many primitives bin (and bound) them in parallel chunks.
 const PARALLEL_PASS: usize = 1 << 16;
 
-/// A subtree to build: its primitives `items` (at `first_prim` in the final order), its root
-/// `node`, and the slice `below` (at index `below_at` of the tree) for its other nodes.
+/// A subtree to build: its primitives `items` and their `boxes` (at `first_prim` in the final
+/// order), its root `node`, and the slice `below` (at index `below_at` of the tree) for its other
+/// nodes.
 struct Task<'a> {
     items: &'a mut [u32],
+    boxes: &'a mut [Aabb],
     first_prim: usize,
-    node: &'a mut Bvh2Node,
-    below: &'a mut [Bvh2Node],
+    node: &'a mut Node,
+    below: &'a mut [Node],
     below_at: usize,
 }
 
@@ -109,28 +148,36 @@ struct Task<'a> {
 fn build_subtree(ctx: &Context, task: Task, forks: u32) -> usize {
     let mut max_depth = 0;
     let mut work = vec![(task, 0usize)];
-    while let Some((Task { items, first_prim, node, below, below_at }, depth)) = work.pop() {
+    while let Some((Task { items, boxes, first_prim, node, below, below_at }, depth)) = work.pop() {
         max_depth = max_depth.max(depth);
-        if let [i] = items {
-            *node = Bvh2Node::new(ctx.boxes[*i as usize], 1, first_prim as u32);
+        if let [b] = boxes {
+            *node = Node::leaf(b, first_prim);
             continue;
         }
         // The node's box and its primitives' centroid bounds, in one pass.
-        let (bounds, lo, hi) = bounds_of(ctx, items);
-        let mid = split(ctx, items, lo.to_array(), hi.to_array());
-        *node = Bvh2Node::new(bounds, 0, below_at as u32);
+        let (bounds, lo, hi) = bounds_of(boxes);
+        let mid = split(ctx, items, boxes, lo.to_array(), hi.to_array());
+        *node = Node::inner(&bounds, below_at);
         let (pair, rest) = below.split_at_mut(2);
         let (left_node, right_node) = pair.split_at_mut(1);
         let (left_below, right_below) = rest.split_at_mut(2 * mid - 2);
         let (left_items, right_items) = items.split_at_mut(mid);
+        let (left_boxes, right_boxes) = boxes.split_at_mut(mid);
         let right_at = below_at + 2 + left_below.len();
-        let left =
-            Task { node: &mut left_node[0], first_prim, below_at: below_at + 2, items: left_items, below: left_below };
+        let left = Task {
+            node: &mut left_node[0],
+            first_prim,
+            below_at: below_at + 2,
+            items: left_items,
+            boxes: left_boxes,
+            below: left_below,
+        };
         let right = Task {
             node: &mut right_node[0],
             first_prim: first_prim + mid,
             below_at: right_at,
             items: right_items,
+            boxes: right_boxes,
             below: right_below,
         };
         if forks < FORK_LEVELS && left.items.len().min(right.items.len()) >= PARALLEL_MIN {
@@ -144,11 +191,11 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) -> usize {
     max_depth
 }
 
-/// Partition `items` (two or more), whose centroids lie in `lo`..`hi`, at the cheapest binned
-/// split and return the size of the left part (1..len): the least
+/// Partition `items` (two or more) and their `boxes` alike, whose centroids lie in `lo`..`hi`, at
+/// the cheapest binned split and return the size of the left part (1..len): the least
 /// `area(left)·blocks(left) + area(right)·blocks(right)` over the bin boundaries of the three
 /// axes; where no axis separates the centroids, the middle by count.
-fn split(ctx: &Context, items: &mut [u32], lo: [f32; 3], hi: [f32; 3]) -> usize {
+fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], lo: [f32; 3], hi: [f32; 3]) -> usize {
     let len = items.len();
     // An axis along which all centroids coincide gets scale 0: one bin, no split. The scale is
     // capped at f32::MAX: for an extent below 16 / f32::MAX ≈ 4.7e-38 it would be ∞, and
@@ -165,14 +212,15 @@ fn split(ctx: &Context, items: &mut [u32], lo: [f32; 3], hi: [f32; 3]) -> usize 
     // bin (`(x as usize).min(BINS − 1)` per axis, three at once; coordinates are ≥ 0 and never
     // NaN: centroids lie in lo..hi, and the scale is finite).
     let bins = |c: Vec3A| truncate_clamped((c - lo) * scale, (BINS - 1) as f32);
-    let best = if len <= SMALL { best_split_small(ctx, items, bins) } else { best_split_binned(ctx, items, bins) };
+    let best = if len <= SMALL { best_split_small(ctx, boxes, bins) } else { best_split_binned(ctx, boxes, bins) };
     let Some((_, axis, left_bins)) = best else {
         return len / 2;
     };
     let mut mid = 0;
     for k in 0..len {
-        if (bins(ctx.centroid(items[k]))[axis] as usize) < left_bins {
+        if (bins(boxes[k].center())[axis] as usize) < left_bins {
             items.swap(k, mid);
+            boxes.swap(k, mid);
             mid += 1;
         }
     }
@@ -192,17 +240,16 @@ const SMALL: usize = 16;
 /// separates the centroids.
 type Best = Option<(f32, usize, usize)>;
 
-fn best_split_binned(ctx: &Context, items: &[u32], bins: impl Fn(Vec3A) -> [u32; 3] + Sync) -> Best {
-    let len = items.len();
+fn best_split_binned(ctx: &Context, boxes: &[Aabb], bins: impl Fn(Vec3A) -> [u32; 3] + Sync) -> Best {
+    let len = boxes.len();
     let blocks = |count: usize| count.div_ceil(ctx.block) as f32;
     // All three axes binned in one pass over the primitives (in parallel chunks for the largest
     // nodes: unions and counts are exact in any order, so the bins are the serial ones).
     type Bins = ([[Aabb; BINS]; 3], [[usize; BINS]; 3]);
-    let bin_items = |items: &[u32]| -> Bins {
+    let bin_items = |boxes: &[Aabb]| -> Bins {
         let mut bin_box = [[Aabb::INVALID; BINS]; 3];
         let mut bin_count = [[0usize; BINS]; 3];
-        for &i in items {
-            let b = &ctx.boxes[i as usize];
+        for b in boxes {
             let k = bins(b.center());
             for axis in 0..3 {
                 let k = k[axis] as usize;
@@ -213,9 +260,9 @@ fn best_split_binned(ctx: &Context, items: &[u32], bins: impl Fn(Vec3A) -> [u32;
         (bin_box, bin_count)
     };
     let (bin_box, bin_count) = if len < PARALLEL_PASS {
-        bin_items(items)
+        bin_items(boxes)
     } else {
-        items.par_chunks(PARALLEL_PASS / 4).map(bin_items).reduce(
+        boxes.par_chunks(PARALLEL_PASS / 4).map(bin_items).reduce(
             || ([[Aabb::INVALID; BINS]; 3], [[0; BINS]; 3]),
             |mut a, b| {
                 for axis in 0..3 {
@@ -260,13 +307,13 @@ fn best_split_binned(ctx: &Context, items: &[u32], bins: impl Fn(Vec3A) -> [u32;
 /// sides, and the binned sweep keeps the first of them (the one right of the lower bin); each
 /// side's box is the union of the same boxes (exact in any order), its area and cost the same
 /// expressions.
-fn best_split_small(ctx: &Context, items: &[u32], bins: impl Fn(Vec3A) -> [u32; 3]) -> Best {
-    let len = items.len();
+fn best_split_small(ctx: &Context, boxes: &[Aabb], bins: impl Fn(Vec3A) -> [u32; 3]) -> Best {
+    let len = boxes.len();
     let blocks = |count: usize| count.div_ceil(ctx.block) as f32;
     // Per axis, each primitive's bin.
     let mut item_bins = [[0u32; SMALL]; 3];
-    for (k, &i) in items.iter().enumerate() {
-        let b = bins(ctx.centroid(i));
+    for (k, b) in boxes.iter().enumerate() {
+        let b = bins(b.center());
         (item_bins[0][k], item_bins[1][k], item_bins[2][k]) = (b[0], b[1], b[2]);
     }
     let mut best: Best = None;
@@ -291,12 +338,12 @@ fn best_split_small(ctx: &Context, items: &[u32], bins: impl Fn(Vec3A) -> [u32; 
         let mut right_cost = [0f32; SMALL];
         let mut acc = Aabb::INVALID;
         for k in (1..len).rev() {
-            acc = acc.union(&ctx.boxes[items[order[k].1 as usize] as usize]);
+            acc = acc.union(&boxes[order[k].1 as usize]);
             right_cost[k] = acc.half_area() * blocks(len - k);
         }
         let mut acc = Aabb::INVALID;
         for k in 0..len - 1 {
-            acc = acc.union(&ctx.boxes[items[order[k].1 as usize] as usize]);
+            acc = acc.union(&boxes[order[k].1 as usize]);
             if order[k + 1].0 == order[k].0 {
                 continue; // not the last of its bin
             }
@@ -319,9 +366,18 @@ mod tests {
         points.iter().map(|&p| Aabb { min: Vec3A::from(p) - 0.1, max: Vec3A::from(p) + 0.1 }).collect()
     }
 
+    /// `build` of a copy of `boxes`, checking that the copy comes back in leaf order.
+    fn build_of(boxes: &[Aabb], block: usize) -> Tree {
+        let mut reordered = boxes.to_vec();
+        let bvh = build(&mut reordered, block);
+        let in_leaf_order: Vec<Aabb> = bvh.primitive_indices.iter().map(|&i| boxes[i as usize]).collect();
+        assert_eq!(reordered, in_leaf_order);
+        bvh
+    }
+
     /// Every primitive in exactly one leaf, with its own box; every inner node's box the union of
     /// its children's, which sit side by side. Returns the depth (edges from the root).
-    fn check(bvh: &Bvh2, boxes: &[Aabb]) -> usize {
+    fn check(bvh: &Tree, boxes: &[Aabb]) -> usize {
         let n = boxes.len();
         assert_eq!(bvh.nodes.len(), 2 * n - 1);
         let mut seen = vec![false; n];
@@ -331,15 +387,14 @@ mod tests {
             depth = depth.max(d);
             let node = &bvh.nodes[k];
             if node.is_leaf() {
-                assert_eq!(node.prim_count, 1);
-                let p = bvh.primitive_indices[node.first_index as usize] as usize;
+                let p = bvh.primitive_indices[node.first_index() as usize] as usize;
                 assert!(!seen[p], "primitive {p} in two leaves");
-                assert_eq!(*node.aabb(), boxes[p], "leaf of primitive {p}");
+                assert_eq!(node.aabb(), boxes[p], "leaf of primitive {p}");
                 seen[p] = true;
             } else {
-                let (l, r) = (node.first_index as usize, node.first_index as usize + 1);
+                let (l, r) = (node.first_index() as usize, node.first_index() as usize + 1);
                 assert!(l > k, "children after their parent");
-                assert_eq!(bvh.nodes[l].aabb().union(bvh.nodes[r].aabb()), *node.aabb());
+                assert_eq!(bvh.nodes[l].aabb().union(&bvh.nodes[r].aabb()), node.aabb());
                 stack.extend([(l, d + 1), (r, d + 1)]);
             }
         }
@@ -348,12 +403,12 @@ mod tests {
     }
 
     /// How many subtrees have exactly four leaves.
-    fn subtrees_of_four(bvh: &Bvh2) -> usize {
+    fn subtrees_of_four(bvh: &Tree) -> usize {
         let mut leaves = vec![0usize; bvh.nodes.len()];
         // Children come after their parents here, so a reverse sweep sees them first.
         for k in (0..bvh.nodes.len()).rev() {
             let node = &bvh.nodes[k];
-            let f = node.first_index as usize;
+            let f = node.first_index() as usize;
             leaves[k] = if node.is_leaf() { 1 } else { leaves[f] + leaves[f + 1] };
         }
         leaves.iter().filter(|&&l| l == 4).count()
@@ -375,10 +430,10 @@ mod tests {
                 })
                 .collect();
             let b = boxes(&points);
-            let blocks = build(&b, PACKET);
+            let blocks = build_of(&b, PACKET);
             check(&blocks, &b);
             assert_eq!(subtrees_of_four(&blocks), 3, "axis {axis}");
-            let singles = build(&b, 1);
+            let singles = build_of(&b, 1);
             check(&singles, &b);
             assert_eq!(subtrees_of_four(&singles), 0, "axis {axis}");
         }
@@ -390,11 +445,11 @@ mod tests {
         // (depth ⌈log₂ n⌉, not n); 20 000 > 2 · PARALLEL_MIN, so the root split forks.
         let n = 20_000;
         let same = boxes(&vec![[1.0, 2.0, 3.0]; n]);
-        assert_eq!(check(&build(&same, PACKET), &same), 15);
+        assert_eq!(check(&build_of(&same, PACKET), &same), 15);
         // Distinct points, in parallel: the same checks.
         let points: Vec<[f32; 3]> = (0..n).map(|i| [(i % 100) as f32, (i / 100) as f32, (i % 7) as f32]).collect();
         let distinct = boxes(&points);
-        check(&build(&distinct, PACKET), &distinct);
+        check(&build_of(&distinct, PACKET), &distinct);
     }
 
     #[test]
@@ -410,7 +465,7 @@ mod tests {
                 Aabb { min: p, max: p }
             })
             .collect();
-        let depth = check(&build(&b, PACKET), &b);
+        let depth = check(&build_of(&b, PACKET), &b);
         assert!(depth <= 20, "depth {depth}");
     }
 
@@ -439,16 +494,15 @@ mod tests {
                 })
                 .collect();
             for block in [1, PACKET] {
-                let ctx = Context { boxes: &boxes, block };
-                let items: Vec<u32> = (0..len as u32).collect();
-                let (_, lo, hi) = bounds_of(&ctx, &items);
+                let ctx = Context { block };
+                let (_, lo, hi) = bounds_of(&boxes);
                 let scale = Vec3A::from([0, 1, 2].map(|a| {
                     let extent = hi[a] - lo[a];
                     if extent > 0.0 { (BINS as f32 / extent).min(f32::MAX) } else { 0.0 }
                 }));
                 let bins = |c: Vec3A| truncate_clamped((c - lo) * scale, (BINS - 1) as f32);
-                let small = best_split_small(&ctx, &items, bins);
-                let binned = best_split_binned(&ctx, &items, bins);
+                let small = best_split_small(&ctx, &boxes, bins);
+                let binned = best_split_binned(&ctx, &boxes, bins);
                 assert_eq!(
                     small.map(|b| (b.0.to_bits(), b.1, b.2)),
                     binned.map(|b| (b.0.to_bits(), b.1, b.2)),
@@ -464,19 +518,20 @@ mod tests {
         let points: Vec<[f32; 3]> =
             (0..n).map(|i| [(i % 1000) as f32 * 0.37, (i / 1000) as f32, ((i * 7919) % 113) as f32]).collect();
         let b = boxes(&points);
-        let ctx = Context { boxes: &b, block: PACKET };
+        let ctx = Context { block: PACKET };
         let items: Vec<u32> = (0..n as u32).rev().collect();
-        let serial = |items: &[u32]| {
-            items.chunks(PARALLEL_PASS - 1).fold((Aabb::INVALID, Vec3A::INFINITY, Vec3A::NEG_INFINITY), |a, c| {
-                let (bb, lo, hi) = bounds_of(&ctx, c);
+        let item_boxes: Vec<Aabb> = items.iter().map(|&i| b[i as usize]).collect();
+        let serial = |boxes: &[Aabb]| {
+            boxes.chunks(PARALLEL_PASS - 1).fold((Aabb::INVALID, Vec3A::INFINITY, Vec3A::NEG_INFINITY), |a, c| {
+                let (bb, lo, hi) = bounds_of(c);
                 (a.0.union(&bb), a.1.min(lo), a.2.max(hi))
             })
         };
-        let (bounds, lo, hi) = bounds_of(&ctx, &items);
-        assert_eq!((bounds, lo, hi), serial(&items));
+        let (bounds, lo, hi) = bounds_of(&item_boxes);
+        assert_eq!((bounds, lo, hi), serial(&item_boxes));
         let scale = Vec3A::splat(16.0) / (hi - lo);
         let bins = |c: Vec3A| truncate_clamped((c - lo) * scale, (BINS - 1) as f32);
-        let parallel = best_split_binned(&ctx, &items, bins);
+        let parallel = best_split_binned(&ctx, &item_boxes, bins);
         // The same items in pieces below the parallel size, binned serially and merged by hand.
         let mut expected: Best = None;
         let (mut bin_box, mut bin_count) = ([[Aabb::INVALID; BINS]; 3], [[0usize; BINS]; 3]);
@@ -501,15 +556,15 @@ mod tests {
             }
         }
         assert_eq!(parallel.map(|p| (p.1, p.2)), expected.map(|e| (e.1, e.2)));
-        check(&build(&b, PACKET), &b);
+        check(&build_of(&b, PACKET), &b);
     }
 
     #[test]
     fn one_and_two_primitives() {
         let one = boxes(&[[0.0; 3]]);
-        assert_eq!(check(&build(&one, PACKET), &one), 0);
+        assert_eq!(check(&build_of(&one, PACKET), &one), 0);
         let two = boxes(&[[0.0; 3], [5.0, 0.0, 0.0]]);
-        assert_eq!(check(&build(&two, 1), &two), 1);
-        assert!(build(&[], PACKET).nodes.is_empty());
+        assert_eq!(check(&build_of(&two, 1), &two), 1);
+        assert!(build_of(&[], PACKET).nodes.is_empty());
     }
 }

@@ -49,8 +49,6 @@
 //! CWBVH node test also clamps the entry distance to a scene-scale ε = 1e-4 (`cwbvh/node.rs`
 //! `EPSILON`), which culls every box closer than 1e-4 along the ray; here entry is clamped to 0.
 
-use obvhs::bvh2::Bvh2;
-
 use crate::ray::gamma;
 use crate::simd::{NodeRay, NodeTest};
 use crate::triangle::NO_LANE;
@@ -130,7 +128,7 @@ pub(crate) struct WideBvh {
 }
 
 impl WideBvh {
-    /// Collapse obvhs's binary BVH (one primitive per leaf) into eight-wide nodes by the
+    /// Collapse `sah.rs`'s binary tree (one primitive per leaf) into eight-wide nodes by the
     /// surface-area cost of Ylitie et al. 2017 (§3.1): for every binary node and every number
     /// of slots i = 1..8 it may fill in its wide parent, the cheapest way to spend them (one
     /// leaf, one wide node, or the slots split between its two children), bottom up; then the
@@ -143,7 +141,7 @@ impl WideBvh {
     /// the factor the tree was built at (`bvh.rs` `build_scaled`), undone exactly; each box is
     /// then rounded outward by an ulp.
     pub(crate) fn from_bvh2(
-        bvh2: &Bvh2,
+        bvh2: &crate::sah::Tree,
         scale: f32,
         leaf_cost: impl Fn(usize) -> f32,
         leaf_ok: impl Fn(&[u32]) -> bool,
@@ -151,9 +149,8 @@ impl WideBvh {
     ) -> Collapsed {
         let bn = &bvh2.nodes;
         // The binary build makes one leaf per primitive; the collapse forms every larger leaf itself.
-        assert!(bn.iter().all(|n| !n.is_leaf() || n.prim_count == 1), "a binary leaf of several primitives");
         let children = |n: usize| {
-            let l = bn[n].first_index as usize;
+            let l = bn[n].first_index() as usize;
             (l, l + 1)
         };
         // `sah::build`'s layout: the primitives in leaf order, a leaf's `first_index` its position,
@@ -183,7 +180,7 @@ impl WideBvh {
             }
             let area = bn[n].aabb().half_area();
             let (first, count, below) = if is_leaf {
-                (bn[n].first_index, 1, None)
+                (bn[n].first_index(), 1, None)
             } else {
                 let (right, left) = (done.pop(), done.pop());
                 let (Some(left), Some(right)) = (left, right) else { unreachable!("both children are done") };
@@ -233,7 +230,7 @@ impl WideBvh {
                 top -= 1;
                 let k = stack[top];
                 if bn[k].is_leaf() {
-                    first = first.min(bn[k].first_index);
+                    first = first.min(bn[k].first_index());
                     count += 1;
                 } else {
                     let (l, r) = children(k);
@@ -530,7 +527,7 @@ mod tests {
                 obvhs::aabb::Aabb { min: c - h, max: c + h }
             })
             .collect();
-        let bvh2 = crate::sah::build(&boxes, PACKET);
+        let bvh2 = crate::sah::build(&mut boxes.clone(), PACKET);
         let leaf_cost = |n: usize| if n < 3 { 0.3 * n as f32 } else { 0.3 * (1.0 + 0.3 * (n as f32 - 1.0)) };
         let c = WideBvh::from_bvh2(&bvh2, 1.0, leaf_cost, |_| true, 3);
         let mut total = 0f64;
