@@ -9,10 +9,9 @@
 //! either side keeps one wavelength (the hero; with fixed lanes one lane) for the whole sample. Surfaces are
 //! the path tracer's (`PathTracer::scattering`): every material, texture and cut-out renders alike.
 //!
-//! Lights at infinity (the environment, a directional light) start no light subpath: their light is found
-//! from the camera side, by BSDF sampling and next-event estimation weighted against each other as in the
-//! path tracer, since no other strategy can make those paths. Paths through a smooth surface seen from the
-//! camera and lit through another (light → glass → diffuse → glass → camera) have no strategy here at all:
+//! Lights at infinity (the environment, a directional light) start light subpaths on a disc the size of the
+//! scene (pbrt-v4's construction, `Emitters::sample_le`); escaping camera walks end on a vertex at infinity.
+//! Paths through a smooth surface seen from the camera and lit through another (light → glass → diffuse → glass → camera) have no strategy here at all:
 //! they are the "specular–diffuse–specular" paths only photon mapping finds, and BDPT leaves them out as
 //! pbrt-v4's does (`docs/path-tracer.md`).
 
