@@ -249,8 +249,20 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     }
 
     /// Light a vertex on light `light` at `p` (normal `n` on an area light) sends along unit `w`: for a
-    /// light at infinity the radiance (environment) or irradiance (directional light) along `w`.
-    fn emitted(&self, light: usize, p: Vec3, n: Vec3, w: Vec3, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    /// light at infinity the radiance (environment) or irradiance (directional light) along `w`. The light's
+    /// spectrum goes through `last` (the previous light evaluated at the same call site of this sample).
+    /// ([`PathTracer::sampled_radiance`] is next-event estimation's; this one also has a vertex's light:
+    /// its side, a spot's cone, a luminaire's web, from a direction no light sample chose.)
+    #[allow(clippy::too_many_arguments)]
+    fn emitted(
+        &self,
+        light: usize,
+        p: Vec3,
+        n: Vec3,
+        w: Vec3,
+        lambda: &SampledWavelengths<N>,
+        last: &mut LastSpectrum<N>,
+    ) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
         let tracer = &self.tracer;
         let kind = tracer.scene.emitters.kind(light);
@@ -280,7 +292,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
                 return le;
             }
         };
-        tracer.spectra.eval(tracer.light_spectra[light], lambda) * scale
+        tracer.spectra.eval_memo(tracer.light_spectra[light], lambda, last) * scale
     }
 
     /// Whether light passes from `a` to `b` (0 to 1 through cut-outs), with Beer–Lambert absorption where
@@ -511,7 +523,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         }
         let Some(le) = emitters.sample_le(light, u1, u2) else { return };
         let n = le.n.unwrap_or(Vec3::ZERO);
-        let radiance = self.emitted(light, le.p, n, le.w, lambda);
+        let radiance = self.emitted(light, le.p, n, le.w, lambda, &mut LastSpectrum(None));
         if radiance.is_black() {
             return;
         }
@@ -578,38 +590,32 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         camera: &[Vertex<N>],
         s: usize,
         t: usize,
-        qs_sampled: Option<Vertex<N>>,
-        pt_sampled: Option<Vertex<N>>,
+        qs_sampled: Option<&Vertex<N>>,
+        pt_sampled: Option<&Vertex<N>>,
     ) -> f32 {
         if s + t == 2 {
             return 1.0;
         }
-        // Copies of the few densities the connection changes.
-        let mut qs = qs_sampled.or_else(|| s.checked_sub(1).map(|i| light[i]));
-        let mut pt = pt_sampled.unwrap_or(camera[t - 1]);
-        let mut qs_minus = if s >= 2 { Some(light[s - 2]) } else { None };
-        let mut pt_minus = if t >= 2 { Some(camera[t - 2]) } else { None };
-        pt.delta = false;
-        if let Some(q) = qs.as_mut() {
-            q.delta = false;
-        }
-        // Where pt would have been made from the light side, and pt⁻ too.
-        pt.pdf_rev = match &qs {
-            Some(q) => self.pdf(q, qs_minus.as_ref(), &pt),
-            None => self.pdf_light_origin(&pt, pt_minus.map_or(Vec3::Z, |m| (m.p - pt.p).normalize_or_zero())),
+        let qs = qs_sampled.or_else(|| s.checked_sub(1).map(|i| &light[i]));
+        let pt = pt_sampled.unwrap_or(&camera[t - 1]);
+        let qs_minus = if s >= 2 { Some(&light[s - 2]) } else { None };
+        let pt_minus = if t >= 2 { Some(&camera[t - 2]) } else { None };
+        // The reverse densities the connection changes, beside the vertices (their other fields are what
+        // the subpaths made): where pt would have been made from the light side, and pt⁻ too; qs and qs⁻
+        // from the camera side. The connection's ends are no delta events.
+        let pt_rev = match qs {
+            Some(q) => self.pdf(q, qs_minus, pt),
+            None => self.pdf_light_origin(pt, pt_minus.map_or(Vec3::Z, |m| (m.p - pt.p).normalize_or_zero())),
         };
-        if let Some(m) = pt_minus.as_mut() {
-            m.pdf_rev = match &qs {
-                Some(q) => self.pdf(&pt, Some(q), m),
-                None => self.pdf_light(&pt, m),
-            };
-        }
-        if let Some(q) = qs.as_mut() {
-            q.pdf_rev = self.pdf(&pt, pt_minus.as_ref(), q);
-        }
-        if let (Some(q), Some(m)) = (&qs, qs_minus.as_mut()) {
-            m.pdf_rev = self.pdf(q, Some(&pt), m);
-        }
+        let pt_minus_rev = pt_minus.map_or(0.0, |m| match qs {
+            Some(q) => self.pdf(pt, Some(q), m),
+            None => self.pdf_light(pt, m),
+        });
+        let qs_rev = qs.map_or(0.0, |q| self.pdf(pt, pt_minus, q));
+        let qs_minus_rev = match (qs, qs_minus) {
+            (Some(q), Some(m)) => self.pdf(q, Some(pt), m),
+            _ => 0.0,
+        };
         // A light at infinity at the path's end: next-event estimation samples its direction with another
         // density than its light subpaths do (about the shading normal, against over the sphere), so the
         // strategy s′ = 1 has its own density for that vertex, p_nee, where every s′ ≥ 2 has p_le. The
@@ -620,11 +626,11 @@ impl<'a, const N: usize> Bdpt<'a, N> {
                 let light = pt.light().expect("a light at infinity");
                 let x1 = pt_minus.expect("t ≥ 3 when s = 0 and s + t > 2");
                 let wi = (pt.p - x1.p).normalize_or_zero();
-                (self.nee_density(light, &x1, camera[t - 3].p, wi), pt.pdf_rev)
+                (self.nee_density(light, x1, camera[t - 3].p, wi), pt_rev)
             }),
             1 => qs
-                .filter(Vertex::is_infinite)
-                .map(|q| (q.pdf_fwd, self.pdf_light_origin(&q, (pt.p - q.p).normalize_or_zero()))),
+                .filter(|q| q.is_infinite())
+                .map(|q| (q.pdf_fwd, self.pdf_light_origin(q, (pt.p - q.p).normalize_or_zero()))),
             _ => light[0].is_infinite().then(|| {
                 let (x0, x1) = (&light[0], &light[1]);
                 let toward = if s >= 3 { light[2].p } else { pt.p };
@@ -638,18 +644,18 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         let densities = |v: &Vertex<N>| (v.pdf_fwd, v.pdf_rev, v.delta);
         let camera_at = |i: usize| {
             if i == t - 1 {
-                densities(&pt)
+                (pt.pdf_fwd, pt_rev, false)
             } else if t >= 2 && i == t - 2 {
-                pt_minus.as_ref().map_or((0.0, 0.0, false), densities)
+                pt_minus.map_or((0.0, 0.0, false), |m| (m.pdf_fwd, pt_minus_rev, m.delta))
             } else {
                 densities(&camera[i])
             }
         };
         let light_at = |i: usize| {
             if i == s - 1 {
-                qs.as_ref().map_or((0.0, 0.0, false), densities)
+                qs.map_or((0.0, 0.0, false), |q| (q.pdf_fwd, qs_rev, false))
             } else if s >= 2 && i == s - 2 {
-                qs_minus.as_ref().map_or((0.0, 0.0, false), densities)
+                qs_minus.map_or((0.0, 0.0, false), |m| (m.pdf_fwd, qs_minus_rev, m.delta))
             } else {
                 densities(&light[i])
             }
@@ -694,7 +700,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             let delta_light = if i > 0 {
                 light_at(i - 1).2
             } else {
-                self.is_delta_light(if s == 1 { qs.as_ref().expect("s ≥ 1") } else { &light[0] })
+                self.is_delta_light(if s == 1 { qs.expect("s ≥ 1") } else { &light[0] })
             };
             if !delta && !delta_light {
                 sum += term * term;
@@ -721,6 +727,9 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     ) -> SampledSpectrum<N> {
         let mut l = SampledSpectrum([0.0; N]);
         let max_depth = self.tracer.max_depth as usize;
+        // The wavelengths are final here (both walks have made their dispersive choices): each strategy
+        // evaluates a light's spectrum once per sample.
+        let (mut last_hit, mut last_sampled) = (LastSpectrum(None), LastSpectrum(None));
         for t in 1..=camera.len() {
             for s in 0..=light.len() {
                 let depth = (s + t) as isize - 2;
@@ -734,10 +743,10 @@ impl<'a, const N: usize> Bdpt<'a, N> {
                     continue;
                 }
                 let c = match s {
-                    0 => self.hit_light(camera, t, lambda),
+                    0 => self.hit_light(camera, t, lambda, &mut last_hit),
                     1 => {
                         sampler.start_block(NEE_BLOCKS + t as u32);
-                        self.light_sample(camera, t, lambda, sampler, count)
+                        self.light_sample(camera, t, lambda, &mut last_sampled, sampler, count)
                     }
                     _ => self.connect(light, s, camera, t, lambda, count),
                 };
@@ -748,12 +757,18 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     }
 
     /// s = 0: the camera subpath's last vertex is on an area light, or at infinity where it escaped.
-    fn hit_light(&self, camera: &[Vertex<N>], t: usize, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    fn hit_light(
+        &self,
+        camera: &[Vertex<N>],
+        t: usize,
+        lambda: &SampledWavelengths<N>,
+        last: &mut LastSpectrum<N>,
+    ) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
         let pt = &camera[t - 1];
         let Some(light) = pt.light() else { return black };
         let Some(w) = (camera[t - 2].p - pt.p).try_normalize() else { return black };
-        let le = self.emitted(light, pt.p, pt.ng, w, lambda);
+        let le = self.emitted(light, pt.p, pt.ng, w, lambda, last);
         if le.is_black() {
             return black;
         }
@@ -767,6 +782,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         camera: &[Vertex<N>],
         t: usize,
         lambda: &SampledWavelengths<N>,
+        last: &mut LastSpectrum<N>,
         sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> SampledSpectrum<N> {
@@ -790,7 +806,6 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         if f.is_black() {
             return black;
         }
-        let kind = emitters.kind(light);
         let Some(target) = ls.target else {
             // A light at infinity: a vertex along the sampled direction, of the density it was sampled
             // with (the weight tells that density from a light subpath's).
@@ -804,29 +819,14 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             if visible == 0.0 {
                 return black;
             }
-            let mut le = tracer.environment_radiance(lambda);
-            if !emitters.is_environment(light) {
-                le = tracer.spectra.eval(tracer.light_spectra[light], lambda);
-            } else if let Some(map) = emitters.environment_map() {
-                le += tracer.map_radiance(map, ls.wi, lambda);
-            }
+            let le = tracer.sampled_radiance(light, &ls, lambda, last);
             let qs = Vertex::point(Kind::Infinite { light }, pt.p + ls.wi, le, ls.pdf);
-            let weight = self.mis_weight(&[], camera, 1, t, Some(qs), None);
+            let weight = self.mis_weight(&[], camera, 1, t, Some(&qs), None);
             return pt.beta * f * le * (visible * weight * ls.scale / ls.pdf);
         };
-        // A light vertex at the sampled point: its normal on an area light.
-        let n = match *kind {
-            LightKind::Triangle { p: [p0, p1, p2], .. } => {
-                let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
-                if n.dot(-ls.wi) >= 0.0 { n } else { -n }
-            }
-            LightKind::Sphere { center, .. } => {
-                let n = (target - center).normalize_or_zero();
-                if n.dot(-ls.wi) >= 0.0 { n } else { -n }
-            }
-            _ => Vec3::ZERO,
-        };
-        let le = self.emitted(light, target, n, -ls.wi, lambda);
+        // A light vertex at the sampled point: its normal on an area light, on the side it is seen from.
+        let n = if ls.n.dot(-ls.wi) >= 0.0 { ls.n } else { -ls.n };
+        let le = self.emitted(light, target, n, -ls.wi, lambda, last);
         if le.is_black() {
             return black;
         }
@@ -838,7 +838,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         }
         qs.pdf_fwd = self.pdf_light_origin(&qs, -ls.wi);
         let Some(tr) = self.transmittance(pt, &qs, lambda, count) else { return black };
-        let weight = self.mis_weight(&[], camera, 1, t, Some(qs), None);
+        let weight = self.mis_weight(&[], camera, 1, t, Some(&qs), None);
         pt.beta * f * le * tr * (weight * ls.scale / ls.pdf)
     }
 
@@ -902,7 +902,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         let mut pt = Vertex::point(Kind::Camera, eye, SampledSpectrum([camera_beta; N]), 0.0);
         pt.pdf_fwd = 1.0;
         let Some(tr) = self.transmittance(qs, &pt, lambda, count) else { return };
-        let weight = self.mis_weight(light, camera, s, 1, None, Some(pt));
+        let weight = self.mis_weight(light, camera, s, 1, None, Some(&pt));
         c *= tr * weight;
         let (x, y) = ((x as u32).min(self.width - 1), (y as u32).min(self.height - 1));
         splats.push(Splat { x, y, l: c });

@@ -94,6 +94,8 @@ pub(crate) struct LiSample {
     pub(crate) scale: f32,
     /// A point, spot or directional light: no other strategy can find it, so no MIS.
     pub(crate) delta: bool,
+    /// The geometric normal at `target` on an area light (either side); zero for a point and at infinity.
+    pub(crate) n: Vec3,
 }
 
 /// A ray leaving a light ([`LightKind::sample_le`]).
@@ -142,7 +144,7 @@ impl LightKind {
     #[inline]
     pub(crate) fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, pmf: f32) -> Option<LiSample> {
         let delta = self.is_delta();
-        let sample = |wi, target, pdf, scale| LiSample { wi, target, pdf, scale, delta };
+        let sample = |wi, target, pdf, scale| LiSample { wi, target, pdf, scale, delta, n: Vec3::ZERO };
         match *self {
             Self::Point { position } => {
                 let (wi, falloff) = towards_point(ctx.p, position)?;
@@ -181,7 +183,7 @@ impl LightKind {
                 }
                 // Uniform by area, converted to solid angle: d² / (A |cos θ_light|).
                 let pdf = pmf * distance2 / (area * cos_light);
-                pdf.is_finite().then(|| sample(wi, Some(q), pdf, 1.0))
+                pdf.is_finite().then(|| LiSample { n: n_light, ..sample(wi, Some(q), pdf, 1.0) })
             }
         }
     }
@@ -556,7 +558,14 @@ impl Emitters {
             cosine_hemisphere(ctx.ns, Vec2::new(((u.x - p) / (1.0 - p)).min(1.0 - f32::EPSILON / 2.0), u.y))
         };
         let pdf = pmf * self.environment_map_pdf(map, ctx, wi);
-        (pdf > 0.0 && pdf.is_finite()).then_some(LiSample { wi, target: None, pdf, scale: 1.0, delta: false })
+        (pdf > 0.0 && pdf.is_finite()).then_some(LiSample {
+            wi,
+            target: None,
+            pdf,
+            scale: 1.0,
+            delta: false,
+            n: Vec3::ZERO,
+        })
     }
 
     /// The density per steradian of [`Emitters::sample_environment_map`], without the light's pmf.
