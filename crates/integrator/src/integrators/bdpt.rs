@@ -9,10 +9,9 @@
 //! either side keeps one wavelength (the hero; with fixed lanes one lane) for the whole sample. Surfaces are
 //! the path tracer's (`PathTracer::scattering`): every material, texture and cut-out renders alike.
 //!
-//! Lights at infinity (the environment, a directional light) start no light subpath: their light is found
-//! from the camera side, by BSDF sampling and next-event estimation weighted against each other as in the
-//! path tracer, since no other strategy can make those paths. Paths through a smooth surface seen from the
-//! camera and lit through another (light → glass → diffuse → glass → camera) have no strategy here at all:
+//! Lights at infinity (the environment, a directional light) start light subpaths on a disc the size of the
+//! scene (pbrt-v4's construction, `Emitters::sample_le`); escaping camera walks end on a vertex at infinity.
+//! Paths through a smooth surface seen from the camera and lit through another (light → glass → diffuse → glass → camera) have no strategy here at all:
 //! they are the "specular–diffuse–specular" paths only photon mapping finds, and BDPT leaves them out as
 //! pbrt-v4's does (`docs/path-tracer.md`).
 
@@ -41,6 +40,12 @@ enum Kind {
     Camera,
     /// A light subpath's first vertex: light `light` of the scene's emitters.
     Light { light: usize },
+    /// A light at infinity (the environment, a directional light): a light subpath's first vertex, a
+    /// direction sampled towards it from the camera side, or where a camera subpath escapes. Its `p` is a
+    /// point along its direction from the next vertex (so that directions to it are right); densities to
+    /// it stay per steradian, and the next vertex's density from it is per unit area of the disc light
+    /// from infinity enters through (pbrt-v4 `Vertex::IsInfiniteLight`).
+    Infinite { light: usize },
     /// A surface the walk hit.
     Surface,
 }
@@ -97,19 +102,25 @@ impl<const N: usize> Vertex<N> {
         self.ng != Vec3::ZERO
     }
 
-    /// Whether a connection can end here: a light, the camera, or a surface with a non-delta lobe.
+    /// Whether a connection can end here: a finite light, the camera, or a surface with a non-delta lobe
+    /// (a light at infinity is reached by next-event estimation and escaping rays only).
     pub(super) fn connectible(&self) -> bool {
         match self.kind {
             Kind::Surface => self.bsdf.is_some_and(|b| !b.is_specular()),
+            Kind::Infinite { .. } => false,
             _ => true,
         }
+    }
+
+    fn is_infinite(&self) -> bool {
+        matches!(self.kind, Kind::Infinite { .. })
     }
 
     /// The light this vertex stands for as a subpath's light end: a light vertex's, or an emitting
     /// surface's.
     fn light(&self) -> Option<usize> {
         match self.kind {
-            Kind::Light { light } => Some(light),
+            Kind::Light { light } | Kind::Infinite { light } => Some(light),
             Kind::Surface => self.emitter,
             Kind::Camera => None,
         }
@@ -166,8 +177,12 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         }
     }
 
-    /// A density per steradian at `from` towards `to`, per unit area at `to`.
+    /// A density per steradian at `from` towards `to`, per unit area at `to`; per steradian still where
+    /// `to` is at infinity (pbrt-v4 `Vertex::ConvertDensity`).
     fn to_area(pdf: f32, from: Vec3, to: &Vertex<N>) -> f32 {
+        if to.is_infinite() {
+            return pdf;
+        }
         let d = to.p - from;
         let d2 = d.length_squared();
         if !(d2 > 0.0) {
@@ -187,7 +202,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         let Some(w) = w.try_normalize() else { return 0.0 };
         let pdf_dir = match v.kind {
             Kind::Camera => self.camera_pdf_dir(w),
-            Kind::Light { .. } => return self.pdf_light(v, next),
+            Kind::Light { .. } | Kind::Infinite { .. } => return self.pdf_light(v, next),
             Kind::Surface => {
                 let (Some(prev), Some(bsdf)) = (prev, v.bsdf) else { return self.pdf_light(v, next) };
                 let Some(wo) = (prev.p - v.p).try_normalize() else { return 0.0 };
@@ -198,25 +213,69 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     }
 
     /// Density (per unit area at `next`) with which light vertex `v` emits towards `next` (pbrt-v4
-    /// `Vertex::PdfLight`); 0 for lights at infinity.
+    /// `Vertex::PdfLight`); from a light at infinity the disc's density, per unit area across the
+    /// direction, times the cosine at `next`.
     fn pdf_light(&self, v: &Vertex<N>, next: &Vertex<N>) -> f32 {
         let Some(light) = v.light() else { return 0.0 };
         let Some(w) = (next.p - v.p).try_normalize() else { return 0.0 };
-        let (_, pdf_dir) = self.tracer.scene.emitters.kind(light).pdf_le(v.ng, w);
+        let emitters = &self.tracer.scene.emitters;
+        if v.is_infinite() {
+            let cos = if next.on_surface() { next.ng.dot(w).abs() } else { 1.0 };
+            return emitters.disc_pdf() * cos;
+        }
+        let (_, pdf_dir) = emitters.kind(light).pdf_le(v.ng, w);
         Self::to_area(pdf_dir, v.p, next)
     }
 
     /// Density per unit area with which a light subpath starts at light vertex `v` (pbrt-v4
-    /// `Vertex::PdfLightOrigin`): the light's choice probability times its position density.
+    /// `Vertex::PdfLightOrigin`): the light's choice probability times its position density; for a light
+    /// at infinity times the density of its direction instead (`toward` from the light).
     fn pdf_light_origin(&self, v: &Vertex<N>, toward: Vec3) -> f32 {
         let Some(light) = v.light() else { return 0.0 };
+        if v.is_infinite() {
+            return self.le_density(light, -toward);
+        }
         let emitters = &self.tracer.scene.emitters;
         let (pdf_pos, _) = emitters.kind(light).pdf_le(v.ng, toward);
         emitters.probability(light) * pdf_pos
     }
 
-    /// Light a vertex on light `light` at `p` (normal `n` on an area light) sends along unit `w`.
-    fn emitted(&self, light: usize, p: Vec3, n: Vec3, w: Vec3, lambda: &SampledWavelengths<N>) -> SampledSpectrum<N> {
+    /// Density with which a light subpath leaves light at infinity `light` from direction `wi` (unit,
+    /// towards the light): its choice probability times the direction's density (times 1 for a directional
+    /// light, whose direction is certain).
+    fn le_density(&self, light: usize, wi: Vec3) -> f32 {
+        let emitters = &self.tracer.scene.emitters;
+        emitters.probability(light) * emitters.pdf_le(light, Vec3::ZERO, -wi).1
+    }
+
+    /// Density with which next-event estimation at surface vertex `x`, seen from `toward` (the next vertex
+    /// on the camera's side), picks direction `wi` to light at infinity `light`, the light's choice
+    /// included ([`Emitters::sample_li`]: about the shading normal on that side).
+    fn nee_density(&self, light: usize, x: &Vertex<N>, toward: Vec3, wi: Vec3) -> f32 {
+        let emitters = &self.tracer.scene.emitters;
+        if emitters.kind(light).is_delta() {
+            return emitters.probability(light);
+        }
+        let Some(wo) = (toward - x.p).try_normalize() else { return 0.0 };
+        let ns = x.frame.facing(wo).1;
+        emitters.pdf_li_escaped(&LightSampleContext { p: x.p, ns }, wi)
+    }
+
+    /// Light a vertex on light `light` at `p` (normal `n` on an area light) sends along unit `w`: for a
+    /// light at infinity the radiance (environment) or irradiance (directional light) along `w`. The light's
+    /// spectrum goes through `last` (the previous light evaluated at the same call site of this sample).
+    /// ([`PathTracer::sampled_radiance`] is next-event estimation's; this one also has a vertex's light:
+    /// its side, a spot's cone, a luminaire's web, from a direction no light sample chose.)
+    #[allow(clippy::too_many_arguments)]
+    fn emitted(
+        &self,
+        light: usize,
+        p: Vec3,
+        n: Vec3,
+        w: Vec3,
+        lambda: &SampledWavelengths<N>,
+        last: &mut LastSpectrum<N>,
+    ) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
         let tracer = &self.tracer;
         let kind = tracer.scene.emitters.kind(light);
@@ -237,9 +296,16 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             LightKind::Spot { direction, cos_inner, cos_outer, .. } => {
                 crate::lights::smoothstep(cos_outer, cos_inner, w.dot(direction))
             }
-            LightKind::Directional { .. } | LightKind::Environment => return black,
+            LightKind::Directional { .. } => 1.0,
+            LightKind::Environment => {
+                let mut le = tracer.environment_radiance(lambda);
+                if let Some(map) = tracer.scene.emitters.environment_map() {
+                    le += tracer.map_radiance(map, -w, lambda);
+                }
+                return le;
+            }
         };
-        tracer.spectra.eval(tracer.light_spectra[light], lambda) * scale
+        tracer.spectra.eval_memo(tracer.light_spectra[light], lambda, last) * scale
     }
 
     /// Whether light passes from `a` to `b` (0 to 1 through cut-outs), with Beer–Lambert absorption where
@@ -284,9 +350,10 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         Some(tr)
     }
 
-    /// Extend `path` (whose last vertex sent `ray` with density `pdf_dir` per steradian and throughput
-    /// `beta`) by a random walk of at most `max` vertices in all (pbrt-v4 `RandomWalk`). A camera walk that
-    /// escapes returns the environment's radiance along the escaping ray, weighted against light sampling.
+    /// Extend `path` (whose last vertex sent `ray` with density `pdf_dir` per steradian, per unit area
+    /// across the ray from a light at infinity, and throughput `beta`) by a random walk of at most `max`
+    /// vertices in all (pbrt-v4 `RandomWalk`). A camera walk that escapes into an environment ends on a
+    /// vertex at infinity (strategy s = 0).
     #[allow(clippy::too_many_arguments)]
     fn walk<const ROUGH: bool>(
         &self,
@@ -301,26 +368,23 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         lane: &mut Option<usize>,
         sampler: &mut Sampler,
         count: &mut RayCount,
-    ) -> SampledSpectrum<N> {
+    ) {
         let tracer = &self.tracer;
         let scene = tracer.scene;
-        let mut escaped = SampledSpectrum([0.0; N]);
         let mut pdf_fwd = pdf_dir;
         let mut eta_scale = 1.0f32;
         let mut skipped = 0.0f32;
         let mut skips = 0u32;
         let mut last = LastSpectrum(None);
         let mut bounce = 0u32;
-        // Whether the ray left a delta lobe (the camera counts as one for the environment's MIS).
-        let mut specular = true;
-        let mut prev_ns = Vec3::Z;
         while path.len() < max {
             count.rays += 1;
             let Some(hit) = scene.geometry.intersect(&ray, f32::INFINITY) else {
-                if mode == Mode::Radiance && scene.emitters.has_environment() {
-                    let bsdf = if specular { None } else { Some((pdf_fwd, prev_ns)) };
-                    let (le, weight) = tracer.escaped_radiance(&ray, lambda, bsdf);
-                    escaped = beta * le * weight;
+                if mode == Mode::Radiance
+                    && let Some(light) = scene.emitters.environment()
+                {
+                    let from = path.last().expect("a walk starts from a vertex").p;
+                    path.push(Vertex::point(Kind::Infinite { light }, from + ray.dir.normalize(), beta, pdf_fwd));
                 }
                 break;
             };
@@ -360,7 +424,12 @@ impl<'a, const N: usize> Bdpt<'a, N> {
                 absorbs: m.sigma_a.is_some(),
                 material: hit.material,
             };
-            v.pdf_fwd = Self::to_area(pdf_fwd, prev.p, &v);
+            v.pdf_fwd = if prev.is_infinite() {
+                // From infinity: the disc's density across the ray, per unit area here.
+                pdf_fwd * hit.n.dot(wo).abs()
+            } else {
+                Self::to_area(pdf_fwd, prev.p, &v)
+            };
             if m.emission.is_some() && mode == Mode::Radiance {
                 v.emitter = scene.emitters.light_of_primitive(hit.primitive);
             }
@@ -406,8 +475,6 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             path[i].delta = delta;
             path[i - 1].pdf_rev = Self::to_area(pdf_back, hit.p, &prev);
             pdf_fwd = pdf_next;
-            specular = delta;
-            prev_ns = frame.facing(wo).1;
             ray = spawn_ray(&hit, s.wi);
             bounce += 1;
             if bounce >= tracer.rr_depth {
@@ -424,11 +491,9 @@ impl<'a, const N: usize> Bdpt<'a, N> {
                 }
             }
         }
-        escaped
     }
 
-    /// The camera subpath of `ray` (a unit direction from the pinhole); returns the environment's light
-    /// the walk found (strategy s = 0 on lights at infinity).
+    /// The camera subpath of `ray` (a unit direction from the pinhole).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn camera_subpath<const ROUGH: bool>(
         &self,
@@ -439,7 +504,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         lane: &mut Option<usize>,
         sampler: &mut Sampler,
         count: &mut RayCount,
-    ) -> SampledSpectrum<N> {
+    ) {
         path.clear();
         let one = SampledSpectrum([1.0; N]);
         path.push(Vertex::point(Kind::Camera, ray.origin, one, 1.0));
@@ -451,7 +516,8 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     }
 
     /// The light subpath: a light chosen ∝ power, a ray leaving it, a walk (pbrt-v4
-    /// `GenerateLightSubpath`). Empty where the chosen light is at infinity or sends nothing.
+    /// `GenerateLightSubpath`). A light at infinity starts it on the disc its light enters the scene
+    /// through ([`Emitters::sample_le`]). Empty where the chosen light sends nothing.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn light_subpath<const ROUGH: bool>(
         &self,
@@ -471,10 +537,33 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         if pmf <= 0.0 {
             return;
         }
-        let Some(le) = emitters.kind(light).sample_le(u1, u2) else { return };
+        let Some(le) = emitters.sample_le(light, u1, u2) else { return };
         let n = le.n.unwrap_or(Vec3::ZERO);
-        let radiance = self.emitted(light, le.p, n, le.w, lambda);
+        let radiance = self.emitted(light, le.p, n, le.w, lambda, &mut LastSpectrum(None));
         if radiance.is_black() {
+            return;
+        }
+        let max = self.tracer.max_depth as usize + 1;
+        if emitters.kind(light).is_infinite() {
+            // pbrt-v4's densities: the light vertex's is its direction's, the first surface's the
+            // disc's (set by the walk); radiance over the disc's and the direction's densities.
+            let pdf_origin = pmf * le.pdf_dir;
+            path.push(Vertex::point(Kind::Infinite { light }, le.p, radiance * (1.0 / (pmf * le.pdf_pos)), pdf_origin));
+            let beta = radiance * (1.0 / (pdf_origin * le.pdf_pos));
+            let ray = Ray { origin: le.p, dir: le.w };
+            self.walk::<ROUGH>(
+                ray,
+                beta,
+                le.pdf_pos,
+                Mode::Importance,
+                path,
+                max,
+                lambda,
+                sensor,
+                lane,
+                sampler,
+                count,
+            );
             return;
         }
         let pdf_origin = pmf * le.pdf_pos;
@@ -493,7 +582,6 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         };
         path.push(v);
         let beta = radiance * (cos / (pdf_origin * le.pdf_dir));
-        let max = self.tracer.max_depth as usize + 1;
         self.walk::<ROUGH>(ray, beta, le.pdf_dir, Mode::Importance, path, max, lambda, sensor, lane, sampler, count);
     }
 
@@ -518,55 +606,72 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         camera: &[Vertex<N>],
         s: usize,
         t: usize,
-        qs_sampled: Option<Vertex<N>>,
-        pt_sampled: Option<Vertex<N>>,
+        qs_sampled: Option<&Vertex<N>>,
+        pt_sampled: Option<&Vertex<N>>,
     ) -> f32 {
         if s + t == 2 || self.gather {
             return 1.0;
         }
-        // Copies of the few densities the connection changes.
-        let mut qs = qs_sampled.or_else(|| s.checked_sub(1).map(|i| light[i]));
-        let mut pt = pt_sampled.unwrap_or(camera[t - 1]);
-        let mut qs_minus = if s >= 2 { Some(light[s - 2]) } else { None };
-        let mut pt_minus = if t >= 2 { Some(camera[t - 2]) } else { None };
-        pt.delta = false;
-        if let Some(q) = qs.as_mut() {
-            q.delta = false;
-        }
-        // Where pt would have been made from the light side, and pt⁻ too.
-        pt.pdf_rev = match &qs {
-            Some(q) => self.pdf(q, qs_minus.as_ref(), &pt),
-            None => self.pdf_light_origin(&pt, pt_minus.map_or(Vec3::Z, |m| (m.p - pt.p).normalize_or_zero())),
+        let qs = qs_sampled.or_else(|| s.checked_sub(1).map(|i| &light[i]));
+        let pt = pt_sampled.unwrap_or(&camera[t - 1]);
+        let qs_minus = if s >= 2 { Some(&light[s - 2]) } else { None };
+        let pt_minus = if t >= 2 { Some(&camera[t - 2]) } else { None };
+        // The reverse densities the connection changes, beside the vertices (their other fields are what
+        // the subpaths made): where pt would have been made from the light side, and pt⁻ too; qs and qs⁻
+        // from the camera side. The connection's ends are no delta events.
+        let pt_rev = match qs {
+            Some(q) => self.pdf(q, qs_minus, pt),
+            None => self.pdf_light_origin(pt, pt_minus.map_or(Vec3::Z, |m| (m.p - pt.p).normalize_or_zero())),
         };
-        if let Some(m) = pt_minus.as_mut() {
-            m.pdf_rev = match &qs {
-                Some(q) => self.pdf(&pt, Some(q), m),
-                None => self.pdf_light(&pt, m),
-            };
-        }
-        if let Some(q) = qs.as_mut() {
-            q.pdf_rev = self.pdf(&pt, pt_minus.as_ref(), q);
-        }
-        if let (Some(q), Some(m)) = (&qs, qs_minus.as_mut()) {
-            m.pdf_rev = self.pdf(q, Some(&pt), m);
-        }
+        let pt_minus_rev = pt_minus.map_or(0.0, |m| match qs {
+            Some(q) => self.pdf(pt, Some(q), m),
+            None => self.pdf_light(pt, m),
+        });
+        let qs_rev = qs.map_or(0.0, |q| self.pdf(pt, pt_minus, q));
+        let qs_minus_rev = match (qs, qs_minus) {
+            (Some(q), Some(m)) => self.pdf(q, Some(pt), m),
+            _ => 0.0,
+        };
+        // A light at infinity at the path's end: next-event estimation samples its direction with another
+        // density than its light subpaths do (about the shading normal, against over the sphere), so the
+        // strategy s′ = 1 has its own density for that vertex, p_nee, where every s′ ≥ 2 has p_le. The
+        // ratios below carry p_le (in the vertex's pdf_fwd or pdf_rev), and the terms are corrected by
+        // p_nee / p_le for s′ = 1, or all others by p_le / p_nee when this strategy is s = 1.
+        let infinite = match s {
+            0 => pt.is_infinite().then(|| {
+                let light = pt.light().expect("a light at infinity");
+                let x1 = pt_minus.expect("t ≥ 3 when s = 0 and s + t > 2");
+                let wi = (pt.p - x1.p).normalize_or_zero();
+                (self.nee_density(light, x1, camera[t - 3].p, wi), pt_rev)
+            }),
+            1 => qs
+                .filter(|q| q.is_infinite())
+                .map(|q| (q.pdf_fwd, self.pdf_light_origin(q, (pt.p - q.p).normalize_or_zero()))),
+            _ => light[0].is_infinite().then(|| {
+                let (x0, x1) = (&light[0], &light[1]);
+                let toward = if s >= 3 { light[2].p } else { pt.p };
+                let wi = (x0.p - x1.p).normalize_or_zero();
+                let nee = self.nee_density(x0.light().expect("a light at infinity"), x1, toward, wi);
+                (nee, x0.pdf_fwd)
+            }),
+        };
         let remap = |p: f32| if p != 0.0 { p } else { 1.0 };
         // (pdf_fwd, pdf_rev, delta) of each vertex, the connection's four changed ones in place.
         let densities = |v: &Vertex<N>| (v.pdf_fwd, v.pdf_rev, v.delta);
         let camera_at = |i: usize| {
             if i == t - 1 {
-                densities(&pt)
+                (pt.pdf_fwd, pt_rev, false)
             } else if t >= 2 && i == t - 2 {
-                pt_minus.as_ref().map_or((0.0, 0.0, false), densities)
+                pt_minus.map_or((0.0, 0.0, false), |m| (m.pdf_fwd, pt_minus_rev, m.delta))
             } else {
                 densities(&camera[i])
             }
         };
         let light_at = |i: usize| {
             if i == s - 1 {
-                qs.as_ref().map_or((0.0, 0.0, false), densities)
+                qs.map_or((0.0, 0.0, false), |q| (q.pdf_fwd, qs_rev, false))
             } else if s >= 2 && i == s - 2 {
-                qs_minus.as_ref().map_or((0.0, 0.0, false), densities)
+                qs_minus.map_or((0.0, 0.0, false), |m| (m.pdf_fwd, qs_minus_rev, m.delta))
             } else {
                 densities(&light[i])
             }
@@ -575,23 +680,46 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         let mut ri = 1.0f32;
         for i in (1..t).rev() {
             let (fwd, rev, delta) = camera_at(i);
-            ri *= remap(rev) / remap(fwd);
             // (s′, t′) = (s + t − i, i).
+            let term = match infinite {
+                None => {
+                    ri *= remap(rev) / remap(fwd);
+                    ri
+                }
+                // The vertex at infinity itself (s = 0): s′ = 1 samples it with p_nee, s′ ≥ 2 with p_le
+                // (not remapped: 0 there means no light subpath makes this path).
+                Some((nee, le)) if s == 0 && i == t - 1 => {
+                    ri = le / remap(fwd);
+                    nee / remap(fwd)
+                }
+                Some(_) if s == 0 => {
+                    ri *= remap(rev) / remap(fwd);
+                    ri
+                }
+                Some((nee, le)) => {
+                    ri *= remap(rev) / remap(fwd);
+                    if s == 1 { ri * (le / nee) } else { ri }
+                }
+            };
             if !delta && !camera_at(i - 1).2 {
-                sum += ri * ri;
+                sum += term * term;
             }
         }
         ri = 1.0;
         for i in (0..s).rev() {
             let (fwd, rev, delta) = light_at(i);
             ri *= remap(rev) / remap(fwd);
+            let term = match infinite {
+                Some((nee, le)) if s >= 2 && i == 1 => ri * (nee / le),
+                _ => ri,
+            };
             let delta_light = if i > 0 {
                 light_at(i - 1).2
             } else {
-                self.is_delta_light(if s == 1 { qs.as_ref().expect("s ≥ 1") } else { &light[0] })
+                self.is_delta_light(if s == 1 { qs.expect("s ≥ 1") } else { &light[0] })
             };
             if !delta && !delta_light {
-                sum += ri * ri;
+                sum += term * term;
             }
         }
         // (A density ratio that overflows makes this strategy's weight 0, as its limit is.)
@@ -615,6 +743,9 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     ) -> SampledSpectrum<N> {
         let mut l = SampledSpectrum([0.0; N]);
         let max_depth = self.tracer.max_depth as usize;
+        // The wavelengths are final here (both walks have made their dispersive choices): each strategy
+        // evaluates a light's spectrum once per sample.
+        let (mut last_hit, mut last_sampled) = (LastSpectrum(None), LastSpectrum(None));
         for t in 1..=camera.len() {
             for s in 0..=light.len() {
                 let depth = (s + t) as isize - 2;
@@ -628,10 +759,10 @@ impl<'a, const N: usize> Bdpt<'a, N> {
                     continue;
                 }
                 let c = match s {
-                    0 => self.hit_light(camera, t, lambda),
+                    0 => self.hit_light(camera, t, lambda, &mut last_hit),
                     1 => {
                         sampler.start_block(NEE_BLOCKS + t as u32);
-                        self.light_sample(camera, t, lambda, sampler, count)
+                        self.light_sample(camera, t, lambda, &mut last_sampled, sampler, count)
                     }
                     _ => self.connect(light, s, camera, t, lambda, count),
                 };
@@ -641,18 +772,19 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         l
     }
 
-    /// s = 0: the camera subpath's last vertex is on an area light.
+    /// s = 0: the camera subpath's last vertex is on an area light, or at infinity where it escaped.
     pub(super) fn hit_light(
         &self,
         camera: &[Vertex<N>],
         t: usize,
         lambda: &SampledWavelengths<N>,
+        last: &mut LastSpectrum<N>,
     ) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
         let pt = &camera[t - 1];
-        let Some(light) = pt.emitter else { return black };
+        let Some(light) = pt.light() else { return black };
         let Some(w) = (camera[t - 2].p - pt.p).try_normalize() else { return black };
-        let le = self.emitted(light, pt.p, pt.ng, w, lambda);
+        let le = self.emitted(light, pt.p, pt.ng, w, lambda, last);
         if le.is_black() {
             return black;
         }
@@ -666,6 +798,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         camera: &[Vertex<N>],
         t: usize,
         lambda: &SampledWavelengths<N>,
+        last: &mut LastSpectrum<N>,
         sampler: &mut Sampler,
         count: &mut RayCount,
     ) -> SampledSpectrum<N> {
@@ -689,9 +822,9 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         if f.is_black() {
             return black;
         }
-        let kind = emitters.kind(light);
         let Some(target) = ls.target else {
-            // A light at infinity: only BSDF sampling competes (the path tracer's weight).
+            // A light at infinity: a vertex along the sampled direction, of the density it was sampled
+            // with (the weight tells that density from a light subpath's).
             count.shadow_ray();
             let visible = if tracer.scene.alpha_cutouts {
                 tracer.visibility(&hit, None, None, ls.wi, count)
@@ -702,32 +835,14 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             if visible == 0.0 {
                 return black;
             }
-            let mut le = tracer.environment_radiance(lambda);
-            if !emitters.is_environment(light) {
-                le = tracer.spectra.eval(tracer.light_spectra[light], lambda);
-            } else if let Some(map) = emitters.environment_map() {
-                le += tracer.map_radiance(map, ls.wi, lambda);
-            }
-            let weight = if ls.delta || self.gather {
-                1.0
-            } else {
-                crate::sampling::power_heuristic(ls.pdf, bsdf.pdf(&pt.frame, wo, ls.wi))
-            };
+            let le = tracer.sampled_radiance(light, &ls, lambda, last);
+            let qs = Vertex::point(Kind::Infinite { light }, pt.p + ls.wi, le, ls.pdf);
+            let weight = self.mis_weight(&[], camera, 1, t, Some(&qs), None);
             return pt.beta * f * le * (visible * weight * ls.scale / ls.pdf);
         };
-        // A light vertex at the sampled point: its normal on an area light.
-        let n = match *kind {
-            LightKind::Triangle { p: [p0, p1, p2], .. } => {
-                let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
-                if n.dot(-ls.wi) >= 0.0 { n } else { -n }
-            }
-            LightKind::Sphere { center, .. } => {
-                let n = (target - center).normalize_or_zero();
-                if n.dot(-ls.wi) >= 0.0 { n } else { -n }
-            }
-            _ => Vec3::ZERO,
-        };
-        let le = self.emitted(light, target, n, -ls.wi, lambda);
+        // A light vertex at the sampled point: its normal on an area light, on the side it is seen from.
+        let n = if ls.n.dot(-ls.wi) >= 0.0 { ls.n } else { -ls.n };
+        let le = self.emitted(light, target, n, -ls.wi, lambda, last);
         if le.is_black() {
             return black;
         }
@@ -739,7 +854,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         }
         qs.pdf_fwd = self.pdf_light_origin(&qs, -ls.wi);
         let Some(tr) = self.transmittance(pt, &qs, lambda, count) else { return black };
-        let weight = self.mis_weight(&[], camera, 1, t, Some(qs), None);
+        let weight = self.mis_weight(&[], camera, 1, t, Some(&qs), None);
         pt.beta * f * le * tr * (weight * ls.scale / ls.pdf)
     }
 
@@ -803,7 +918,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         let mut pt = Vertex::point(Kind::Camera, eye, SampledSpectrum([camera_beta; N]), 0.0);
         pt.pdf_fwd = 1.0;
         let Some(tr) = self.transmittance(qs, &pt, lambda, count) else { return };
-        let weight = self.mis_weight(light, camera, s, 1, None, Some(pt));
+        let weight = self.mis_weight(light, camera, s, 1, None, Some(&pt));
         c *= tr * weight;
         let (x, y) = ((x as u32).min(self.width - 1), (y as u32).min(self.height - 1));
         splats.push(Splat { x, y, l: c });
@@ -822,10 +937,13 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     ) -> Radiance<N> {
         let mut lane = None;
         let (mut camera, mut light) = (Vec::with_capacity(8), Vec::with_capacity(8));
-        let escaped = self.camera_subpath::<ROUGH>(ray, &mut camera, lambda, sensor, &mut lane, sampler, count);
+        self.camera_subpath::<ROUGH>(ray, &mut camera, lambda, sensor, &mut lane, sampler, count);
         self.light_subpath::<ROUGH>(&mut light, lambda, sensor, &mut lane, sampler, count);
-        let first = camera.get(1).map_or(ObjectId::Background, |v| ObjectId::Material(v.material));
-        let l = escaped + self.connect_all(&camera, &light, lambda, sampler, count, splats);
+        let first = match camera.get(1) {
+            Some(v) if v.kind == Kind::Surface => ObjectId::Material(v.material),
+            _ => ObjectId::Background,
+        };
+        let l = self.connect_all(&camera, &light, lambda, sampler, count, splats);
         Radiance { l, first, lane }
     }
 }

@@ -24,7 +24,7 @@ use crate::film::{ObjectId, Sensor, WavelengthTable};
 use crate::integrators::fluorescence::FluorescenceTables;
 use crate::integrators::kernel::{Kernel, Radiance, RayCount, Splat};
 use crate::lights::envmap::EnvironmentMap;
-use crate::lights::{Emission, LightSampleContext, emits_towards};
+use crate::lights::{Emission, LiSample, LightSampleContext, emits_towards};
 use crate::options::{PathOptions, WavelengthPdf};
 use crate::sampling::{Sampler, power_heuristic};
 use crate::scene::RenderScene;
@@ -67,7 +67,12 @@ impl<const N: usize> Spectra<N> {
     /// interpolated before: with `hero:4` on the Cornell box the interpolation was 11 % of the
     /// instructions (docs/perf.md). Fixed lanes read their projected table and leave `last` alone.
     #[inline]
-    fn eval_memo(&self, id: SpecId, lambda: &SampledWavelengths<N>, last: &mut LastSpectrum<N>) -> SampledSpectrum<N> {
+    pub(super) fn eval_memo(
+        &self,
+        id: SpecId,
+        lambda: &SampledWavelengths<N>,
+        last: &mut LastSpectrum<N>,
+    ) -> SampledSpectrum<N> {
         match self {
             Self::Fixed(v) => v[id as usize],
             Self::Dense(v) => {
@@ -1157,7 +1162,29 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         if visible == 0.0 {
             return black;
         }
-        let le = if self.scene.emitters.is_environment(light) {
+        let le = self.sampled_radiance(light, &ls, lambda, last_light);
+        if ls.delta {
+            f * le * (visible * ls.scale / ls.pdf)
+        } else {
+            let weight = power_heuristic(ls.pdf, bsdf.pdf(frame, wo, ls.wi));
+            f * le * (visible * weight / ls.pdf)
+        }
+    }
+}
+
+impl<const N: usize> PathTracer<'_, N> {
+    /// The light that light sample `ls` of light `light` brings (next-event estimation, here and in bdpt):
+    /// the environment's along `ls.wi` (with its map), an emissive texture's at the sampled point, else the
+    /// light's spectrum (through `last`, the previous light this path evaluated).
+    #[inline(always)]
+    pub(super) fn sampled_radiance(
+        &self,
+        light: usize,
+        ls: &LiSample,
+        lambda: &SampledWavelengths<N>,
+        last: &mut LastSpectrum<N>,
+    ) -> SampledSpectrum<N> {
+        if self.scene.emitters.is_environment(light) {
             let mut le = self.environment_radiance(lambda);
             if let Some(map) = self.scene.emitters.environment_map() {
                 le += self.map_radiance(map, ls.wi, lambda);
@@ -1168,13 +1195,7 @@ impl<'a, const N: usize> PathTracer<'a, N> {
         {
             le
         } else {
-            self.spectra.eval_memo(self.light_spectra[light], lambda, last_light)
-        };
-        if ls.delta {
-            f * le * (visible * ls.scale / ls.pdf)
-        } else {
-            let weight = power_heuristic(ls.pdf, bsdf.pdf(frame, wo, ls.wi));
-            f * le * (visible * weight / ls.pdf)
+            self.spectra.eval_memo(self.light_spectra[light], lambda, last)
         }
     }
 }

@@ -55,7 +55,7 @@ use crate::film::splat::{SPLAT_BATCH, SplatValue};
 use crate::film::{Film, ObjectId, Sensor};
 use crate::integrators::bdpt::{Bdpt, Vertex};
 use crate::integrators::kernel::RayCount;
-use crate::integrators::path::PathTracer;
+use crate::integrators::path::{LastSpectrum, PathTracer};
 use crate::sampling::{Rng, Sampler};
 
 /// The radius schedule's α (Hachisuka & Jensen 2009): the share of this iteration's photons a pixel keeps.
@@ -366,7 +366,7 @@ impl<'a, const N: usize> PhotonMapping<'a, N> {
                     let ray = self.camera.generate_ray(x as f32 + jitter.x, y as f32 + jitter.y, width, height);
                     let mut lambda = *lambda;
                     let mut lane = None;
-                    let mut l = self.walks.camera_subpath::<ROUGH>(
+                    self.walks.camera_subpath::<ROUGH>(
                         &ray,
                         &mut path,
                         &mut lambda,
@@ -375,13 +375,17 @@ impl<'a, const N: usize> PhotonMapping<'a, N> {
                         &mut sampler,
                         &mut count,
                     );
+                    // Light met through delta vertices (an area light, the environment the path escaped
+                    // to), then a light sampled at the visible point.
+                    let mut l = SampledSpectrum([0.0; N]);
+                    let mut last = LastSpectrum(None);
                     for t in 2..=path.len() {
-                        l += self.walks.hit_light(&path, t, &lambda);
+                        l += self.walks.hit_light(&path, t, &lambda, &mut last);
                     }
                     let t = path.len();
                     let vp = path.last().filter(|v| t >= 2 && v.connectible() && v.bsdf.is_some());
                     if vp.is_some() {
-                        l += self.walks.light_sample(&path, t, &lambda, &mut sampler, &mut count);
+                        l += self.walks.light_sample(&path, t, &lambda, &mut last, &mut sampler, &mut count);
                     }
                     if k == 0 {
                         let first = path.get(1).map_or(ObjectId::Background, |v| ObjectId::Material(v.material));

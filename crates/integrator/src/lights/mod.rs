@@ -15,7 +15,7 @@ use std::sync::Arc;
 use colorimetry::DenselySampledSpectrum;
 use geometry::{Primitive, Scene};
 use glam::{Vec2, Vec3};
-use materials::sampling::{cosine_hemisphere, uniform_sphere};
+use materials::sampling::{concentric_disk, cosine_hemisphere, uniform_sphere};
 
 pub(crate) mod cie_sky;
 pub(crate) mod envmap;
@@ -94,6 +94,8 @@ pub(crate) struct LiSample {
     pub(crate) scale: f32,
     /// A point, spot or directional light: no other strategy can find it, so no MIS.
     pub(crate) delta: bool,
+    /// The geometric normal at `target` on an area light (either side); zero for a point and at infinity.
+    pub(crate) n: Vec3,
 }
 
 /// A ray leaving a light ([`LightKind::sample_le`]).
@@ -105,9 +107,10 @@ pub(crate) struct LeSample {
     pub(crate) n: Option<Vec3>,
     /// Unit direction of travel.
     pub(crate) w: Vec3,
-    /// Density of `p` per unit area (1 for a point).
+    /// Density of `p` per unit area (1 for a point; for a light at infinity per unit area of the disc
+    /// perpendicular to `w` it starts on).
     pub(crate) pdf_pos: f32,
-    /// Density of `w` per steradian.
+    /// Density of `w` per steradian (1 for a directional light: its one direction).
     pub(crate) pdf_dir: f32,
 }
 
@@ -129,13 +132,19 @@ impl LightKind {
         matches!(self, Self::Point { .. } | Self::Luminaire { .. } | Self::Spot { .. } | Self::Directional { .. })
     }
 
+    /// Whether the light is at infinity (a directional light, the environment): its light arrives along
+    /// directions, not from points.
+    pub(crate) fn is_infinite(&self) -> bool {
+        matches!(self, Self::Directional { .. } | Self::Environment)
+    }
+
     /// Sample incident light at `ctx`: direction, shadow-ray target, density (`pmf`, the
     /// probability this light was chosen, folded in), and the emission's scale. `None` when the
     /// light sends nothing towards the point.
     #[inline]
     pub(crate) fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, pmf: f32) -> Option<LiSample> {
         let delta = self.is_delta();
-        let sample = |wi, target, pdf, scale| LiSample { wi, target, pdf, scale, delta };
+        let sample = |wi, target, pdf, scale| LiSample { wi, target, pdf, scale, delta, n: Vec3::ZERO };
         match *self {
             Self::Point { position } => {
                 let (wi, falloff) = towards_point(ctx.p, position)?;
@@ -174,7 +183,7 @@ impl LightKind {
                 }
                 // Uniform by area, converted to solid angle: d² / (A |cos θ_light|).
                 let pdf = pmf * distance2 / (area * cos_light);
-                pdf.is_finite().then(|| sample(wi, Some(q), pdf, 1.0))
+                pdf.is_finite().then(|| LiSample { n: n_light, ..sample(wi, Some(q), pdf, 1.0) })
             }
         }
     }
@@ -183,8 +192,8 @@ impl LightKind {
     /// an area light (uniformly by area), `u2` the direction (cosine-weighted about the emitting side's
     /// normal; a two-sided emitter picks its side with `u2.x`; a point light uniformly, a spot uniformly
     /// in its outer cone, a luminaire ∝ its web's flux). `None` for lights at infinity (directional,
-    /// environment: light subpaths never start there, their light is found from the camera side) and
-    /// where the light sends nothing.
+    /// environment: [`Emitters::sample_le`] starts them on a disc the size of the scene) and where the
+    /// light sends nothing.
     pub(crate) fn sample_le(&self, u: Vec2, u2: Vec2) -> Option<LeSample> {
         let pi = std::f32::consts::PI;
         match *self {
@@ -231,7 +240,7 @@ impl LightKind {
 
     /// The densities with which [`LightKind::sample_le`] leaves from a point with normal `n` (area lights;
     /// ignored otherwise) along the unit direction `w`: per unit area (1 for point lights) and per
-    /// steradian. Both 0 for lights at infinity, which start no light subpath.
+    /// steradian. Both 0 for lights at infinity ([`Emitters::pdf_le`] has theirs).
     pub(crate) fn pdf_le(&self, n: Vec3, w: Vec3) -> (f32, f32) {
         let pi = std::f32::consts::PI;
         match *self {
@@ -338,6 +347,10 @@ pub(crate) struct Emitters {
     /// Probability that the environment is sampled by its map rather than cosine-weighted: the map's
     /// share of the environment's mean luminance (a defensive mixture when uniform parts remain).
     map_probability: f32,
+    /// The scene's bounding sphere (centre, radius): light from infinity enters through a disc of this
+    /// radius, perpendicular to its direction.
+    center: Vec3,
+    radius: f32,
 }
 
 impl Emitters {
@@ -352,8 +365,9 @@ impl Emitters {
         emission_of: impl Fn(u32) -> Option<(&'a DenselySampledSpectrum, bool)>,
     ) -> Self {
         let (lo, hi) = geometry.bounds();
-        let radius = if geometry.primitive_count() == 0 { 1.0 } else { ((hi - lo).length() * 0.5).max(1e-6) };
-        let mut set = Self::default();
+        let empty = geometry.primitive_count() == 0;
+        let radius = if empty { 1.0 } else { ((hi - lo).length() * 0.5).max(1e-6) };
+        let mut set = Self { center: if empty { Vec3::ZERO } else { 0.5 * (lo + hi) }, radius, ..Self::default() };
         let mut power = Vec::new();
         let mut environment_luminance = 0.0f64;
         let (mut map_emission, mut map_luminance) = (None, 0.0f64);
@@ -544,7 +558,14 @@ impl Emitters {
             cosine_hemisphere(ctx.ns, Vec2::new(((u.x - p) / (1.0 - p)).min(1.0 - f32::EPSILON / 2.0), u.y))
         };
         let pdf = pmf * self.environment_map_pdf(map, ctx, wi);
-        (pdf > 0.0 && pdf.is_finite()).then_some(LiSample { wi, target: None, pdf, scale: 1.0, delta: false })
+        (pdf > 0.0 && pdf.is_finite()).then_some(LiSample {
+            wi,
+            target: None,
+            pdf,
+            scale: 1.0,
+            delta: false,
+            n: Vec3::ZERO,
+        })
     }
 
     /// The density per steradian of [`Emitters::sample_environment_map`], without the light's pmf.
@@ -553,6 +574,73 @@ impl Emitters {
         let p = self.map_probability;
         let map_pdf = map.pdf(wi);
         if p >= 1.0 { map_pdf } else { p * map_pdf + (1.0 - p) * ctx.ns.dot(wi).max(0.0) * std::f32::consts::FRAC_1_PI }
+    }
+
+    /// A ray leaving light `light` (pbrt-v4 `SampleLe`), for light subpaths: [`LightKind::sample_le`] for
+    /// finite lights. Light from infinity along direction w enters the scene through the disc of the
+    /// bounding sphere's radius R perpendicular to w, centred R before the sphere's centre (pbrt-v4's
+    /// construction): its origin uniform on the disc (`u`, density 1 / (π R²)), its direction (`u2`) the
+    /// directional light's one or the environment's, drawn ∝ the map's luminance where it has one (with
+    /// the map's share of the environment's luminance; otherwise uniformly over the sphere).
+    pub(crate) fn sample_le(&self, light: usize, u: Vec2, u2: Vec2) -> Option<LeSample> {
+        let kind = &self.kinds[light];
+        let (w, pdf_dir) = match *kind {
+            LightKind::Directional { direction } => (direction.normalize(), 1.0),
+            LightKind::Environment => {
+                let wi = self.sample_environment_le(u2)?;
+                (-wi, self.environment_le_pdf(wi))
+            }
+            _ => return kind.sample_le(u, u2),
+        };
+        if !(pdf_dir > 0.0 && pdf_dir.is_finite()) {
+            return None;
+        }
+        let (t, b) = materials::sampling::basis(w);
+        let d = concentric_disk(u);
+        let p = self.center + self.radius * (d.x * t + d.y * b - w);
+        Some(LeSample { p, n: None, w, pdf_pos: self.disc_pdf(), pdf_dir })
+    }
+
+    /// The densities of [`Emitters::sample_le`] for a ray leaving light `light` along unit `w` (from a
+    /// point of normal `n` on an area light): [`LightKind::pdf_le`] for finite lights; for lights at
+    /// infinity 1 / (π R²) and the direction's (1 for a directional light).
+    pub(crate) fn pdf_le(&self, light: usize, n: Vec3, w: Vec3) -> (f32, f32) {
+        match self.kinds[light] {
+            LightKind::Directional { .. } => (self.disc_pdf(), 1.0),
+            LightKind::Environment => (self.disc_pdf(), self.environment_le_pdf(-w)),
+            ref kind => kind.pdf_le(n, w),
+        }
+    }
+
+    /// Density per unit area of the points where rays from infinity start (and of their crossings of any
+    /// plane perpendicular to them): 1 / (π R²).
+    pub(crate) fn disc_pdf(&self) -> f32 {
+        1.0 / (std::f32::consts::PI * self.radius * self.radius)
+    }
+
+    /// A direction towards the environment for an emitted ray: by the map with probability
+    /// `map_probability`, else uniformly over the sphere (the uniform parts light from everywhere; no
+    /// surface normal to favour, as light sampling has).
+    fn sample_environment_le(&self, u: Vec2) -> Option<Vec3> {
+        let p = self.map_probability;
+        match self.map.as_deref() {
+            Some(map) if p >= 1.0 => Some(map.sample(u)?.0),
+            Some(map) if u.x < p => Some(map.sample(Vec2::new(u.x / p, u.y))?.0),
+            Some(_) => Some(uniform_sphere(Vec2::new(((u.x - p) / (1.0 - p)).min(1.0 - f32::EPSILON / 2.0), u.y))),
+            None => Some(uniform_sphere(u)),
+        }
+    }
+
+    /// The density per steradian of [`Emitters::sample_environment_le`] for direction `wi` (unit, towards
+    /// the environment), without the light's probability.
+    fn environment_le_pdf(&self, wi: Vec3) -> f32 {
+        let uniform = 0.25 * std::f32::consts::FRAC_1_PI;
+        let p = self.map_probability;
+        match self.map.as_deref() {
+            Some(map) if p >= 1.0 => map.pdf(wi),
+            Some(map) => p * map.pdf(wi) + (1.0 - p) * uniform,
+            None => uniform,
+        }
     }
 
     /// The environment's image, if it has one: escaping rays see its radiance in addition to the
@@ -587,6 +675,12 @@ impl Emitters {
             return 0.0;
         }
         self.pmf[index as usize] * distance * distance / (area * cos_light)
+    }
+
+    /// The environment's index in the set, if the scene has one that gives light.
+    #[inline]
+    pub(crate) fn environment(&self) -> Option<usize> {
+        self.environment
     }
 
     /// Whether light `index` is the environment (its radiance sums
@@ -641,6 +735,53 @@ mod tests {
             assert!((mean / solid_angle - 1.0).abs() < 0.03, "{light:?}: {mean} against {solid_angle}");
         }
         assert!(LightKind::Environment.sample_le(Vec2::ZERO, Vec2::ZERO).is_none());
+    }
+
+    /// Lights at infinity: rays start on the disc of the scene's radius R (here 1, about the origin) R before
+    /// the centre, uniformly: the share passing within r of the centre is π r² times `pdf_pos`, (r / R)²;
+    /// `pdf_le` gives the densities the rays were drawn with; the environment's directions integrate to one
+    /// over the sphere (uniform, a map alone, a map beside a uniform part), a directional light's is its
+    /// direction.
+    #[test]
+    fn rays_from_infinity_cross_the_scene_with_the_density_pdf_le_gives() {
+        let pi = std::f64::consts::PI;
+        let direction = Vec3::new(1.0, -2.0, 0.5).normalize();
+        let uniform = || Light::new(LightKind::Environment, DenselySampledSpectrum::constant(0.5));
+        let map = || Light::environment_map(spot_map(32, 16, (5, 4), 50.0, 0.2));
+        let sun = Light::new(LightKind::Directional { direction }, DenselySampledSpectrum::constant(1.0));
+        for (case, lights) in [vec![uniform()], vec![map()], vec![map(), uniform()], vec![sun]].iter().enumerate() {
+            let set = emitters_with(lights);
+            let light = 0;
+            assert!(set.kind(light).is_infinite());
+            let mut rng = crate::sampling::Rng::new(7, 0, 0);
+            let n = 40_000;
+            let (mut inv_pdf_dir, mut near) = (0.0f64, 0u32);
+            for _ in 0..n {
+                let s = set.sample_le(light, rng.uniform2(), rng.uniform2()).expect("a ray");
+                assert!((s.w.length() - 1.0).abs() < 1e-5 && s.n.is_none());
+                let (pos, dir) = set.pdf_le(light, Vec3::ZERO, s.w);
+                assert!((pos - s.pdf_pos).abs() <= 1e-6 * pos && (dir - s.pdf_dir).abs() <= 1e-4 * dir, "case {case}");
+                // On the plane R before the centre, within R of the axis.
+                assert!((s.p.dot(s.w) + 1.0).abs() < 1e-5, "{:?}", s.p);
+                assert!((s.p + s.w).length() <= 1.0 + 1e-5);
+                // Closest approach to the centre.
+                if (s.p - s.p.dot(s.w) * s.w).length() < 0.5 {
+                    near += 1;
+                }
+                inv_pdf_dir += 1.0 / f64::from(s.pdf_dir);
+                if matches!(set.kind(light), LightKind::Directional { .. }) {
+                    assert!(s.w.dot(direction) > 1.0 - 1e-6 && s.pdf_dir == 1.0);
+                }
+            }
+            let share = f64::from(near) / f64::from(n);
+            let want = f64::from(set.disc_pdf()) * pi * 0.25;
+            assert!((share - want).abs() < 0.01, "case {case}: {share} of the rays within R/2, pdf_pos says {want}");
+            assert!((want - 0.25).abs() < 1e-6);
+            if !set.kind(light).is_delta() {
+                let mean = inv_pdf_dir / f64::from(n);
+                assert!((mean / (4.0 * pi) - 1.0).abs() < 0.03, "case {case}: E[1/pdf] = {mean}, not 4π");
+            }
+        }
     }
 
     #[test]

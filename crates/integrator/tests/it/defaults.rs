@@ -31,7 +31,7 @@ fn auto_integrator_is_the_papers_model_only_where_the_scene_asks_for_it() {
     );
     // A setting that names no model is an error that says what it accepts: a string when the scene is
     // assembled (the integrators know the names), anything else already when the manifest is read.
-    for (bad, when_read) in [(r#""sppm""#, false), ("3", true)] {
+    for (bad, when_read) in [(r#""photons""#, false), ("3", true)] {
         let err = match geometry::parse_manifest(
             &format!(r#"{SPHERE}, "settings": {{"integrator": {bad}}}}}"#),
             Path::new("."),
