@@ -139,7 +139,7 @@ pub(crate) fn run(args: &ValidateArgs) -> anyhow::Result<()> {
         step("hard cases", &mut since);
     }
     if wanted("caustics") {
-        caustics::checks(&mut report, args.quick)?;
+        caustics::checks(&mut report, &root, args.quick)?;
         step("caustics", &mut since);
     }
     if wanted("speed") {

@@ -395,18 +395,7 @@ fn render_photon_mapping<const N: usize>(
         })
     };
     let count = mapping.render(&mut film, sensor, options.spp, cancel, &out_of_time, &report)?;
-    let stats = RenderStats {
-        spectral,
-        rays: count.rays,
-        shadow_rays: count.shadow,
-        elapsed: start.elapsed(),
-        nonfinite_samples: film.nonfinite_samples(),
-        samples: film.sample_counts().iter().map(|&c| u64::from(c)).sum(),
-        spp: film.min_sample_count(),
-        max_spp: film.max_sample_count(),
-        clamped_samples: film.clamped_samples(),
-        error: None,
-    };
+    let stats = film_stats(&film, spectral, count, start.elapsed(), None);
     Ok((film, stats))
 }
 
@@ -688,19 +677,31 @@ fn render_pixels<const N: usize, K: Kernel<N>>(
                 .map(|e| error_reached(&e, target.map(|t| f64::from(t.delta_e))))
         }
     };
-    let stats = RenderStats {
+    let count = RayCount { rays: rays.into_inner(), shadow: shadow_rays.into_inner() };
+    let stats = film_stats(&film, spectral, count, start.elapsed(), error);
+    Ok((film, stats))
+}
+
+/// A finished render's statistics: its rays, time and error, and what its film holds.
+fn film_stats(
+    film: &Film,
+    spectral: SpectralMode,
+    count: RayCount,
+    elapsed: Duration,
+    error: Option<ErrorReached>,
+) -> RenderStats {
+    RenderStats {
         spectral,
-        rays: rays.into_inner(),
-        shadow_rays: shadow_rays.into_inner(),
-        elapsed: start.elapsed(),
+        rays: count.rays,
+        shadow_rays: count.shadow,
+        elapsed,
         nonfinite_samples: film.nonfinite_samples(),
         samples: film.sample_counts().iter().map(|&c| u64::from(c)).sum(),
         spp: film.min_sample_count(),
         max_spp: film.max_sample_count(),
         clamped_samples: film.clamped_samples(),
         error,
-    };
-    Ok((film, stats))
+    }
 }
 
 /// Pixels in tile `t` (edge tiles are cut by the image's border).

@@ -214,11 +214,8 @@ impl<'a, const N: usize> PhotonMapping<'a, N> {
         out_of_time: &dyn Fn() -> bool,
         progress: &dyn Fn(u32, RayCount),
     ) -> Result<RayCount> {
-        if self.walks.tracer().rough {
-            self.iterate::<true>(film, sensor, iterations, cancel, out_of_time, progress)
-        } else {
-            self.iterate::<false>(film, sensor, iterations, cancel, out_of_time, progress)
-        }
+        let iterate = if self.walks.tracer().rough { Self::iterate::<true> } else { Self::iterate::<false> };
+        iterate(self, film, sensor, iterations, cancel, out_of_time, progress)
     }
 
     fn iterate<const ROUGH: bool>(

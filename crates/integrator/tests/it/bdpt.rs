@@ -10,7 +10,7 @@ use integrator::{Image, Integrator, PathOptions, RenderOptions, SamplerKind, Spe
 
 use crate::{assert_all_finite, reference, render_with, scene};
 
-fn options(integrator: Integrator, w: u32, h: u32, spp: u32, seed: u64, threads: usize) -> RenderOptions {
+pub(crate) fn options(integrator: Integrator, w: u32, h: u32, spp: u32, seed: u64, threads: usize) -> RenderOptions {
     RenderOptions {
         width: w,
         height: h,
@@ -32,7 +32,7 @@ fn path() -> Integrator {
 }
 
 /// Mean Y over `pixels` of an image and its standard error.
-fn mean_y(image: &Image, pixels: impl Iterator<Item = usize>) -> (f64, f64) {
+pub(crate) fn mean_y(image: &Image, pixels: impl Iterator<Item = usize>) -> (f64, f64) {
     let v: Vec<f64> = pixels.map(|i| f64::from(image.pixels()[i][1])).collect();
     let n = v.len() as f64;
     let mean = v.iter().sum::<f64>() / n;

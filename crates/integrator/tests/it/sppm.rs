@@ -1,23 +1,11 @@
 //! Stochastic progressive photon mapping: against an analytic caustic seen in a mirror, which no camera
 //! path and no bidirectional connection can find, and against the path tracer where both converge.
 
-use integrator::{Image, Integrator, PathOptions, RenderOptions, SamplerKind, SpectralMode, SppmOptions};
+use integrator::{Integrator, PathOptions, RenderOptions, SamplerKind, SppmOptions};
 
+use crate::bdpt::{mean_y, options};
 use crate::mirrored_disc::{disc_answer, mirrored_disc};
 use crate::{assert_all_finite, render_with, scene};
-
-fn options(integrator: Integrator, w: u32, h: u32, spp: u32, seed: u64, threads: usize) -> RenderOptions {
-    RenderOptions {
-        width: w,
-        height: h,
-        integrator,
-        spectral: SpectralMode::Bins(16),
-        spp,
-        seed,
-        threads: Some(threads),
-        ..RenderOptions::default()
-    }
-}
 
 fn independent() -> PathOptions {
     PathOptions { sampler: SamplerKind::Independent, ..PathOptions::default() }
@@ -25,15 +13,6 @@ fn independent() -> PathOptions {
 
 fn sppm(photons: u64, radius: Option<f32>) -> Integrator {
     Integrator::Sppm(SppmOptions { path: independent(), photons: Some(photons), radius })
-}
-
-/// Mean Y over `pixels` of an image and its standard error.
-fn mean_y(image: &Image, pixels: impl Iterator<Item = usize>) -> (f64, f64) {
-    let v: Vec<f64> = pixels.map(|i| f64::from(image.pixels()[i][1])).collect();
-    let n = v.len() as f64;
-    let mean = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
 }
 
 /// Photon mapping renders the disc seen in M2 as the formula gives it (within 4 %: the light the floor
