@@ -406,6 +406,7 @@ mod tests {
         assert_eq!("auto".parse::<IntegratorChoice>(), Ok(IntegratorChoice::Auto));
         assert_eq!("path".parse::<IntegratorChoice>(), Ok(IntegratorChoice::Kind(IntegratorKind::Path)));
         assert_eq!("bdpt".parse::<IntegratorChoice>(), Ok(IntegratorChoice::Kind(IntegratorKind::Bdpt)));
-        assert!("sppm".parse::<IntegratorChoice>().is_err());
+        assert_eq!("sppm".parse::<IntegratorChoice>(), Ok(IntegratorChoice::Kind(IntegratorKind::Sppm)));
+        assert!("photons".parse::<IntegratorChoice>().is_err());
     }
 }
