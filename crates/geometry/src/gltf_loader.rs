@@ -22,7 +22,7 @@ use crate::desc::{
     SpecularLayer, TextureDesc, TextureTransform, WrapMode,
 };
 use crate::error::{Error, Result};
-use crate::limits::{BYTES_PER_INSTANCE, BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, check_coordinates, guard_panic};
+use crate::limits::{BYTES_PER_INSTANCE, Budget, check_coordinates, guard_panic, mesh_charge};
 use crate::shapes::{Instances, Mesh};
 
 /// Extensions whose data we read; a file that *requires* anything else is refused.
@@ -1254,7 +1254,7 @@ impl Loader<'_> {
             self.budget.charge(
                 self.path,
                 || format!("{context} ({vertices} vertices, {triangles} triangles)"),
-                vertices.saturating_mul(BYTES_PER_VERTEX).saturating_add(triangles.saturating_mul(BYTES_PER_TRIANGLE)),
+                mesh_charge(vertices, triangles),
             )?;
             let positions = self.read_vec3(&accessor, &format!("{context} POSITION"))?;
             for (i, p) in positions.iter().enumerate() {

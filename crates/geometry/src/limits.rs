@@ -53,6 +53,13 @@ pub(crate) const BYTES_PER_TRIANGLE: u64 = 256;
 /// copy a node or manifest transform makes).
 pub(crate) const BYTES_PER_VERTEX: u64 = 64;
 
+/// What a mesh of `vertices` vertices and `triangles` triangles is charged ([`BYTES_PER_VERTEX`],
+/// [`BYTES_PER_TRIANGLE`]), saturating. One formula for every loader, so that the plain-OBJ fast path
+/// refuses exactly what the checked path refuses.
+pub(crate) fn mesh_charge(vertices: u64, triangles: u64) -> u64 {
+    vertices.saturating_mul(BYTES_PER_VERTEX).saturating_add(triangles.saturating_mul(BYTES_PER_TRIANGLE))
+}
+
 /// How much a scene may cost to load, which files it may refer to, and what to change in a manifest.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct LoadOptions {

@@ -24,9 +24,7 @@ use crate::desc::{
     TextureTransform, WrapMode,
 };
 use crate::error::{Error, Result};
-use crate::limits::{
-    BYTES_PER_TRIANGLE, BYTES_PER_VERTEX, Budget, MAX_SPECTRUM_FILE_BYTES, check_coordinates, guard_panic,
-};
+use crate::limits::{Budget, MAX_SPECTRUM_FILE_BYTES, check_coordinates, guard_panic, mesh_charge};
 use crate::shapes::Mesh;
 
 /// Loads an `.obj` file; `mtllib` files resolve against its folder. Everything it allocates is charged to
@@ -56,10 +54,7 @@ fn load_plain(plain: crate::obj_plain::Plain, path: &Path, budget: &Budget) -> R
     budget.charge(
         path,
         || format!("{} face corners and {} triangles", plain.corners, plain.triangles),
-        plain
-            .corners
-            .saturating_mul(BYTES_PER_VERTEX)
-            .saturating_add(plain.triangles.saturating_mul(BYTES_PER_TRIANGLE)),
+        mesh_charge(plain.corners, plain.triangles),
     )?;
     let context = format!("object '{}'", plain.name);
     check_coordinates(&plain.positions, path, &context)?;
@@ -83,10 +78,7 @@ fn load_obj_checked(text: &str, base: Option<&Path>, path: &Path, budget: &Budge
     budget.charge(
         path,
         || format!("{} face corners and {} triangles", counts.corners, counts.triangles),
-        counts
-            .corners
-            .saturating_mul(BYTES_PER_VERTEX)
-            .saturating_add(counts.triangles.saturating_mul(BYTES_PER_TRIANGLE)),
+        mesh_charge(counts.corners, counts.triangles),
     )?;
 
     // Per-material data tobj does not keep (Tf, spectral colours), and the first MTL error, captured by the

@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::limits::{BYTES_PER_TRIANGLE, BYTES_PER_VERTEX};
+use crate::limits::mesh_charge;
 
 /// A plain OBJ file as tobj would load it (`single_index`, triangulated).
 #[derive(Debug)]
@@ -189,7 +189,7 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
                     return None;
                 }
                 chunk.corners += corners.len() as u64;
-                charge += corners.len() as u64 * BYTES_PER_VERTEX + (corners.len() as u64 - 2) * BYTES_PER_TRIANGLE;
+                charge += mesh_charge(corners.len() as u64, corners.len() as u64 - 2);
                 let first = corners[0];
                 chunk.triangles.extend(corners.windows(2).skip(1).map(|bc| [first, bc[0], bc[1]]));
             }
@@ -249,7 +249,7 @@ mod tests {
         assert!(parse("v 0 0 0\nf 1 2 3\nv 1 0 0\nv 0 1 0\n", u64::MAX).is_none());
         // Over the allowance: one triangle is charged 3 corners and 1 triangle.
         let text = format!("{v}f 1 2 3\n");
-        let charge = 3 * BYTES_PER_VERTEX + BYTES_PER_TRIANGLE;
+        let charge = mesh_charge(3, 1);
         assert!(parse(&text, charge - 1).is_none());
         assert!(parse(&text, charge).is_some());
     }

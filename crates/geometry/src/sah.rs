@@ -144,12 +144,10 @@ struct Task<'a> {
 }
 
 /// Build `task`'s subtree, iteratively (a degenerate split sequence is as deep as it is long), and
-/// forking balanced splits of large subtrees while `forks` < [`FORK_LEVELS`]. Returns the depth below it.
-fn build_subtree(ctx: &Context, task: Task, forks: u32) -> usize {
-    let mut max_depth = 0;
-    let mut work = vec![(task, 0usize)];
-    while let Some((Task { items, boxes, first_prim, node, below, below_at }, depth)) = work.pop() {
-        max_depth = max_depth.max(depth);
+/// forking balanced splits of large subtrees while `forks` < [`FORK_LEVELS`].
+fn build_subtree(ctx: &Context, task: Task, forks: u32) {
+    let mut work = vec![task];
+    while let Some(Task { items, boxes, first_prim, node, below, below_at }) = work.pop() {
         if let [b] = boxes {
             *node = Node::leaf(b, first_prim);
             continue;
@@ -181,14 +179,12 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) -> usize {
             below: right_below,
         };
         if forks < FORK_LEVELS && left.items.len().min(right.items.len()) >= PARALLEL_MIN {
-            let (a, b) = rayon::join(|| build_subtree(ctx, left, forks + 1), || build_subtree(ctx, right, forks + 1));
-            max_depth = max_depth.max(depth + 1 + a.max(b));
+            rayon::join(|| build_subtree(ctx, left, forks + 1), || build_subtree(ctx, right, forks + 1));
         } else {
-            work.push((right, depth + 1));
-            work.push((left, depth + 1));
+            work.push(right);
+            work.push(left);
         }
     }
-    max_depth
 }
 
 /// Partition `items` (two or more) and their `boxes` alike, whose centroids lie in `lo`..`hi`, at

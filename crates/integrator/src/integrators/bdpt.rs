@@ -11,9 +11,9 @@
 //!
 //! Lights at infinity (the environment, a directional light) start light subpaths on a disc the size of the
 //! scene (pbrt-v4's construction, `Emitters::sample_le`); escaping camera walks end on a vertex at infinity.
-//! Paths through a smooth surface seen from the camera and lit through another (light → glass → diffuse → glass → camera) have no strategy here at all:
-//! they are the "specular–diffuse–specular" paths only photon mapping finds, and BDPT leaves them out as
-//! pbrt-v4's does (`docs/path-tracer.md`).
+//! Paths through a smooth surface seen from the camera and lit through another (light → glass → diffuse →
+//! glass → camera) have no strategy here at all: they are the "specular–diffuse–specular" paths only photon
+//! mapping finds (`sppm.rs`), and BDPT leaves them out as pbrt-v4's does (`docs/path-tracer.md`).
 
 use colorimetry::{SampledSpectrum, SampledWavelengths};
 use geometry::{Camera, Hit, Ray, spawn_ray, spawn_ray_to};
@@ -297,13 +297,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
                 crate::lights::smoothstep(cos_outer, cos_inner, w.dot(direction))
             }
             LightKind::Directional { .. } => 1.0,
-            LightKind::Environment => {
-                let mut le = tracer.environment_radiance(lambda);
-                if let Some(map) = tracer.scene.emitters.environment_map() {
-                    le += tracer.map_radiance(map, -w, lambda);
-                }
-                return le;
-            }
+            LightKind::Environment => return tracer.environment_radiance(-w, lambda),
         };
         tracer.spectra.eval_memo(tracer.light_spectra[light], lambda, last) * scale
     }
@@ -543,46 +537,34 @@ impl<'a, const N: usize> Bdpt<'a, N> {
         if radiance.is_black() {
             return;
         }
-        let max = self.tracer.max_depth as usize + 1;
-        if emitters.kind(light).is_infinite() {
+        // The light vertex, the throughput leaving it and the density (per steradian, or per unit area across
+        // the ray from infinity) of the walk's first vertex.
+        let (vertex, ray, beta, pdf_walk) = if emitters.kind(light).is_infinite() {
             // pbrt-v4's densities: the light vertex's is its direction's, the first surface's the
             // disc's (set by the walk); radiance over the disc's and the direction's densities.
             let pdf_origin = pmf * le.pdf_dir;
-            path.push(Vertex::point(Kind::Infinite { light }, le.p, radiance * (1.0 / (pmf * le.pdf_pos)), pdf_origin));
-            let beta = radiance * (1.0 / (pdf_origin * le.pdf_pos));
-            let ray = Ray { origin: le.p, dir: le.w };
-            self.walk::<ROUGH>(
-                ray,
-                beta,
-                le.pdf_pos,
-                Mode::Importance,
-                path,
-                max,
-                lambda,
-                sensor,
-                lane,
-                sampler,
-                count,
-            );
-            return;
-        }
-        let pdf_origin = pmf * le.pdf_pos;
-        let mut v = Vertex::point(Kind::Light { light }, le.p, radiance * (1.0 / pdf_origin), pdf_origin);
-        let cos = if le.n.is_some() { n.dot(le.w).abs() } else { 1.0 };
-        let ray = match le.n {
-            Some(n) => {
-                // An area light's point lies on its surface: rays leave it offset as from a hit.
-                let hit = lifted_point(le.p, n);
-                v.ng = n;
-                v.ns = n;
-                v.hit = Some(hit);
-                spawn_ray(&hit, le.w)
-            }
-            None => Ray { origin: le.p, dir: le.w },
+            let v = Vertex::point(Kind::Infinite { light }, le.p, radiance * (1.0 / (pmf * le.pdf_pos)), pdf_origin);
+            (v, Ray { origin: le.p, dir: le.w }, radiance * (1.0 / (pdf_origin * le.pdf_pos)), le.pdf_pos)
+        } else {
+            let pdf_origin = pmf * le.pdf_pos;
+            let mut v = Vertex::point(Kind::Light { light }, le.p, radiance * (1.0 / pdf_origin), pdf_origin);
+            let cos = if le.n.is_some() { n.dot(le.w).abs() } else { 1.0 };
+            let ray = match le.n {
+                Some(n) => {
+                    // An area light's point lies on its surface: rays leave it offset as from a hit.
+                    let hit = lifted_point(le.p, n);
+                    v.ng = n;
+                    v.ns = n;
+                    v.hit = Some(hit);
+                    spawn_ray(&hit, le.w)
+                }
+                None => Ray { origin: le.p, dir: le.w },
+            };
+            (v, ray, radiance * (cos / (pdf_origin * le.pdf_dir)), le.pdf_dir)
         };
-        path.push(v);
-        let beta = radiance * (cos / (pdf_origin * le.pdf_dir));
-        self.walk::<ROUGH>(ray, beta, le.pdf_dir, Mode::Importance, path, max, lambda, sensor, lane, sampler, count);
+        path.push(vertex);
+        let max = self.tracer.max_depth as usize + 1;
+        self.walk::<ROUGH>(ray, beta, pdf_walk, Mode::Importance, path, max, lambda, sensor, lane, sampler, count);
     }
 
     /// The BSDF value at surface vertex `v` for light arriving from `toward_light` and leaving towards
