@@ -51,7 +51,10 @@ where the errors reach it; `--ref-spp 0` renders no reference and scores by the 
 
 A spectral mode may name spectrace's sampler after an @ (`--spectral auto@independent`), a
 variant Mitsuba's (`--variants llvm_ad_spectral@multijitter`); the defaults are each renderer's
-own (spectrace: Sobol' points; Mitsuba: independent).
+own (spectrace: Sobol' points; Mitsuba: independent). A spectrace mode may also name a target
+error after a slash (`--spectral auto/1.3`): the render then samples adaptively to `--target-error
+1.3` (the default `spectrace render` of a path-traced scene, at target 1), `--spp` is its
+`--max-spp`, and its time counts the stages that decided where the samples go.
 
 `llvm_ad_spectral` (Mitsuba's vectorised LLVM variant) needs an LLVM drjit can load: drjit's
 default LLVM 15 aborts on Debian 12, whose `libllvm19` package works; the script sets
@@ -211,10 +214,16 @@ def time_to(spps, errors_, seconds, threshold):
 
 def render_spectrace(binary, spp, width, height, seed, threads, spectral, out):
     """`spectral` may name a sampler after an @ (`auto@independent`; default spectrace's
-    default)."""
-    exr = out / f"spectrace_{spectral.replace(':', '').replace('@', '_')}_{spp}_seed{seed}.exr"
+    default) and an adaptive render after a slash: `auto/1.2` samples to `--target-error 1.2`
+    with `spp` as `--max-spp` (and no time limit), as `spectrace render` does by default."""
+    exr = out / f"spectrace_{spectral.replace(':', '').replace('@', '_').replace('/', '_te')}_{spp}_seed{seed}.exr"
+    spectral, _, target = spectral.partition("/")
     spectral, _, sampler = spectral.partition("@")
-    cmd = [str(binary), "render", str(SCENE), "--integrator", "path", "--spp", str(spp), "--seed", str(seed)]
+    cmd = [str(binary), "render", str(SCENE), "--integrator", "path", "--seed", str(seed)]
+    if target:
+        cmd += ["--target-error", target, "--max-spp", str(spp), "--time-limit", "0"]
+    else:
+        cmd += ["--spp", str(spp)]
     cmd += ["--spectral", spectral, "--width", str(width), "--height", str(height), "--threads", str(threads)]
     if sampler:
         cmd += ["--sampler", sampler]

@@ -176,7 +176,7 @@ fn an_adaptive_render_is_deterministic_and_resumes_exactly() {
     use integrator::{FilmFile, FilmHeader, TargetError};
     let scene = reference("cornell_box.json");
     let options = RenderOptions {
-        width: 24,
+        width: 40,
         height: 16,
         integrator: Integrator::Path(PathOptions::default()),
         spectral: SpectralMode::Bins(8),
@@ -199,7 +199,7 @@ fn an_adaptive_render_is_deterministic_and_resumes_exactly() {
     // has not changed since, so its estimate now is the one it stopped at.
     let estimate = whole.error_estimate(1.0, 0).unwrap();
     for y in 0..16 {
-        for x in 0..24 {
+        for x in 0..40 {
             if whole.sample_count(x, y) < most {
                 assert!(estimate.tiles[estimate.tile_of(x, y)] <= 4.0);
             }
