@@ -345,7 +345,12 @@ fn path_options(w: u32, h: u32, spectral: SpectralMode, spp: u32) -> RenderOptio
 
 /// Mean and standard error of Y over the image.
 fn mean_se(image: &Image) -> (f64, f64) {
-    let v: Vec<f64> = image.pixels().iter().map(|p| f64::from(p[1])).collect();
+    mean_se_of(image.pixels().iter().map(|p| f64::from(p[1])))
+}
+
+/// Mean and standard error of the mean of `values`.
+fn mean_se_of(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let v: Vec<f64> = values.collect();
     let n = v.len() as f64;
     let mean = v.iter().sum::<f64>() / n;
     let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
@@ -358,7 +363,6 @@ fn slab_transmittance(n: f64, sigma_a: f64, d: f64) -> f64 {
     (1.0 - f).powi(2) * t / (1.0 - f * f * t * t)
 }
 
-/// Per-patch analytic XYZ of the ColorChecker (white Y = 1) and the illuminant's white.
 /// Per-patch analytic XYZ of the ColorChecker (white Y = 1) and the illuminant's white.
 fn chart_reference(illuminant: Illuminant) -> (Vec<Xyz>, Xyz) {
     let s = illuminant.spectrum().expect("illuminant");

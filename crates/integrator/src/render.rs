@@ -731,9 +731,7 @@ fn still_sampling(active: &mut [bool], errors: &[f32], goal: f64, tiles_x: u32) 
             going.push((t, w));
         }
     }
-    for a in active.iter_mut() {
-        *a = false;
-    }
+    active.fill(false);
     for &(t, _) in &going {
         active[t] = true;
     }

@@ -20,15 +20,11 @@ fn agreement(report: &mut Report, root: &Path, quick: bool) -> anyhow::Result<()
     let (size, spp, tolerance) = if quick { (24, 32, 0.02) } else { (64, 128, 0.01) };
     let scene = load_scene(root, "reference/cornell_box.json")?;
     let independent = PathOptions { sampler: SamplerKind::Independent, ..PathOptions::default() };
-    let base =
-        RenderOptions { spectral: SpectralMode::Bins(16), ..path_options(size, size, SpectralMode::Bins(16), spp) };
+    let base = path_options(size, size, SpectralMode::Bins(16), spp);
     let (b, _) = render(&scene, &RenderOptions { integrator: Integrator::Bdpt(independent), seed: 3, ..base.clone() })?;
     let (p, _) =
         render(&scene, &RenderOptions { integrator: Integrator::Path(independent), spp: 4 * spp, seed: 4, ..base })?;
-    let diff: Vec<f64> = b.pixels().iter().zip(p.pixels()).map(|(x, y)| f64::from(x[1]) - f64::from(y[1])).collect();
-    let n = diff.len() as f64;
-    let mean = diff.iter().sum::<f64>() / n;
-    let se = (diff.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+    let (mean, se) = mean_se_of(b.pixels().iter().zip(p.pixels()).map(|(x, y)| f64::from(x[1]) - f64::from(y[1])));
     let z = mean / se;
     let ratio = mean_se(&b).0 / mean_se(&p).0;
     report.check(

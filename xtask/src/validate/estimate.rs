@@ -208,7 +208,7 @@ fn time_to_error(report: &mut Report, root: &Path, refs: &RefCache, md: &mut Str
         // bright paths: renders to target 2 read 0.4–0.9 % dark over the whole image (four seeds,
         // 128²), 16×16-pixel blocks up to 5 %. Waiting for the neighbours took it out
         // (`still_sampling` in the integrator's `render.rs`).
-        let mean_y = |p: &[[f32; 3]]| p.iter().map(|p| f64::from(p[1])).sum::<f64>() / p.len() as f64;
+        let mean_y = |p: &[[f32; 3]]| mean_se_of(p.iter().map(|p| f64::from(p[1]))).0;
         let y_ratio = mean_y(image.pixels()) / mean_y(&reference.pixels);
         report.check(
             "estimate",
