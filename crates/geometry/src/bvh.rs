@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::ray::{Hit, NO_PRIMITIVE, Ray, ShadowRay, gamma, offset_ray_origin};
 use crate::sah;
-use crate::shapes::{Instances, Mesh, Sphere, transform_bounds};
+use crate::shapes::{Instances, Mesh, Sphere, locate_triangle, transform_bounds};
 use crate::simd::{Kernel, NodeTest, SimdLevel, Supported, dispatch};
 use crate::sphere::{intersect_sphere, sphere_hit_point};
 use crate::triangle::{
@@ -167,9 +167,8 @@ pub struct Scene {
     spheres: Vec<Sphere>,
     meshes: Vec<Mesh>,
     /// Index of each mesh's first triangle among all triangles (prefix sums of the meshes'
-    /// triangle counts): mesh lookup by binary search over a few entries instead of a
-    /// per-triangle table, which would cost a cache miss per hit on large meshes.
-    triangle_offsets: Vec<u32>,
+    /// triangle counts), for [`locate_triangle`].
+    triangle_offsets: Vec<usize>,
     triangle_count: usize,
     bvh: WideBvh,
     /// One packet per four triangles of a leaf of three to eight ([`PACKED_FROM`]), in the BVH's
@@ -295,7 +294,7 @@ impl Scene {
         let mut triangle_offsets = Vec::with_capacity(meshes.len());
         let mut triangle_count = 0usize;
         for mesh in &meshes {
-            triangle_offsets.push(triangle_count as u32);
+            triangle_offsets.push(triangle_count);
             triangle_count += mesh.indices().len();
         }
         let count = spheres.len() + triangle_count;
@@ -305,9 +304,9 @@ impl Scene {
         // Triangle `t`'s vertices (among all triangles), read from its mesh where they are needed:
         // a flat copy of every triangle's vertices was 36 bytes a triangle at the build's peak.
         let triangle = |t: usize| {
-            let m = triangle_offsets.partition_point(|&o| o as usize <= t) - 1;
+            let (m, t) = locate_triangle(&triangle_offsets, t);
             let (mesh, p) = (&meshes[m], meshes[m].positions());
-            mesh.indices()[t - triangle_offsets[m] as usize].map(|i| p[i as usize])
+            mesh.indices()[t].map(|i| p[i as usize])
         };
         // Bounds, their union, and below the leaves' vertices, in parallel: each element is
         // computed alone, and min/max are exact in any order, so the results are the serial ones.
@@ -569,8 +568,7 @@ impl Scene {
     /// instructions per ray, callgrind: not worth a special case.)
     #[inline]
     fn triangle_source(&self, index: usize) -> (usize, usize) {
-        let mesh = self.triangle_offsets.partition_point(|&o| o as usize <= index) - 1;
-        (mesh, index - self.triangle_offsets[mesh] as usize)
+        locate_triangle(&self.triangle_offsets, index)
     }
 
     /// The hit record of primitive slot `slot` (leaf order). Reads the vertices from the

@@ -19,7 +19,7 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use crate::shapes::Mesh;
+use crate::shapes::{Mesh, locate_triangle};
 
 /// Whether the triangle has zero area (in f64, exact for f32 inputs up to the cross product's rounding).
 pub(crate) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
@@ -80,10 +80,10 @@ pub(crate) fn remove_unhittable(meshes: Vec<Mesh>) -> (Vec<Mesh>, Removed) {
     }
     let total = offsets[meshes.len()];
     let key_of = |global: usize| {
-        let m = offsets.partition_point(|&o| o <= global) - 1;
+        let (m, t) = locate_triangle(&offsets, global);
         let mesh = &meshes[m];
         let p = mesh.positions();
-        key(mesh.indices()[global - offsets[m]].map(|i| p[i as usize]), mesh.material())
+        key(mesh.indices()[t].map(|i| p[i as usize]), mesh.material())
     };
     let mut records: Vec<(u64, usize)> = Vec::with_capacity(total);
     for (m, mesh) in meshes.iter().enumerate() {

@@ -316,3 +316,13 @@ pub(crate) fn transform_bounds(m: Mat4, lo: Vec3, hi: Vec3) -> (Vec3, Vec3) {
     }
     out
 }
+
+/// Which mesh holds triangle `t` (an index among all triangles of a list of meshes) and its index
+/// within that mesh, given each mesh's first triangle (`first[0] = 0`, ascending; a trailing total
+/// is allowed). A binary search over a few entries, not a per-triangle table, which would cost a
+/// cache miss per hit on large meshes.
+#[inline]
+pub(crate) fn locate_triangle(first: &[usize], t: usize) -> (usize, usize) {
+    let mesh = first.partition_point(|&o| o <= t) - 1;
+    (mesh, t - first[mesh])
+}
