@@ -106,7 +106,7 @@ impl<const N: usize> Vertex<N> {
     /// (a light at infinity is reached by next-event estimation and escaping rays only).
     pub(super) fn connectible(&self) -> bool {
         match self.kind {
-            Kind::Surface => self.bsdf.is_some_and(|b| !b.is_specular()),
+            Kind::Surface => self.bsdf.as_ref().is_some_and(|b| !b.is_specular()),
             Kind::Infinite { .. } => false,
             _ => true,
         }
@@ -204,7 +204,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
             Kind::Camera => self.camera_pdf_dir(w),
             Kind::Light { .. } | Kind::Infinite { .. } => return self.pdf_light(v, next),
             Kind::Surface => {
-                let (Some(prev), Some(bsdf)) = (prev, v.bsdf) else { return self.pdf_light(v, next) };
+                let (Some(prev), Some(bsdf)) = (prev, v.bsdf.as_ref()) else { return self.pdf_light(v, next) };
                 let Some(wo) = (prev.p - v.p).try_normalize() else { return 0.0 };
                 bsdf.pdf(&v.frame, wo, w)
             }
@@ -571,7 +571,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     /// `toward_camera` (points), times nothing else; black where `v` has no BSDF.
     fn f(v: &Vertex<N>, toward_camera: Vec3, toward_light: Vec3) -> SampledSpectrum<N> {
         let (Some(bsdf), Some(wo), Some(wi)) =
-            (v.bsdf, (toward_camera - v.p).try_normalize(), (toward_light - v.p).try_normalize())
+            (v.bsdf.as_ref(), (toward_camera - v.p).try_normalize(), (toward_light - v.p).try_normalize())
         else {
             return SampledSpectrum([0.0; N]);
         };
@@ -786,7 +786,7 @@ impl<'a, const N: usize> Bdpt<'a, N> {
     ) -> SampledSpectrum<N> {
         let black = SampledSpectrum([0.0; N]);
         let pt = &camera[t - 1];
-        let (Some(bsdf), Some(hit)) = (pt.bsdf, pt.hit) else { return black };
+        let (Some(bsdf), Some(hit)) = (pt.bsdf.as_ref(), pt.hit) else { return black };
         if !pt.connectible() {
             return black;
         }
