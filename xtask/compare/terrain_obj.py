@@ -4,11 +4,17 @@ a bumpy heightfield of n×n quads, 2n² triangles) as a plain OBJ of `v` and `f`
 timing the loader and the BVH build on a large mesh (`docs/perf.md`, "Loading and building").
 
     python3 xtask/compare/terrain_obj.py 894 /tmp/terrain_1m6.obj   # 1,598,472 triangles, 60 MB
+    python3 xtask/compare/terrain_obj.py 894 /tmp/terrain_1m6.glb   # the same as a binary glTF, 29 MB
+
+A name ending in `.glb` gets a binary glTF of one primitive: f32 positions and u32 indices in one
+buffer, for timing the glTF loader on the same triangles.
 
 Needs numpy. Outside the project's runtime, like the other scripts here.
 """
 
 import argparse
+import json
+import struct
 
 import numpy as np
 
@@ -29,10 +35,42 @@ def main():
     faces = np.empty((2 * n * n, 3), np.int64)
     faces[0::2] = np.stack([a, c, b], axis=1)
     faces[1::2] = np.stack([b, c, d], axis=1)
+    if args.out.endswith(".glb"):
+        write_glb(args.out, np.stack([x, y, z], axis=1).astype(np.float32), (faces - 1).astype(np.uint32))
+        return
     with open(args.out, "w") as f:
         f.write(f"# terrain {n}x{n} quads, {2 * n * n} triangles\n")
         np.savetxt(f, np.stack([x, y, z], axis=1), fmt="v %.7g %.7g %.7g")
         np.savetxt(f, faces, fmt="f %d %d %d")
+
+
+def write_glb(path, positions, faces):
+    """A binary glTF 2.0 file of one mesh primitive (POSITION and indices), no material."""
+    pb, ib = positions.tobytes(), faces.tobytes()
+    gltf = {
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "buffers": [{"byteLength": len(pb) + len(ib)}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": len(pb)},
+            {"buffer": 0, "byteOffset": len(pb), "byteLength": len(ib)},
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": len(positions), "type": "VEC3",
+             "min": positions.min(0).tolist(), "max": positions.max(0).tolist()},
+            {"bufferView": 1, "componentType": 5125, "count": faces.size, "type": "SCALAR"},
+        ],
+    }
+    js = json.dumps(gltf).encode()
+    js += b" " * (-len(js) % 4)
+    binary = pb + ib + b"\0" * (-(len(pb) + len(ib)) % 4)
+    with open(path, "wb") as f:
+        f.write(struct.pack("<III", 0x46546C67, 2, 12 + 8 + len(js) + 8 + len(binary)))
+        f.write(struct.pack("<II", len(js), 0x4E4F534A) + js)
+        f.write(struct.pack("<II", len(binary), 0x004E4942) + binary)
 
 
 if __name__ == "__main__":
