@@ -46,9 +46,16 @@ pub(crate) fn build(boxes: &mut [Aabb], block: usize) -> Tree {
     let ctx = Context { block };
     // A binary tree of n leaves has 2n − 1 nodes; every subtree of m leaves gets its 2m − 2
     // descendants as one range, so that subtrees can be built in parallel into disjoint slices.
-    let mut nodes = vec![Node { min: [0.0; 3], max: [0.0; 3], index: 0 }; 2 * n - 1];
+    // (Zeroed pages from the allocator, touched first by the threads that fill them: written
+    // here, the 2n − 1 nodes took 35 ms of one thread on the 1.6M terrain.)
+    let mut nodes: Vec<Node> = bytemuck::zeroed_vec(2 * n - 1);
     let (root, rest) = nodes.split_first_mut().expect("n ≥ 1");
-    build_subtree(&ctx, Task { items: &mut indices, boxes, first_prim: 0, node: root, below: rest, below_at: 1 }, 0);
+    let bounds = bounds_of(boxes);
+    build_subtree(
+        &ctx,
+        Task { items: &mut indices, boxes, bounds, first_prim: 0, node: root, below: rest, below_at: 1 },
+        0,
+    );
     Tree { nodes, primitive_indices: indices }
 }
 
@@ -65,7 +72,7 @@ pub(crate) struct Tree {
 /// second follows it); for a leaf (one primitive), its position in [`Tree::primitive_indices`].
 /// 28 bytes: obvhs's `Bvh2Node` (a box of two 16-byte vectors, a count and an index) took 40,
 /// and the 2n − 1 nodes were the largest part of the build's peak memory (80 bytes a primitive).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Zeroable)]
 pub(crate) struct Node {
     min: [f32; 3],
     max: [f32; 3],
@@ -103,40 +110,59 @@ struct Context {
     block: usize,
 }
 
-/// Centroid bounds and node box of `boxes`, in parallel over chunks when there are many (the
-/// root's and the top levels', which no fork shares out): min and max are exact in any order,
-/// so the result is the serial one. (Centroids are computed where they are needed rather than
-/// stored: 12 bytes a primitive less, and read with the box they come from.)
-fn bounds_of(boxes: &[Aabb]) -> (Aabb, Vec3A, Vec3A) {
+/// A node's box and its primitives' centroid bounds `lo`..`hi`. Min and max are exact in any
+/// order, so however the primitives are gathered (a pass over the node, or its parent's
+/// partition) the numbers are the same.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Bounds {
+    aabb: Aabb,
+    lo: Vec3A,
+    hi: Vec3A,
+}
+
+impl Bounds {
+    const EMPTY: Self = Self { aabb: Aabb::INVALID, lo: Vec3A::INFINITY, hi: Vec3A::NEG_INFINITY };
+
+    /// Grow by a primitive's box `b` whose centroid is `c`.
+    fn add(&mut self, b: &Aabb, c: Vec3A) {
+        self.aabb = self.aabb.union(b);
+        self.lo = self.lo.min(c);
+        self.hi = self.hi.max(c);
+    }
+
+    fn union(self, other: Self) -> Self {
+        Self { aabb: self.aabb.union(&other.aabb), lo: self.lo.min(other.lo), hi: self.hi.max(other.hi) }
+    }
+}
+
+/// The [`Bounds`] of `boxes`, in parallel over chunks when there are many: only the root's are
+/// computed by a pass of their own; every other node's come from its parent's partition.
+/// (Centroids are computed where they are needed rather than stored: 12 bytes a primitive
+/// less, and read with the box they come from.)
+fn bounds_of(boxes: &[Aabb]) -> Bounds {
     let one = |boxes: &[Aabb]| {
-        let mut bounds = Aabb::INVALID;
-        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        let mut bounds = Bounds::EMPTY;
         for b in boxes {
-            bounds = bounds.union(b);
-            let c = b.center();
-            lo = lo.min(c);
-            hi = hi.max(c);
+            bounds.add(b, b.center());
         }
-        (bounds, lo, hi)
+        bounds
     };
     if boxes.len() < PARALLEL_PASS {
         return one(boxes);
     }
-    boxes.par_chunks(PARALLEL_PASS / 4).map(one).reduce(
-        || (Aabb::INVALID, Vec3A::INFINITY, Vec3A::NEG_INFINITY),
-        |a, b| (a.0.union(&b.0), a.1.min(b.1), a.2.max(b.2)),
-    )
+    boxes.par_chunks(PARALLEL_PASS / 4).map(one).reduce(|| Bounds::EMPTY, Bounds::union)
 }
 
 /// Nodes of at least this many primitives bin (and bound) them in parallel chunks.
 const PARALLEL_PASS: usize = 1 << 16;
 
 /// A subtree to build: its primitives `items` and their `boxes` (at `first_prim` in the final
-/// order), its root `node`, and the slice `below` (at index `below_at` of the tree) for its other
-/// nodes.
+/// order) with their `bounds`, its root `node`, and the slice `below` (at index `below_at` of the
+/// tree) for its other nodes.
 struct Task<'a> {
     items: &'a mut [u32],
     boxes: &'a mut [Aabb],
+    bounds: Bounds,
     first_prim: usize,
     node: &'a mut Node,
     below: &'a mut [Node],
@@ -147,15 +173,16 @@ struct Task<'a> {
 /// forking balanced splits of large subtrees while `forks` < [`FORK_LEVELS`].
 fn build_subtree(ctx: &Context, task: Task, forks: u32) {
     let mut work = vec![task];
-    while let Some(Task { items, boxes, first_prim, node, below, below_at }) = work.pop() {
+    while let Some(Task { items, boxes, bounds, first_prim, node, below, below_at }) = work.pop() {
         if let [b] = boxes {
             *node = Node::leaf(b, first_prim);
             continue;
         }
-        // The node's box and its primitives' centroid bounds, in one pass.
-        let (bounds, lo, hi) = bounds_of(boxes);
-        let mid = split(ctx, items, boxes, lo.to_array(), hi.to_array());
-        *node = Node::inner(&bounds, below_at);
+        // The bounds gathered by the parent's partition are the ones a pass would give.
+        #[cfg(test)]
+        assert_eq!(bounds, bounds_of(boxes));
+        let (mid, left_bounds, right_bounds) = split(ctx, items, boxes, &bounds);
+        *node = Node::inner(&bounds.aabb, below_at);
         let (pair, rest) = below.split_at_mut(2);
         let (left_node, right_node) = pair.split_at_mut(1);
         let (left_below, right_below) = rest.split_at_mut(2 * mid - 2);
@@ -168,6 +195,7 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) {
             below_at: below_at + 2,
             items: left_items,
             boxes: left_boxes,
+            bounds: left_bounds,
             below: left_below,
         };
         let right = Task {
@@ -176,6 +204,7 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) {
             below_at: right_at,
             items: right_items,
             boxes: right_boxes,
+            bounds: right_bounds,
             below: right_below,
         };
         if forks < FORK_LEVELS && left.items.len().min(right.items.len()) >= PARALLEL_MIN {
@@ -187,12 +216,13 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) {
     }
 }
 
-/// Partition `items` (two or more) and their `boxes` alike, whose centroids lie in `lo`..`hi`, at
-/// the cheapest binned split and return the size of the left part (1..len): the least
-/// `area(left)·blocks(left) + area(right)·blocks(right)` over the bin boundaries of the three
-/// axes; where no axis separates the centroids, the middle by count.
-fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], lo: [f32; 3], hi: [f32; 3]) -> usize {
+/// Partition `items` (two or more) and their `boxes` alike, whose [`Bounds`] are `bounds`, at the
+/// cheapest binned split and return the size of the left part (1..len) and the two parts'
+/// bounds: the least `area(left)·blocks(left) + area(right)·blocks(right)` over the bin
+/// boundaries of the three axes; where no axis separates the centroids, the middle by count.
+fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], bounds: &Bounds) -> (usize, Bounds, Bounds) {
     let len = items.len();
+    let (lo, hi) = (bounds.lo.to_array(), bounds.hi.to_array());
     // An axis along which all centroids coincide gets scale 0: one bin, no split. The scale is
     // capped at f32::MAX: for an extent below 16 / f32::MAX ≈ 4.7e-38 it would be ∞, and
     // 0·∞ = NaN would put the centroids at `lo` alone in bin 0 and all others in the last: each
@@ -208,20 +238,58 @@ fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], lo: [f32; 3], hi:
     // bin (`(x as usize).min(BINS − 1)` per axis, three at once; coordinates are ≥ 0 and never
     // NaN: centroids lie in lo..hi, and the scale is finite).
     let bins = |c: Vec3A| truncate_clamped((c - lo) * scale, (BINS - 1) as f32);
+    if len == 2 {
+        return split_pair(items, boxes, bins);
+    }
     let best = if len <= SMALL { best_split_small(ctx, boxes, bins) } else { best_split_binned(ctx, boxes, bins) };
     let Some((_, axis, left_bins)) = best else {
-        return len / 2;
+        let mid = len / 2;
+        return (mid, bounds_of(&boxes[..mid]), bounds_of(&boxes[mid..]));
     };
+    // The children's bounds are gathered here, on the way: a pass of their own over every
+    // node's boxes was a third of the passes over memory at the top levels.
+    // A centroid is left of the split if its bin along `axis` is below `left_bins` (1..BINS − 1),
+    // that is if its bin coordinate x = (c − lo)·scale is: for x ≥ 0, ⌊x⌋ < k ⇔ x < k, and
+    // the clamp to the last bin and to 0 change neither side. The same x as `bins` computes (the
+    // same two operations, lane or scalar), without the truncation and the lanes not needed.
+    let (lo_axis, scale_axis, bound) = (lo[axis], scale[axis], left_bins as f32);
+    let (mut left, mut right) = (Bounds::EMPTY, Bounds::EMPTY);
     let mut mid = 0;
     for k in 0..len {
-        if (bins(boxes[k].center())[axis] as usize) < left_bins {
+        let b = boxes[k];
+        let c = b.center();
+        if (c[axis] - lo_axis) * scale_axis < bound {
             items.swap(k, mid);
             boxes.swap(k, mid);
             mid += 1;
+            left.add(&b, c);
+        } else {
+            right.add(&b, c);
         }
     }
     debug_assert!(mid > 0 && mid < len);
-    mid
+    (mid, left, right)
+}
+
+/// [`split`] of two primitives (two in five inner nodes of a terrain's tree), without the
+/// search: either side of any split is one primitive, so every axis that separates the two bins
+/// costs the same sum of two areas (`blocks(1)` = 1), the search keeps the first of them, and
+/// its left side is the lower bin. Where no axis separates them, the middle by count is the
+/// order they are in.
+fn split_pair(items: &mut [u32], boxes: &mut [Aabb], bins: impl Fn(Vec3A) -> [u32; 3]) -> (usize, Bounds, Bounds) {
+    let (a, b) = (bins(boxes[0].center()), bins(boxes[1].center()));
+    if let Some(axis) = (0..3).find(|&axis| a[axis] != b[axis])
+        && b[axis] < a[axis]
+    {
+        items.swap(0, 1);
+        boxes.swap(0, 1);
+    }
+    let one = |b: &Aabb| {
+        let mut bounds = Bounds::EMPTY;
+        bounds.add(b, b.center());
+        bounds
+    };
+    (1, one(&boxes[0]), one(&boxes[1]))
 }
 
 /// Nodes of at most this many primitives look only at the bins their primitives occupy
@@ -491,7 +559,7 @@ mod tests {
                 .collect();
             for block in [1, PACKET] {
                 let ctx = Context { block };
-                let (_, lo, hi) = bounds_of(&boxes);
+                let Bounds { lo, hi, .. } = bounds_of(&boxes);
                 let scale = Vec3A::from([0, 1, 2].map(|a| {
                     let extent = hi[a] - lo[a];
                     if extent > 0.0 { (BINS as f32 / extent).min(f32::MAX) } else { 0.0 }
@@ -509,6 +577,65 @@ mod tests {
     }
 
     #[test]
+    fn partition_by_coordinate_is_partition_by_bin() {
+        // `split` puts a centroid left where its bin coordinate x < k, for the split's first
+        // right bin k; the bin itself is x truncated and clamped to 0..=BINS − 1. The same side
+        // for every k, at and around every integer, below 0 (never given) and beyond the last bin.
+        let mut xs = vec![0.0f32, -0.0, 1e-30, 15.999_999, 16.0, 17.5, 1e30, f32::MAX];
+        for i in 0..=BINS {
+            let x = i as f32;
+            xs.extend([x, x.next_down(), x.next_up(), x + 0.5]);
+        }
+        for x in xs {
+            let bin = truncate_clamped(Vec3A::splat(x), (BINS - 1) as f32)[0] as usize;
+            for k in 1..BINS {
+                assert_eq!(x < k as f32, bin < k, "x {x} k {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn pairs_split_as_the_search_and_partition_would() {
+        // Two boxes, on a coarse grid so that centroids often share bins on some axes or
+        // coincide: `split_pair`'s order must be the general search's (`best_split_small`, then
+        // the partition by the chosen axis's bins; the middle by count where none separates).
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            ((state >> 40) % 3) as f32
+        };
+        let ctx = Context { block: PACKET };
+        let mut swapped = 0;
+        for _ in 0..2000 {
+            let boxes: Vec<Aabb> = (0..2)
+                .map(|_| {
+                    let p = Vec3A::new(next(), next(), next());
+                    Aabb { min: p - Vec3A::new(0.5, next(), 0.25), max: p + 0.5 }
+                })
+                .collect();
+            let Bounds { lo, hi, .. } = bounds_of(&boxes);
+            let scale = Vec3A::from([0, 1, 2].map(|a| {
+                let extent = hi[a] - lo[a];
+                if extent > 0.0 { (BINS as f32 / extent).min(f32::MAX) } else { 0.0 }
+            }));
+            let bins = |c: Vec3A| truncate_clamped((c - lo) * scale, (BINS - 1) as f32);
+            let expected = match best_split_small(&ctx, &boxes, bins) {
+                Some((_, axis, left_bins)) if bins(boxes[0].center())[axis] as usize >= left_bins => [1, 0],
+                _ => [0, 1],
+            };
+            let (mut items, mut pair) = ([0u32, 1], boxes.clone());
+            let (mid, left, right) = split_pair(&mut items, &mut pair, bins);
+            assert_eq!((mid, items), (1, expected), "{boxes:?}");
+            assert_eq!((left, right), (bounds_of(&pair[..1]), bounds_of(&pair[1..])));
+            swapped += usize::from(expected == [1, 0]);
+        }
+        // Both orders occur.
+        assert!((200..1800).contains(&swapped), "{swapped}");
+    }
+
+    #[test]
     fn parallel_passes_give_the_serial_bins_and_bounds() {
         let n = 3 * PARALLEL_PASS + 17;
         let points: Vec<[f32; 3]> =
@@ -517,14 +644,10 @@ mod tests {
         let ctx = Context { block: PACKET };
         let items: Vec<u32> = (0..n as u32).rev().collect();
         let item_boxes: Vec<Aabb> = items.iter().map(|&i| b[i as usize]).collect();
-        let serial = |boxes: &[Aabb]| {
-            boxes.chunks(PARALLEL_PASS - 1).fold((Aabb::INVALID, Vec3A::INFINITY, Vec3A::NEG_INFINITY), |a, c| {
-                let (bb, lo, hi) = bounds_of(c);
-                (a.0.union(&bb), a.1.min(lo), a.2.max(hi))
-            })
-        };
-        let (bounds, lo, hi) = bounds_of(&item_boxes);
-        assert_eq!((bounds, lo, hi), serial(&item_boxes));
+        let serial = |boxes: &[Aabb]| boxes.chunks(PARALLEL_PASS - 1).fold(Bounds::EMPTY, |a, c| a.union(bounds_of(c)));
+        let bounds = bounds_of(&item_boxes);
+        assert_eq!(bounds, serial(&item_boxes));
+        let Bounds { lo, hi, .. } = bounds;
         let scale = Vec3A::splat(16.0) / (hi - lo);
         let bins = |c: Vec3A| truncate_clamped((c - lo) * scale, (BINS - 1) as f32);
         let parallel = best_split_binned(&ctx, &item_boxes, bins);
