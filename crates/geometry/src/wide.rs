@@ -231,13 +231,24 @@ impl<F: Fn(usize) -> f32 + Sync, G: Fn(&[u32]) -> bool + Sync> SlotCosts<'_, F, 
         let Some((cost_l, cost_r)) = children else {
             return ([leaf; 8], [LEAF_SLOT; 8]);
         };
-        // split[i − 1]: i slots shared by the children, each taking at least one.
+        // split[i − 1]: i slots shared by the children, each taking at least one: the least
+        // sum, the first (least j) of equal ones.
         let mut split = [(f32::INFINITY, 1u8); 8];
-        for i in 2..=8 {
-            for j in 1..i {
-                let c = cost_l[j - 1] + cost_r[i - j - 1];
-                if c < split[i - 1].0 {
-                    split[i - 1] = (c, j as u8);
+        if cost_l[0] == cost_l[6] {
+            // The left child gains nothing from more slots (a leaf of the binary tree: the case
+            // of both children in two of five nodes). A node's costs for 1..7 slots never rise,
+            // so the sum is least, and first, with one slot on the left: the search below would
+            // return the same, and it was most of this function's time.
+            for i in 2..=8 {
+                split[i - 1] = (cost_l[0] + cost_r[i - 2], 1);
+            }
+        } else {
+            for i in 2..=8 {
+                for j in 1..i {
+                    let c = cost_l[j - 1] + cost_r[i - j - 1];
+                    if c < split[i - 1].0 {
+                        split[i - 1] = (c, j as u8);
+                    }
                 }
             }
         }
@@ -718,6 +729,52 @@ mod tests {
                 (s.children, s.bounds.map(|row| row.map(f32::to_bits)))
             );
         }
+    }
+
+    #[test]
+    fn slot_costs_of_a_node_are_the_searchs() {
+        // `SlotCosts::node` against the plain search over every split, on children's costs as
+        // the programme makes them (never rising over 1..7 slots; any cost for 8), on a coarse
+        // grid so that ties are common, a third with a constant left side (its shortcut).
+        let mut next = crate::test_uniform(5);
+        let mut boxes = [obvhs::aabb::Aabb { min: glam::Vec3A::ZERO, max: glam::Vec3A::ONE }; 3];
+        let tree = crate::sah::build(&mut boxes, 1);
+        let dp = SlotCosts {
+            bn: &tree.nodes,
+            prims: &tree.primitive_indices,
+            leaf_cost: |_: usize| 1.0,
+            leaf_ok: |_: &[u32]| true,
+        };
+        let mut costs = |constant: bool| {
+            let mut c = [0f32; 8];
+            c[0] = (next() * 8.0).floor() * 0.25 + 1.0;
+            for i in 1..8 {
+                c[i] = if constant { c[0] } else { c[i - 1] - (next() * 3.0).floor() * 0.125 };
+            }
+            c[7] = next();
+            c
+        };
+        let mut shortcuts = 0;
+        for round in 0..3000 {
+            let (l, r) = (costs(round % 3 == 0), costs(round % 5 == 0));
+            let (cost, how) = dp.node(0, 0, 3, Some((&l, &r)));
+            let mut split = [(f32::INFINITY, 1u8); 8];
+            for i in 2..=8 {
+                for j in 1..i {
+                    let c = l[j - 1] + r[i - j - 1];
+                    if c < split[i - 1].0 {
+                        split[i - 1] = (c, j as u8);
+                    }
+                }
+            }
+            assert_eq!((cost[7], how[7]), split[7], "{l:?} {r:?}");
+            for i in 2..=7 {
+                let expected = if cost[i - 2] <= split[i - 1].0 { (cost[i - 2], SAME) } else { split[i - 1] };
+                assert_eq!((cost[i - 1], how[i - 1]), expected, "{i}: {l:?} {r:?}");
+            }
+            shortcuts += usize::from(l[0] == l[6]);
+        }
+        assert!(shortcuts >= 1000, "{shortcuts}");
     }
 
     #[test]
