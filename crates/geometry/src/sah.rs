@@ -222,18 +222,14 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) {
 /// boundaries of the three axes; where no axis separates the centroids, the middle by count.
 fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], bounds: &Bounds) -> (usize, Bounds, Bounds) {
     let len = items.len();
-    let (lo, hi) = (bounds.lo.to_array(), bounds.hi.to_array());
     // An axis along which all centroids coincide gets scale 0: one bin, no split. The scale is
     // capped at f32::MAX: for an extent below 16 / f32::MAX ≈ 4.7e-38 it would be ∞, and
     // 0·∞ = NaN would put the centroids at `lo` alone in bin 0 and all others in the last: each
     // split would peel off one value, a tree as deep as the centroids are many and an O(n²)
     // build (80 000 distinct subnormal centroids: 34 s; found by review). Capped, such centroids
     // share one bin and are split in the middle by count.
-    let scale = Vec3A::from([0, 1, 2].map(|a| {
-        let extent = hi[a] - lo[a];
-        if extent > 0.0 { (BINS as f32 / extent).min(f32::MAX) } else { 0.0 }
-    }));
-    let lo = Vec3A::from(lo);
+    let scale = bin_scale(bounds);
+    let lo = bounds.lo;
     // The bins of a centroid along the three axes: the truncated bin coordinate, at most the last
     // bin (`(x as usize).min(BINS − 1)` per axis, three at once; coordinates are ≥ 0 and never
     // NaN: centroids lie in lo..hi, and the scale is finite).
@@ -269,6 +265,15 @@ fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], bounds: &Bounds) 
     }
     debug_assert!(mid > 0 && mid < len);
     (mid, left, right)
+}
+
+/// The factor from a centroid's offset from `bounds.lo` to its bin coordinate, per axis (three
+/// lanes at once: one division instead of three): `BINS / extent`, at most `f32::MAX`; 0 where
+/// the extent is 0.
+fn bin_scale(bounds: &Bounds) -> Vec3A {
+    let extent = bounds.hi - bounds.lo;
+    let scale = (Vec3A::splat(BINS as f32) / extent).min(Vec3A::splat(f32::MAX));
+    Vec3A::select(extent.cmpgt(Vec3A::ZERO), scale, Vec3A::ZERO)
 }
 
 /// [`split`] of two primitives (two in five inner nodes of a terrain's tree), without the
@@ -310,9 +315,9 @@ fn best_split_binned(ctx: &Context, boxes: &[Aabb], bins: impl Fn(Vec3A) -> [u32
     // All three axes binned in one pass over the primitives (in parallel chunks for the largest
     // nodes: unions and counts are exact in any order, so the bins are the serial ones).
     type Bins = ([[Aabb; BINS]; 3], [[usize; BINS]; 3]);
+    const EMPTY: Bins = ([[Aabb::INVALID; BINS]; 3], [[0; BINS]; 3]);
     let bin_items = |boxes: &[Aabb]| -> Bins {
-        let mut bin_box = [[Aabb::INVALID; BINS]; 3];
-        let mut bin_count = [[0usize; BINS]; 3];
+        let (mut bin_box, mut bin_count) = EMPTY;
         for b in boxes {
             let k = bins(b.center());
             for axis in 0..3 {
@@ -323,21 +328,19 @@ fn best_split_binned(ctx: &Context, boxes: &[Aabb], bins: impl Fn(Vec3A) -> [u32
         }
         (bin_box, bin_count)
     };
+    let merge = |mut a: Bins, b: Bins| {
+        for axis in 0..3 {
+            for k in 0..BINS {
+                a.0[axis][k] = a.0[axis][k].union(&b.0[axis][k]);
+                a.1[axis][k] += b.1[axis][k];
+            }
+        }
+        a
+    };
     let (bin_box, bin_count) = if len < PARALLEL_PASS {
         bin_items(boxes)
     } else {
-        boxes.par_chunks(PARALLEL_PASS / 4).map(bin_items).reduce(
-            || ([[Aabb::INVALID; BINS]; 3], [[0; BINS]; 3]),
-            |mut a, b| {
-                for axis in 0..3 {
-                    for k in 0..BINS {
-                        a.0[axis][k] = a.0[axis][k].union(&b.0[axis][k]);
-                        a.1[axis][k] += b.1[axis][k];
-                    }
-                }
-                a
-            },
-        )
+        boxes.par_chunks(PARALLEL_PASS / 4).map(bin_items).reduce(|| EMPTY, merge)
     };
     let mut best: Best = None;
     for axis in 0..3 {
@@ -559,11 +562,8 @@ mod tests {
                 .collect();
             for block in [1, PACKET] {
                 let ctx = Context { block };
-                let Bounds { lo, hi, .. } = bounds_of(&boxes);
-                let scale = Vec3A::from([0, 1, 2].map(|a| {
-                    let extent = hi[a] - lo[a];
-                    if extent > 0.0 { (BINS as f32 / extent).min(f32::MAX) } else { 0.0 }
-                }));
+                let bounds = bounds_of(&boxes);
+                let (lo, scale) = (bounds.lo, bin_scale(&bounds));
                 let bins = |c: Vec3A| truncate_clamped((c - lo) * scale, (BINS - 1) as f32);
                 let small = best_split_small(&ctx, &boxes, bins);
                 let binned = best_split_binned(&ctx, &boxes, bins);
@@ -574,6 +574,21 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn bin_scale_is_capped_and_zero_on_flat_axes() {
+        let scale = |lo: f32, hi: f32| {
+            let b = Bounds { aabb: Aabb::INVALID, lo: Vec3A::splat(lo), hi: Vec3A::new(hi, lo, hi) };
+            let s = bin_scale(&b);
+            assert_eq!(s.y, 0.0, "flat axis");
+            assert_eq!(s.x.to_bits(), s.z.to_bits());
+            s.x
+        };
+        assert_eq!(scale(1.0, 3.0), 8.0);
+        assert_eq!(scale(-2.0, -2.0), 0.0);
+        assert_eq!(scale(0.0, f32::from_bits(2)), f32::MAX);
+        assert_eq!(scale(0.0, 1e-37), (BINS as f32 / 1e-37).min(f32::MAX));
     }
 
     #[test]
@@ -615,11 +630,8 @@ mod tests {
                     Aabb { min: p - Vec3A::new(0.5, next(), 0.25), max: p + 0.5 }
                 })
                 .collect();
-            let Bounds { lo, hi, .. } = bounds_of(&boxes);
-            let scale = Vec3A::from([0, 1, 2].map(|a| {
-                let extent = hi[a] - lo[a];
-                if extent > 0.0 { (BINS as f32 / extent).min(f32::MAX) } else { 0.0 }
-            }));
+            let bounds = bounds_of(&boxes);
+            let (lo, scale) = (bounds.lo, bin_scale(&bounds));
             let bins = |c: Vec3A| truncate_clamped((c - lo) * scale, (BINS - 1) as f32);
             let expected = match best_split_small(&ctx, &boxes, bins) {
                 Some((_, axis, left_bins)) if bins(boxes[0].center())[axis] as usize >= left_bins => [1, 0],
