@@ -614,13 +614,8 @@ mod tests {
         // Two boxes, on a coarse grid so that centroids often share bins on some axes or
         // coincide: `split_pair`'s order must be the general search's (`best_split_small`, then
         // the partition by the chosen axis's bins; the middle by count where none separates).
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            ((state >> 40) % 3) as f32
-        };
+        let mut uniform = crate::test_uniform(17);
+        let mut next = || (uniform() * 3.0).floor();
         let ctx = Context { block: PACKET };
         let mut swapped = 0;
         for _ in 0..2000 {

@@ -140,8 +140,9 @@ const NODE_SLOT: u8 = 0xfe;
 const SAME: u8 = 0xfd;
 
 /// Subtrees with at least this many descendants have their two children's slot costs computed
-/// in parallel (rayon), down to [`SLOT_FORK_LEVELS`] levels of forks: below that size a fork
-/// costs more than it saves, and a small scene never starts rayon's pool here.
+/// in parallel (rayon), down to [`SLOT_FORK_LEVELS`] levels of forks, and binary trees of this
+/// many nodes are read off in parallel: below that size a fork costs more than it saves, and a
+/// small scene never starts rayon's pool here.
 const SLOT_PARALLEL_MIN: usize = 1 << 15;
 const SLOT_FORK_LEVELS: u32 = 8;
 
@@ -360,7 +361,8 @@ impl WideBvh {
         };
         // The wide subtree whose root `start.0` (allocated) stands for binary node `start.1`,
         // depth first, the first child's subtree next, siblings allocated side by side; with
-        // `only_root`, just that node, returning its wide children still to fill.
+        // `only_root`, just that node, returning its wide children still to fill (as a stack:
+        // the last child first).
         let emit = |start: (usize, usize),
                     nodes: &mut Vec<WideNode>,
                     order: &mut Vec<u32>,
