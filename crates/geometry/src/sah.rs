@@ -222,12 +222,6 @@ fn build_subtree(ctx: &Context, task: Task, forks: u32) {
 /// boundaries of the three axes; where no axis separates the centroids, the middle by count.
 fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], bounds: &Bounds) -> (usize, Bounds, Bounds) {
     let len = items.len();
-    // An axis along which all centroids coincide gets scale 0: one bin, no split. The scale is
-    // capped at f32::MAX: for an extent below 16 / f32::MAX ≈ 4.7e-38 it would be ∞, and
-    // 0·∞ = NaN would put the centroids at `lo` alone in bin 0 and all others in the last: each
-    // split would peel off one value, a tree as deep as the centroids are many and an O(n²)
-    // build (80 000 distinct subnormal centroids: 34 s; found by review). Capped, such centroids
-    // share one bin and are split in the middle by count.
     let scale = bin_scale(bounds);
     let lo = bounds.lo;
     // The bins of a centroid along the three axes: the truncated bin coordinate, at most the last
@@ -244,6 +238,7 @@ fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], bounds: &Bounds) 
     };
     // The children's bounds are gathered here, on the way: a pass of their own over every
     // node's boxes was a third of the passes over memory at the top levels.
+    //
     // A centroid is left of the split if its bin along `axis` is below `left_bins` (1..BINS − 1),
     // that is if its bin coordinate x = (c − lo)·scale is: for x ≥ 0, ⌊x⌋ < k ⇔ x < k, and
     // the clamp to the last bin and to 0 change neither side. The same x as `bins` computes (the
@@ -271,6 +266,12 @@ fn split(ctx: &Context, items: &mut [u32], boxes: &mut [Aabb], bounds: &Bounds) 
 /// lanes at once: one division instead of three): `BINS / extent`, at most `f32::MAX`; 0 where
 /// the extent is 0.
 fn bin_scale(bounds: &Bounds) -> Vec3A {
+    // An axis along which all centroids coincide gets scale 0: one bin, no split. The scale is
+    // capped at f32::MAX: for an extent below 16 / f32::MAX ≈ 4.7e-38 it would be ∞, and
+    // 0·∞ = NaN would put the centroids at `lo` alone in bin 0 and all others in the last: each
+    // split would peel off one value, a tree as deep as the centroids are many and an O(n²)
+    // build (80 000 distinct subnormal centroids: 34 s; found by review). Capped, such centroids
+    // share one bin and are split in the middle by count.
     let extent = bounds.hi - bounds.lo;
     let scale = (Vec3A::splat(BINS as f32) / extent).min(Vec3A::splat(f32::MAX));
     Vec3A::select(extent.cmpgt(Vec3A::ZERO), scale, Vec3A::ZERO)
@@ -289,12 +290,7 @@ fn split_pair(items: &mut [u32], boxes: &mut [Aabb], bins: impl Fn(Vec3A) -> [u3
         items.swap(0, 1);
         boxes.swap(0, 1);
     }
-    let one = |b: &Aabb| {
-        let mut bounds = Bounds::EMPTY;
-        bounds.add(b, b.center());
-        bounds
-    };
-    (1, one(&boxes[0]), one(&boxes[1]))
+    (1, bounds_of(&boxes[..1]), bounds_of(&boxes[1..]))
 }
 
 /// Nodes of at most this many primitives look only at the bins their primitives occupy

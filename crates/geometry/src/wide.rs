@@ -659,6 +659,25 @@ impl Stack {
 mod tests {
     use super::*;
 
+    /// `n` boxes, their centres uniform in a cube of side 10, their half sizes per axis uniform
+    /// in `floor`..`floor + size` where `half(i)` = (size, floor).
+    fn random_boxes(seed: u64, n: usize, half: impl Fn(usize) -> (f32, f32)) -> Vec<obvhs::aabb::Aabb> {
+        let mut next = crate::test_uniform(seed);
+        (0..n)
+            .map(|i| {
+                let c = glam::Vec3A::new(next(), next(), next()) * 10.0;
+                let (size, floor) = half(i);
+                let h = glam::Vec3A::new(next(), next(), next()) * size + floor;
+                obvhs::aabb::Aabb { min: c - h, max: c + h }
+            })
+            .collect()
+    }
+
+    /// A leaf's cost as `bvh.rs` costs triangles (packets from three).
+    fn leaf_cost(n: usize) -> f32 {
+        if n < 3 { 0.3 * n as f32 } else { 0.3 * (1.0 + 0.3 * (n as f32 - 1.0)) }
+    }
+
     /// Half the surface area of the box of child `slot` of `node`.
     fn half_area(node: &WideNode, slot: usize) -> f32 {
         let b = &node.bounds;
@@ -671,16 +690,8 @@ mod tests {
         // Random boxes through the binary build (`sah.rs`): the cost of the emitted tree (a wide node: its box's
         // half area; a leaf: its box's times the leaf cost) must be the dynamic programme's
         // optimum, and every wide node but the root must have two children or more.
-        let mut next = crate::test_uniform(99);
-        let boxes: Vec<obvhs::aabb::Aabb> = (0..3000)
-            .map(|_| {
-                let c = glam::Vec3A::new(next(), next(), next()) * 10.0;
-                let h = glam::Vec3A::new(next(), next(), next()) * 0.2 + 0.01;
-                obvhs::aabb::Aabb { min: c - h, max: c + h }
-            })
-            .collect();
+        let boxes = random_boxes(99, 3000, |_| (0.2, 0.01));
         let bvh2 = crate::sah::build(&mut boxes.clone(), PACKET);
-        let leaf_cost = |n: usize| if n < 3 { 0.3 * n as f32 } else { 0.3 * (1.0 + 0.3 * (n as f32 - 1.0)) };
         let c = WideBvh::from_bvh2(&bvh2, 1.0, leaf_cost, |_| true, 3);
         let mut total = 0f64;
         let mut children = vec![0usize; c.bvh.nodes.len()];
@@ -710,16 +721,8 @@ mod tests {
     #[test]
     fn parallel_read_off_is_the_serial_one() {
         // Boxes of mixed sizes, so that leaves of both lists occur below the root's children.
-        let mut next = crate::test_uniform(11);
-        let boxes: Vec<obvhs::aabb::Aabb> = (0..20_000)
-            .map(|i| {
-                let c = glam::Vec3A::new(next(), next(), next()) * 10.0;
-                let h = glam::Vec3A::splat(if i % 5 == 0 { 0.3 } else { 0.01 }) + next() * 0.02;
-                obvhs::aabb::Aabb { min: c - h, max: c + h }
-            })
-            .collect();
-        let bvh2 = crate::sah::build(&mut boxes.clone(), PACKET);
-        let leaf_cost = |n: usize| if n < 3 { 0.3 * n as f32 } else { 0.3 * (1.0 + 0.3 * (n as f32 - 1.0)) };
+        let mut boxes = random_boxes(11, 20_000, |i| (0.02, if i % 5 == 0 { 0.3 } else { 0.01 }));
+        let bvh2 = crate::sah::build(&mut boxes, PACKET);
         let serial = WideBvh::collapse(&bvh2, 1.0, leaf_cost, |_| true, 3, usize::MAX);
         let parallel = WideBvh::collapse(&bvh2, 1.0, leaf_cost, |_| true, 3, 0);
         assert!(serial.singles.len() > 1000 && serial.packed.len() > 1000);
@@ -784,14 +787,7 @@ mod tests {
         // Enough boxes that the root's subtrees fork (2n − 2 descendants ≥ SLOT_PARALLEL_MIN),
         // and a leaf test that refuses some leaves, so that every kind of `How` occurs.
         let n = SLOT_PARALLEL_MIN / 2 + 5000;
-        let mut next = crate::test_uniform(7);
-        let mut boxes: Vec<obvhs::aabb::Aabb> = (0..n)
-            .map(|_| {
-                let c = glam::Vec3A::new(next(), next(), next()) * 10.0;
-                let h = glam::Vec3A::new(next(), next(), next()) * 0.05 + 0.001;
-                obvhs::aabb::Aabb { min: c - h, max: c + h }
-            })
-            .collect();
+        let mut boxes = random_boxes(7, n, |_| (0.05, 0.001));
         let bvh2 = crate::sah::build(&mut boxes, PACKET);
         let dp = SlotCosts {
             bn: &bvh2.nodes,
