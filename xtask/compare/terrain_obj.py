@@ -9,6 +9,11 @@ timing the loader and the BVH build on a large mesh (`docs/perf.md`, "Loading an
 A name ending in `.glb` gets a binary glTF of one primitive: f32 positions and u32 indices in one
 buffer, for timing the glTF loader on the same triangles.
 
+`--attributes` adds a texture coordinate (`vt`) and a normal (`vn`) per vertex and writes the
+faces' corners as `v/vt/vn`, as exporters with normals and UVs do (150 MB at n = 894):
+
+    python3 xtask/compare/terrain_obj.py --attributes 894 /tmp/terrain_1m6_nt.obj
+
 Needs numpy. Outside the project's runtime, like the other scripts here.
 """
 
@@ -23,6 +28,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("n", type=int, help="quads per side (2n² triangles)")
     ap.add_argument("out")
+    ap.add_argument("--attributes", action="store_true", help="vt and vn lines, v/vt/vn corners (OBJ only)")
     args = ap.parse_args()
     n = args.n
     i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
@@ -41,7 +47,17 @@ def main():
     with open(args.out, "w") as f:
         f.write(f"# terrain {n}x{n} quads, {2 * n * n} triangles\n")
         np.savetxt(f, np.stack([x, y, z], axis=1), fmt="v %.7g %.7g %.7g")
-        np.savetxt(f, faces, fmt="f %d %d %d")
+        if not args.attributes:
+            np.savetxt(f, faces, fmt="f %d %d %d")
+            return
+        # The heightfield's normal (−∂y/∂x, 1, −∂y/∂z), normalised; u, v from x, z.
+        dx = 0.7 * np.cos(7.0 * x) * np.cos(5.0 * z) + 0.93 * np.cos(31.0 * x + 17.0 * z)
+        dz = -0.5 * np.sin(7.0 * x) * np.sin(5.0 * z) + 0.51 * np.cos(31.0 * x + 17.0 * z)
+        normals = np.stack([-dx, np.ones_like(dx), -dz], axis=1)
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        np.savetxt(f, np.stack([(x + 1) / 2, (z + 1) / 2], axis=1), fmt="vt %.6g %.6g")
+        np.savetxt(f, normals, fmt="vn %.6g %.6g %.6g")
+        np.savetxt(f, np.repeat(faces, 3, axis=1), fmt="f %d/%d/%d %d/%d/%d %d/%d/%d")
 
 
 def write_glb(path, positions, faces):

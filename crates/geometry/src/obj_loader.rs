@@ -59,11 +59,10 @@ fn load_plain(plain: crate::obj_plain::Plain, path: &Path, budget: &Budget) -> R
     let context = format!("object '{}'", plain.name);
     check_coordinates(&plain.positions, path, &context)?;
     if !plain.indices.is_empty() {
-        let mesh = Mesh::new(plain.positions, None, None, plain.indices, None).map_err(|e| Error::InvalidGeometry {
-            path: path.to_path_buf(),
-            context,
-            cause: Box::new(e),
-        })?;
+        // v flipped, as the checked path flips it (the parse refused values that are not finite).
+        let uvs = plain.texcoords.map(|t| t.into_iter().map(|c| Vec2::new(c.x, 1.0 - c.y)).collect());
+        let mesh = Mesh::new(plain.positions, plain.normals, uvs, plain.indices, None)
+            .map_err(|e| Error::InvalidGeometry { path: path.to_path_buf(), context, cause: Box::new(e) })?;
         desc.meshes.push(mesh);
     }
     Ok(desc)
@@ -801,13 +800,22 @@ mod tests {
         assert!(records as u64 <= BYTES_PER_MATERIAL, "{records} bytes per material");
     }
 
-    /// What a load gives, for comparing the two paths: warnings, and per mesh its positions,
-    /// triangles and material.
-    type Loaded = (Vec<String>, Vec<(Vec<Vec3>, Vec<[u32; 3]>, Option<u32>)>);
+    /// One mesh as loaded: positions, triangles, normals, texture coordinates and material.
+    type LoadedMesh = (Vec<Vec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>, Option<Vec<Vec2>>, Option<u32>);
+
+    /// What a load gives, for comparing the two paths: warnings and the meshes.
+    type Loaded = (Vec<String>, Vec<LoadedMesh>);
 
     fn loaded(desc: Result<SceneDescription>) -> std::result::Result<Loaded, String> {
         let desc = desc.map_err(|e| e.to_string())?;
-        let meshes = desc.meshes.iter().map(|m| (m.positions().to_vec(), m.indices().to_vec(), m.material())).collect();
+        let meshes = desc
+            .meshes
+            .iter()
+            .map(|m| {
+                let (normals, uvs) = (m.normals().map(<[Vec3]>::to_vec), m.uvs().map(<[Vec2]>::to_vec));
+                (m.positions().to_vec(), m.indices().to_vec(), normals, uvs, m.material())
+            })
+            .collect();
         Ok((desc.warnings, meshes))
     }
 
@@ -855,6 +863,51 @@ mod tests {
         }
         terrain.push_str("f 1 2 3 4 5 6 7\r\n");
         texts.push(("terrain".into(), terrain));
+        // A terrain with texture coordinates and normals (~4 MB, several chunks), whose rows meet
+        // at seams: every quad's corners share positions with its neighbours, but the even rows'
+        // quads have texture coordinates and normals of their own, so a position comes with one
+        // to four pairs. Then the same faces as `v//vn` and `v/vt`.
+        let n = 200;
+        let mut seams = String::from("o seams\n");
+        for j in 0..=n {
+            for i in 0..=n {
+                seams.push_str(&format!(
+                    "v {} {} {}\n",
+                    i as f32 / 9.0,
+                    ((i + 2 * j) % 7) as f32 * 0.1,
+                    j as f32 / 5.0
+                ));
+            }
+        }
+        seams.push_str("vt 0.25 0.75 0\n");
+        for k in 0..4 * n * n {
+            seams.push_str(&format!("vt {} {}\nvn {} 1 {}\n", k as f32 * 1e-4, 1.0 - k as f32 * 2e-4, k % 3, k % 5));
+        }
+        let corner = |a: usize, k: usize| format!("{a}/{k}/{k}");
+        let mut both = seams.clone();
+        let (mut normal_only, mut texcoord_only) = (seams.clone(), seams.clone());
+        for j in 0..n {
+            for i in 0..n {
+                let a = j * (n + 1) + i + 1;
+                let quad = [a + n + 1, a, a + 1, a + n + 2];
+                let face = |f: &dyn Fn(usize, usize) -> String| {
+                    let corners: Vec<String> = (0..4)
+                        .map(|c| {
+                            // Even rows: a pair of the quad's own per corner; odd rows: the position's.
+                            let k = if j % 2 == 0 { 4 * (j * n + i) + 2 + c } else { quad[c] + 1 };
+                            f(quad[c], k)
+                        })
+                        .collect();
+                    format!("f {}\n", corners.join(" "))
+                };
+                both.push_str(&face(&corner));
+                normal_only.push_str(&face(&|a, k| format!("{a}//{k}")));
+                texcoord_only.push_str(&face(&|a, k| format!("{a}/{k}")));
+            }
+        }
+        texts.push(("seams v/vt/vn".into(), both));
+        texts.push(("seams v//vn".into(), normal_only));
+        texts.push(("seams v/vt".into(), texcoord_only));
         let mut fast = 0;
         for (name, text) in &texts {
             let checked = loaded(load_obj_checked(text, None, path, &budget()));
@@ -866,8 +919,8 @@ mod tests {
                 assert!(triangles > 0, "{name}");
             }
         }
-        // All but the icosphere with normals took the fast path.
-        assert_eq!(fast, texts.len() - 1);
+        // All took the fast path.
+        assert_eq!(fast, texts.len());
         // Errors: the fast path declines, and the checked path names the line.
         let e =
             load_obj_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", None, path, &budget()).err().map(|e| e.to_string());
@@ -880,6 +933,42 @@ mod tests {
         let a = load_obj_text(text, None, path, &small()).err().map(|e| e.to_string());
         let b = load_obj_checked(text, None, path, &small()).err().map(|e| e.to_string());
         assert!(a.is_some() && a == b, "{a:?} {b:?}");
+    }
+
+    /// The third-party OBJ files in `shared/real_assets` (read only, not in the repository; the
+    /// test says so and passes where they are absent): each loads the same through either path.
+    #[test]
+    fn real_files_load_the_same_through_either_path() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/real_assets");
+        let mut files = Vec::new();
+        let mut dirs = vec![root.clone()];
+        while let Some(dir) = dirs.pop() {
+            for entry in std::fs::read_dir(&dir).into_iter().flatten().flatten() {
+                let path = entry.path();
+                if path.is_dir() {
+                    dirs.push(path);
+                } else if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
+                    files.push(path);
+                }
+            }
+        }
+        if files.is_empty() {
+            eprintln!("skipped: no OBJ files under {}", root.display());
+            return;
+        }
+        let budget = || Budget::allowing_absolute_paths();
+        let mut fast = Vec::new();
+        for file in &files {
+            let Ok(bytes) = std::fs::read(file) else { continue };
+            let text = String::from_utf8_lossy(&bytes);
+            let base = file.parent();
+            let checked = loaded(load_obj_checked(&text, base, file, &budget()));
+            assert_eq!(loaded(load_obj_text(&text, base, file, &budget())), checked, "{}", file.display());
+            if crate::obj_plain::parse(&text, u64::MAX).is_some() {
+                fast.push(file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default());
+            }
+        }
+        eprintln!("{} OBJ files, the fast path read {fast:?}", files.len());
     }
 
     #[test]

@@ -1,25 +1,30 @@
-//! A parallel fast path for plain OBJ files: `v x y z` and `f` lines of plain vertex indices
-//! (what scanners and terrain exporters write), parsed in chunks of lines on every core.
+//! A parallel fast path for plain OBJ files: `v x y z`, `vt u v`, `vn x y z` and `f` lines whose
+//! corners all take one form, `v`, `v/vt`, `v//vn` or `v/vt/vn` (what scanners, terrain and CAD
+//! exporters write), parsed in chunks of lines on every core.
 //!
 //! tobj reads a line at a time into a `String` and, with `single_index`, looks every face corner
 //! up in a `HashMap` of (position, uv, normal) triples; on a 60 MB, 1.6M-triangle terrain that was
 //! 0.75 s of the 2.85 s `spectrace info` took, and the line-by-line pre-scan that guards it
 //! another 0.2 s (`docs/perf.md`, "Loading and building"). Lines here are split by byte
 //! offsets, parsed in parallel with the standard library's exactly rounded `f32` parser (the one
-//! tobj uses), and the corners numbered in one pass over an array.
+//! tobj uses), and the corners numbered in one pass over an array (with a map only for the
+//! triples after a position's first: the seams of texture coordinates or normals).
 //!
-//! The result is what tobj gives for the same text — one object, its positions in the order faces
-//! first use them (unused ones dropped), polygons as fans from their first corner — so a file
-//! loads the same whichever path reads it (the tests compare both on every OBJ fixture). Anything
-//! else — normals, texture coordinates, colours, `w`, relative or malformed indices, faces of fewer
-//! than three corners, materials, groups after faces, any other statement, a value that is not a
-//! finite number, an index out of range — returns `None`, and the caller reads the file with tobj
+//! The result is what tobj gives for the same text — one object, a vertex for each distinct
+//! (position, texture coordinate, normal) triple in the order faces first use them (unused ones
+//! dropped), polygons as fans from their first corner — so a file loads the same whichever path
+//! reads it (the tests compare both on every OBJ fixture). Anything else — corners of more than
+//! one form, colours, `w`, relative or malformed indices, faces of fewer than three corners,
+//! materials, groups after faces, any other statement, a value that is not a finite number, an
+//! index out of range — returns `None`, and the caller reads the file with tobj
 //! behind the line-by-line checks, whose errors name the file and line. This path never reports
 //! an error of its own.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
-use glam::Vec3;
+use std::collections::HashMap;
+
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::limits::mesh_charge;
@@ -31,6 +36,10 @@ pub(crate) struct Plain {
     pub(crate) name: String,
     /// Positions in the order the faces first refer to them.
     pub(crate) positions: Vec<Vec3>,
+    /// The vertices' texture coordinates as written (v up), where the faces' corners have them.
+    pub(crate) texcoords: Option<Vec<Vec2>>,
+    /// The vertices' normals as written, where the faces' corners have them.
+    pub(crate) normals: Option<Vec<Vec3>>,
     pub(crate) indices: Vec<[u32; 3]>,
     /// Face corners on `f` lines (the pre-scan's count, for the budget).
     pub(crate) corners: u64,
@@ -45,16 +54,29 @@ const CHUNK_BYTES: usize = 1 << 20;
 /// Lines a task parses between looks at the shared charge.
 const LINES_PER_CHARGE: usize = 4096;
 
+/// A face corner's form: whether it has a texture coordinate index (`TEXCOORD`), a normal index
+/// (`NORMAL`), both or neither.
+const TEXCOORD: u8 = 1;
+const NORMAL: u8 = 2;
+
 /// What one chunk of lines holds.
 #[derive(Debug, Default)]
 struct Chunk {
     positions: Vec<Vec3>,
+    texcoords: Vec<Vec2>,
+    normals: Vec<Vec3>,
     /// Fan triangles, 0-based indices into the whole file's positions.
     triangles: Vec<[u32; 3]>,
+    /// The same triangles' texture coordinate and normal indices, where `form` has them.
+    texcoord_triangles: Vec<[u32; 3]>,
+    normal_triangles: Vec<[u32; 3]>,
+    /// The form of every corner of the chunk's faces (`None`: no faces).
+    form: Option<u8>,
     corners: u64,
-    /// The largest (1-based index − vertices this chunk defined before the line): a face may only
-    /// refer to vertices defined above it, so the vertices of the chunks before must be at least this.
-    excess: i64,
+    /// Per attribute (position, texture coordinate, normal), the largest (1-based index − those
+    /// this chunk defined before the line): a face may only refer to what is defined above it, so
+    /// the chunks before must define at least this many.
+    excess: [i64; 3],
     /// The last `o`/`g` line's name in the chunk.
     name: Option<String>,
     /// An `o`/`g` line after a face of this chunk (tobj would start a second object).
@@ -66,11 +88,13 @@ struct Chunk {
 /// per corner, `BYTES_PER_TRIANGLE` per triangle, as the caller then charges), so that an
 /// over-budget file is refused by the checked path before this one allocates for it.
 ///
-/// Positions are not charged as they are read: a `v` line of at least 8 bytes of text becomes a
-/// 12-byte position, so they take at most about 4.5× the text at the peak (the chunks' vectors, up
-/// to twice their length, while the whole array is joined), and the text was charged when it was
-/// read. Faces are charged as read because what they cost (a triangle's share of the BVH) is not
-/// bounded by their text's size.
+/// Positions, texture coordinates and normals are not charged as they are read: a `v` line of at
+/// least 8 bytes of text becomes a 12-byte position and 8 bytes of numbering, a `vt` line of 7
+/// bytes 8 bytes, a `vn` line of 9 bytes 12, so they take at most about 7.5× the text at the
+/// peak (the chunks' vectors, up to twice their length, while the whole arrays are joined), and
+/// the text was charged when it was read. Faces are charged as read because what they cost (a
+/// triangle's share of the BVH; a corner's vertex, or its entry among the seams) is not bounded
+/// by their text's size.
 pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
     let bytes = text.as_bytes();
     let mut starts = vec![0];
@@ -94,8 +118,9 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
         starts.windows(2).map(parse).collect::<Option<Vec<Chunk>>>()?
     };
 
-    // Faces refer only to vertices above them; `o`/`g` only before the first face.
-    let (mut before, mut faces_above, mut name) = (0i64, false, None);
+    // Faces refer only to what is defined above them, with corners of one form; `o`/`g` only
+    // before the first face.
+    let (mut before, mut faces_above, mut name, mut form) = ([0i64; 3], false, None, None);
     for chunk in &chunks {
         if chunk.name.is_some() {
             if faces_above || chunk.named_after_face {
@@ -103,46 +128,186 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
             }
             name.clone_from(&chunk.name);
         }
-        if !chunk.triangles.is_empty() && chunk.excess > before {
+        if let Some(f) = chunk.form {
+            if form.is_some_and(|g| g != f) {
+                return None;
+            }
+            form = Some(f);
+        }
+        if (0..3).any(|a| chunk.excess[a] > before[a]) {
             return None;
         }
-        before += chunk.positions.len() as i64;
+        before[0] += chunk.positions.len() as i64;
+        before[1] += chunk.texcoords.len() as i64;
+        before[2] += chunk.normals.len() as i64;
         faces_above |= !chunk.triangles.is_empty();
     }
-    if before > i64::from(u32::MAX) {
+    if before[0] > i64::from(u32::MAX) {
         return None;
     }
+    let form = form.unwrap_or(0);
     let corners = chunks.iter().map(|c| c.corners).sum();
     let triangles: usize = chunks.iter().map(|c| c.triangles.len()).sum();
-    let mut file_positions = Vec::with_capacity(before as usize);
+    let mut file_positions = Vec::with_capacity(before[0] as usize);
+    let mut file_texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { before[1] as usize } else { 0 });
+    let mut file_normals = Vec::with_capacity(if form & NORMAL != 0 { before[2] as usize } else { 0 });
     let mut parts = Vec::with_capacity(chunks.len());
     for chunk in chunks {
         file_positions.extend(chunk.positions);
-        parts.push(chunk.triangles);
+        if form & TEXCOORD != 0 {
+            file_texcoords.extend(chunk.texcoords);
+        }
+        if form & NORMAL != 0 {
+            file_normals.extend(chunk.normals);
+        }
+        parts.push((chunk.triangles, chunk.texcoord_triangles, chunk.normal_triangles));
     }
-    // tobj's numbering: a position gets the next index when a face first uses it.
+    // tobj's numbering: a (position, texture coordinate, normal) triple gets the next index when
+    // a face first uses it. Most positions come with one pair of the others: the pair a
+    // position was first numbered with is kept beside it, and only the other pairs (seams) are
+    // looked up in a map.
     let mut number = vec![u32::MAX; file_positions.len()];
+    let mut first_pair = if form == 0 { Vec::new() } else { vec![[0u32; 2]; file_positions.len()] };
+    let mut seams: HashMap<[u32; 3], u32> = HashMap::new();
     let mut positions = Vec::with_capacity(file_positions.len());
+    let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { file_positions.len() } else { 0 });
+    let mut normals = Vec::with_capacity(if form & NORMAL != 0 { file_positions.len() } else { 0 });
     let mut indices = Vec::with_capacity(triangles);
-    for part in parts {
-        for triangle in part {
-            indices.push(triangle.map(|i| {
-                let n = &mut number[i as usize];
-                if *n == u32::MAX {
-                    *n = positions.len() as u32;
-                    positions.push(file_positions[i as usize]);
-                }
-                *n
-            }));
+    for (part, texcoord_part, normal_part) in parts {
+        if form == 0 {
+            // Positions only (the common case, kept to the one array lookup per corner).
+            for triangle in part {
+                indices.push(triangle.map(|p| {
+                    let number = &mut number[p as usize];
+                    if *number == u32::MAX {
+                        *number = positions.len() as u32;
+                        positions.push(file_positions[p as usize]);
+                    }
+                    *number
+                }));
+            }
+            continue;
+        }
+        for (k, triangle) in part.into_iter().enumerate() {
+            let mut numbered = [0u32; 3];
+            for (c, out) in numbered.iter_mut().enumerate() {
+                let p = triangle[c] as usize;
+                let t = if form & TEXCOORD != 0 { texcoord_part[k][c] } else { 0 };
+                let n = if form & NORMAL != 0 { normal_part[k][c] } else { 0 };
+                let mut add = || {
+                    positions.push(file_positions[p]);
+                    if form & TEXCOORD != 0 {
+                        texcoords.push(file_texcoords[t as usize]);
+                    }
+                    if form & NORMAL != 0 {
+                        normals.push(file_normals[n as usize]);
+                    }
+                    (positions.len() - 1) as u32
+                };
+                *out = if number[p] == u32::MAX {
+                    first_pair[p] = [t, n];
+                    number[p] = add();
+                    number[p]
+                } else if first_pair[p] == [t, n] {
+                    number[p]
+                } else {
+                    *seams.entry([p as u32, t, n]).or_insert_with(add)
+                };
+            }
+            indices.push(numbered);
         }
     }
     Some(Plain {
         name: name.filter(|n| !n.is_empty()).unwrap_or_else(|| "unnamed_object".to_owned()),
         positions,
+        texcoords: (form & TEXCOORD != 0).then_some(texcoords),
+        normals: (form & NORMAL != 0).then_some(normals),
         indices,
         corners,
         triangles: triangles as u64,
     })
+}
+
+/// `text.lines()`: lines split at `\n`, a `\r` before it dropped (a last line without `\n` is
+/// kept whole). (A byte loop: the standard
+/// iterator's search, set up anew for each short line, was a tenth of a plain file's load.)
+fn text_lines(text: &str) -> impl Iterator<Item = &str> {
+    let mut start = 0;
+    std::iter::from_fn(move || {
+        let rest = text.as_bytes().get(start..).filter(|rest| !rest.is_empty())?;
+        let Some(end) = rest.iter().position(|&b| b == b'\n').map(|k| start + k) else {
+            // The last line, without a line end: kept whole, as `lines` keeps it.
+            start = text.len();
+            return Some(&text[text.len() - rest.len()..]);
+        };
+        // Slicing at `\n` (ASCII) is at a character boundary.
+        let line = &text[start..end];
+        start = end + 1;
+        Some(line.strip_suffix('\r').unwrap_or(line))
+    })
+}
+
+/// A face corner's 0-based (position, texture coordinate, normal) indices (0 where absent) and
+/// its form, or `None` for anything but positive indices as `v`, `v/vt`, `v//vn` or `v/vt/vn`.
+/// (Read by hand in one pass: `str::split('/')` was an eighth of the load of a file with
+/// normals.)
+#[inline]
+fn corner(word: &str) -> Option<([u32; 3], u8)> {
+    let bytes = word.as_bytes();
+    let mut at = 0;
+    let p = index(bytes, &mut at)?;
+    if at == bytes.len() {
+        return Some(([p, 0, 0], 0));
+    }
+    // `bytes[at]` is a slash.
+    at += 1;
+    let (t, form) = if bytes.get(at) == Some(&b'/') { (0, NORMAL) } else { (index(bytes, &mut at)?, TEXCOORD) };
+    if at == bytes.len() {
+        return (form == TEXCOORD).then_some(([p, t, 0], form));
+    }
+    at += 1;
+    let n = index(bytes, &mut at)?;
+    (at == bytes.len()).then_some(([p, t, n], form | NORMAL))
+}
+
+/// The 1-based OBJ index at `bytes[*at..]`, up to a slash or the end (where `*at` is left), as
+/// 0-based: read as `str::parse::<u32>` reads (an optional `+`, digits, no overflow); `None`
+/// for anything else and for 0.
+#[inline]
+fn index(bytes: &[u8], at: &mut usize) -> Option<u32> {
+    if bytes.get(*at) == Some(&b'+') {
+        *at += 1;
+    }
+    let start = *at;
+    let mut value = 0u32;
+    while let Some(&d) = bytes.get(*at).filter(|&&d| d != b'/') {
+        if !d.is_ascii_digit() {
+            return None;
+        }
+        value = value.checked_mul(10)?.checked_add(u32::from(d - b'0'))?;
+        *at += 1;
+    }
+    if *at == start {
+        return None;
+    }
+    value.checked_sub(1)
+}
+
+/// The finite numbers of a `v`/`vt`/`vn` line, if there are `N` of them (or `N` and one more
+/// the caller ignores, when `extra`).
+#[inline]
+fn numbers<'a, const N: usize>(mut words: impl Iterator<Item = &'a str>, extra: bool) -> Option<[f32; N]> {
+    let mut values = [0f32; N];
+    for v in &mut values {
+        *v = words.next()?.parse().ok()?;
+    }
+    if let Some(w) = words.next() {
+        // `vt u v w`: tobj reads u and v; the pre-scan requires w to be a finite number.
+        if !extra || !w.parse::<f32>().is_ok_and(f32::is_finite) || words.next().is_some() {
+            return None;
+        }
+    }
+    values.iter().all(|v| v.is_finite()).then_some(values)
 }
 
 /// One chunk's lines, or `None` for anything the fast path does not read (or once any task has
@@ -156,10 +321,10 @@ fn parse_chunk(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
 }
 
 fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &AtomicBool) -> Option<Chunk> {
-    let mut chunk = Chunk { excess: i64::MIN, ..Default::default() };
-    let mut corners: Vec<u32> = Vec::new();
+    let mut chunk = Chunk { excess: [i64::MIN; 3], ..Default::default() };
+    let mut corners: Vec<[u32; 3]> = Vec::new();
     let (mut charge, mut lines) = (0u64, 0usize);
-    for line in text.lines() {
+    for line in text_lines(text) {
         lines += 1;
         if lines % LINES_PER_CHARGE == 0 {
             let total = charged.fetch_add(charge, Ordering::Relaxed) + charge;
@@ -171,33 +336,44 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
         let mut words = line.split_ascii_whitespace();
         let Some(key) = words.next() else { continue };
         match key {
-            "v" => {
-                let mut p = [0f32; 3];
-                for c in &mut p {
-                    *c = words.next()?.parse().ok()?;
-                }
-                if words.next().is_some() || !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
-                    return None;
-                }
-                chunk.positions.push(Vec3::from_array(p));
-            }
+            "v" => chunk.positions.push(Vec3::from_array(numbers(words, false)?)),
+            "vt" => chunk.texcoords.push(Vec2::from_array(numbers(words, true)?)),
+            "vn" => chunk.normals.push(Vec3::from_array(numbers(words, false)?)),
             "f" => {
                 corners.clear();
+                let defined = [chunk.positions.len(), chunk.texcoords.len(), chunk.normals.len()];
                 for word in words {
-                    let index: u32 = word.parse().ok()?;
-                    if index == 0 {
+                    let (indices, form) = corner(word)?;
+                    if *chunk.form.get_or_insert(form) != form {
                         return None;
                     }
-                    chunk.excess = chunk.excess.max(i64::from(index) - chunk.positions.len() as i64);
-                    corners.push(index - 1);
+                    let excess = |a: usize| i64::from(indices[a]) + 1 - defined[a] as i64;
+                    chunk.excess[0] = chunk.excess[0].max(excess(0));
+                    if form != 0 {
+                        for (a, bit) in [(1, TEXCOORD), (2, NORMAL)] {
+                            if form & bit != 0 {
+                                chunk.excess[a] = chunk.excess[a].max(excess(a));
+                            }
+                        }
+                    }
+                    corners.push(indices);
                 }
                 if corners.len() < 3 {
                     return None;
                 }
                 chunk.corners += corners.len() as u64;
                 charge += mesh_charge(corners.len() as u64, corners.len() as u64 - 2);
+                let form = chunk.form.unwrap_or(0);
                 let first = corners[0];
-                chunk.triangles.extend(corners.windows(2).skip(1).map(|bc| [first, bc[0], bc[1]]));
+                for bc in corners.windows(2).skip(1) {
+                    chunk.triangles.push([first[0], bc[0][0], bc[1][0]]);
+                    if form & TEXCOORD != 0 {
+                        chunk.texcoord_triangles.push([first[1], bc[0][1], bc[1][1]]);
+                    }
+                    if form & NORMAL != 0 {
+                        chunk.normal_triangles.push([first[2], bc[0][2], bc[1][2]]);
+                    }
+                }
             }
             "o" | "g" => {
                 // tobj's name: the line after its first character, trimmed.
@@ -235,29 +411,86 @@ mod tests {
     fn anything_else_goes_to_the_checked_path() {
         let v = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
         for rest in [
-            "f 1 2 4\n",          // out of range
-            "f 1 2\n",            // too few corners
-            "f -3 -2 -1\n",       // relative
-            "f 1/1 2/2 3/3\n",    // with texture coordinates
-            "f 1 2 3 # x\n",      // trailing comment
-            "vn 0 0 1\n",         // normals
-            "v 1 2 3 4\n",        // w
-            "v 1 nan 0\n",        // not finite
-            "v 1 1e39 0\n",       // overflows to infinity
-            "usemtl a\n",         // materials
-            "f 1 2 3\no b\n",     // a second object
-            "l 1 2\n",            // a line element
-            "f 1 2 3\nf 0 1 2\n", // index 0
+            "f 1 2 4\n",                        // out of range
+            "f 1 2\n",                          // too few corners
+            "f -3 -2 -1\n",                     // relative
+            "f 1/1 2/2 3/3\n",                  // texture coordinates not defined
+            "f 1//1 2//1 3//1\n",               // normals not defined
+            "vt 0 0\nf 1/1 2/1 3/1\nf 1 2 3\n", // corners of two forms
+            "vt 0 0\nf 1/1 2/1 3\n",            // corners of two forms in one face
+            "vt 0 0\nf 1/1 2/1 3/2\n",          // a texture coordinate out of range
+            "vt 0 0\nf 1/-1 2/-1 3/-1\n",       // relative
+            "vt 0 0\nf 1/ 2/ 3/\n",             // empty indices
+            "vn 0 0 1\nf 1// 2// 3//\n",
+            "vn 0 0 1\nf 1/1/ 2/1/ 3/1/\n",
+            "vn 0 0 1\nf 1//1/1 2//1 3//1\n", // four parts
+            "vt 0\n",                         // one component
+            "vt 0 0 0 0\n",                   // four
+            "vt 0 0 x\n",                     // a w that is not a number
+            "vn 0 1\n",                       // two components
+            "vn 0 nan 1\n",                   // not finite
+            "f 1 2 3 # x\n",                  // trailing comment
+            "v 1 2 3 4\n",                    // w
+            "v 1 nan 0\n",                    // not finite
+            "v 1 1e39 0\n",                   // overflows to infinity
+            "usemtl a\n",                     // materials
+            "f 1 2 3\no b\n",                 // a second object
+            "l 1 2\n",                        // a line element
+            "f 1 2 3\nf 0 1 2\n",             // index 0
         ] {
             assert!(parse(&format!("{v}{rest}"), u64::MAX).is_none(), "{rest:?}");
         }
-        // A face above the vertices it names.
+        // A face above the vertices, texture coordinates or normals it names.
         assert!(parse("v 0 0 0\nf 1 2 3\nv 1 0 0\nv 0 1 0\n", u64::MAX).is_none());
+        assert!(parse(&format!("{v}vt 0 0\nf 1/1 2/1 3/2\nvt 1 1\n"), u64::MAX).is_none());
+        assert!(parse(&format!("{v}f 1//1 2//1 3//1\nvn 0 0 1\n"), u64::MAX).is_none());
         // Over the allowance: one triangle is charged 3 corners and 1 triangle.
         let text = format!("{v}f 1 2 3\n");
         let charge = mesh_charge(3, 1);
         assert!(parse(&text, charge - 1).is_none());
         assert!(parse(&text, charge).is_some());
+    }
+
+    #[test]
+    fn each_distinct_triple_is_a_vertex_numbered_by_first_use() {
+        // Position 3 comes with texture coordinate 3 and then 4 (a seam); vertex 2 is never used.
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 9 9 9\nvt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5 0\n\
+                    f 1/1 2/2 3/3\nf 3/4 2/2 1/1\nf 3/3 1/1 2/2\n";
+        let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        assert_eq!(plain.indices, vec![[0, 1, 2], [3, 1, 0], [2, 0, 1]]);
+        assert_eq!(plain.positions, [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 1., 0.]].map(Vec3::from_array));
+        let texcoords = [[0., 0.], [1., 0.], [0., 1.], [0.5, 0.5]].map(Vec2::from_array);
+        assert_eq!(plain.texcoords.as_deref(), Some(&texcoords[..]));
+        assert_eq!(plain.normals, None);
+        // With normals: position 1 with normal 1 and then 2.
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 -1\nf 1//1 2//1 3//1\nf 1//2 3//1 2//1\n";
+        let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        assert_eq!(plain.indices, vec![[0, 1, 2], [3, 2, 1]]);
+        let normals = [Vec3::Z, Vec3::Z, Vec3::Z, Vec3::NEG_Z];
+        assert_eq!(plain.normals.as_deref(), Some(&normals[..]));
+        assert_eq!(plain.texcoords, None);
+    }
+
+    #[test]
+    fn lines_are_the_standard_lines() {
+        for text in ["", "\n", "a", "a\n", "a\r\nb", "a\n\nb\r\n", "\r\n\r", "é\nü\r\n\r\r\n", "a\rb\n"] {
+            assert_eq!(text_lines(text).collect::<Vec<_>>(), text.lines().collect::<Vec<_>>(), "{text:?}");
+        }
+    }
+
+    #[test]
+    fn corners_read_as_the_standard_parser_reads_their_indices() {
+        for word in ["1", "+1", "0", "-1", "4294967296", "4294967295", "12a", "", "+", "++1", "١"] {
+            let expected = word.parse::<u32>().ok().and_then(|i| i.checked_sub(1));
+            assert_eq!(index(word.as_bytes(), &mut 0), expected, "{word:?}");
+        }
+        assert_eq!(corner("7"), Some(([6, 0, 0], 0)));
+        assert_eq!(corner("7/3"), Some(([6, 2, 0], TEXCOORD)));
+        assert_eq!(corner("7//5"), Some(([6, 0, 4], NORMAL)));
+        assert_eq!(corner("7/3/5"), Some(([6, 2, 4], TEXCOORD | NORMAL)));
+        for word in ["7/", "7//", "7/3/", "/3", "7/3/5/1", "7///5", "7/0/5", "7/x/5", "7//5/", "7/+/5", "+/3"] {
+            assert_eq!(corner(word), None, "{word:?}");
+        }
     }
 
     #[test]
