@@ -39,10 +39,11 @@ const MAX_IMAGE_SIDE: u32 = 16_384;
 const MAX_DECODE_BYTES: u64 = 1 << 30;
 
 /// Distinct colours of one texture fitted exactly ([`RgbSigmoid::refined`], about 11 µs each on
-/// one core; ΔE00 < 0.001). Beyond, the texture takes the table lookup ([`RgbSigmoid::from_rgb`],
+/// one core when this bound was set, about half that since its sigmoid runs in vector lanes;
+/// ΔE00 < 0.001). Beyond, the texture takes the table lookup ([`RgbSigmoid::from_rgb`],
 /// a few ns; ΔE00 mean 0.045, max 1.2) with a warning: a 4096² image of noise has 13 M distinct
-/// colours, 210 s to fit on this project's 2-core machine; photographs and paintings of 2048²
-/// have a few hundred thousand (FlightHelmet's 15 images: 1.1 s in all).
+/// colours, 210 s to fit on this project's 2-core machine then; photographs and paintings of
+/// 2048² have a few hundred thousand (FlightHelmet's 15 images: 1.1 s in all then).
 pub(crate) const MAX_REFINED_COLOURS: usize = 1 << 20;
 
 /// Images passed through a surface before a path stops treating further cut-outs as holes:
