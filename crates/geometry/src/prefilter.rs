@@ -101,7 +101,7 @@ pub(crate) fn remove_unhittable(meshes: Vec<Mesh>) -> (Vec<Mesh>, Removed) {
         }
     }
     if total >= PARALLEL_MIN {
-        records.par_sort_unstable();
+        records = sorted_by_buckets(records);
     } else {
         records.sort_unstable();
     }
@@ -148,6 +148,62 @@ pub(crate) fn remove_unhittable(meshes: Vec<Mesh>) -> (Vec<Mesh>, Removed) {
     (out, removed)
 }
 
+/// Buckets of [`sorted_by_buckets`], by the hash's top bits: about 400 records each on a
+/// 1.6M-triangle scene, so that each bucket's sort runs in the cache.
+const BUCKET_BITS: u32 = 12;
+
+/// `records` sorted: scattered into buckets by their hashes' top bits (the buckets in order of
+/// the hash), then each bucket sorted; both in parallel. The same order as any sort of the whole
+/// (the pairs are distinct); `par_sort_unstable` of the whole was 5 % of the samples of `info` on
+/// a 1.6M-triangle terrain, the top levels of its recursion passes over all of memory.
+fn sorted_by_buckets(records: Vec<(u64, usize)>) -> Vec<(u64, usize)> {
+    const BUCKETS: usize = 1 << BUCKET_BITS;
+    // Hashes have 63 bits; [`DEGENERATE`] (all 64) joins the last bucket, which it ends.
+    let bucket = |h: u64| ((h >> (63 - BUCKET_BITS)) as usize).min(BUCKETS - 1);
+    // Each part of the records counts its buckets, then scatters into its own slice of each
+    // bucket (buckets in order, and within a bucket the parts in order).
+    let parts: Vec<&[(u64, usize)]> = records.chunks(records.len().div_ceil(SCATTER_PARTS).max(1)).collect();
+    let counts: Vec<Vec<usize>> = parts
+        .par_iter()
+        .map(|part| {
+            let mut count = vec![0usize; BUCKETS];
+            part.iter().for_each(|&(h, _)| count[bucket(h)] += 1);
+            count
+        })
+        .collect();
+    let mut out = vec![(0u64, 0usize); records.len()];
+    let mut targets: Vec<Vec<&mut [(u64, usize)]>> = parts.iter().map(|_| Vec::with_capacity(BUCKETS)).collect();
+    let mut rest = out.as_mut_slice();
+    for b in 0..BUCKETS {
+        for (count, target) in counts.iter().zip(&mut targets) {
+            let (slice, tail) = std::mem::take(&mut rest).split_at_mut(count[b]);
+            target.push(slice);
+            rest = tail;
+        }
+    }
+    parts.par_iter().zip(targets).for_each(|(part, mut target)| {
+        let mut filled = vec![0usize; BUCKETS];
+        for &(h, g) in *part {
+            let b = bucket(h);
+            target[b][filled[b]] = (h, g);
+            filled[b] += 1;
+        }
+    });
+    drop(records);
+    let mut buckets = Vec::with_capacity(BUCKETS);
+    let mut rest = out.as_mut_slice();
+    for b in 0..BUCKETS {
+        let (slice, tail) = std::mem::take(&mut rest).split_at_mut(counts.iter().map(|c| c[b]).sum());
+        buckets.push(slice);
+        rest = tail;
+    }
+    buckets.into_par_iter().for_each(|slice| slice.sort_unstable());
+    out
+}
+
+/// Parts of [`sorted_by_buckets`]'s scatter: a few per core of the machines this runs on.
+const SCATTER_PARTS: usize = 8;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -164,6 +220,30 @@ mod tests {
         assert!(!is_degenerate([Vec3::ZERO, Vec3::X, Vec3::Y]));
         // A sliver far from the origin still has area.
         assert!(!is_degenerate([Vec3::splat(1e6), Vec3::new(1e6 + 1.0, 1e6, 1e6), Vec3::new(1e6, 1e6 + 0.0625, 1e6)]));
+    }
+
+    #[test]
+    fn buckets_sort_as_the_whole_sorts() {
+        // Hashes spread over 63 bits, some equal, a few degenerate; more records than buckets
+        // and buckets left empty.
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut records: Vec<(u64, usize)> = (0..20_000)
+            .map(|g| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let h = match g % 10 {
+                    0 => DEGENERATE,
+                    1 => 1 << 40,
+                    _ => state >> 1,
+                };
+                (h, g)
+            })
+            .collect();
+        records.extend([(u64::MAX >> 1, 20_000), (0, 20_001)]);
+        let mut expected = records.clone();
+        expected.sort_unstable();
+        assert_eq!(sorted_by_buckets(records), expected);
     }
 
     #[test]
