@@ -20,9 +20,8 @@
 //! behind the line-by-line checks, whose errors name the file and line. This path never reports
 //! an error of its own.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -229,8 +228,8 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
 }
 
 /// `text.lines()`: lines split at `\n`, a `\r` before it dropped (a last line without `\n` is
-/// kept whole). (A byte loop: the standard
-/// iterator's search, set up anew for each short line, was a tenth of a plain file's load.)
+/// kept whole). A byte loop: the standard iterator's search, set up anew for each short line,
+/// was a tenth of a plain file's load.
 fn text_lines(text: &str) -> impl Iterator<Item = &str> {
     let mut start = 0;
     std::iter::from_fn(move || {
