@@ -43,25 +43,53 @@ pub(crate) fn load_obj_file(path: &Path, budget: &Budget) -> Result<SceneDescrip
 pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget: &Budget) -> Result<SceneDescription> {
     let memory = budget.memory();
     match crate::obj_plain::parse(text, memory.limit.saturating_sub(memory.used)) {
-        Some(plain) => load_plain(plain, path, budget),
+        Some(plain) => load_plain(plain, base, path, budget),
         None => load_obj_checked(text, base, path, budget),
     }
 }
 
-/// A plain file ([`crate::obj_plain`]) as [`load_obj_checked`] loads it: the same charge, checks and mesh.
-fn load_plain(plain: crate::obj_plain::Plain, path: &Path, budget: &Budget) -> Result<SceneDescription> {
+/// A plain file ([`crate::obj_plain`]) as [`load_obj_checked`] loads it: the same charge, checks,
+/// materials and mesh.
+fn load_plain(
+    plain: crate::obj_plain::Plain,
+    base: Option<&Path>,
+    path: &Path,
+    budget: &Budget,
+) -> Result<SceneDescription> {
+    use crate::obj_plain::MaterialLine;
     let mut desc = SceneDescription::empty(SceneFormat::Obj);
     budget.charge(
         path,
         || format!("{} face corners and {} triangles", plain.corners, plain.triangles),
         mesh_charge(plain.corners, plain.triangles),
     )?;
+    // The material lines as tobj reads them: each `mtllib` file's materials appended to the list
+    // (a file that fails adds none), and `usemtl` naming one of those read so far, or none.
+    let reads = MtlReads::default();
+    let (mut materials, mut by_name, mut material_id) = (Vec::new(), HashMap::new(), None);
+    guard_panic(path, "tobj", || {
+        for line in &plain.materials {
+            match line {
+                MaterialLine::Library(file) => {
+                    if let Ok((mut read, names)) = reads.load(Path::new(file), base, path, budget) {
+                        let offset = materials.len();
+                        materials.append(&mut read);
+                        by_name.extend(names.into_iter().map(|(name, id)| (name, id + offset)));
+                    }
+                }
+                MaterialLine::Use(name) => material_id = by_name.get(name).copied(),
+            }
+        }
+        Ok(())
+    })?;
+    add_materials(reads, materials, &mut desc, path, budget)?;
+    let material = material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
     let context = format!("object '{}'", plain.name);
     check_coordinates(&plain.positions, path, &context)?;
     if !plain.indices.is_empty() {
         // v flipped, as the checked path flips it (the parse refused values that are not finite).
         let uvs = plain.texcoords.map(|t| t.into_iter().map(|c| Vec2::new(c.x, 1.0 - c.y)).collect());
-        let mesh = Mesh::new(plain.positions, plain.normals, uvs, plain.indices, None)
+        let mesh = Mesh::new(plain.positions, plain.normals, uvs, plain.indices, material)
             .map_err(|e| Error::InvalidGeometry { path: path.to_path_buf(), context, cause: Box::new(e) })?;
         desc.meshes.push(mesh);
     }
@@ -80,136 +108,14 @@ fn load_obj_checked(text: &str, base: Option<&Path>, path: &Path, budget: &Budge
         mesh_charge(counts.corners, counts.triangles),
     )?;
 
-    // Per-material data tobj does not keep (Tf, spectral colours), and the first MTL error, captured by the
-    // material loader closure (which can only return tobj's error type).
-    let side: RefCell<HashMap<String, SideInfo>> = RefCell::new(HashMap::new());
-    let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
-    let mtl_warnings: RefCell<Vec<String>> = RefCell::new(Vec::new());
-    // Each MTL file is read once, by resolved path, and the repeats are counted for one note: tobj appends
-    // a file's materials again at every `mtllib` naming it, so 1000 lines naming a 10 000-material file
-    // made 10⁷ materials.
-    let seen: RefCell<HashMap<PathBuf, usize>> = RefCell::new(HashMap::new());
-    let repeated = |key: PathBuf| -> bool {
-        let mut seen = seen.borrow_mut();
-        let count = seen.entry(key).or_insert(0);
-        *count += 1;
-        *count > 1
-    };
+    let reads = MtlReads::default();
     let options = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
-    let loader = |mtl: &Path| -> tobj::MTLLoadResult {
-        let Some(base) = base else {
-            if repeated(mtl.to_path_buf()) {
-                return Ok((Vec::new(), HashMap::new()));
-            }
-            mtl_warnings.borrow_mut().push(format!(
-                "{}: mtllib {} not loaded (OBJ read from memory)",
-                path.display(),
-                mtl.display()
-            ));
-            return Err(tobj::LoadError::OpenFileFailed);
-        };
-        let resolved = mtl
-            .to_str()
-            .ok_or_else(|| Error::ReadFile {
-                path: mtl.to_path_buf(),
-                cause: std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8"),
-            })
-            .and_then(|m| budget.resolve(path, base, m));
-        if let Ok(mtl_path) = &resolved {
-            // `sub/../a.mtl` and `a.mtl` are one file; a file that does not exist keeps its written path.
-            let key = std::fs::canonicalize(mtl_path).unwrap_or_else(|_| mtl_path.clone());
-            if repeated(key) {
-                // Nothing to merge: the materials (or the warning) of the first `mtllib` stand.
-                return Ok((Vec::new(), HashMap::new()));
-            }
-        }
-        let read = resolved.and_then(|mtl_path| budget.read(path, &mtl_path).map(|b| (mtl_path, b)));
-        let (mtl_path, text) = match read {
-            Ok((mtl_path, bytes)) => (mtl_path, String::from_utf8_lossy(&bytes).into_owned()),
-            // A missing MTL is a warning (the geometry still renders); a refused one (device, absolute
-            // path, over budget) is an error.
-            Err(
-                e @ (Error::NotRegularFile { .. }
-                | Error::AbsolutePath { .. }
-                | Error::OverBudget { .. }
-                | Error::FileTooLarge { .. }),
-            ) => {
-                mtl_error.borrow_mut().get_or_insert(e);
-                return Err(tobj::LoadError::OpenFileFailed);
-            }
-            Err(e) => {
-                mtl_warnings.borrow_mut().push(format!("{}: {e}; default materials used", path.display()));
-                return Err(tobj::LoadError::OpenFileFailed);
-            }
-        };
-        match sanitize_mtl(&text, &mtl_path, budget) {
-            Ok((clean, info, warnings)) => {
-                side.borrow_mut().extend(info);
-                mtl_warnings.borrow_mut().extend(warnings);
-                tobj::load_mtl_buf(&mut clean.as_bytes())
-            }
-            Err(e) => {
-                mtl_error.borrow_mut().get_or_insert(e);
-                Err(tobj::LoadError::MaterialParseError)
-            }
-        }
-    };
     let (models, materials) = guard_panic(path, "tobj", || {
-        tobj::load_obj_buf(&mut text.as_bytes(), &options, loader)
+        tobj::load_obj_buf(&mut text.as_bytes(), &options, |mtl| reads.load(mtl, base, path, budget))
             .map_err(|cause| Error::Obj { path: path.to_path_buf(), cause })
     })?;
-    if let Some(e) = mtl_error.into_inner() {
-        return Err(e);
-    }
-    desc.warnings.extend(mtl_warnings.into_inner());
-    let repeats: usize = seen.into_inner().values().map(|n| n - 1).sum();
-    if repeats > 0 {
-        desc.warnings.push(format!(
-            "{}: {repeats} `mtllib` line(s) name a material file already read; each file is read once",
-            path.display()
-        ));
-    }
-    let side = side.into_inner();
-    // A missing MTL file was reported as a warning above.
-    let materials: Vec<tobj::Material> = materials.unwrap_or_default();
-    // Images by resolved path: each read once however many materials use it.
-    let mut images: HashMap<PathBuf, usize> = HashMap::new();
-    for m in &materials {
-        let mut d = material(m, side.get(&m.name), path, &mut desc.warnings);
-        for (key, file, mut texture) in side.get(&m.name).map(|s| s.textures.clone()).unwrap_or_default() {
-            let image = match images.get(&file) {
-                Some(&i) => i,
-                None => match budget.read(path, &file) {
-                    Ok(bytes) => {
-                        desc.images.push(ImageDesc {
-                            label: file.display().to_string(),
-                            mime: None,
-                            bytes: Arc::from(bytes),
-                        });
-                        images.insert(file.clone(), desc.images.len() - 1);
-                        desc.images.len() - 1
-                    }
-                    Err(e @ (Error::OverBudget { .. } | Error::AbsolutePath { .. })) => return Err(e),
-                    Err(e) => {
-                        desc.warnings.push(format!("{}: material '{}': `{key}` not used: {e}", path.display(), m.name));
-                        continue;
-                    }
-                },
-            };
-            texture.image = image;
-            let slot = match key.as_str() {
-                "map_Kd" => &mut d.textures.base_color,
-                "map_d" => &mut d.textures.alpha,
-                "norm" => &mut d.textures.normal,
-                "map_Bump" | "map_bump" | "bump" => &mut d.textures.bump,
-                "map_Ks" => &mut d.textures.specular_map,
-                "map_Ns" => &mut d.textures.shininess,
-                _ => &mut d.textures.emissive,
-            };
-            *slot = Some(texture);
-        }
-        desc.materials.push(d);
-    }
+    // A missing MTL file was reported as a warning.
+    add_materials(reads, materials.unwrap_or_default(), &mut desc, path, budget)?;
 
     for model in models {
         let mesh = &model.mesh;
@@ -263,6 +169,153 @@ fn load_obj_checked(text: &str, base: Option<&Path>, path: &Path, budget: &Budge
         desc.meshes.push(m);
     }
     Ok(desc)
+}
+
+/// What reading a file's `mtllib` files gathers: per-material data tobj does not keep (Tf, spectral
+/// colours, texture maps), the first MTL error (the loader can only return tobj's error type), warnings,
+/// and the files read. tobj calls [`MtlReads::load`] at each `mtllib` line; the plain path calls it for
+/// each in order after its parse.
+#[derive(Default)]
+struct MtlReads {
+    side: RefCell<HashMap<String, SideInfo>>,
+    error: RefCell<Option<Error>>,
+    warnings: RefCell<Vec<String>>,
+    /// Each MTL file is read once, by resolved path, and the repeats are counted for one note: tobj
+    /// appends a file's materials again at every `mtllib` naming it, so 1000 lines naming a
+    /// 10 000-material file made 10⁷ materials.
+    seen: RefCell<HashMap<PathBuf, usize>>,
+}
+
+impl MtlReads {
+    /// Whether the file `key` was read before (and counts this reading).
+    fn repeated(&self, key: PathBuf) -> bool {
+        let mut seen = self.seen.borrow_mut();
+        let count = seen.entry(key).or_insert(0);
+        *count += 1;
+        *count > 1
+    }
+
+    /// The materials of the `mtllib` file `mtl` of the OBJ file `path`, resolved against `base`.
+    fn load(&self, mtl: &Path, base: Option<&Path>, path: &Path, budget: &Budget) -> tobj::MTLLoadResult {
+        let Some(base) = base else {
+            if self.repeated(mtl.to_path_buf()) {
+                return Ok((Vec::new(), HashMap::new()));
+            }
+            self.warnings.borrow_mut().push(format!(
+                "{}: mtllib {} not loaded (OBJ read from memory)",
+                path.display(),
+                mtl.display()
+            ));
+            return Err(tobj::LoadError::OpenFileFailed);
+        };
+        let resolved = mtl
+            .to_str()
+            .ok_or_else(|| Error::ReadFile {
+                path: mtl.to_path_buf(),
+                cause: std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8"),
+            })
+            .and_then(|m| budget.resolve(path, base, m));
+        if let Ok(mtl_path) = &resolved {
+            // `sub/../a.mtl` and `a.mtl` are one file; a file that does not exist keeps its written path.
+            let key = std::fs::canonicalize(mtl_path).unwrap_or_else(|_| mtl_path.clone());
+            if self.repeated(key) {
+                // Nothing to merge: the materials (or the warning) of the first `mtllib` stand.
+                return Ok((Vec::new(), HashMap::new()));
+            }
+        }
+        let read = resolved.and_then(|mtl_path| budget.read(path, &mtl_path).map(|b| (mtl_path, b)));
+        let (mtl_path, text) = match read {
+            Ok((mtl_path, bytes)) => (mtl_path, String::from_utf8_lossy(&bytes).into_owned()),
+            // A missing MTL is a warning (the geometry still renders); a refused one (device, absolute
+            // path, over budget) is an error.
+            Err(
+                e @ (Error::NotRegularFile { .. }
+                | Error::AbsolutePath { .. }
+                | Error::OverBudget { .. }
+                | Error::FileTooLarge { .. }),
+            ) => {
+                self.error.borrow_mut().get_or_insert(e);
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
+            Err(e) => {
+                self.warnings.borrow_mut().push(format!("{}: {e}; default materials used", path.display()));
+                return Err(tobj::LoadError::OpenFileFailed);
+            }
+        };
+        match sanitize_mtl(&text, &mtl_path, budget) {
+            Ok((clean, info, warnings)) => {
+                self.side.borrow_mut().extend(info);
+                self.warnings.borrow_mut().extend(warnings);
+                tobj::load_mtl_buf(&mut clean.as_bytes())
+            }
+            Err(e) => {
+                self.error.borrow_mut().get_or_insert(e);
+                Err(tobj::LoadError::MaterialParseError)
+            }
+        }
+    }
+}
+
+/// The materials tobj read (in its order: ids index them) as descriptions, with their texture images,
+/// and what reading them gathered; the first MTL error, if any, is the load's error.
+fn add_materials(
+    reads: MtlReads,
+    materials: Vec<tobj::Material>,
+    desc: &mut SceneDescription,
+    path: &Path,
+    budget: &Budget,
+) -> Result<()> {
+    if let Some(e) = reads.error.into_inner() {
+        return Err(e);
+    }
+    desc.warnings.extend(reads.warnings.into_inner());
+    let repeats: usize = reads.seen.into_inner().values().map(|n| n - 1).sum();
+    if repeats > 0 {
+        desc.warnings.push(format!(
+            "{}: {repeats} `mtllib` line(s) name a material file already read; each file is read once",
+            path.display()
+        ));
+    }
+    let side = reads.side.into_inner();
+    // Images by resolved path: each read once however many materials use it.
+    let mut images: HashMap<PathBuf, usize> = HashMap::new();
+    for m in &materials {
+        let mut d = material(m, side.get(&m.name), path, &mut desc.warnings);
+        for (key, file, mut texture) in side.get(&m.name).map(|s| s.textures.clone()).unwrap_or_default() {
+            let image = match images.get(&file) {
+                Some(&i) => i,
+                None => match budget.read(path, &file) {
+                    Ok(bytes) => {
+                        desc.images.push(ImageDesc {
+                            label: file.display().to_string(),
+                            mime: None,
+                            bytes: Arc::from(bytes),
+                        });
+                        images.insert(file.clone(), desc.images.len() - 1);
+                        desc.images.len() - 1
+                    }
+                    Err(e @ (Error::OverBudget { .. } | Error::AbsolutePath { .. })) => return Err(e),
+                    Err(e) => {
+                        desc.warnings.push(format!("{}: material '{}': `{key}` not used: {e}", path.display(), m.name));
+                        continue;
+                    }
+                },
+            };
+            texture.image = image;
+            let slot = match key.as_str() {
+                "map_Kd" => &mut d.textures.base_color,
+                "map_d" => &mut d.textures.alpha,
+                "norm" => &mut d.textures.normal,
+                "map_Bump" | "map_bump" | "bump" => &mut d.textures.bump,
+                "map_Ks" => &mut d.textures.specular_map,
+                "map_Ns" => &mut d.textures.shininess,
+                _ => &mut d.textures.emissive,
+            };
+            *slot = Some(texture);
+        }
+        desc.materials.push(d);
+    }
+    Ok(())
 }
 
 fn syntax(path: &Path, line: usize, message: impl Into<String>) -> Error {
@@ -803,8 +856,9 @@ mod tests {
     /// One mesh as loaded: positions, triangles, normals, texture coordinates and material.
     type LoadedMesh = (Vec<Vec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>, Option<Vec<Vec2>>, Option<u32>);
 
-    /// What a load gives, for comparing the two paths: warnings and the meshes.
-    type Loaded = (Vec<String>, Vec<LoadedMesh>);
+    /// What a load gives, for comparing the two paths: warnings, the meshes, the materials and
+    /// the images' labels and sizes.
+    type Loaded = (Vec<String>, Vec<LoadedMesh>, Vec<MaterialDesc>, Vec<(String, usize)>);
 
     fn loaded(desc: Result<SceneDescription>) -> std::result::Result<Loaded, String> {
         let desc = desc.map_err(|e| e.to_string())?;
@@ -816,7 +870,8 @@ mod tests {
                 (m.positions().to_vec(), m.indices().to_vec(), normals, uvs, m.material())
             })
             .collect();
-        Ok((desc.warnings, meshes))
+        let images = desc.images.iter().map(|i| (i.label.clone(), i.bytes.len())).collect();
+        Ok((desc.warnings, meshes, desc.materials, images))
     }
 
     #[test]
@@ -969,6 +1024,66 @@ mod tests {
             }
         }
         eprintln!("{} OBJ files, the fast path read {fast:?}", files.len());
+    }
+
+    #[test]
+    fn material_lines_before_the_faces_load_as_through_tobj() {
+        // Materials of the repository's scene; a texture map written next to them for the test.
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let dir = std::env::temp_dir().join("spectrace-geometry-obj-plain-materials");
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        let mtl =
+            std::fs::read_to_string(root.join("scenes/obj/cube_and_sphere.mtl")).unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(dir.join("scene.mtl"), mtl).unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(dir.join("textured.mtl"), "newmtl tex\nKd 1 1 1\nmap_Kd checker.png\n")
+            .unwrap_or_else(|e| panic!("{e}"));
+        // Read here as bytes only (decoded by the renderer).
+        std::fs::write(dir.join("checker.png"), [7u8; 64]).unwrap_or_else(|e| panic!("{e}"));
+        let geometry = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
+        let path = dir.join("t.obj");
+        let budget = || Budget::allowing_absolute_paths();
+        for head in [
+            "mtllib scene.mtl\nusemtl red_paint\n",
+            "mtllib scene.mtl\nusemtl glass\nusemtl floor\n", // the last one counts
+            "usemtl floor\nmtllib scene.mtl\n",               // named before it is read: none
+            "mtllib scene.mtl\nusemtl no_such_material\n",
+            "mtllib missing.mtl\nusemtl floor\n", // a warning, default materials
+            "mtllib scene.mtl\nmtllib textured.mtl\nusemtl tex\n", // ids offset by the first file's
+            "mtllib scene.mtl\nmtllib ./scene.mtl\nusemtl glass\n", // a file read once, with a note
+            "o  panel \nmtllib  scene.mtl \ns 1\nusemtl  red_paint\n",
+        ] {
+            let text = format!("{head}{geometry}");
+            assert!(crate::obj_plain::parse(&text, u64::MAX).is_some(), "{head:?}");
+            for base in [Some(dir.as_path()), None] {
+                let checked = loaded(load_obj_checked(&text, base, &path, &budget()));
+                assert!(checked.is_ok(), "{head:?}: {checked:?}");
+                assert_eq!(loaded(load_obj_text(&text, base, &path, &budget())), checked, "{head:?}");
+            }
+        }
+        // What the comparisons compared: the second material of the first file, and the
+        // texture's image.
+        let first = loaded(load_obj_text(
+            &format!("mtllib scene.mtl\nusemtl red_paint\n{geometry}"),
+            Some(&dir),
+            &path,
+            &budget(),
+        ));
+        assert!(first.as_ref().is_ok_and(|l| l.1[0].4 == Some(1) && l.2.len() == 3), "{first:?}");
+        let textured = loaded(load_obj_text(
+            &format!("mtllib scene.mtl\nmtllib textured.mtl\nusemtl tex\n{geometry}"),
+            Some(&dir),
+            &path,
+            &budget(),
+        ));
+        assert!(textured.as_ref().is_ok_and(|l| l.1[0].4 == Some(3) && l.3.len() == 1), "{textured:?}");
+        // A refused MTL (over the budget: the mesh's 768 bytes fit, the file does not) is the same
+        // error either way.
+        let small = || Budget::new(crate::LoadOptions { max_memory: 900, ..Default::default() });
+        let text = format!("mtllib scene.mtl\nusemtl glass\n{geometry}");
+        let a = load_obj_text(&text, Some(&dir), &path, &small()).err().map(|e| e.to_string());
+        let b = load_obj_checked(&text, Some(&dir), &path, &small()).err().map(|e| e.to_string());
+        assert!(a.is_some() && a == b, "{a:?} {b:?}");
+        assert!(a.is_some_and(|e| e.contains("scene.mtl")), "{b:?}");
     }
 
     #[test]

@@ -13,10 +13,12 @@
 //! The result is what tobj gives for the same text — one object, a vertex for each distinct
 //! (position, texture coordinate, normal) triple in the order faces first use them (unused ones
 //! dropped), polygons as fans from their first corner — so a file loads the same whichever path
-//! reads it (the tests compare both on every OBJ fixture). Anything else — corners of more than
-//! one form, colours, `w`, relative or malformed indices, faces of fewer than three corners,
-//! materials, groups after faces, any other statement, a value that is not a finite number, an
-//! index out of range — returns `None`, and the caller reads the file with tobj
+//! reads it (the tests compare both on every OBJ fixture). `mtllib` and `usemtl` lines before the
+//! first face are kept, in order, for the caller to read as tobj would (one material for the
+//! whole object). Anything else — corners of more than one form, colours, `w`, relative or
+//! malformed indices, faces of fewer than three corners, material lines or groups after faces,
+//! any other statement, a value that is not a finite number, an index out of range — returns
+//! `None`, and the caller reads the file with tobj
 //! behind the line-by-line checks, whose errors name the file and line. This path never reports
 //! an error of its own.
 
@@ -40,10 +42,21 @@ pub(crate) struct Plain {
     /// The vertices' normals as written, where the faces' corners have them.
     pub(crate) normals: Option<Vec<Vec3>>,
     pub(crate) indices: Vec<[u32; 3]>,
+    /// The `mtllib` and `usemtl` lines, in order (all before the first face).
+    pub(crate) materials: Vec<MaterialLine>,
     /// Face corners on `f` lines (the pre-scan's count, for the budget).
     pub(crate) corners: u64,
     /// Triangles after fan triangulation.
     pub(crate) triangles: u64,
+}
+
+/// A material line, with tobj's reading of its argument: the line after its first space, trimmed.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum MaterialLine {
+    /// `mtllib FILE`.
+    Library(String),
+    /// `usemtl NAME` (never empty: tobj refuses that).
+    Use(String),
 }
 
 /// Bytes of text per parallel task (cut at the next line end): 1 MB is a few milliseconds of
@@ -78,6 +91,8 @@ struct Chunk {
     excess: [i64; 3],
     /// The last `o`/`g` line's name in the chunk.
     name: Option<String>,
+    /// The chunk's material lines (all before its first face).
+    materials: Vec<MaterialLine>,
     /// An `o`/`g` line after a face of this chunk (tobj would start a second object).
     named_after_face: bool,
 }
@@ -120,7 +135,14 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
     // Faces refer only to what is defined above them, with corners of one form; `o`/`g` only
     // before the first face.
     let (mut before, mut faces_above, mut name, mut form) = ([0i64; 3], false, None, None);
+    let mut materials = Vec::new();
     for chunk in &chunks {
+        if !chunk.materials.is_empty() {
+            if faces_above {
+                return None;
+            }
+            materials.extend_from_slice(&chunk.materials);
+        }
         if chunk.name.is_some() {
             if faces_above || chunk.named_after_face {
                 return None;
@@ -222,6 +244,7 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
         texcoords: (form & TEXCOORD != 0).then_some(texcoords),
         normals: (form & NORMAL != 0).then_some(normals),
         indices,
+        materials,
         corners,
         triangles: triangles as u64,
     })
@@ -380,6 +403,18 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
                 chunk.name = Some(line[first..].trim().to_owned());
                 chunk.named_after_face |= !chunk.triangles.is_empty();
             }
+            "mtllib" | "usemtl" => {
+                // After a face, tobj would start a second object at a new material.
+                let argument = line.split_once(' ').unwrap_or_default().1.trim();
+                if !chunk.triangles.is_empty() || argument.is_empty() {
+                    return None;
+                }
+                chunk.materials.push(if key == "mtllib" {
+                    MaterialLine::Library(argument.to_owned())
+                } else {
+                    MaterialLine::Use(argument.to_owned())
+                });
+            }
             // Smoothing groups change nothing tobj returns.
             "s" => {}
             _ if key.starts_with('#') => {}
@@ -420,6 +455,10 @@ mod tests {
             "vt 0 0\nf 1/1 2/1 3/2\n",          // a texture coordinate out of range
             "vt 0 0\nf 1/-1 2/-1 3/-1\n",       // relative
             "vt 0 0\nf 1/ 2/ 3/\n",             // empty indices
+            "f 1 2 3\nusemtl a\n",              // a material after a face
+            "f 1 2 3\nmtllib a.mtl\n",
+            "usemtl\n", // no name
+            "usemtl \n",
             "vn 0 0 1\nf 1// 2// 3//\n",
             "vn 0 0 1\nf 1/1/ 2/1/ 3/1/\n",
             "vn 0 0 1\nf 1//1/1 2//1 3//1\n", // four parts
@@ -432,7 +471,6 @@ mod tests {
             "v 1 2 3 4\n",                    // w
             "v 1 nan 0\n",                    // not finite
             "v 1 1e39 0\n",                   // overflows to infinity
-            "usemtl a\n",                     // materials
             "f 1 2 3\no b\n",                 // a second object
             "l 1 2\n",                        // a line element
             "f 1 2 3\nf 0 1 2\n",             // index 0
