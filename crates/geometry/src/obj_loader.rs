@@ -874,6 +874,18 @@ mod tests {
         Ok((desc.warnings, meshes, desc.materials, images))
     }
 
+    /// The `v` lines of an (n + 1)² grid, `position(i, j)` at row j, column i, each ended by `eol`.
+    fn vertex_grid(n: usize, eol: &str, position: impl Fn(usize, usize) -> [f32; 3]) -> String {
+        let mut text = String::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let [x, y, z] = position(i, j);
+                text.push_str(&format!("v {x} {y} {z}{eol}"));
+            }
+        }
+        text
+    }
+
     #[test]
     fn plain_files_load_exactly_as_through_tobj() {
         let path = Path::new("t.obj");
@@ -899,16 +911,7 @@ mod tests {
         // enough for several parallel chunks (~2.6 MB).
         let n = 300;
         let mut terrain = String::from("# terrain\r\no terrain\r\n");
-        for j in 0..=n {
-            for i in 0..=n {
-                terrain.push_str(&format!(
-                    "v {} {} {}\r\n",
-                    i as f32 / 7.0,
-                    ((i * j) % 13) as f32 * 0.1,
-                    j as f32 / 3.0
-                ));
-            }
-        }
+        terrain.push_str(&vertex_grid(n, "\r\n", |i, j| [i as f32 / 7.0, ((i * j) % 13) as f32 * 0.1, j as f32 / 3.0]));
         terrain.push_str("v 1e6 1e6 1e6\r\ns 1\r\n");
         for j in 0..n {
             for i in 0..n {
@@ -924,16 +927,7 @@ mod tests {
         // to four pairs. Then the same faces as `v//vn` and `v/vt`.
         let n = 200;
         let mut seams = String::from("o seams\n");
-        for j in 0..=n {
-            for i in 0..=n {
-                seams.push_str(&format!(
-                    "v {} {} {}\n",
-                    i as f32 / 9.0,
-                    ((i + 2 * j) % 7) as f32 * 0.1,
-                    j as f32 / 5.0
-                ));
-            }
-        }
+        seams.push_str(&vertex_grid(n, "\n", |i, j| [i as f32 / 9.0, ((i + 2 * j) % 7) as f32 * 0.1, j as f32 / 5.0]));
         seams.push_str("vt 0.25 0.75 0\n");
         for k in 0..4 * n * n {
             seams.push_str(&format!("vt {} {}\nvn {} 1 {}\n", k as f32 * 1e-4, 1.0 - k as f32 * 2e-4, k % 3, k % 5));
@@ -1060,22 +1054,16 @@ mod tests {
                 assert_eq!(loaded(load_obj_text(&text, base, &path, &budget())), checked, "{head:?}");
             }
         }
-        // What the comparisons compared: the second material of the first file, and the
-        // texture's image.
-        let first = loaded(load_obj_text(
-            &format!("mtllib scene.mtl\nusemtl red_paint\n{geometry}"),
-            Some(&dir),
-            &path,
-            &budget(),
-        ));
-        assert!(first.as_ref().is_ok_and(|l| l.1[0].4 == Some(1) && l.2.len() == 3), "{first:?}");
-        let textured = loaded(load_obj_text(
-            &format!("mtllib scene.mtl\nmtllib textured.mtl\nusemtl tex\n{geometry}"),
-            Some(&dir),
-            &path,
-            &budget(),
-        ));
-        assert!(textured.as_ref().is_ok_and(|l| l.1[0].4 == Some(3) && l.3.len() == 1), "{textured:?}");
+        // What the comparisons compared: the second material of the first file, and the fourth
+        // (the second file's) with the texture's image.
+        for (head, material, materials, images) in
+            [("usemtl red_paint", 1, 3, 0), ("mtllib textured.mtl\nusemtl tex", 3, 4, 1)]
+        {
+            let text = format!("mtllib scene.mtl\n{head}\n{geometry}");
+            let l = loaded(load_obj_text(&text, Some(&dir), &path, &budget()));
+            let counts = l.as_ref().map(|l| (l.1[0].4, l.2.len(), l.3.len()));
+            assert_eq!(counts, Ok((Some(material), materials, images)), "{head:?}");
+        }
         // A refused MTL (over the budget: the mesh's 768 bytes fit, the file does not) is the same
         // error either way.
         let small = || Budget::new(crate::LoadOptions { max_memory: 900, ..Default::default() });

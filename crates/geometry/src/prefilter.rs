@@ -226,16 +226,14 @@ mod tests {
     fn buckets_sort_as_the_whole_sorts() {
         // Hashes spread over 63 bits, some equal, a few degenerate; more records than buckets
         // and buckets left empty.
-        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut uniform = crate::test_uniform(0x2545_f491);
+        let mut bits24 = || (uniform() * (1u32 << 24) as f32) as u64;
         let mut records: Vec<(u64, usize)> = (0..20_000)
             .map(|g| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
                 let h = match g % 10 {
                     0 => DEGENERATE,
                     1 => 1 << 40,
-                    _ => state >> 1,
+                    _ => (bits24() << 39) | (bits24() << 15) | (bits24() >> 9),
                 };
                 (h, g)
             })
