@@ -154,8 +154,8 @@ const BUCKET_BITS: u32 = 12;
 
 /// `records` sorted: scattered into buckets by their hashes' top bits (the buckets in order of
 /// the hash), then each bucket sorted; both in parallel. The same order as any sort of the whole
-/// (the pairs are distinct); `par_sort_unstable` of the whole was 5 % of the samples of `info` on
-/// a 1.6M-triangle terrain, the top levels of its recursion passes over all of memory.
+/// (the pairs are distinct). `par_sort_unstable` of the whole was 5 % of the samples of `info` on
+/// a 1.6M-triangle terrain: each of its recursion's top levels is a pass over all the pairs.
 fn sorted_by_buckets(records: Vec<(u64, usize)>) -> Vec<(u64, usize)> {
     const BUCKETS: usize = 1 << BUCKET_BITS;
     // Hashes have 63 bits; [`DEGENERATE`] (all 64) joins the last bucket, which it ends.
