@@ -83,12 +83,15 @@ fn load_plain(
         Ok(())
     })?;
     add_materials(reads, materials, &mut desc, path, budget)?;
-    let material = material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
+    let material = material_index(material_id, &desc);
     let context = format!("object '{}'", plain.name);
     check_coordinates(&plain.positions, path, &context)?;
     if !plain.indices.is_empty() {
-        // v flipped, as the checked path flips it (the parse refused values that are not finite).
-        let uvs = plain.texcoords.map(|t| t.into_iter().map(|c| Vec2::new(c.x, 1.0 - c.y)).collect());
+        // The parse refused values that are not finite.
+        let uvs = plain.texcoords.map(|mut t| {
+            t.iter_mut().for_each(|c| *c = mesh_uv(c.x, c.y));
+            t
+        });
         let mesh = Mesh::new(plain.positions, plain.normals, uvs, plain.indices, material)
             .map_err(|e| Error::InvalidGeometry { path: path.to_path_buf(), context, cause: Box::new(e) })?;
         desc.meshes.push(mesh);
@@ -136,11 +139,9 @@ fn load_obj_checked(text: &str, base: Option<&Path>, path: &Path, budget: &Budge
             &mut desc.warnings,
             || format!("{}: {context}: normals missing on some faces or not finite; normals dropped", path.display()),
         );
-        // v flipped: OBJ's origin is the image's bottom-left corner, the meshes' (glTF's) its top-left.
-        let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(|c| Vec2::new(c[0], 1.0 - c[1])).collect();
+        let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(|c| mesh_uv(c[0], c[1])).collect();
         let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
-        // Material ids index tobj's list, which we copied in order; ids past its end (missing MTL) mean none.
-        let material = mesh.material_id.filter(|id| *id < desc.materials.len()).map(|id| id as u32);
+        let material = material_index(mesh.material_id, &desc);
         // `v x y z r g b`: colours multiplying `Kd` (and `map_Kd`), read as linear RGB as glTF's COLOR_0 is
         // (the format says nothing of their encoding).
         let colors: Vec<Vec4> = mesh.vertex_color.chunks_exact(3).map(|c| Vec4::new(c[0], c[1], c[2], 1.0)).collect();
@@ -316,6 +317,18 @@ fn add_materials(
         desc.materials.push(d);
     }
     Ok(())
+}
+
+/// An OBJ texture coordinate as the meshes hold it: v flipped, since OBJ's origin is the image's
+/// bottom-left corner and the meshes' (glTF's) its top-left.
+fn mesh_uv(u: f32, v: f32) -> Vec2 {
+    Vec2::new(u, 1.0 - v)
+}
+
+/// A material id of tobj's (or the plain path's replay of it) as a mesh's material: ids index
+/// the list read, which `desc` holds in order; ids past its end (a missing MTL) mean none.
+fn material_index(id: Option<usize>, desc: &SceneDescription) -> Option<u32> {
+    id.filter(|id| *id < desc.materials.len()).map(|id| id as u32)
 }
 
 fn syntax(path: &Path, line: usize, message: impl Into<String>) -> Error {
@@ -1072,6 +1085,19 @@ mod tests {
         let b = load_obj_checked(&text, Some(&dir), &path, &small()).err().map(|e| e.to_string());
         assert!(a.is_some() && a == b, "{a:?} {b:?}");
         assert!(a.is_some_and(|e| e.contains("scene.mtl")), "{b:?}");
+    }
+
+    #[test]
+    fn texture_coordinates_have_v_flipped_on_either_path() {
+        // `vt` counts v up from the image's bottom edge, meshes down from its top edge.
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0.2\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n";
+        let path = Path::new("t.obj");
+        let expected = vec![Vec2::new(0.25, 0.8), Vec2::new(1.0, 1.0), Vec2::new(0.0, 0.0)];
+        let budget = || Budget::allowing_absolute_paths();
+        for desc in [load_obj_text(text, None, path, &budget()), load_obj_checked(text, None, path, &budget())] {
+            let uvs = desc.ok().and_then(|d| d.meshes.first().and_then(|m| m.uvs().map(<[Vec2]>::to_vec)));
+            assert_eq!(uvs.as_ref(), Some(&expected));
+        }
     }
 
     #[test]

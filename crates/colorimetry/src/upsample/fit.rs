@@ -139,16 +139,23 @@ impl ForwardModel {
                 (*s, *ds) = sigmoid_and_derivative(polynomial(coefficients, t));
             }
             for (((&t, w), &s), &ds) in ts.iter().zip(ws).zip(&block_s).zip(&block_ds) {
-                let dx = [t * t, t, 1.0];
-                for k in 0..3 {
-                    xyz[k] += s * w[k];
-                    for j in 0..3 {
-                        xyz_jacobian[k][j] += ds * dx[j] * w[k];
-                    }
-                }
+                add_sample(&mut xyz, &mut xyz_jacobian, t, w, s, ds);
             }
         }
         (xyz, xyz_jacobian)
+    }
+}
+
+/// Adds one sample's terms (at normalised wavelength `t`, XYZ weight `w`, sigmoid `s` and its
+/// derivative `ds`) to the XYZ sums and their Jacobian.
+#[inline(always)]
+fn add_sample(xyz: &mut [f64; 3], xyz_jacobian: &mut [[f64; 3]; 3], t: f64, w: &[f64; 3], s: f64, ds: f64) {
+    let dx = [t * t, t, 1.0];
+    for k in 0..3 {
+        xyz[k] += s * w[k];
+        for j in 0..3 {
+            xyz_jacobian[k][j] += ds * dx[j] * w[k];
+        }
     }
 }
 
@@ -387,13 +394,7 @@ mod tests {
             let (mut xyz, mut jacobian) = ([0.0; 3], [[0.0; 3]; 3]);
             for (&t, w) in model.t.iter().zip(&model.weights) {
                 let (s, ds) = sigmoid_and_derivative(polynomial(coefficients, t));
-                let dx = [t * t, t, 1.0];
-                for k in 0..3 {
-                    xyz[k] += s * w[k];
-                    for j in 0..3 {
-                        jacobian[k][j] += ds * dx[j] * w[k];
-                    }
-                }
+                add_sample(&mut xyz, &mut jacobian, t, w, s, ds);
             }
             (xyz, jacobian)
         };
