@@ -14,6 +14,13 @@ faces' corners as `v/vt/vn`, as exporters with normals and UVs do (150 MB at n =
 
     python3 xtask/compare/terrain_obj.py --attributes 894 /tmp/terrain_1m6_nt.obj
 
+`--objects K` writes the terrain as Blender's OBJ exporter writes a scene of K objects: an
+`mtllib` line (the MTL file is written beside the OBJ, two materials), then per object (a strip
+of rows of quads) an `o` line, its own `v` (and with `--attributes`, `vt` and `vn`) lines, `s 0`,
+a `usemtl` line alternating between the two materials, and its faces:
+
+    python3 xtask/compare/terrain_obj.py --objects 64 --attributes 894 /tmp/terrain_objects.obj
+
 Needs numpy. Outside the project's runtime, like the other scripts here.
 """
 
@@ -29,6 +36,7 @@ def main():
     ap.add_argument("n", type=int, help="quads per side (2n² triangles)")
     ap.add_argument("out")
     ap.add_argument("--attributes", action="store_true", help="vt and vn lines, v/vt/vn corners (OBJ only)")
+    ap.add_argument("--objects", type=int, default=0, help="K objects of their own vertices, as Blender writes")
     args = ap.parse_args()
     n = args.n
     i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
@@ -44,20 +52,51 @@ def main():
     if args.out.endswith(".glb"):
         write_glb(args.out, np.stack([x, y, z], axis=1).astype(np.float32), (faces - 1).astype(np.uint32))
         return
+    # The heightfield's normal (−∂y/∂x, 1, −∂y/∂z), normalised; u, v from x, z.
+    dx = 0.7 * np.cos(7.0 * x) * np.cos(5.0 * z) + 0.93 * np.cos(31.0 * x + 17.0 * z)
+    dz = -0.5 * np.sin(7.0 * x) * np.sin(5.0 * z) + 0.51 * np.cos(31.0 * x + 17.0 * z)
+    normals = np.stack([-dx, np.ones_like(dx), -dz], axis=1)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    positions = np.stack([x, y, z], axis=1)
+    uvs = np.stack([(x + 1) / 2, (z + 1) / 2], axis=1)
     with open(args.out, "w") as f:
         f.write(f"# terrain {n}x{n} quads, {2 * n * n} triangles\n")
-        np.savetxt(f, np.stack([x, y, z], axis=1), fmt="v %.7g %.7g %.7g")
-        if not args.attributes:
-            np.savetxt(f, faces, fmt="f %d %d %d")
+        if args.objects:
+            mtl = args.out.rsplit("/", 1)[-1].rsplit(".", 1)[0] + ".mtl"
+            with open(args.out.rsplit(".", 1)[0] + ".mtl", "w") as m:
+                m.write("newmtl grass\nKd 0.2 0.5 0.1\n\nnewmtl rock\nKd 0.4 0.4 0.38\n")
+            f.write(f"mtllib {mtl}\n")
+            # Object k: quad rows rows[k]..rows[k + 1], with vertex rows rows[k]..rows[k + 1] inclusive.
+            rows = np.linspace(0, n, args.objects + 1).round().astype(int)
+            written = 0
+            for k in range(args.objects):
+                j0, j1 = rows[k], rows[k + 1]
+                if j1 == j0:
+                    continue
+                vs = slice(j0 * (n + 1), (j1 + 1) * (n + 1))
+                f.write(f"o strip_{k}\n")
+                np.savetxt(f, positions[vs], fmt="v %.7g %.7g %.7g")
+                if args.attributes:
+                    np.savetxt(f, uvs[vs], fmt="vt %.6g %.6g")
+                    np.savetxt(f, normals[vs], fmt="vn %.6g %.6g %.6g")
+                f.write(f"s 0\nusemtl {('grass', 'rock')[k % 2]}\n")
+                # The strip's faces: rows j0..j1 of quads, two triangles each, indices renumbered.
+                own = faces[2 * j0 * n : 2 * j1 * n] - j0 * (n + 1) + written
+                write_faces(f, own, args.attributes)
+                written += (j1 - j0 + 1) * (n + 1)
             return
-        # The heightfield's normal (−∂y/∂x, 1, −∂y/∂z), normalised; u, v from x, z.
-        dx = 0.7 * np.cos(7.0 * x) * np.cos(5.0 * z) + 0.93 * np.cos(31.0 * x + 17.0 * z)
-        dz = -0.5 * np.sin(7.0 * x) * np.sin(5.0 * z) + 0.51 * np.cos(31.0 * x + 17.0 * z)
-        normals = np.stack([-dx, np.ones_like(dx), -dz], axis=1)
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        np.savetxt(f, np.stack([(x + 1) / 2, (z + 1) / 2], axis=1), fmt="vt %.6g %.6g")
-        np.savetxt(f, normals, fmt="vn %.6g %.6g %.6g")
+        np.savetxt(f, positions, fmt="v %.7g %.7g %.7g")
+        if args.attributes:
+            np.savetxt(f, uvs, fmt="vt %.6g %.6g")
+            np.savetxt(f, normals, fmt="vn %.6g %.6g %.6g")
+        write_faces(f, faces, args.attributes)
+
+
+def write_faces(f, faces, attributes):
+    if attributes:
         np.savetxt(f, np.repeat(faces, 3, axis=1), fmt="f %d/%d/%d %d/%d/%d %d/%d/%d")
+    else:
+        np.savetxt(f, faces, fmt="f %d %d %d")
 
 
 def write_glb(path, positions, faces):

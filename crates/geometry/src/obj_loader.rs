@@ -49,50 +49,73 @@ pub(crate) fn load_obj_text(text: &str, base: Option<&Path>, path: &Path, budget
 }
 
 /// A plain file ([`crate::obj_plain`]) as [`load_obj_checked`] loads it: the same charge, checks,
-/// materials and mesh.
+/// materials, objects and meshes.
 fn load_plain(
     plain: crate::obj_plain::Plain,
     base: Option<&Path>,
     path: &Path,
     budget: &Budget,
 ) -> Result<SceneDescription> {
-    use crate::obj_plain::MaterialLine;
+    use crate::obj_plain::Mark;
     let mut desc = SceneDescription::empty(SceneFormat::Obj);
     budget.charge(
         path,
         || format!("{} face corners and {} triangles", plain.corners, plain.triangles),
         mesh_charge(plain.corners, plain.triangles),
     )?;
-    // The material lines as tobj reads them: each `mtllib` file's materials appended to the list
-    // (a file that fails adds none), and `usemtl` naming one of those read so far, or none.
+    // The marked lines as tobj reads them: each `mtllib` file's materials appended to the list (a
+    // file that fails adds none); `usemtl` naming one of those read so far, or none; an object
+    // ended, where it has faces, by an `o`/`g` line, by a `usemtl` that changes the material, and
+    // by the end of the file. Objects without faces give no mesh.
     let reads = MtlReads::default();
-    let (mut materials, mut by_name, mut material_id) = (Vec::new(), HashMap::new(), None);
+    let (mut materials, mut by_name) = (Vec::new(), HashMap::new());
+    let mut objects: Vec<(std::ops::Range<usize>, String, Option<usize>)> = Vec::new();
+    let (mut start, mut name, mut material_id) = (0, "unnamed_object".to_owned(), None);
     guard_panic(path, "tobj", || {
-        for line in &plain.materials {
-            match line {
-                MaterialLine::Library(file) => {
+        for (at, mark) in &plain.marks {
+            match mark {
+                Mark::Name(new_name) => {
+                    if *at > start {
+                        objects.push((start..*at, name.clone(), material_id));
+                        start = *at;
+                    }
+                    name = if new_name.is_empty() { "unnamed_object".to_owned() } else { new_name.clone() };
+                }
+                Mark::Library(file) => {
                     if let Ok((mut read, names)) = reads.load(Path::new(file), base, path, budget) {
                         let offset = materials.len();
                         materials.append(&mut read);
                         by_name.extend(names.into_iter().map(|(name, id)| (name, id + offset)));
                     }
                 }
-                MaterialLine::Use(name) => material_id = by_name.get(name).copied(),
+                Mark::Use(material) => {
+                    let id = by_name.get(material).copied();
+                    if id != material_id && *at > start {
+                        objects.push((start..*at, name.clone(), material_id));
+                        start = *at;
+                    }
+                    material_id = id;
+                }
             }
         }
         Ok(())
     })?;
+    let triangles = plain.triangles as usize;
+    if triangles > start {
+        objects.push((start..triangles, name, material_id));
+    }
     add_materials(reads, materials, &mut desc, path, budget)?;
-    let material = material_index(material_id, &desc);
-    let context = format!("object '{}'", plain.name);
-    check_coordinates(&plain.positions, path, &context)?;
-    if !plain.indices.is_empty() {
+    let ranges: Vec<_> = objects.iter().map(|o| o.0.clone()).collect();
+    for (object, (_, name, material_id)) in plain.into_objects(&ranges).into_iter().zip(objects) {
+        let context = format!("object '{name}'");
+        check_coordinates(&object.positions, path, &context)?;
         // The parse refused values that are not finite.
-        let uvs = plain.texcoords.map(|mut t| {
+        let uvs = object.texcoords.map(|mut t| {
             t.iter_mut().for_each(|c| *c = mesh_uv(c.x, c.y));
             t
         });
-        let mesh = Mesh::new(plain.positions, plain.normals, uvs, plain.indices, material)
+        let material = material_index(material_id, &desc);
+        let mesh = Mesh::new(object.positions, object.normals, uvs, object.indices, material)
             .map_err(|e| Error::InvalidGeometry { path: path.to_path_buf(), context, cause: Box::new(e) })?;
         desc.meshes.push(mesh);
     }
@@ -1085,6 +1108,69 @@ mod tests {
         let b = load_obj_checked(&text, Some(&dir), &path, &small()).err().map(|e| e.to_string());
         assert!(a.is_some() && a == b, "{a:?} {b:?}");
         assert!(a.is_some_and(|e| e.contains("scene.mtl")), "{b:?}");
+    }
+
+    #[test]
+    fn objects_and_material_changes_load_as_through_tobj() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let dir = std::env::temp_dir().join("spectrace-geometry-obj-plain-objects");
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+        let mtl =
+            std::fs::read_to_string(root.join("scenes/obj/cube_and_sphere.mtl")).unwrap_or_else(|e| panic!("{e}"));
+        std::fs::write(dir.join("scene.mtl"), mtl).unwrap_or_else(|e| panic!("{e}"));
+        let v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n";
+        let (a, b, c) = ("f 1/1 2/2 3/3\n", "f 3/3 4/4 1/1\n", "f 2/4 3/3 4/2\n");
+        // (text, the meshes tobj makes of it with the MTL file read)
+        let mut texts = vec![
+            (format!("mtllib scene.mtl\n{v}o a\nusemtl red_paint\n{a}{b}o b\nusemtl glass\n{c}{a}"), 2),
+            // A change of material ends an object; naming the same one again does not.
+            (format!("mtllib scene.mtl\n{v}o a\nusemtl floor\n{a}usemtl glass\n{b}usemtl glass\n{c}"), 2),
+            // Unknown materials are none: no change between two of them, a change to a known one.
+            (format!("mtllib scene.mtl\n{v}usemtl x\n{a}usemtl y\n{b}usemtl floor\n{c}"), 2),
+            // Objects without faces make nothing; an empty name is tobj's default.
+            (format!("{v}o empty\no a\n{a}g\n{b}s 1\n{c}o last\n"), 2),
+            (format!("{v}{a}o\n{b}g  spaced name \n{c}"), 3),
+            // A material file read after faces; a material named before its file is read.
+            (format!("{v}o a\n{a}mtllib scene.mtl\nusemtl glass\n{b}"), 2),
+            (format!("{v}usemtl glass\n{a}mtllib scene.mtl\nusemtl glass\n{b}usemtl glass\n{c}"), 2),
+            (format!("mtllib scene.mtl\n{v}o a\nusemtl glass\n{a}mtllib scene.mtl\nusemtl floor\n{b}"), 2),
+        ];
+        // Several chunks: a grid of quads sharing positions across objects, with normals, an object
+        // per row and a material change every third row (~3 MB).
+        let n = 250;
+        let mut grid = String::from("mtllib scene.mtl\n");
+        grid.push_str(&vertex_grid(n, "\n", |i, j| [i as f32 / 3.0, ((i * j) % 11) as f32 * 0.1, j as f32 / 7.0]));
+        grid.push_str("vn 0 1 0\nvn 0 0.8 0.6\n");
+        for j in 0..n {
+            grid.push_str(&format!("o row {j}\n"));
+            if j % 3 == 0 {
+                grid.push_str(["usemtl floor\n", "usemtl glass\n"][j / 3 % 2]);
+            }
+            for i in 0..n {
+                let q = j * (n + 1) + i + 1;
+                let k = 1 + (i + j) % 2;
+                grid.push_str(&format!("f {}//{k} {q}//{k} {}//{k} {}//{k}\n", q + n + 1, q + 1, q + n + 2));
+            }
+        }
+        texts.push((grid, n));
+        let path = dir.join("t.obj");
+        let budget = || Budget::allowing_absolute_paths();
+        for (text, meshes) in &texts {
+            assert!(crate::obj_plain::parse(text, u64::MAX).is_some(), "{text:?}");
+            for base in [Some(dir.as_path()), None] {
+                let checked = loaded(load_obj_checked(text, base, &path, &budget()));
+                assert_eq!(loaded(load_obj_text(text, base, &path, &budget())), checked, "{text:?}");
+                if base.is_some() {
+                    assert_eq!(checked.map(|c| c.1.len()), Ok(*meshes), "{text:?}");
+                }
+            }
+        }
+        // Objects' names appear in errors (tobj's default for an empty one): the same either way.
+        let far = "v 0 0 0\nv 1e30 0 0\nv 0 1 0\nv 1 1 0\no a\nf 1 3 4\ng\nf 1 2 3\n";
+        assert!(crate::obj_plain::parse(far, u64::MAX).is_some());
+        let checked = loaded(load_obj_checked(far, None, &path, &budget()));
+        assert!(checked.as_ref().is_err_and(|e| e.contains("'unnamed_object'")), "{checked:?}");
+        assert_eq!(loaded(load_obj_text(far, None, &path, &budget())), checked);
     }
 
     #[test]

@@ -10,19 +10,21 @@
 //! tobj uses), and the corners numbered in one pass over an array (with a map only for the
 //! triples after a position's first: the seams of texture coordinates or normals).
 //!
-//! The result is what tobj gives for the same text — one object, a vertex for each distinct
-//! (position, texture coordinate, normal) triple in the order faces first use them (unused ones
+//! The result is what tobj gives for the same text — an object for each run of faces between
+//! `o`/`g` lines and changes of material, a vertex for each distinct (position, texture
+//! coordinate, normal) triple in the order the object's faces first use them (unused ones
 //! dropped), polygons as fans from their first corner — so a file loads the same whichever path
-//! reads it (the tests compare both on every OBJ fixture). `mtllib` and `usemtl` lines before the
-//! first face are kept, in order, for the caller to read as tobj would (one material for the
-//! whole object). Anything else — corners of more than one form, colours, `w`, relative or
-//! malformed indices, faces of fewer than three corners, material lines or groups after faces,
-//! any other statement, a value that is not a finite number, an index out of range — returns
-//! `None`, and the caller reads the file with tobj
+//! reads it (the tests compare both on every OBJ fixture). The `o`/`g`, `mtllib` and `usemtl`
+//! lines are kept with their place among the faces, for the caller to read the materials as
+//! tobj would and end objects where tobj does ([`Plain::into_objects`]). Anything else — corners
+//! of more than one form, colours, `w`, relative or malformed indices, faces of fewer than three
+//! corners, any other statement, a value that is not a finite number, an index out of range —
+//! returns `None`, and the caller reads the file with tobj
 //! behind the line-by-line checks, whose errors name the file and line. This path never reports
 //! an error of its own.
 
 use std::collections::HashMap;
+use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::{Vec2, Vec3};
@@ -30,33 +32,53 @@ use rayon::prelude::*;
 
 use crate::limits::mesh_charge;
 
-/// A plain OBJ file as tobj would load it (`single_index`, triangulated).
+/// A plain OBJ file, parsed: its `v`, `vt` and `vn` lists, its faces as fan triangles, and the
+/// lines that divide them into objects. [`Plain::into_objects`] numbers each object's vertices
+/// as tobj does (`single_index`, triangulated), once the caller has decided where objects end
+/// (which needs the materials a `usemtl` line names: [`Mark`]).
 #[derive(Debug)]
 pub(crate) struct Plain {
-    /// The object's name: the last `o`/`g` line's, or tobj's `unnamed_object`.
-    pub(crate) name: String,
-    /// Positions in the order the faces first refer to them.
-    pub(crate) positions: Vec<Vec3>,
-    /// The vertices' texture coordinates as written (v up), where the faces' corners have them.
-    pub(crate) texcoords: Option<Vec<Vec2>>,
-    /// The vertices' normals as written, where the faces' corners have them.
-    pub(crate) normals: Option<Vec<Vec3>>,
-    pub(crate) indices: Vec<[u32; 3]>,
-    /// The `mtllib` and `usemtl` lines, in order (all before the first face).
-    pub(crate) materials: Vec<MaterialLine>,
+    positions: Vec<Vec3>,
+    /// Empty unless the corners have texture coordinates (`form`).
+    texcoords: Vec<Vec2>,
+    /// Empty unless the corners have normals.
+    normals: Vec<Vec3>,
+    /// The corners' form, one for the whole file ([`TEXCOORD`], [`NORMAL`]).
+    form: u8,
+    /// The fan triangles, chunk by chunk in file order: position, texture coordinate and normal
+    /// indices into the lists above (the last two where `form` has them).
+    parts: Vec<[Vec<[u32; 3]>; 3]>,
+    /// The `o`/`g`, `mtllib` and `usemtl` lines in file order, each with the number of triangles
+    /// above it.
+    pub(crate) marks: Vec<(usize, Mark)>,
     /// Face corners on `f` lines (the pre-scan's count, for the budget).
     pub(crate) corners: u64,
     /// Triangles after fan triangulation.
     pub(crate) triangles: u64,
 }
 
-/// A material line, with tobj's reading of its argument: the line after its first space, trimmed.
+/// A line that may end an object, with tobj's reading of its argument: the line after its first
+/// character (`o`/`g`) or its first space (`mtllib`/`usemtl`), trimmed.
 #[derive(Debug, Clone, PartialEq)]
-pub(crate) enum MaterialLine {
+pub(crate) enum Mark {
+    /// `o NAME` or `g NAME` (possibly empty).
+    Name(String),
     /// `mtllib FILE`.
     Library(String),
     /// `usemtl NAME` (never empty: tobj refuses that).
     Use(String),
+}
+
+/// One object's mesh as tobj gives it: a vertex for each distinct (position, texture coordinate,
+/// normal) triple, in the order the object's faces first use them.
+#[derive(Debug, PartialEq)]
+pub(crate) struct Object {
+    pub(crate) positions: Vec<Vec3>,
+    /// The vertices' texture coordinates as written (v up), where the corners have them.
+    pub(crate) texcoords: Option<Vec<Vec2>>,
+    /// The vertices' normals as written, where the corners have them.
+    pub(crate) normals: Option<Vec<Vec3>>,
+    pub(crate) indices: Vec<[u32; 3]>,
 }
 
 /// Bytes of text per parallel task (cut at the next line end): 1 MB is a few milliseconds of
@@ -89,12 +111,8 @@ struct Chunk {
     /// this chunk defined before the line): a face may only refer to what is defined above it, so
     /// the chunks before must define at least this many.
     excess: [i64; 3],
-    /// The last `o`/`g` line's name in the chunk.
-    name: Option<String>,
-    /// The chunk's material lines (all before its first face).
-    materials: Vec<MaterialLine>,
-    /// An `o`/`g` line after a face of this chunk (tobj would start a second object).
-    named_after_face: bool,
+    /// The chunk's `o`/`g`, `mtllib` and `usemtl` lines, each with the chunk's triangles above it.
+    marks: Vec<(usize, Mark)>,
 }
 
 /// Parses `text` if it is a plain OBJ file. `allowance`: the bytes the budget still allows; the
@@ -126,29 +144,16 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
     let give_up = AtomicBool::new(false);
     let parse = |w: &[usize]| parse_chunk(&text[w[0]..w[1]], allowance, &charged, &give_up);
     // One chunk stays on this thread (starting rayon's pool costs more than a small file).
-    let chunks: Vec<Chunk> = if starts.len() > 2 {
+    let mut chunks: Vec<Chunk> = if starts.len() > 2 {
         starts.par_windows(2).map(parse).collect::<Option<Vec<Chunk>>>()?
     } else {
         starts.windows(2).map(parse).collect::<Option<Vec<Chunk>>>()?
     };
 
-    // Faces refer only to what is defined above them, with corners of one form; `o`/`g` only
-    // before the first face.
-    let (mut before, mut faces_above, mut name, mut form) = ([0i64; 3], false, None, None);
-    let mut materials = Vec::new();
-    for chunk in &chunks {
-        if !chunk.materials.is_empty() {
-            if faces_above {
-                return None;
-            }
-            materials.extend_from_slice(&chunk.materials);
-        }
-        if chunk.name.is_some() {
-            if faces_above || chunk.named_after_face {
-                return None;
-            }
-            name.clone_from(&chunk.name);
-        }
+    // Faces refer only to what is defined above them, with corners of one form.
+    let (mut before, mut form, mut above) = ([0i64; 3], None, 0);
+    let mut marks = Vec::new();
+    for chunk in &mut chunks {
         if let Some(f) = chunk.form {
             if form.is_some_and(|g| g != f) {
                 return None;
@@ -161,93 +166,141 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
         before[0] += chunk.positions.len() as i64;
         before[1] += chunk.texcoords.len() as i64;
         before[2] += chunk.normals.len() as i64;
-        faces_above |= !chunk.triangles.is_empty();
+        marks.extend(chunk.marks.drain(..).map(|(at, mark)| (above + at, mark)));
+        above += chunk.triangles.len();
     }
     if before[0] > i64::from(u32::MAX) {
         return None;
     }
     let form = form.unwrap_or(0);
     let corners = chunks.iter().map(|c| c.corners).sum();
-    let triangles: usize = chunks.iter().map(|c| c.triangles.len()).sum();
-    let mut file_positions = Vec::with_capacity(before[0] as usize);
-    let mut file_texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { before[1] as usize } else { 0 });
-    let mut file_normals = Vec::with_capacity(if form & NORMAL != 0 { before[2] as usize } else { 0 });
+    let mut positions = Vec::with_capacity(before[0] as usize);
+    let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { before[1] as usize } else { 0 });
+    let mut normals = Vec::with_capacity(if form & NORMAL != 0 { before[2] as usize } else { 0 });
     let mut parts = Vec::with_capacity(chunks.len());
     for chunk in chunks {
-        file_positions.extend(chunk.positions);
+        positions.extend(chunk.positions);
         if form & TEXCOORD != 0 {
-            file_texcoords.extend(chunk.texcoords);
+            texcoords.extend(chunk.texcoords);
         }
         if form & NORMAL != 0 {
-            file_normals.extend(chunk.normals);
+            normals.extend(chunk.normals);
         }
-        parts.push((chunk.triangles, chunk.texcoord_triangles, chunk.normal_triangles));
+        parts.push([chunk.triangles, chunk.texcoord_triangles, chunk.normal_triangles]);
     }
-    // tobj's numbering: a (position, texture coordinate, normal) triple gets the next index when
-    // a face first uses it. Most positions come with one pair of the others: the pair a
-    // position was first numbered with is kept beside it, and only the other pairs (seams) are
-    // looked up in a map.
-    let mut number = vec![u32::MAX; file_positions.len()];
-    let mut first_pair = if form == 0 { Vec::new() } else { vec![[0u32; 2]; file_positions.len()] };
-    let mut seams: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut positions = Vec::with_capacity(file_positions.len());
-    let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { file_positions.len() } else { 0 });
-    let mut normals = Vec::with_capacity(if form & NORMAL != 0 { file_positions.len() } else { 0 });
-    let mut indices = Vec::with_capacity(triangles);
-    for (part, texcoord_part, normal_part) in parts {
-        if form == 0 {
-            // Positions only (the common case, kept to the one array lookup per corner).
-            for triangle in part {
-                indices.push(triangle.map(|p| {
-                    let number = &mut number[p as usize];
-                    if *number == u32::MAX {
-                        *number = positions.len() as u32;
-                        positions.push(file_positions[p as usize]);
-                    }
-                    *number
-                }));
-            }
-            continue;
+    Some(Plain { positions, texcoords, normals, form, parts, marks, corners, triangles: above as u64 })
+}
+
+impl Plain {
+    /// The objects whose triangles are `ranges` (in order, each non-empty, together all the
+    /// file's), each numbered on its own as tobj numbers a model: a (position, texture
+    /// coordinate, normal) triple gets the next index when one of the object's faces first uses
+    /// it.
+    pub(crate) fn into_objects(mut self, ranges: &[Range<usize>]) -> Vec<Object> {
+        let form = self.form;
+        // Most positions come with one pair of the others: the pair a position was first
+        // numbered with is kept beside it, and only the other pairs (seams) are looked up in a
+        // map. `number` is reset after each object but the last, where it set it.
+        let mut number = vec![u32::MAX; self.positions.len()];
+        let mut first_pair = if form == 0 { Vec::new() } else { vec![[0u32; 2]; self.positions.len()] };
+        let mut seams: HashMap<[u32; 3], u32> = HashMap::new();
+        // Where each chunk's triangles start in the file, and the chunks (or their parts) in `range`.
+        let mut part_start = Vec::with_capacity(self.parts.len() + 1);
+        part_start.push(0);
+        for part in &self.parts {
+            part_start.push(part_start[part_start.len() - 1] + part[0].len());
         }
-        for (k, triangle) in part.into_iter().enumerate() {
-            let mut numbered = [0u32; 3];
-            for (c, out) in numbered.iter_mut().enumerate() {
-                let p = triangle[c] as usize;
-                let t = if form & TEXCOORD != 0 { texcoord_part[k][c] } else { 0 };
-                let n = if form & NORMAL != 0 { normal_part[k][c] } else { 0 };
-                let mut add = || {
-                    positions.push(file_positions[p]);
-                    if form & TEXCOORD != 0 {
-                        texcoords.push(file_texcoords[t as usize]);
+        let parts_in = |range: &Range<usize>| -> Vec<(usize, Range<usize>)> {
+            let first = part_start.partition_point(|&start| start <= range.start) - 1;
+            (first..part_start.len() - 1)
+                .take_while(|&i| part_start[i] < range.end)
+                .map(|i| {
+                    (
+                        i,
+                        range.start.max(part_start[i]) - part_start[i]
+                            ..range.end.min(part_start[i + 1]) - part_start[i],
+                    )
+                })
+                .collect()
+        };
+        let mut objects = Vec::with_capacity(ranges.len());
+        for (k, range) in ranges.iter().enumerate() {
+            let last = k + 1 == ranges.len();
+            let vertices = if ranges.len() == 1 { self.positions.len() } else { 0 };
+            let mut positions = Vec::with_capacity(vertices);
+            let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { vertices } else { 0 });
+            let mut normals = Vec::with_capacity(if form & NORMAL != 0 { vertices } else { 0 });
+            let mut indices = Vec::with_capacity(range.len());
+            for (i, local) in parts_in(range) {
+                let [part, texcoord_part, normal_part] = &self.parts[i];
+                if form == 0 {
+                    // Positions only (the common case, kept to the one array lookup per corner).
+                    for triangle in &part[local] {
+                        indices.push(triangle.map(|p| {
+                            let number = &mut number[p as usize];
+                            if *number == u32::MAX {
+                                *number = positions.len() as u32;
+                                positions.push(self.positions[p as usize]);
+                            }
+                            *number
+                        }));
                     }
-                    if form & NORMAL != 0 {
-                        normals.push(file_normals[n as usize]);
-                    }
-                    (positions.len() - 1) as u32
-                };
-                *out = if number[p] == u32::MAX {
-                    first_pair[p] = [t, n];
-                    number[p] = add();
-                    number[p]
-                } else if first_pair[p] == [t, n] {
-                    number[p]
                 } else {
-                    *seams.entry([p as u32, t, n]).or_insert_with(add)
-                };
+                    for k in local {
+                        let mut numbered = [0u32; 3];
+                        for (c, out) in numbered.iter_mut().enumerate() {
+                            let p = part[k][c] as usize;
+                            let t = if form & TEXCOORD != 0 { texcoord_part[k][c] } else { 0 };
+                            let n = if form & NORMAL != 0 { normal_part[k][c] } else { 0 };
+                            let mut add = || {
+                                positions.push(self.positions[p]);
+                                if form & TEXCOORD != 0 {
+                                    texcoords.push(self.texcoords[t as usize]);
+                                }
+                                if form & NORMAL != 0 {
+                                    normals.push(self.normals[n as usize]);
+                                }
+                                (positions.len() - 1) as u32
+                            };
+                            *out = if number[p] == u32::MAX {
+                                first_pair[p] = [t, n];
+                                number[p] = add();
+                                number[p]
+                            } else if first_pair[p] == [t, n] {
+                                number[p]
+                            } else {
+                                *seams.entry([p as u32, t, n]).or_insert_with(add)
+                            };
+                        }
+                        indices.push(numbered);
+                    }
+                }
+                if last {
+                    // Numbered for good: freed as the numbering goes, as the output grows.
+                    self.parts[i] = Default::default();
+                }
             }
-            indices.push(numbered);
+            if !last {
+                for (i, local) in parts_in(range) {
+                    self.parts[i][0][local].iter().flatten().for_each(|&p| number[p as usize] = u32::MAX);
+                }
+                seams.clear();
+                // Chunks wholly before the next object are done with.
+                for i in
+                    parts_in(range).into_iter().map(|(i, _)| i).filter(|&i| part_start[i + 1] <= ranges[k + 1].start)
+                {
+                    self.parts[i] = Default::default();
+                }
+            }
+            objects.push(Object {
+                positions,
+                texcoords: (form & TEXCOORD != 0).then_some(texcoords),
+                normals: (form & NORMAL != 0).then_some(normals),
+                indices,
+            });
         }
+        objects
     }
-    Some(Plain {
-        name: name.filter(|n| !n.is_empty()).unwrap_or_else(|| "unnamed_object".to_owned()),
-        positions,
-        texcoords: (form & TEXCOORD != 0).then_some(texcoords),
-        normals: (form & NORMAL != 0).then_some(normals),
-        indices,
-        materials,
-        corners,
-        triangles: triangles as u64,
-    })
 }
 
 /// `text.lines()`: lines split at `\n`, a `\r` before it dropped (a last line without `\n` is
@@ -400,20 +453,16 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
             "o" | "g" => {
                 // tobj's name: the line after its first character, trimmed.
                 let first = line.chars().next().map_or(0, char::len_utf8);
-                chunk.name = Some(line[first..].trim().to_owned());
-                chunk.named_after_face |= !chunk.triangles.is_empty();
+                chunk.marks.push((chunk.triangles.len(), Mark::Name(line[first..].trim().to_owned())));
             }
             "mtllib" | "usemtl" => {
-                // After a face, tobj would start a second object at a new material.
                 let argument = line.split_once(' ').unwrap_or_default().1.trim();
-                if !chunk.triangles.is_empty() || argument.is_empty() {
+                if argument.is_empty() {
                     return None;
                 }
-                chunk.materials.push(if key == "mtllib" {
-                    MaterialLine::Library(argument.to_owned())
-                } else {
-                    MaterialLine::Use(argument.to_owned())
-                });
+                let argument = argument.to_owned();
+                let mark = if key == "mtllib" { Mark::Library(argument) } else { Mark::Use(argument) };
+                chunk.marks.push((chunk.triangles.len(), mark));
             }
             // Smoothing groups change nothing tobj returns.
             "s" => {}
@@ -429,16 +478,23 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
 mod tests {
     use super::*;
 
+    /// The whole file as one object.
+    fn whole(text: &str) -> Object {
+        let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        let all = 0..plain.triangles as usize;
+        plain.into_objects(&[all]).pop().unwrap_or_else(|| panic!("one object"))
+    }
+
     #[test]
     fn quads_and_polygons_are_fans_and_positions_are_numbered_by_first_use() {
         let text = "# a comment\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 5 5 5\nv 0.5 2 0\nf 3 4 1 2\nf 1 2 6 3 4\n";
         let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        assert_eq!((plain.corners, plain.triangles, plain.marks.len()), (9, 5, 0));
+        let object = whole(text);
         // Vertex 5 is never used: dropped, as tobj drops it.
-        assert_eq!(plain.positions.len(), 5);
-        assert_eq!(plain.positions[0], Vec3::new(1.0, 1.0, 0.0));
-        assert_eq!(plain.indices, vec![[0, 1, 2], [0, 2, 3], [2, 3, 4], [2, 4, 0], [2, 0, 1]]);
-        assert_eq!((plain.corners, plain.triangles), (9, 5));
-        assert_eq!(plain.name, "unnamed_object");
+        assert_eq!(object.positions.len(), 5);
+        assert_eq!(object.positions[0], Vec3::new(1.0, 1.0, 0.0));
+        assert_eq!(object.indices, vec![[0, 1, 2], [0, 2, 3], [2, 3, 4], [2, 4, 0], [2, 0, 1]]);
     }
 
     #[test]
@@ -455,9 +511,7 @@ mod tests {
             "vt 0 0\nf 1/1 2/1 3/2\n",          // a texture coordinate out of range
             "vt 0 0\nf 1/-1 2/-1 3/-1\n",       // relative
             "vt 0 0\nf 1/ 2/ 3/\n",             // empty indices
-            "f 1 2 3\nusemtl a\n",              // a material after a face
-            "f 1 2 3\nmtllib a.mtl\n",
-            "usemtl\n", // no name
+            "usemtl\n",                         // no name
             "usemtl \n",
             "vn 0 0 1\nf 1// 2// 3//\n",
             "vn 0 0 1\nf 1/1/ 2/1/ 3/1/\n",
@@ -471,7 +525,6 @@ mod tests {
             "v 1 2 3 4\n",                    // w
             "v 1 nan 0\n",                    // not finite
             "v 1 1e39 0\n",                   // overflows to infinity
-            "f 1 2 3\no b\n",                 // a second object
             "l 1 2\n",                        // a line element
             "f 1 2 3\nf 0 1 2\n",             // index 0
         ] {
@@ -493,7 +546,7 @@ mod tests {
         // Position 3 comes with texture coordinate 3 and then 4 (a seam); vertex 2 is never used.
         let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 9 9 9\nvt 0 0\nvt 1 0\nvt 0 1\nvt 0.5 0.5 0\n\
                     f 1/1 2/2 3/3\nf 3/4 2/2 1/1\nf 3/3 1/1 2/2\n";
-        let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        let plain = whole(text);
         assert_eq!(plain.indices, vec![[0, 1, 2], [3, 1, 0], [2, 0, 1]]);
         assert_eq!(plain.positions, [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [0., 1., 0.]].map(Vec3::from_array));
         let texcoords = [[0., 0.], [1., 0.], [0., 1.], [0.5, 0.5]].map(Vec2::from_array);
@@ -501,11 +554,31 @@ mod tests {
         assert_eq!(plain.normals, None);
         // With normals: position 1 with normal 1 and then 2.
         let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 -1\nf 1//1 2//1 3//1\nf 1//2 3//1 2//1\n";
-        let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        let plain = whole(text);
         assert_eq!(plain.indices, vec![[0, 1, 2], [3, 2, 1]]);
         let normals = [Vec3::Z, Vec3::Z, Vec3::Z, Vec3::NEG_Z];
         assert_eq!(plain.normals.as_deref(), Some(&normals[..]));
         assert_eq!(plain.texcoords, None);
+    }
+
+    #[test]
+    fn each_object_numbers_its_own_vertices() {
+        // Object a: position 3 with texture coordinates 3 and then 4 (a seam). Object b starts
+        // with position 4, and meets the same triples in another order: its own numbers.
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\n\
+                    o a\nf 1/1 2/2 3/3\nf 3/4 2/2 1/1\nusemtl m\no b\nf 4/1 1/1 3/3\nf 2/2 3/3 1/1\nf 3/4 1/1 2/2\n";
+        let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        let marks = [(0, Mark::Name("a".into())), (2, Mark::Use("m".into())), (2, Mark::Name("b".into()))];
+        assert_eq!(plain.marks, marks);
+        let objects = plain.into_objects(&[0..2, 2..5]);
+        let [p1, p2, p3, p4] = [[0., 0., 0.], [1., 0., 0.], [0., 1., 0.], [1., 1., 0.]].map(Vec3::from_array);
+        let [t1, t2, t3, t4] = [[0., 0.], [1., 0.], [0., 1.], [1., 1.]].map(Vec2::from_array);
+        assert_eq!(objects[0].indices, [[0, 1, 2], [3, 1, 0]]);
+        assert_eq!(objects[0].positions, [p1, p2, p3, p3]);
+        assert_eq!(objects[0].texcoords.as_deref(), Some(&[t1, t2, t3, t4][..]));
+        assert_eq!(objects[1].indices, [[0, 1, 2], [3, 2, 1], [4, 1, 3]]);
+        assert_eq!(objects[1].positions, [p4, p1, p3, p2, p3]);
+        assert_eq!(objects[1].texcoords.as_deref(), Some(&[t1, t1, t3, t2, t4][..]));
     }
 
     #[test]
@@ -531,11 +604,11 @@ mod tests {
     }
 
     #[test]
-    fn names_before_faces_and_crlf_lines_are_read() {
-        let plain = parse("o  terrain \r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\ns off\r\nf 1 2 3\r\n", u64::MAX)
-            .unwrap_or_else(|| panic!("plain"));
-        assert_eq!(plain.name, "terrain");
-        assert_eq!(plain.indices, vec![[0, 1, 2]]);
+    fn names_and_crlf_lines_are_read() {
+        let text = "o  terrain \r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\ns off\r\nf 1 2 3\r\ng\r\n";
+        let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        assert_eq!(plain.marks, [(0, Mark::Name("terrain".into())), (1, Mark::Name(String::new()))]);
+        assert_eq!(whole(text).indices, vec![[0, 1, 2]]);
     }
 
     #[test]
@@ -547,7 +620,7 @@ mod tests {
         for k in 0..n {
             text.push_str(&format!("v {k} 0.5 {}\nf 1 2 {}\nf 3 {} 1\n", k as f32 * 0.25, k + 4, k + 4));
         }
-        let plain = parse(&text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        let plain = whole(&text);
         assert_eq!(plain.indices.len(), 2 * n);
         assert_eq!(plain.positions.len(), n + 3);
         for k in 0..n {
