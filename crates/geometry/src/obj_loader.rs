@@ -927,10 +927,11 @@ mod tests {
         let path = Path::new("t.obj");
         let budget = || Budget::allowing_absolute_paths();
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        let mut texts: Vec<(String, String)> = ["scenes/reference/prism.obj", "scenes/meshes/icosphere.obj"]
-            .iter()
-            .map(|f| (f.to_string(), std::fs::read_to_string(root.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"))))
-            .collect();
+        let mut texts: Vec<(String, String)> =
+            ["scenes/reference/prism.obj", "scenes/meshes/icosphere.obj", "scenes/obj/cube_and_sphere.obj"]
+                .iter()
+                .map(|f| (f.to_string(), std::fs::read_to_string(root.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"))))
+                .collect();
         // The normals and the object line taken out of the icosphere: plain, 5120 triangles.
         let plain_sphere: String = texts[1]
             .1
@@ -1134,6 +1135,8 @@ mod tests {
             (format!("{v}o a\n{a}mtllib scene.mtl\nusemtl glass\n{b}"), 2),
             (format!("{v}usemtl glass\n{a}mtllib scene.mtl\nusemtl glass\n{b}usemtl glass\n{c}"), 2),
             (format!("mtllib scene.mtl\n{v}o a\nusemtl glass\n{a}mtllib scene.mtl\nusemtl floor\n{b}"), 2),
+            // Objects of different corner forms, the vertices of each with what its corners have.
+            (format!("{v}vn 0 0 1\no a\nf 1//1 2//1 3//1\no b\n{a}{b}g c\nf 1 3 4\no\nf 4/1/1 2/2/1 1/3/1\n"), 4),
         ];
         // Several chunks: a grid of quads sharing positions across objects, with normals, an object
         // per row and a material change every third row (~3 MB).

@@ -1,6 +1,7 @@
 //! A parallel fast path for plain OBJ files: `v x y z`, `vt u v`, `vn x y z` and `f` lines whose
-//! corners all take one form, `v`, `v/vt`, `v//vn` or `v/vt/vn` (what scanners, terrain and CAD
-//! exporters write), parsed in chunks of lines on every core.
+//! corners take one form per object, `v`, `v/vt`, `v//vn` or `v/vt/vn`, and `o`, `g`, `s`,
+//! `mtllib` and `usemtl` lines (what Blender, scanners, terrain and CAD exporters write), parsed
+//! in chunks of lines on every core.
 //!
 //! tobj reads a line at a time into a `String` and, with `single_index`, looks every face corner
 //! up in a `HashMap` of (position, uv, normal) triples; on a 60 MB, 1.6M-triangle terrain that was
@@ -16,10 +17,10 @@
 //! dropped), polygons as fans from their first corner — so a file loads the same whichever path
 //! reads it (the tests compare both on every OBJ fixture). The `o`/`g`, `mtllib` and `usemtl`
 //! lines are kept with their place among the faces, for the caller to read the materials as
-//! tobj would and end objects where tobj does ([`Plain::into_objects`]). Anything else — corners
-//! of more than one form, colours, `w`, relative or malformed indices, faces of fewer than three
-//! corners, any other statement, a value that is not a finite number, an index out of range —
-//! returns `None`, and the caller reads the file with tobj
+//! tobj would and end objects where tobj does ([`Plain::into_objects`]). Anything else — a
+//! change of corner form without an `o`/`g` line before it, colours, `w`, relative or malformed
+//! indices, faces of fewer than three corners, any other statement, a value that is not a finite
+//! number, an index out of range — returns `None`, and the caller reads the file with tobj
 //! behind the line-by-line checks, whose errors name the file and line. This path never reports
 //! an error of its own.
 
@@ -39,14 +40,15 @@ use crate::limits::mesh_charge;
 #[derive(Debug)]
 pub(crate) struct Plain {
     positions: Vec<Vec3>,
-    /// Empty unless the corners have texture coordinates (`form`).
+    /// Empty unless some corners have texture coordinates.
     texcoords: Vec<Vec2>,
-    /// Empty unless the corners have normals.
+    /// Empty unless some corners have normals.
     normals: Vec<Vec3>,
-    /// The corners' form, one for the whole file ([`TEXCOORD`], [`NORMAL`]).
-    form: u8,
+    /// The corners' form ([`TEXCOORD`], [`NORMAL`]) from each triangle on where it changes: the
+    /// first face's, then only at `o`/`g` lines (the start of an object).
+    forms: Vec<(usize, u8)>,
     /// The fan triangles, chunk by chunk in file order: position, texture coordinate and normal
-    /// indices into the lists above (the last two where `form` has them).
+    /// indices into the lists above (the last two where the triangles' form has them).
     parts: Vec<[Vec<[u32; 3]>; 3]>,
     /// The `o`/`g`, `mtllib` and `usemtl` lines in file order, each with the number of triangles
     /// above it.
@@ -101,11 +103,14 @@ struct Chunk {
     normals: Vec<Vec3>,
     /// Fan triangles, 0-based indices into the whole file's positions.
     triangles: Vec<[u32; 3]>,
-    /// The same triangles' texture coordinate and normal indices, where `form` has them.
+    /// The same triangles' texture coordinate and normal indices, where their form has them (and
+    /// `[0; 3]` before, where another form did not: empty if none has).
     texcoord_triangles: Vec<[u32; 3]>,
     normal_triangles: Vec<[u32; 3]>,
-    /// The form of every corner of the chunk's faces (`None`: no faces).
+    /// The last face's form (`None`: no faces yet).
     form: Option<u8>,
+    /// The form from each triangle on where it changes (the first face's included).
+    forms: Vec<(usize, u8)>,
     corners: u64,
     /// Per attribute (position, texture coordinate, normal), the largest (1-based index − those
     /// this chunk defined before the line): a face may only refer to what is defined above it, so
@@ -150,15 +155,15 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
         starts.windows(2).map(parse).collect::<Option<Vec<Chunk>>>()?
     };
 
-    // Faces refer only to what is defined above them, with corners of one form.
-    let (mut before, mut form, mut above) = ([0i64; 3], None, 0);
-    let mut marks = Vec::new();
+    // Faces refer only to what is defined above them; their corners' form changes only where an
+    // `o`/`g` line starts an object.
+    let (mut before, mut above) = ([0i64; 3], 0);
+    let (mut marks, mut forms) = (Vec::new(), Vec::<(usize, u8)>::new());
     for chunk in &mut chunks {
-        if let Some(f) = chunk.form {
-            if form.is_some_and(|g| g != f) {
-                return None;
+        for &(at, form) in &chunk.forms {
+            if forms.last().is_none_or(|&(_, last)| last != form) {
+                forms.push((above + at, form));
             }
-            form = Some(f);
         }
         if (0..3).any(|a| chunk.excess[a] > before[a]) {
             return None;
@@ -172,7 +177,14 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
     if before[0] > i64::from(u32::MAX) {
         return None;
     }
-    let form = form.unwrap_or(0);
+    let named = |at: usize| {
+        let first = marks.partition_point(|(m, _)| *m < at);
+        marks[first..].iter().take_while(|(m, _)| *m == at).any(|(_, mark)| matches!(mark, Mark::Name(_)))
+    };
+    if forms.iter().skip(1).any(|&(at, _)| !named(at)) {
+        return None;
+    }
+    let form = forms.iter().fold(0, |any, &(_, form)| any | form);
     let corners = chunks.iter().map(|c| c.corners).sum();
     let mut positions = Vec::with_capacity(before[0] as usize);
     let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { before[1] as usize } else { 0 });
@@ -188,7 +200,7 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
         }
         parts.push([chunk.triangles, chunk.texcoord_triangles, chunk.normal_triangles]);
     }
-    Some(Plain { positions, texcoords, normals, form, parts, marks, corners, triangles: above as u64 })
+    Some(Plain { positions, texcoords, normals, forms, parts, marks, corners, triangles: above as u64 })
 }
 
 impl Plain {
@@ -197,12 +209,12 @@ impl Plain {
     /// coordinate, normal) triple gets the next index when one of the object's faces first uses
     /// it.
     pub(crate) fn into_objects(mut self, ranges: &[Range<usize>]) -> Vec<Object> {
-        let form = self.form;
+        let any_form = self.forms.iter().fold(0, |any, &(_, form)| any | form);
         // Most positions come with one pair of the others: the pair a position was first
         // numbered with is kept beside it, and only the other pairs (seams) are looked up in a
         // map. `number` is reset after each object but the last, where it set it.
         let mut number = vec![u32::MAX; self.positions.len()];
-        let mut first_pair = if form == 0 { Vec::new() } else { vec![[0u32; 2]; self.positions.len()] };
+        let mut first_pair = if any_form == 0 { Vec::new() } else { vec![[0u32; 2]; self.positions.len()] };
         let mut seams: HashMap<[u32; 3], u32> = HashMap::new();
         // Where each chunk's triangles start in the file, and the chunks (or their parts) in `range`.
         let mut part_start = Vec::with_capacity(self.parts.len() + 1);
@@ -226,6 +238,8 @@ impl Plain {
         let mut objects = Vec::with_capacity(ranges.len());
         for (k, range) in ranges.iter().enumerate() {
             let last = k + 1 == ranges.len();
+            // One form for the whole object: it changes only where an object starts.
+            let form = self.forms[self.forms.partition_point(|&(at, _)| at <= range.start) - 1].1;
             let vertices = if ranges.len() == 1 { self.positions.len() } else { 0 };
             let mut positions = Vec::with_capacity(vertices);
             let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { vertices } else { 0 });
@@ -417,9 +431,10 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
             "f" => {
                 corners.clear();
                 let defined = [chunk.positions.len(), chunk.texcoords.len(), chunk.normals.len()];
+                let mut face_form = None;
                 for word in words {
                     let (indices, form) = corner(word)?;
-                    if *chunk.form.get_or_insert(form) != form {
+                    if *face_form.get_or_insert(form) != form {
                         return None;
                     }
                     let excess = |a: usize| i64::from(indices[a]) + 1 - defined[a] as i64;
@@ -438,7 +453,18 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
                 }
                 chunk.corners += corners.len() as u64;
                 charge += mesh_charge(corners.len() as u64, corners.len() as u64 - 2);
-                let form = chunk.form.unwrap_or(0);
+                let form = face_form.unwrap_or(0);
+                if chunk.form != Some(form) {
+                    chunk.form = Some(form);
+                    chunk.forms.push((chunk.triangles.len(), form));
+                }
+                // The attribute lists stay aligned with the triangles.
+                let above = chunk.triangles.len();
+                for (list, bit) in [(&mut chunk.texcoord_triangles, TEXCOORD), (&mut chunk.normal_triangles, NORMAL)] {
+                    if form & bit != 0 && list.len() < above {
+                        list.resize(above, [0; 3]);
+                    }
+                }
                 let first = corners[0];
                 for bc in corners.windows(2).skip(1) {
                     chunk.triangles.push([first[0], bc[0][0], bc[1][0]]);
@@ -468,6 +494,12 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
             "s" => {}
             _ if key.starts_with('#') => {}
             _ => return None,
+        }
+    }
+    let triangles = chunk.triangles.len();
+    for list in [&mut chunk.texcoord_triangles, &mut chunk.normal_triangles] {
+        if !list.is_empty() {
+            list.resize(triangles, [0; 3]);
         }
     }
     let total = charged.fetch_add(charge, Ordering::Relaxed) + charge;
@@ -501,17 +533,18 @@ mod tests {
     fn anything_else_goes_to_the_checked_path() {
         let v = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
         for rest in [
-            "f 1 2 4\n",                        // out of range
-            "f 1 2\n",                          // too few corners
-            "f -3 -2 -1\n",                     // relative
-            "f 1/1 2/2 3/3\n",                  // texture coordinates not defined
-            "f 1//1 2//1 3//1\n",               // normals not defined
-            "vt 0 0\nf 1/1 2/1 3/1\nf 1 2 3\n", // corners of two forms
-            "vt 0 0\nf 1/1 2/1 3\n",            // corners of two forms in one face
-            "vt 0 0\nf 1/1 2/1 3/2\n",          // a texture coordinate out of range
-            "vt 0 0\nf 1/-1 2/-1 3/-1\n",       // relative
-            "vt 0 0\nf 1/ 2/ 3/\n",             // empty indices
-            "usemtl\n",                         // no name
+            "f 1 2 4\n",                                  // out of range
+            "f 1 2\n",                                    // too few corners
+            "f -3 -2 -1\n",                               // relative
+            "f 1/1 2/2 3/3\n",                            // texture coordinates not defined
+            "f 1//1 2//1 3//1\n",                         // normals not defined
+            "vt 0 0\nf 1/1 2/1 3/1\nf 1 2 3\n",           // corners of two forms in one object
+            "vt 0 0\nf 1/1 2/1 3/1\nusemtl a\nf 1 2 3\n", // (the material may end an object, or not)
+            "vt 0 0\nf 1/1 2/1 3\n",                      // corners of two forms in one face
+            "vt 0 0\nf 1/1 2/1 3/2\n",                    // a texture coordinate out of range
+            "vt 0 0\nf 1/-1 2/-1 3/-1\n",                 // relative
+            "vt 0 0\nf 1/ 2/ 3/\n",                       // empty indices
+            "usemtl\n",                                   // no name
             "usemtl \n",
             "vn 0 0 1\nf 1// 2// 3//\n",
             "vn 0 0 1\nf 1/1/ 2/1/ 3/1/\n",
@@ -579,6 +612,24 @@ mod tests {
         assert_eq!(objects[1].indices, [[0, 1, 2], [3, 2, 1], [4, 1, 3]]);
         assert_eq!(objects[1].positions, [p4, p1, p3, p2, p3]);
         assert_eq!(objects[1].texcoords.as_deref(), Some(&[t1, t1, t3, t2, t4][..]));
+    }
+
+    #[test]
+    fn each_object_has_its_own_form() {
+        // Object a's corners have normals, b's nothing, c's texture coordinates: each object's
+        // vertices have what its corners have.
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvt 0.5 0.5\no a\nf 1//1 2//1 3//1\no b\nusemtl m\n\
+                    f 3 2 1\nf 1 2 3\ng c\nf 2/1 3/1 1/1\n";
+        let plain = parse(text, u64::MAX).unwrap_or_else(|| panic!("plain"));
+        assert_eq!(plain.forms, [(0, NORMAL), (1, 0), (3, TEXCOORD)]);
+        let objects = plain.into_objects(&[0..1, 1..3, 3..4]);
+        let has = |o: &Object| (o.normals.is_some(), o.texcoords.is_some(), o.positions.len());
+        assert_eq!(
+            objects.iter().map(has).collect::<Vec<_>>(),
+            [(true, false, 3), (false, false, 3), (false, true, 3)]
+        );
+        assert_eq!(objects[1].indices, [[0, 1, 2], [2, 1, 0]]);
+        assert_eq!(objects[2].texcoords.as_deref(), Some(&[Vec2::splat(0.5); 3][..]));
     }
 
     #[test]
