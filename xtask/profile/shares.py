@@ -26,12 +26,13 @@ CATEGORIES = [
     ("bsdf", r"^materials/"),  # shading: BSDFs, frames, warps
     ("film", r"^colorimetry/src/spectrum\.rs:.*(to_xyz|SampledWavelengths)"),
     ("spectral", r"^colorimetry/"),  # SampledSpectrum ops, spectrum interpolation, exp
-    ("lights", r"^integrator/src/lights\.rs"),
+    # (A module is a file or a folder: `lights.rs` or `lights/`, `path.rs` under `integrators/`.)
+    ("lights", r"^integrator/src/lights(\.rs|/)"),
     ("lights", r"^integrator/src/sampling\.rs:.*(power_heuristic|triangle)"),
     ("rng", r"^integrator/src/sampling\.rs"),
-    ("film", r"^integrator/src/(film|render|spectral)\.rs"),  # pixel loop, Lanes::xyz, film sums
-    ("path loop", r"^integrator/src/path\.rs"),  # the path tracer's own code
-    ("whitted", r"^integrator/src/whitted\.rs"),
+    ("film", r"^integrator/src/(film|render|spectral)(\.rs|/)"),  # pixel loop, Lanes::xyz, film sums
+    ("path loop", r"^integrator/src/(integrators/)?path\.rs"),  # the path tracer's own code
+    ("whitted", r"^integrator/src/(integrators/)?whitted\.rs"),
 ]
 COLUMNS = ["traversal", "bsdf", "lights", "spectral", "rng", "film", "path loop", "whitted", "other"]
 
