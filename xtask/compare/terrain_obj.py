@@ -21,6 +21,11 @@ a `usemtl` line alternating between the two materials, and its faces:
 
     python3 xtask/compare/terrain_obj.py --objects 64 --attributes 894 /tmp/terrain_objects.obj
 
+`--colors` gives every `v` line a colour (`v x y z r g b`, as scan and photogrammetry exports
+write vertex colours):
+
+    python3 xtask/compare/terrain_obj.py --colors 894 /tmp/terrain_colors.obj
+
 Needs numpy. Outside the project's runtime, like the other scripts here.
 """
 
@@ -37,6 +42,7 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--attributes", action="store_true", help="vt and vn lines, v/vt/vn corners (OBJ only)")
     ap.add_argument("--objects", type=int, default=0, help="K objects of their own vertices, as Blender writes")
+    ap.add_argument("--colors", action="store_true", help="a colour on every v line (OBJ only)")
     args = ap.parse_args()
     n = args.n
     i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1))
@@ -58,6 +64,12 @@ def main():
     normals = np.stack([-dx, np.ones_like(dx), -dz], axis=1)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
     positions = np.stack([x, y, z], axis=1)
+    v_format = "v %.7g %.7g %.7g"
+    if args.colors:
+        # Green to brown with height.
+        t = ((y - y.min()) / (y.max() - y.min())).astype(np.float32)
+        positions = np.concatenate([positions, np.stack([0.2 + 0.3 * t, 0.5 - 0.2 * t, 0.1 + 0.1 * t], axis=1)], axis=1)
+        v_format += " %.4g %.4g %.4g"
     uvs = np.stack([(x + 1) / 2, (z + 1) / 2], axis=1)
     with open(args.out, "w") as f:
         f.write(f"# terrain {n}x{n} quads, {2 * n * n} triangles\n")
@@ -75,7 +87,7 @@ def main():
                     continue
                 vs = slice(j0 * (n + 1), (j1 + 1) * (n + 1))
                 f.write(f"o strip_{k}\n")
-                np.savetxt(f, positions[vs], fmt="v %.7g %.7g %.7g")
+                np.savetxt(f, positions[vs], fmt=v_format)
                 if args.attributes:
                     np.savetxt(f, uvs[vs], fmt="vt %.6g %.6g")
                     np.savetxt(f, normals[vs], fmt="vn %.6g %.6g %.6g")
@@ -85,7 +97,7 @@ def main():
                 write_faces(f, own, args.attributes)
                 written += (j1 - j0 + 1) * (n + 1)
             return
-        np.savetxt(f, positions, fmt="v %.7g %.7g %.7g")
+        np.savetxt(f, positions, fmt=v_format)
         if args.attributes:
             np.savetxt(f, uvs, fmt="vt %.6g %.6g")
             np.savetxt(f, normals, fmt="vn %.6g %.6g %.6g")

@@ -115,7 +115,13 @@ fn load_plain(
             t
         });
         let material = material_index(material_id, &desc);
+        // Vertex colours as the checked path reads them: linear RGB, opaque.
+        let colors = object.colors.map(|c| c.into_iter().map(|c| c.extend(1.0)).collect());
         let mesh = Mesh::new(object.positions, object.normals, uvs, object.indices, material)
+            .and_then(|m| match colors {
+                Some(c) => m.with_colors(c),
+                None => Ok(m),
+            })
             .map_err(|e| Error::InvalidGeometry { path: path.to_path_buf(), context, cause: Box::new(e) })?;
         desc.meshes.push(mesh);
     }
@@ -889,8 +895,9 @@ mod tests {
         assert!(records as u64 <= BYTES_PER_MATERIAL, "{records} bytes per material");
     }
 
-    /// One mesh as loaded: positions, triangles, normals, texture coordinates and material.
-    type LoadedMesh = (Vec<Vec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>, Option<Vec<Vec2>>, Option<u32>);
+    /// One mesh as loaded: positions, triangles, normals, texture coordinates, material and
+    /// vertex colours.
+    type LoadedMesh = (Vec<Vec3>, Vec<[u32; 3]>, Option<Vec<Vec3>>, Option<Vec<Vec2>>, Option<u32>, Option<Vec<Vec4>>);
 
     /// What a load gives, for comparing the two paths: warnings, the meshes, the materials and
     /// the images' labels and sizes.
@@ -903,7 +910,8 @@ mod tests {
             .iter()
             .map(|m| {
                 let (normals, uvs) = (m.normals().map(<[Vec3]>::to_vec), m.uvs().map(<[Vec2]>::to_vec));
-                (m.positions().to_vec(), m.indices().to_vec(), normals, uvs, m.material())
+                let colors = m.colors().map(<[Vec4]>::to_vec);
+                (m.positions().to_vec(), m.indices().to_vec(), normals, uvs, m.material(), colors)
             })
             .collect();
         let images = desc.images.iter().map(|i| (i.label.clone(), i.bytes.len())).collect();
@@ -943,7 +951,20 @@ mod tests {
                 format!("{}\n", words.join(" "))
             })
             .collect();
-        texts.push(("icosphere without normals".into(), plain_sphere));
+        texts.push(("icosphere without normals".into(), plain_sphere.clone()));
+        // The same with a colour on every `v` line.
+        let mut k = 0;
+        let coloured: String = plain_sphere
+            .lines()
+            .map(|l| match l.starts_with("v ") {
+                true => {
+                    k += 1;
+                    format!("{l} {} 0.5 {}\n", (k % 7) as f32 / 7.0, (k % 3) as f32 * 0.25)
+                }
+                false => format!("{l}\n"),
+            })
+            .collect();
+        texts.push(("coloured icosphere".into(), coloured));
         // A terrain of quads and a polygon, with CRLF line ends, a name and unused vertices; large
         // enough for several parallel chunks (~2.6 MB).
         let n = 300;
@@ -1137,6 +1158,14 @@ mod tests {
             (format!("mtllib scene.mtl\n{v}o a\nusemtl glass\n{a}mtllib scene.mtl\nusemtl floor\n{b}"), 2),
             // Objects of different corner forms, the vertices of each with what its corners have.
             (format!("{v}vn 0 0 1\no a\nf 1//1 2//1 3//1\no b\n{a}{b}g c\nf 1 3 4\no\nf 4/1/1 2/2/1 1/3/1\n"), 4),
+            // Vertex colours, each object's vertices with their positions' colours.
+            (
+                format!(
+                    "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 1 1 0 0 0 1\nv 0 1 0 0.5 0.5 0.5\n{}o a\n{a}{b}o b\n{c}",
+                    &v[32..]
+                ),
+                2,
+            ),
         ];
         // Several chunks: a grid of quads sharing positions across objects, with normals, an object
         // per row and a material change every third row (~3 MB).

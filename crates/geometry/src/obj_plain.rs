@@ -1,7 +1,7 @@
-//! A parallel fast path for plain OBJ files: `v x y z`, `vt u v`, `vn x y z` and `f` lines whose
-//! corners take one form per object, `v`, `v/vt`, `v//vn` or `v/vt/vn`, and `o`, `g`, `s`,
-//! `mtllib` and `usemtl` lines (what Blender, scanners, terrain and CAD exporters write), parsed
-//! in chunks of lines on every core.
+//! A parallel fast path for plain OBJ files: `v x y z` (or `v x y z r g b` on every line),
+//! `vt u v`, `vn x y z` and `f` lines whose corners take one form per object, `v`, `v/vt`,
+//! `v//vn` or `v/vt/vn`, and `o`, `g`, `s`, `mtllib` and `usemtl` lines (what Blender, scanners,
+//! terrain and CAD exporters write), parsed in chunks of lines on every core.
 //!
 //! tobj reads a line at a time into a `String` and, with `single_index`, looks every face corner
 //! up in a `HashMap` of (position, uv, normal) triples; on a 60 MB, 1.6M-triangle terrain that was
@@ -18,7 +18,8 @@
 //! reads it (the tests compare both on every OBJ fixture). The `o`/`g`, `mtllib` and `usemtl`
 //! lines are kept with their place among the faces, for the caller to read the materials as
 //! tobj would and end objects where tobj does ([`Plain::into_objects`]). Anything else — a
-//! change of corner form without an `o`/`g` line before it, colours, `w`, relative or malformed
+//! change of corner form without an `o`/`g` line before it, colours on some `v` lines only, `w`,
+//! relative or malformed
 //! indices, faces of fewer than three corners, any other statement, a value that is not a finite
 //! number, an index out of range — returns `None`, and the caller reads the file with tobj
 //! behind the line-by-line checks, whose errors name the file and line. This path never reports
@@ -40,6 +41,8 @@ use crate::limits::mesh_charge;
 #[derive(Debug)]
 pub(crate) struct Plain {
     positions: Vec<Vec3>,
+    /// The positions' colours (`v x y z r g b`), or empty if no `v` line has one.
+    colors: Vec<Vec3>,
     /// Empty unless some corners have texture coordinates.
     texcoords: Vec<Vec2>,
     /// Empty unless some corners have normals.
@@ -76,6 +79,8 @@ pub(crate) enum Mark {
 #[derive(Debug, PartialEq)]
 pub(crate) struct Object {
     pub(crate) positions: Vec<Vec3>,
+    /// The vertices' colours as written (linear RGB), where the file's `v` lines have them.
+    pub(crate) colors: Option<Vec<Vec3>>,
     /// The vertices' texture coordinates as written (v up), where the corners have them.
     pub(crate) texcoords: Option<Vec<Vec2>>,
     /// The vertices' normals as written, where the corners have them.
@@ -99,6 +104,8 @@ const NORMAL: u8 = 2;
 #[derive(Debug, Default)]
 struct Chunk {
     positions: Vec<Vec3>,
+    /// The colours of the chunk's `v` lines that have one.
+    colors: Vec<Vec3>,
     texcoords: Vec<Vec2>,
     normals: Vec<Vec3>,
     /// Fan triangles, 0-based indices into the whole file's positions.
@@ -184,14 +191,22 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
     if forms.iter().skip(1).any(|&(at, _)| !named(at)) {
         return None;
     }
+    // Colours on every `v` line or none (tobj reads colours on some lines only out of step with
+    // their positions: the pre-scan refuses them).
+    let colored: usize = chunks.iter().map(|c| c.colors.len()).sum();
+    if colored != 0 && colored as i64 != before[0] {
+        return None;
+    }
     let form = forms.iter().fold(0, |any, &(_, form)| any | form);
     let corners = chunks.iter().map(|c| c.corners).sum();
     let mut positions = Vec::with_capacity(before[0] as usize);
+    let mut colors = Vec::with_capacity(colored);
     let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { before[1] as usize } else { 0 });
     let mut normals = Vec::with_capacity(if form & NORMAL != 0 { before[2] as usize } else { 0 });
     let mut parts = Vec::with_capacity(chunks.len());
     for chunk in chunks {
         positions.extend(chunk.positions);
+        colors.extend(chunk.colors);
         if form & TEXCOORD != 0 {
             texcoords.extend(chunk.texcoords);
         }
@@ -200,7 +215,7 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
         }
         parts.push([chunk.triangles, chunk.texcoord_triangles, chunk.normal_triangles]);
     }
-    Some(Plain { positions, texcoords, normals, forms, parts, marks, corners, triangles: above as u64 })
+    Some(Plain { positions, colors, texcoords, normals, forms, parts, marks, corners, triangles: above as u64 })
 }
 
 impl Plain {
@@ -242,6 +257,8 @@ impl Plain {
             let form = self.forms[self.forms.partition_point(|&(at, _)| at <= range.start) - 1].1;
             let vertices = if ranges.len() == 1 { self.positions.len() } else { 0 };
             let mut positions = Vec::with_capacity(vertices);
+            let colored = !self.colors.is_empty();
+            let mut colors = Vec::with_capacity(if colored { vertices } else { 0 });
             let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { vertices } else { 0 });
             let mut normals = Vec::with_capacity(if form & NORMAL != 0 { vertices } else { 0 });
             let mut indices = Vec::with_capacity(range.len());
@@ -255,17 +272,23 @@ impl Plain {
                             if *number == u32::MAX {
                                 *number = positions.len() as u32;
                                 positions.push(self.positions[p as usize]);
+                                if colored {
+                                    colors.push(self.colors[p as usize]);
+                                }
                             }
                             *number
                         }));
                     }
                 } else {
-                    for k in local {
+                    let texcoord_part = if form & TEXCOORD != 0 { &texcoord_part[local.clone()] } else { &[] };
+                    let normal_part = if form & NORMAL != 0 { &normal_part[local.clone()] } else { &[] };
+                    for (k, triangle) in part[local].iter().enumerate() {
                         let mut numbered = [0u32; 3];
                         for (c, out) in numbered.iter_mut().enumerate() {
-                            let p = part[k][c] as usize;
+                            let p = triangle[c] as usize;
                             let t = if form & TEXCOORD != 0 { texcoord_part[k][c] } else { 0 };
                             let n = if form & NORMAL != 0 { normal_part[k][c] } else { 0 };
+                            let vertices = positions.len();
                             let mut add = || {
                                 positions.push(self.positions[p]);
                                 if form & TEXCOORD != 0 {
@@ -285,6 +308,11 @@ impl Plain {
                             } else {
                                 *seams.entry([p as u32, t, n]).or_insert_with(add)
                             };
+                            // (Outside `add`: pushed there, the colour cost the loop 2 % more
+                            // instructions, colours or not.)
+                            if colored && positions.len() > vertices {
+                                colors.push(self.colors[p]);
+                            }
                         }
                         indices.push(numbered);
                     }
@@ -308,6 +336,7 @@ impl Plain {
             }
             objects.push(Object {
                 positions,
+                colors: colored.then_some(colors),
                 texcoords: (form & TEXCOORD != 0).then_some(texcoords),
                 normals: (form & NORMAL != 0).then_some(normals),
                 indices,
@@ -382,19 +411,12 @@ fn index(bytes: &[u8], at: &mut usize) -> Option<u32> {
     value.checked_sub(1)
 }
 
-/// The finite numbers of a `v`/`vt`/`vn` line, if there are `N` of them (or `N` and one more
-/// the caller ignores, when `extra`).
+/// The next `N` words as finite numbers.
 #[inline]
-fn numbers<'a, const N: usize>(mut words: impl Iterator<Item = &'a str>, extra: bool) -> Option<[f32; N]> {
+fn numbers<'a, const N: usize>(words: &mut impl Iterator<Item = &'a str>) -> Option<[f32; N]> {
     let mut values = [0f32; N];
     for v in &mut values {
         *v = words.next()?.parse().ok()?;
-    }
-    if let Some(w) = words.next() {
-        // `vt u v w`: tobj reads u and v; the pre-scan requires w to be a finite number.
-        if !extra || !w.parse::<f32>().is_ok_and(f32::is_finite) || words.next().is_some() {
-            return None;
-        }
     }
     values.iter().all(|v| v.is_finite()).then_some(values)
 }
@@ -425,9 +447,31 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
         let mut words = line.split_ascii_whitespace();
         let Some(key) = words.next() else { continue };
         match key {
-            "v" => chunk.positions.push(Vec3::from_array(numbers(words, false)?)),
-            "vt" => chunk.texcoords.push(Vec2::from_array(numbers(words, true)?)),
-            "vn" => chunk.normals.push(Vec3::from_array(numbers(words, false)?)),
+            "v" => {
+                chunk.positions.push(Vec3::from_array(numbers(&mut words)?));
+                // `v x y z r g b`: a vertex colour, as tobj reads it (`w` goes to tobj).
+                if let Some(r) = words.next() {
+                    let [g, b] = numbers(&mut words)?;
+                    let r: f32 = r.parse().ok().filter(|r: &f32| r.is_finite())?;
+                    chunk.colors.push(Vec3::new(r, g, b));
+                    if words.next().is_some() {
+                        return None;
+                    }
+                }
+            }
+            "vt" => {
+                chunk.texcoords.push(Vec2::from_array(numbers(&mut words)?));
+                // `vt u v w`: tobj reads u and v; the pre-scan requires w to be a finite number.
+                if words.next().is_some_and(|w| !w.parse::<f32>().is_ok_and(f32::is_finite)) || words.next().is_some() {
+                    return None;
+                }
+            }
+            "vn" => {
+                chunk.normals.push(Vec3::from_array(numbers(&mut words)?));
+                if words.next().is_some() {
+                    return None;
+                }
+            }
             "f" => {
                 corners.clear();
                 let defined = [chunk.positions.len(), chunk.texcoords.len(), chunk.normals.len()];
@@ -460,10 +504,11 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
                 }
                 // The attribute lists stay aligned with the triangles.
                 let above = chunk.triangles.len();
-                for (list, bit) in [(&mut chunk.texcoord_triangles, TEXCOORD), (&mut chunk.normal_triangles, NORMAL)] {
-                    if form & bit != 0 && list.len() < above {
-                        list.resize(above, [0; 3]);
-                    }
+                if form & TEXCOORD != 0 && chunk.texcoord_triangles.len() < above {
+                    chunk.texcoord_triangles.resize(above, [0; 3]);
+                }
+                if form & NORMAL != 0 && chunk.normal_triangles.len() < above {
+                    chunk.normal_triangles.resize(above, [0; 3]);
                 }
                 let first = corners[0];
                 for bc in corners.windows(2).skip(1) {
@@ -556,6 +601,10 @@ mod tests {
             "vn 0 nan 1\n",                   // not finite
             "f 1 2 3 # x\n",                  // trailing comment
             "v 1 2 3 4\n",                    // w
+            "v 1 2 3 0.5 0.5\n",              // two colour components
+            "v 1 2 3 0.5 0.5 0.5\n",          // a colour on one `v` line of four
+            "v 1 2 3 0.5 0.5 0.5 1\n",        // four
+            "v 1 2 3 0.5 nan 0.5\n",          // not finite
             "v 1 nan 0\n",                    // not finite
             "v 1 1e39 0\n",                   // overflows to infinity
             "l 1 2\n",                        // a line element
