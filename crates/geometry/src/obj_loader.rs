@@ -956,12 +956,12 @@ mod tests {
         let mut k = 0;
         let coloured: String = plain_sphere
             .lines()
-            .map(|l| match l.starts_with("v ") {
-                true => {
-                    k += 1;
-                    format!("{l} {} 0.5 {}\n", (k % 7) as f32 / 7.0, (k % 3) as f32 * 0.25)
+            .map(|l| {
+                if !l.starts_with("v ") {
+                    return format!("{l}\n");
                 }
-                false => format!("{l}\n"),
+                k += 1;
+                format!("{l} {} 0.5 {}\n", (k % 7) as f32 / 7.0, (k % 3) as f32 * 0.25)
             })
             .collect();
         texts.push(("coloured icosphere".into(), coloured));
@@ -1078,15 +1078,22 @@ mod tests {
         eprintln!("{} OBJ files, the fast path read {fast:?}", files.len());
     }
 
-    #[test]
-    fn material_lines_before_the_faces_load_as_through_tobj() {
-        // Materials of the repository's scene; a texture map written next to them for the test.
+    /// A folder of the temporary directory holding the repository scene's materials as
+    /// `scene.mtl` (floor, red_paint, glass).
+    fn folder_with_scene_mtl(name: &str) -> std::path::PathBuf {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        let dir = std::env::temp_dir().join("spectrace-geometry-obj-plain-materials");
+        let dir = std::env::temp_dir().join(name);
         std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
         let mtl =
             std::fs::read_to_string(root.join("scenes/obj/cube_and_sphere.mtl")).unwrap_or_else(|e| panic!("{e}"));
         std::fs::write(dir.join("scene.mtl"), mtl).unwrap_or_else(|e| panic!("{e}"));
+        dir
+    }
+
+    #[test]
+    fn material_lines_before_the_faces_load_as_through_tobj() {
+        // Materials of the repository's scene; a texture map written next to them for the test.
+        let dir = folder_with_scene_mtl("spectrace-geometry-obj-plain-materials");
         std::fs::write(dir.join("textured.mtl"), "newmtl tex\nKd 1 1 1\nmap_Kd checker.png\n")
             .unwrap_or_else(|e| panic!("{e}"));
         // Read here as bytes only (decoded by the renderer).
@@ -1134,12 +1141,7 @@ mod tests {
 
     #[test]
     fn objects_and_material_changes_load_as_through_tobj() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        let dir = std::env::temp_dir().join("spectrace-geometry-obj-plain-objects");
-        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-        let mtl =
-            std::fs::read_to_string(root.join("scenes/obj/cube_and_sphere.mtl")).unwrap_or_else(|e| panic!("{e}"));
-        std::fs::write(dir.join("scene.mtl"), mtl).unwrap_or_else(|e| panic!("{e}"));
+        let dir = folder_with_scene_mtl("spectrace-geometry-obj-plain-objects");
         let v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n";
         let (a, b, c) = ("f 1/1 2/2 3/3\n", "f 3/3 4/4 1/1\n", "f 2/4 3/3 4/2\n");
         // (text, the meshes tobj makes of it with the MTL file read)

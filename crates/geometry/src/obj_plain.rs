@@ -19,11 +19,10 @@
 //! lines are kept with their place among the faces, for the caller to read the materials as
 //! tobj would and end objects where tobj does ([`Plain::into_objects`]). Anything else — a
 //! change of corner form without an `o`/`g` line before it, colours on some `v` lines only, `w`,
-//! relative or malformed
-//! indices, faces of fewer than three corners, any other statement, a value that is not a finite
-//! number, an index out of range — returns `None`, and the caller reads the file with tobj
-//! behind the line-by-line checks, whose errors name the file and line. This path never reports
-//! an error of its own.
+//! relative or malformed indices, faces of fewer than three corners, any other statement, a
+//! value that is not a finite number, an index out of range — returns `None`, and the caller
+//! reads the file with tobj behind the line-by-line checks, whose errors name the file and line.
+//! This path never reports an error of its own.
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -92,6 +91,10 @@ pub(crate) struct Object {
 /// parsing, many tasks for any core count on large files, one task on small ones.
 const CHUNK_BYTES: usize = 1 << 20;
 
+/// What an `o`/`g`, `mtllib` or `usemtl` line is charged besides its argument: its entry among the
+/// marks, and the object it may end (its range, name and material, and a mesh's fixed part).
+const MARK_BYTES: u64 = 256;
+
 /// Lines a task parses between looks at the shared charge.
 const LINES_PER_CHARGE: usize = 4096;
 
@@ -133,12 +136,14 @@ struct Chunk {
 /// over-budget file is refused by the checked path before this one allocates for it.
 ///
 /// Positions, texture coordinates and normals are not charged as they are read: a `v` line of at
-/// least 8 bytes of text becomes a 12-byte position and 8 bytes of numbering, a `vt` line of 7
-/// bytes 8 bytes, a `vn` line of 9 bytes 12, so they take at most about 7.5× the text at the
-/// peak (the chunks' vectors, up to twice their length, while the whole arrays are joined), and
-/// the text was charged when it was read. Faces are charged as read because what they cost (a
-/// triangle's share of the BVH; a corner's vertex, or its entry among the seams) is not bounded
-/// by their text's size.
+/// least 8 bytes of text becomes a 12-byte position and 8 bytes of numbering (and a colour, 12
+/// more for 6 more bytes), a `vt` line of 7 bytes 8 bytes, a `vn` line of 9 bytes 12, so they
+/// take at most about 7.5× the text at the peak (the chunks' vectors, up to twice their length,
+/// while the whole arrays are joined), and the text was charged when it was read. Faces are
+/// charged as read because what they cost (a triangle's share of the BVH; a corner's vertex, or
+/// its entry among the seams) is not bounded by their text's size, and so are `o`/`g`,
+/// `mtllib` and `usemtl` lines ([`MARK_BYTES`] and their argument: a line of two bytes is an
+/// entry of 40, and may end an object).
 pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
     let bytes = text.as_bytes();
     let mut starts = vec![0];
@@ -288,7 +293,7 @@ impl Plain {
                             let p = triangle[c] as usize;
                             let t = if form & TEXCOORD != 0 { texcoord_part[k][c] } else { 0 };
                             let n = if form & NORMAL != 0 { normal_part[k][c] } else { 0 };
-                            let vertices = positions.len();
+                            let numbered_before = positions.len();
                             let mut add = || {
                                 positions.push(self.positions[p]);
                                 if form & TEXCOORD != 0 {
@@ -310,7 +315,7 @@ impl Plain {
                             };
                             // (Outside `add`: pushed there, the colour cost the loop 2 % more
                             // instructions, colours or not.)
-                            if colored && positions.len() > vertices {
+                            if colored && positions.len() > numbered_before {
                                 colors.push(self.colors[p]);
                             }
                         }
@@ -524,13 +529,16 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
             "o" | "g" => {
                 // tobj's name: the line after its first character, trimmed.
                 let first = line.chars().next().map_or(0, char::len_utf8);
-                chunk.marks.push((chunk.triangles.len(), Mark::Name(line[first..].trim().to_owned())));
+                let name = line[first..].trim();
+                charge += MARK_BYTES + name.len() as u64;
+                chunk.marks.push((chunk.triangles.len(), Mark::Name(name.to_owned())));
             }
             "mtllib" | "usemtl" => {
                 let argument = line.split_once(' ').unwrap_or_default().1.trim();
                 if argument.is_empty() {
                     return None;
                 }
+                charge += MARK_BYTES + argument.len() as u64;
                 let argument = argument.to_owned();
                 let mark = if key == "mtllib" { Mark::Library(argument) } else { Mark::Use(argument) };
                 chunk.marks.push((chunk.triangles.len(), mark));
@@ -619,6 +627,11 @@ mod tests {
         // Over the allowance: one triangle is charged 3 corners and 1 triangle.
         let text = format!("{v}f 1 2 3\n");
         let charge = mesh_charge(3, 1);
+        assert!(parse(&text, charge - 1).is_none());
+        assert!(parse(&text, charge).is_some());
+        // And each `o`/`g`, `mtllib` or `usemtl` line its entry and its argument.
+        let text = format!("{v}{}usemtl ab\nf 1 2 3\n", "o x\n".repeat(10));
+        let charge = charge + 11 * MARK_BYTES + 10 + 2;
         assert!(parse(&text, charge - 1).is_none());
         assert!(parse(&text, charge).is_some());
     }
