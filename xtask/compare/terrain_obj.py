@@ -71,6 +71,13 @@ def main():
         positions = np.concatenate([positions, np.stack([0.2 + 0.3 * t, 0.5 - 0.2 * t, 0.1 + 0.1 * t], axis=1)], axis=1)
         v_format += " %.4g %.4g %.4g"
     uvs = np.stack([(x + 1) / 2, (z + 1) / 2], axis=1)
+
+    def write_vertices(f, vs):
+        np.savetxt(f, positions[vs], fmt=v_format)
+        if args.attributes:
+            np.savetxt(f, uvs[vs], fmt="vt %.6g %.6g")
+            np.savetxt(f, normals[vs], fmt="vn %.6g %.6g %.6g")
+
     with open(args.out, "w") as f:
         f.write(f"# terrain {n}x{n} quads, {2 * n * n} triangles\n")
         if args.objects:
@@ -87,20 +94,14 @@ def main():
                     continue
                 vs = slice(j0 * (n + 1), (j1 + 1) * (n + 1))
                 f.write(f"o strip_{k}\n")
-                np.savetxt(f, positions[vs], fmt=v_format)
-                if args.attributes:
-                    np.savetxt(f, uvs[vs], fmt="vt %.6g %.6g")
-                    np.savetxt(f, normals[vs], fmt="vn %.6g %.6g %.6g")
+                write_vertices(f, vs)
                 f.write(f"s 0\nusemtl {('grass', 'rock')[k % 2]}\n")
                 # The strip's faces: rows j0..j1 of quads, two triangles each, indices renumbered.
                 own = faces[2 * j0 * n : 2 * j1 * n] - j0 * (n + 1) + written
                 write_faces(f, own, args.attributes)
                 written += (j1 - j0 + 1) * (n + 1)
             return
-        np.savetxt(f, positions, fmt=v_format)
-        if args.attributes:
-            np.savetxt(f, uvs, fmt="vt %.6g %.6g")
-            np.savetxt(f, normals, fmt="vn %.6g %.6g %.6g")
+        write_vertices(f, slice(None))
         write_faces(f, faces, args.attributes)
 
 

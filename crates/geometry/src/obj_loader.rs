@@ -70,7 +70,7 @@ fn load_plain(
     let reads = MtlReads::default();
     let (mut materials, mut by_name) = (Vec::new(), HashMap::new());
     let mut objects: Vec<(std::ops::Range<usize>, String, Option<usize>)> = Vec::new();
-    let (mut start, mut name, mut material_id) = (0, "unnamed_object".to_owned(), None);
+    let (mut start, mut name, mut material_id) = (0, UNNAMED.to_owned(), None);
     guard_panic(path, "tobj", || {
         for (at, mark) in &plain.marks {
             match mark {
@@ -79,7 +79,7 @@ fn load_plain(
                         objects.push((start..*at, name.clone(), material_id));
                         start = *at;
                     }
-                    name = if new_name.is_empty() { "unnamed_object".to_owned() } else { new_name.clone() };
+                    name = if new_name.is_empty() { UNNAMED } else { new_name }.to_owned();
                 }
                 Mark::Library(file) => {
                     if let Ok((mut read, names)) = reads.load(Path::new(file), base, path, budget) {
@@ -115,15 +115,9 @@ fn load_plain(
             t
         });
         let material = material_index(material_id, &desc);
-        // Vertex colours as the checked path reads them: linear RGB, opaque.
-        let colors = object.colors.map(|c| c.into_iter().map(|c| c.extend(1.0)).collect());
-        let mesh = Mesh::new(object.positions, object.normals, uvs, object.indices, material)
-            .and_then(|m| match colors {
-                Some(c) => m.with_colors(c),
-                None => Ok(m),
-            })
-            .map_err(|e| Error::InvalidGeometry { path: path.to_path_buf(), context, cause: Box::new(e) })?;
-        desc.meshes.push(mesh);
+        let colors = object.colors.map(|c| c.into_iter().map(opaque).collect());
+        let mesh = object_mesh(object.positions, object.normals, uvs, object.indices, material, colors);
+        desc.meshes.push(mesh.map_err(|e| invalid_geometry(path, context, e))?);
     }
     Ok(desc)
 }
@@ -171,9 +165,8 @@ fn load_obj_checked(text: &str, base: Option<&Path>, path: &Path, budget: &Budge
         let uvs: Vec<Vec2> = mesh.texcoords.chunks_exact(2).map(|c| mesh_uv(c[0], c[1])).collect();
         let uvs = (uvs.len() == positions.len() && uvs.iter().all(|v| v.is_finite())).then_some(uvs);
         let material = material_index(mesh.material_id, &desc);
-        // `v x y z r g b`: colours multiplying `Kd` (and `map_Kd`), read as linear RGB as glTF's COLOR_0 is
-        // (the format says nothing of their encoding).
-        let colors: Vec<Vec4> = mesh.vertex_color.chunks_exact(3).map(|c| Vec4::new(c[0], c[1], c[2], 1.0)).collect();
+        let colors: Vec<Vec4> =
+            mesh.vertex_color.chunks_exact(3).map(|c| opaque(Vec3::new(c[0], c[1], c[2]))).collect();
         let colors = per_vertex(
             colors,
             positions.len(),
@@ -186,17 +179,8 @@ fn load_obj_checked(text: &str, base: Option<&Path>, path: &Path, budget: &Budge
                 )
             },
         );
-        let m = Mesh::new(positions, normals, uvs, indices, material)
-            .and_then(|m| match colors {
-                Some(c) => m.with_colors(c),
-                None => Ok(m),
-            })
-            .map_err(|e| Error::InvalidGeometry {
-                path: path.to_path_buf(),
-                context: context.clone(),
-                cause: Box::new(e),
-            })?;
-        desc.meshes.push(m);
+        let mesh = object_mesh(positions, normals, uvs, indices, material, colors);
+        desc.meshes.push(mesh.map_err(|e| invalid_geometry(path, context, e))?);
     }
     Ok(desc)
 }
@@ -346,6 +330,37 @@ fn add_materials(
         desc.materials.push(d);
     }
     Ok(())
+}
+
+/// tobj's name of an object without one (no `o`/`g` line above it, or an empty one).
+const UNNAMED: &str = "unnamed_object";
+
+/// An object's mesh, either path's.
+fn object_mesh(
+    positions: Vec<Vec3>,
+    normals: Option<Vec<Vec3>>,
+    uvs: Option<Vec<Vec2>>,
+    indices: Vec<[u32; 3]>,
+    material: Option<u32>,
+    colors: Option<Vec<Vec4>>,
+) -> Result<Mesh> {
+    let mesh = Mesh::new(positions, normals, uvs, indices, material)?;
+    match colors {
+        Some(c) => mesh.with_colors(c),
+        None => Ok(mesh),
+    }
+}
+
+/// An object's mesh refused (`context` names the object).
+fn invalid_geometry(path: &Path, context: String, cause: Error) -> Error {
+    Error::InvalidGeometry { path: path.to_path_buf(), context, cause: Box::new(cause) }
+}
+
+/// An OBJ vertex colour (`v x y z r g b`) as the meshes hold it: it multiplies `Kd` (and
+/// `map_Kd`), read as linear RGB as glTF's COLOR_0 is (the format says nothing of its encoding),
+/// opaque.
+fn opaque(rgb: Vec3) -> Vec4 {
+    rgb.extend(1.0)
 }
 
 /// An OBJ texture coordinate as the meshes hold it: v flipped, since OBJ's origin is the image's

@@ -49,6 +49,8 @@ pub(crate) struct Plain {
     /// The corners' form ([`TEXCOORD`], [`NORMAL`]) from each triangle on where it changes: the
     /// first face's, then only at `o`/`g` lines (the start of an object).
     forms: Vec<(usize, u8)>,
+    /// The union of `forms`: the attributes some corner has.
+    any_form: u8,
     /// The fan triangles, chunk by chunk in file order: position, texture coordinate and normal
     /// indices into the lists above (the last two where the triangles' form has them).
     parts: Vec<[Vec<[u32; 3]>; 3]>,
@@ -202,25 +204,26 @@ pub(crate) fn parse(text: &str, allowance: u64) -> Option<Plain> {
     if colored != 0 && colored as i64 != before[0] {
         return None;
     }
-    let form = forms.iter().fold(0, |any, &(_, form)| any | form);
+    let any_form = forms.iter().fold(0, |any, &(_, form)| any | form);
     let corners = chunks.iter().map(|c| c.corners).sum();
     let mut positions = Vec::with_capacity(before[0] as usize);
     let mut colors = Vec::with_capacity(colored);
-    let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { before[1] as usize } else { 0 });
-    let mut normals = Vec::with_capacity(if form & NORMAL != 0 { before[2] as usize } else { 0 });
+    let mut texcoords = Vec::with_capacity(if any_form & TEXCOORD != 0 { before[1] as usize } else { 0 });
+    let mut normals = Vec::with_capacity(if any_form & NORMAL != 0 { before[2] as usize } else { 0 });
     let mut parts = Vec::with_capacity(chunks.len());
     for chunk in chunks {
         positions.extend(chunk.positions);
         colors.extend(chunk.colors);
-        if form & TEXCOORD != 0 {
+        if any_form & TEXCOORD != 0 {
             texcoords.extend(chunk.texcoords);
         }
-        if form & NORMAL != 0 {
+        if any_form & NORMAL != 0 {
             normals.extend(chunk.normals);
         }
         parts.push([chunk.triangles, chunk.texcoord_triangles, chunk.normal_triangles]);
     }
-    Some(Plain { positions, colors, texcoords, normals, forms, parts, marks, corners, triangles: above as u64 })
+    let triangles = above as u64;
+    Some(Plain { positions, colors, texcoords, normals, forms, any_form, parts, marks, corners, triangles })
 }
 
 impl Plain {
@@ -229,12 +232,11 @@ impl Plain {
     /// coordinate, normal) triple gets the next index when one of the object's faces first uses
     /// it.
     pub(crate) fn into_objects(mut self, ranges: &[Range<usize>]) -> Vec<Object> {
-        let any_form = self.forms.iter().fold(0, |any, &(_, form)| any | form);
         // Most positions come with one pair of the others: the pair a position was first
         // numbered with is kept beside it, and only the other pairs (seams) are looked up in a
         // map. `number` is reset after each object but the last, where it set it.
         let mut number = vec![u32::MAX; self.positions.len()];
-        let mut first_pair = if any_form == 0 { Vec::new() } else { vec![[0u32; 2]; self.positions.len()] };
+        let mut first_pair = if self.any_form == 0 { Vec::new() } else { vec![[0u32; 2]; self.positions.len()] };
         let mut seams: HashMap<[u32; 3], u32> = HashMap::new();
         // Where each chunk's triangles start in the file, and the chunks (or their parts) in `range`.
         let mut part_start = Vec::with_capacity(self.parts.len() + 1);
@@ -267,7 +269,8 @@ impl Plain {
             let mut texcoords = Vec::with_capacity(if form & TEXCOORD != 0 { vertices } else { 0 });
             let mut normals = Vec::with_capacity(if form & NORMAL != 0 { vertices } else { 0 });
             let mut indices = Vec::with_capacity(range.len());
-            for (i, local) in parts_in(range) {
+            let pieces = parts_in(range);
+            for (i, local) in pieces.iter().cloned() {
                 let [part, texcoord_part, normal_part] = &self.parts[i];
                 if form == 0 {
                     // Positions only (the common case, kept to the one array lookup per corner).
@@ -328,16 +331,14 @@ impl Plain {
                 }
             }
             if !last {
-                for (i, local) in parts_in(range) {
+                for (i, local) in pieces {
                     self.parts[i][0][local].iter().flatten().for_each(|&p| number[p as usize] = u32::MAX);
+                    // Chunks wholly before the next object are done with.
+                    if part_start[i + 1] <= ranges[k + 1].start {
+                        self.parts[i] = Default::default();
+                    }
                 }
                 seams.clear();
-                // Chunks wholly before the next object are done with.
-                for i in
-                    parts_in(range).into_iter().map(|(i, _)| i).filter(|&i| part_start[i + 1] <= ranges[k + 1].start)
-                {
-                    self.parts[i] = Default::default();
-                }
             }
             objects.push(Object {
                 positions,
