@@ -32,6 +32,7 @@ Needs numpy. Outside the project's runtime, like the other scripts here.
 import argparse
 import json
 import struct
+from pathlib import Path
 
 import numpy as np
 
@@ -81,10 +82,9 @@ def main():
     with open(args.out, "w") as f:
         f.write(f"# terrain {n}x{n} quads, {2 * n * n} triangles\n")
         if args.objects:
-            mtl = args.out.rsplit("/", 1)[-1].rsplit(".", 1)[0] + ".mtl"
-            with open(args.out.rsplit(".", 1)[0] + ".mtl", "w") as m:
-                m.write("newmtl grass\nKd 0.2 0.5 0.1\n\nnewmtl rock\nKd 0.4 0.4 0.38\n")
-            f.write(f"mtllib {mtl}\n")
+            mtl = Path(args.out).with_suffix(".mtl")
+            mtl.write_text("newmtl grass\nKd 0.2 0.5 0.1\n\nnewmtl rock\nKd 0.4 0.4 0.38\n")
+            f.write(f"mtllib {mtl.name}\n")
             # Object k: quad rows rows[k]..rows[k + 1], with vertex rows rows[k]..rows[k + 1] inclusive.
             rows = np.linspace(0, n, args.objects + 1).round().astype(int)
             written = 0

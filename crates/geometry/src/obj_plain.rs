@@ -457,8 +457,7 @@ fn parse_lines(text: &str, allowance: u64, charged: &AtomicU64, give_up: &Atomic
                 chunk.positions.push(Vec3::from_array(numbers(&mut words)?));
                 // `v x y z r g b`: a vertex colour, as tobj reads it (`w` goes to tobj).
                 if let Some(r) = words.next() {
-                    let [g, b] = numbers(&mut words)?;
-                    let r: f32 = r.parse().ok().filter(|r: &f32| r.is_finite())?;
+                    let [r, g, b] = numbers(&mut std::iter::once(r).chain(&mut words))?;
                     chunk.colors.push(Vec3::new(r, g, b));
                     if words.next().is_some() {
                         return None;
